@@ -1,0 +1,67 @@
+//! The engine's error type. Every fallible public function returns [`Result`]; nothing in the library
+//! panics on a `VkResult` or on user input.
+
+use std::path::PathBuf;
+
+/// Everything that can go wrong in the engine, each variant saying what the user can do about it.
+#[derive(Debug, thiserror::Error)]
+pub enum Error {
+    /// A scene description (TOML, OBJ, texture) is malformed; `context` names the file and the field.
+    #[error("scene error in {context}: {message}")]
+    Scene { context: String, message: String },
+    /// A requested size, sample count or similar is outside what the engine accepts.
+    #[error("{what} = {value} is out of range: {limit}")]
+    Limit { what: &'static str, value: String, limit: String },
+    /// A file could not be read or written.
+    #[error("I/O error on {path}: {source}")]
+    Io {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    /// An image file could not be decoded or encoded.
+    #[error("image error on {path}: {message}")]
+    Image { path: PathBuf, message: String },
+    /// A Vulkan call failed; `call` names it.
+    #[error("Vulkan call {call} failed: {result}")]
+    Vulkan { call: &'static str, result: ash::vk::Result },
+    /// The Vulkan loader or driver could not be found.
+    #[error("cannot load Vulkan: {0} (is libvulkan1 installed? run scripts/setup.sh)")]
+    Loader(String),
+    /// No physical device matches the request.
+    #[error("no Vulkan device matches {wanted:?}; available devices: {available:?}")]
+    NoDevice { wanted: String, available: Vec<String> },
+    /// The device lacks something a technique needs.
+    #[error("device `{device}` lacks {feature}, which {needed_by} needs")]
+    MissingFeature { device: String, feature: String, needed_by: String },
+    /// GPU memory allocation failed.
+    #[error("GPU allocation failed: {0}")]
+    Allocation(#[from] gpu_allocator::AllocationError),
+    /// The validation layer reported errors while validation was on.
+    #[error("Vulkan validation reported {errors} error(s) and {warnings} warning(s); first: {first}")]
+    Validation { errors: u32, warnings: u32, first: String },
+    /// A request that the chosen technique does not support.
+    #[error("{0}")]
+    Unsupported(String),
+}
+
+impl Error {
+    pub(crate) fn scene(context: impl Into<String>, message: impl Into<String>) -> Self {
+        Error::Scene { context: context.into(), message: message.into() }
+    }
+    pub(crate) fn io(path: impl Into<PathBuf>, source: std::io::Error) -> Self {
+        Error::Io { path: path.into(), source }
+    }
+}
+
+/// Maps a raw `VkResult` to [`Error::Vulkan`] naming the call.
+pub(crate) trait VkContext<T> {
+    fn vk(self, call: &'static str) -> Result<T>;
+}
+impl<T> VkContext<T> for std::result::Result<T, ash::vk::Result> {
+    fn vk(self, call: &'static str) -> Result<T> {
+        self.map_err(|result| Error::Vulkan { call, result })
+    }
+}
+
+pub type Result<T, E = Error> = std::result::Result<T, E>;

@@ -1,0 +1,359 @@
+//! Sample sets over the five dimensions of the pixel integral: subpixel (x,y), lens (u,v), time t.
+//!
+//! DESIGN.md "Samples": each dimension is stratified on its own, then the dimensions are permuted
+//! independently so (x,y), (u,v) and t are uncorrelated inside a pixel (Toth & Linder §9.4). A
+//! [`SampleTile`] holds the sets of `tile × tile` pixels and is repeated over the screen; every GPU
+//! technique and the CPU reference can draw from the same tile, which makes paired comparisons possible.
+//!
+//! 2D dimensions use multi-jittered sampling (Chiu, Shirley & Wang 1994): `n = m·k` samples land one in
+//! each cell of an `m × k` grid *and* one in each of the `n` 1D strata of both axes. Time uses 1D jittered
+//! strata. The aperture shape and shutter curve are applied by warping these uniform samples
+//! ([`ApertureShape::map`], [`ShutterCurve::warp`]), never by special code in a technique.
+
+use glam::Vec2;
+use serde::Deserialize;
+
+/// Minimal PCG32 (O'Neill 2014): small, fast, seedable, identical on every platform.
+#[derive(Clone, Debug)]
+pub struct Pcg32 {
+    state: u64,
+    inc: u64,
+}
+
+impl Pcg32 {
+    pub fn new(seed: u64, stream: u64) -> Self {
+        let mut r = Pcg32 { state: 0, inc: (stream << 1) | 1 };
+        r.next_u32();
+        r.state = r.state.wrapping_add(seed);
+        r.next_u32();
+        r
+    }
+    pub fn next_u32(&mut self) -> u32 {
+        let old = self.state;
+        self.state = old.wrapping_mul(6364136223846793005).wrapping_add(self.inc);
+        let xorshifted = (((old >> 18) ^ old) >> 27) as u32;
+        let rot = (old >> 59) as u32;
+        xorshifted.rotate_right(rot)
+    }
+    /// Uniform in [0, 1), 24 bits of precision so it never rounds to 1.0.
+    pub fn next_f32(&mut self) -> f32 {
+        (self.next_u32() >> 8) as f32 * (1.0 / 16_777_216.0)
+    }
+    /// Uniform integer in [0, n).
+    pub fn below(&mut self, n: u32) -> u32 {
+        ((self.next_u32() as u64 * n as u64) >> 32) as u32
+    }
+    pub fn shuffle<T>(&mut self, v: &mut [T]) {
+        for i in (1..v.len()).rev() {
+            let j = self.below(i as u32 + 1) as usize;
+            v.swap(i, j);
+        }
+    }
+}
+
+/// One sample of the pixel integral, all coordinates uniform in [0,1): `xy` is the subpixel position,
+/// `lens` the unit square that [`ApertureShape::map`] takes onto the aperture, `time` the uniform value
+/// that [`ShutterCurve::warp`] takes to shutter time.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Sample5 {
+    pub xy: Vec2,
+    pub lens: Vec2,
+    pub time: f32,
+}
+
+/// Grid shape `m × k = n` with `m` the largest divisor of `n` not above `sqrt(n)`.
+pub fn grid_shape(n: u32) -> (u32, u32) {
+    let mut m = (n as f64).sqrt().floor().max(1.0) as u32;
+    while n % m != 0 {
+        m -= 1;
+    }
+    (m, n / m)
+}
+
+/// `n` multi-jittered points in [0,1)²: one per cell of an `m × k` grid and one per 1D stratum of width
+/// `1/n` on each axis.
+pub fn multi_jittered(n: u32, rng: &mut Pcg32) -> Vec<Vec2> {
+    let (m, k) = grid_shape(n);
+    let (mu, ku) = (m as usize, k as usize);
+    // Canonical arrangement: cell (i, j) (column i of m, row j of k) takes x-substratum i·k + j and
+    // y-substratum j·m + i.
+    let mut xs = vec![0u32; n as usize]; // x substratum offset (0..k) per cell, indexed j*m + i
+    let mut ys = vec![0u32; n as usize]; // y substratum offset (0..m)
+    for j in 0..ku {
+        for i in 0..mu {
+            xs[j * mu + i] = j as u32;
+            ys[j * mu + i] = i as u32;
+        }
+    }
+    // Shuffle the x-substrata within each column and the y-substrata within each row.
+    for i in 0..mu {
+        let mut col: Vec<u32> = (0..ku).map(|j| xs[j * mu + i]).collect();
+        rng.shuffle(&mut col);
+        for j in 0..ku {
+            xs[j * mu + i] = col[j];
+        }
+    }
+    for j in 0..ku {
+        rng.shuffle(&mut ys[j * mu..(j + 1) * mu]);
+    }
+    let mut out = Vec::with_capacity(n as usize);
+    for j in 0..k {
+        for i in 0..m {
+            let c = (j * m + i) as usize;
+            let x = (i * k + xs[c]) as f32 + rng.next_f32();
+            let y = (j * m + ys[c]) as f32 + rng.next_f32();
+            out.push(Vec2::new(stratum_value(x, n), stratum_value(y, n)));
+        }
+    }
+    out
+}
+
+/// `(index + jitter) / n`, kept strictly below 1 when f32 rounding would reach it.
+fn stratum_value(v: f32, n: u32) -> f32 {
+    (v / n as f32).min(1.0 - f32::EPSILON / 2.0)
+}
+
+/// `n` jittered points in [0,1), one per stratum of width `1/n`, in random order.
+pub fn jittered_1d(n: u32, rng: &mut Pcg32) -> Vec<f32> {
+    let mut v: Vec<f32> = (0..n).map(|s| stratum_value(s as f32 + rng.next_f32(), n)).collect();
+    rng.shuffle(&mut v);
+    v
+}
+
+/// `n` samples of all five dimensions, each stratified, the three sets permuted independently.
+pub fn stratified_samples(n: u32, rng: &mut Pcg32) -> Vec<Sample5> {
+    let mut xy = multi_jittered(n, rng);
+    let mut lens = multi_jittered(n, rng);
+    let time = jittered_1d(n, rng);
+    rng.shuffle(&mut xy);
+    rng.shuffle(&mut lens);
+    (0..n as usize).map(|i| Sample5 { xy: xy[i], lens: lens[i], time: time[i] }).collect()
+}
+
+/// Sample sets for a `size × size` tile of pixels, repeated over the screen.
+#[derive(Clone, Debug)]
+pub struct SampleTile {
+    pub size: u32,
+    pub spp: u32,
+    pub seed: u64,
+    samples: Vec<Sample5>,
+}
+
+/// DESIGN.md asks for tiles of at least 64×64 pixels so the repetition is not visible.
+pub const SAMPLE_TILE_SIZE: u32 = 64;
+
+impl SampleTile {
+    pub fn new(spp: u32, size: u32, seed: u64) -> Self {
+        let mut samples = Vec::with_capacity((size * size * spp) as usize);
+        for p in 0..size * size {
+            // One stream per pixel: the tile is the same whatever order pixels are generated in.
+            let mut rng = Pcg32::new(seed, p as u64 + 1);
+            samples.extend(stratified_samples(spp, &mut rng));
+        }
+        SampleTile { size, spp, seed, samples }
+    }
+    /// The `spp` samples of pixel `(x, y)` (screen coordinates; the tile repeats).
+    pub fn pixel(&self, x: u32, y: u32) -> &[Sample5] {
+        let (tx, ty) = (x % self.size, y % self.size);
+        let base = ((ty * self.size + tx) * self.spp) as usize;
+        &self.samples[base..base + self.spp as usize]
+    }
+}
+
+/// Shape of the aperture, inscribed in the unit disk (the lens radius is `aperture_radius`).
+#[derive(Clone, Copy, Debug, PartialEq, Deserialize, Default)]
+#[serde(tag = "shape", rename_all = "kebab-case", deny_unknown_fields)]
+pub enum ApertureShape {
+    /// A round aperture.
+    #[default]
+    Disk,
+    /// A regular polygon of `blades` sides (≥ 3) inscribed in the unit circle, rotated by `rotation_deg`.
+    Blades {
+        blades: u32,
+        #[serde(default)]
+        rotation_deg: f32,
+    },
+}
+
+impl ApertureShape {
+    /// Area-preserving map from the unit square onto the aperture (so stratification survives).
+    pub fn map(&self, sq: Vec2) -> Vec2 {
+        match *self {
+            ApertureShape::Disk => concentric_disk(sq),
+            ApertureShape::Blades { blades, rotation_deg } => {
+                // Pick a triangular sector with the first coordinate (keeps strata contiguous), then a
+                // uniform point in the triangle (centre, vertex i, vertex i+1).
+                let n = blades.max(3) as f32;
+                let s = sq.x * n;
+                let sector = s.floor().min(n - 1.0);
+                let a = (s - sector).clamp(0.0, 1.0);
+                let b = sq.y;
+                let rot = rotation_deg.to_radians();
+                let th0 = rot + sector * std::f32::consts::TAU / n;
+                let th1 = th0 + std::f32::consts::TAU / n;
+                let v0 = Vec2::new(th0.cos(), th0.sin());
+                let v1 = Vec2::new(th1.cos(), th1.sin());
+                // Uniform in triangle (0, v0, v1): radius sqrt(b), position along the edge a.
+                let r = b.sqrt();
+                r * (v0 * (1.0 - a) + v1 * a)
+            }
+        }
+    }
+    /// Does the shape contain `p` (unit-disk coordinates)? Used by tests and bounds.
+    pub fn contains(&self, p: Vec2) -> bool {
+        match *self {
+            ApertureShape::Disk => p.length_squared() <= 1.0 + 1e-5,
+            ApertureShape::Blades { blades, rotation_deg } => {
+                let n = blades.max(3) as f32;
+                let apothem = (std::f32::consts::PI / n).cos();
+                let rot = rotation_deg.to_radians();
+                (0..blades.max(3)).all(|i| {
+                    let mid = rot + (i as f32 + 0.5) * std::f32::consts::TAU / n;
+                    p.dot(Vec2::new(mid.cos(), mid.sin())) <= apothem + 1e-5
+                })
+            }
+        }
+    }
+}
+
+/// Shirley & Chiu's concentric map from [0,1)² to the unit disk (area-preserving, low distortion).
+pub fn concentric_disk(sq: Vec2) -> Vec2 {
+    let o = sq * 2.0 - Vec2::ONE;
+    if o.x == 0.0 && o.y == 0.0 {
+        return Vec2::ZERO;
+    }
+    let (r, theta) = if o.x.abs() > o.y.abs() {
+        (o.x, std::f32::consts::FRAC_PI_4 * (o.y / o.x))
+    } else {
+        (o.y, std::f32::consts::FRAC_PI_2 - std::f32::consts::FRAC_PI_4 * (o.x / o.y))
+    };
+    r * Vec2::new(theta.cos(), theta.sin())
+}
+
+/// Shutter curve S(t): how the exposure is weighted over [0,1]. Applied by warping uniform time.
+#[derive(Clone, Copy, Debug, PartialEq, Deserialize, Default)]
+#[serde(rename_all = "kebab-case")]
+pub enum ShutterCurve {
+    /// Constant exposure while open (the default; DESIGN.md).
+    #[default]
+    Box,
+    /// Linear ramp up to mid-shutter and down again (a shutter that opens and closes gradually).
+    Tent,
+}
+
+impl ShutterCurve {
+    /// Inverse CDF of S: uniform `xi` in [0,1) → shutter time distributed as S.
+    pub fn warp(&self, xi: f32) -> f32 {
+        match self {
+            ShutterCurve::Box => xi,
+            ShutterCurve::Tent => {
+                if xi < 0.5 {
+                    (xi * 0.5).sqrt()
+                } else {
+                    1.0 - ((1.0 - xi) * 0.5).sqrt()
+                }
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    fn strata_hit_once(values: impl Iterator<Item = f32>, n: u32) -> bool {
+        let mut hits = vec![0u32; n as usize];
+        for v in values {
+            if !(0.0..1.0).contains(&v) {
+                return false;
+            }
+            hits[((v * n as f32) as u32).min(n - 1) as usize] += 1;
+        }
+        hits.iter().all(|&h| h == 1)
+    }
+
+    proptest! {
+        #[test]
+        fn multi_jittered_hits_every_stratum_once(n in 1u32..300, seed in any::<u64>()) {
+            let mut rng = Pcg32::new(seed, 7);
+            let pts = multi_jittered(n, &mut rng);
+            prop_assert_eq!(pts.len(), n as usize);
+            prop_assert!(strata_hit_once(pts.iter().map(|p| p.x), n), "x strata");
+            prop_assert!(strata_hit_once(pts.iter().map(|p| p.y), n), "y strata");
+            let (m, k) = grid_shape(n);
+            let mut cells = vec![0u32; n as usize];
+            for p in &pts {
+                let c = ((p.y * k as f32) as u32).min(k - 1) * m + ((p.x * m as f32) as u32).min(m - 1);
+                cells[c as usize] += 1;
+            }
+            prop_assert!(cells.iter().all(|&c| c == 1), "2D cells");
+        }
+
+        #[test]
+        fn stratified_samples_stratify_every_dimension(n in 1u32..200, seed in any::<u64>()) {
+            let s = stratified_samples(n, &mut Pcg32::new(seed, 1));
+            prop_assert!(strata_hit_once(s.iter().map(|s| s.xy.x), n));
+            prop_assert!(strata_hit_once(s.iter().map(|s| s.lens.y), n));
+            prop_assert!(strata_hit_once(s.iter().map(|s| s.time), n));
+        }
+
+        #[test]
+        fn aperture_maps_inside_shape(u in 0.0f32..1.0, v in 0.0f32..1.0, blades in 3u32..12, rot in -180.0f32..180.0) {
+            prop_assert!(ApertureShape::Disk.contains(ApertureShape::Disk.map(Vec2::new(u, v))));
+            let b = ApertureShape::Blades { blades, rotation_deg: rot };
+            prop_assert!(b.contains(b.map(Vec2::new(u, v))));
+        }
+
+        #[test]
+        fn shutter_warp_stays_in_unit_interval_and_is_monotone(a in 0.0f32..1.0, b in 0.0f32..1.0) {
+            for c in [ShutterCurve::Box, ShutterCurve::Tent] {
+                let (wa, wb) = (c.warp(a), c.warp(b));
+                prop_assert!((0.0..=1.0).contains(&wa));
+                if a < b { prop_assert!(wa <= wb); }
+            }
+        }
+    }
+
+    #[test]
+    fn dimensions_are_decorrelated() {
+        // Correlation between x and t over many pixels should be near zero.
+        let tile = SampleTile::new(16, 16, 3);
+        let mut acc = 0.0f64;
+        let mut cnt = 0.0f64;
+        for y in 0..16 {
+            for x in 0..16 {
+                for s in tile.pixel(x, y) {
+                    acc += ((s.xy.x - 0.5) * (s.time - 0.5)) as f64;
+                    cnt += 1.0;
+                }
+            }
+        }
+        assert!((acc / cnt).abs() < 0.01, "cov = {}", acc / cnt);
+    }
+
+    #[test]
+    fn disk_map_is_area_uniform() {
+        // Fraction of a stratified set falling inside radius 0.5 is the area ratio 1/4.
+        let pts = multi_jittered(4096, &mut Pcg32::new(1, 1));
+        let inside = pts.iter().filter(|p| concentric_disk(**p).length() < 0.5).count();
+        assert!((inside as f32 / 4096.0 - 0.25).abs() < 0.01);
+    }
+
+    #[test]
+    fn tent_shutter_has_triangular_density() {
+        // P(t < 0.25) = 2·0.25² = 0.125 for the tent.
+        let n = 10000;
+        let below = (0..n).filter(|i| ShutterCurve::Tent.warp((*i as f32 + 0.5) / n as f32) < 0.25).count();
+        assert!((below as f32 / n as f32 - 0.125).abs() < 0.002);
+    }
+
+    #[test]
+    fn tile_is_deterministic() {
+        let a = SampleTile::new(4, 8, 42);
+        let b = SampleTile::new(4, 8, 42);
+        assert_eq!(a.pixel(3, 5), b.pixel(3, 5));
+        assert_eq!(a.pixel(3, 5), a.pixel(11, 13));
+        assert_ne!(a.pixel(3, 5), SampleTile::new(4, 8, 43).pixel(3, 5));
+    }
+}

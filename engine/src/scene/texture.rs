@@ -1,0 +1,95 @@
+//! Albedo textures: decoded to linear RGB, with a mip chain for the GPU and bilinear lookup for the
+//! CPU reference (which supersamples, so it filters the texture by integrating over the pixel).
+
+use glam::{Vec2, Vec3};
+
+/// A linear-RGB texture (decoded from sRGB) with its full mip chain, level 0 first.
+#[derive(Clone, Debug)]
+pub struct Texture {
+    pub name: String,
+    /// Level 0 size.
+    pub width: u32,
+    pub height: u32,
+    /// The original 8-bit sRGB RGBA texels of level 0 (uploaded as `R8G8B8A8_SRGB`).
+    pub srgb_rgba8: Vec<u8>,
+    /// Linear RGB texels of level 0, row-major, top row first (v = 0 at the top, OBJ uv flipped on load).
+    pub linear: Vec<Vec3>,
+}
+
+/// sRGB transfer function, decode.
+pub fn srgb_to_linear(c: f32) -> f32 {
+    if c <= 0.04045 {
+        c / 12.92
+    } else {
+        ((c + 0.055) / 1.055).powf(2.4)
+    }
+}
+
+/// sRGB transfer function, encode.
+pub fn linear_to_srgb(c: f32) -> f32 {
+    let c = c.clamp(0.0, 1.0);
+    if c <= 0.0031308 {
+        c * 12.92
+    } else {
+        1.055 * c.powf(1.0 / 2.4) - 0.055
+    }
+}
+
+impl Texture {
+    /// From 8-bit sRGB RGBA texels (row-major, top row first).
+    pub fn from_srgb_rgba8(name: &str, width: u32, height: u32, srgb_rgba8: Vec<u8>) -> Texture {
+        let lut: Vec<f32> = (0..256).map(|i| srgb_to_linear(i as f32 / 255.0)).collect();
+        let linear = srgb_rgba8
+            .chunks_exact(4)
+            .map(|p| Vec3::new(lut[p[0] as usize], lut[p[1] as usize], lut[p[2] as usize]))
+            .collect();
+        Texture { name: name.to_string(), width, height, srgb_rgba8, linear }
+    }
+
+    /// Number of mip levels down to 1×1.
+    pub fn mip_levels(&self) -> u32 {
+        32 - self.width.max(self.height).max(1).leading_zeros()
+    }
+
+    /// Bilinear lookup of level 0 with repeat addressing. `uv` follows Vulkan's convention: (0,0) is
+    /// the top-left corner of the first texel row.
+    pub fn sample_bilinear(&self, uv: Vec2) -> Vec3 {
+        let (w, h) = (self.width as i64, self.height as i64);
+        let x = uv.x * self.width as f32 - 0.5;
+        let y = uv.y * self.height as f32 - 0.5;
+        let (x0, y0) = (x.floor(), y.floor());
+        let (fx, fy) = (x - x0, y - y0);
+        let texel = |xi: i64, yi: i64| -> Vec3 {
+            let xi = xi.rem_euclid(w) as usize;
+            let yi = yi.rem_euclid(h) as usize;
+            self.linear[yi * self.width as usize + xi]
+        };
+        let (xi, yi) = (x0 as i64, y0 as i64);
+        let top = texel(xi, yi).lerp(texel(xi + 1, yi), fx);
+        let bottom = texel(xi, yi + 1).lerp(texel(xi + 1, yi + 1), fx);
+        top.lerp(bottom, fy)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn srgb_round_trip() {
+        for i in 0..=255 {
+            let c = i as f32 / 255.0;
+            assert!((linear_to_srgb(srgb_to_linear(c)) - c).abs() < 1e-5);
+        }
+    }
+
+    #[test]
+    fn bilinear_hits_texel_centres_and_wraps() {
+        let t = Texture::from_srgb_rgba8("t", 2, 1, vec![255, 255, 255, 255, 0, 0, 0, 255]);
+        assert!((t.sample_bilinear(Vec2::new(0.25, 0.5)).x - 1.0).abs() < 1e-6);
+        assert!(t.sample_bilinear(Vec2::new(0.75, 0.5)).x.abs() < 1e-6);
+        assert!((t.sample_bilinear(Vec2::new(1.25, 0.5)).x - 1.0).abs() < 1e-6, "repeat");
+        assert!((t.sample_bilinear(Vec2::new(0.5, 0.5)).x - 0.5).abs() < 1e-6);
+        assert_eq!(t.mip_levels(), 2);
+    }
+}
