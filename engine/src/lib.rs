@@ -7,6 +7,7 @@
 //! Data flows one way: [`scene`] → [`scene::CameraSpaceScene`] → technique passes → image → metrics.
 
 pub mod error;
+pub mod image;
 pub mod sampling;
 pub mod scene;
 pub mod shading;
