@@ -1,0 +1,495 @@
+//! Headless instance and device: one owner ([`Device`], an `Arc`), validation with a counting
+//! messenger, device choice, capabilities.
+//!
+//! Safety contract of this layer: every GPU submission is waited on before the call that made it
+//! returns (see `commands.rs`), so an RAII wrapper may destroy its handle in `Drop` at any time the
+//! CPU holds it — nothing is in flight. The [`DeviceShared`] outlives every wrapper because each holds
+//! an `Arc` to it.
+
+use std::ffi::{c_void, CStr, CString};
+use std::mem::ManuallyDrop;
+use std::sync::atomic::{AtomicU32, Ordering};
+use std::sync::{Arc, Mutex};
+
+use ash::vk;
+use gpu_allocator::vulkan::{Allocator, AllocatorCreateDesc};
+
+use crate::error::{Error, Result, VkContext};
+
+const VALIDATION_LAYER: &CStr = c"VK_LAYER_KHRONOS_validation";
+
+/// How to create the device. [`DeviceDesc::from_env`] reads `SHUTTER_DEVICE`, `SHUTTER_VALIDATION`
+/// and `SHUTTER_SYNC_VALIDATION`.
+#[derive(Clone, Debug, Default)]
+pub struct DeviceDesc {
+    /// Pick the first device whose name contains this (case-insensitive); None: best by type.
+    pub device_name: Option<String>,
+    /// Enable the Khronos validation layer and the counting messenger.
+    pub validation: bool,
+    /// Also enable synchronization validation (slow).
+    pub sync_validation: bool,
+}
+
+impl DeviceDesc {
+    /// Validation defaults to on in debug builds (and therefore in tests), off in release builds;
+    /// `SHUTTER_VALIDATION=0|1` overrides it.
+    pub fn from_env() -> Self {
+        let flag = |name: &str| std::env::var(name).ok().map(|v| v != "0" && !v.is_empty());
+        DeviceDesc {
+            device_name: std::env::var("SHUTTER_DEVICE").ok().filter(|s| !s.is_empty()),
+            validation: flag("SHUTTER_VALIDATION").unwrap_or(cfg!(debug_assertions)),
+            sync_validation: flag("SHUTTER_SYNC_VALIDATION").unwrap_or(false),
+        }
+    }
+}
+
+/// What the chosen device can do, queried once.
+#[derive(Clone, Debug)]
+pub struct Capabilities {
+    pub device_name: String,
+    pub device_type: String,
+    pub driver_name: String,
+    pub driver_info: String,
+    pub api_version: String,
+    /// MSAA sample counts usable for colour *and* depth attachments.
+    pub framebuffer_sample_counts: Vec<u32>,
+    pub geometry_shader: bool,
+    pub sample_rate_shading: bool,
+    pub fragment_stores_and_atomics: bool,
+    pub conservative_rasterization: bool,
+    pub max_geometry_output_vertices: u32,
+    pub max_geometry_total_output_components: u32,
+    pub max_push_constants_size: u32,
+    pub max_image_dimension_2d: u32,
+    /// Timestamps usable on the graphics queue.
+    pub timestamps: bool,
+    /// Nanoseconds per timestamp tick.
+    pub timestamp_period_ns: f32,
+    pub debug_utils: bool,
+}
+
+impl Capabilities {
+    /// Largest supported MSAA count not above `wanted`.
+    pub fn msaa_samples(&self, wanted: u32) -> u32 {
+        self.framebuffer_sample_counts.iter().copied().filter(|&s| s <= wanted).max().unwrap_or(1)
+    }
+}
+
+impl std::fmt::Display for Capabilities {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        writeln!(f, "device            {} ({})", self.device_name, self.device_type)?;
+        writeln!(f, "driver            {} — {}", self.driver_name, self.driver_info)?;
+        writeln!(f, "api version       {}", self.api_version)?;
+        writeln!(f, "MSAA counts       {:?}", self.framebuffer_sample_counts)?;
+        writeln!(f, "geometry shader   {}", self.geometry_shader)?;
+        writeln!(
+            f,
+            "  GS output       {} vertices, {} components",
+            self.max_geometry_output_vertices, self.max_geometry_total_output_components
+        )?;
+        writeln!(f, "sample-rate shading {}", self.sample_rate_shading)?;
+        writeln!(f, "fragment stores/atomics {}", self.fragment_stores_and_atomics)?;
+        writeln!(f, "VK_EXT_conservative_rasterization {}", self.conservative_rasterization)?;
+        writeln!(f, "push constants    {} bytes", self.max_push_constants_size)?;
+        writeln!(f, "max image 2D      {}", self.max_image_dimension_2d)?;
+        writeln!(f, "timestamps        {} ({} ns/tick)", self.timestamps, self.timestamp_period_ns)?;
+        write!(f, "debug utils       {}", self.debug_utils)
+    }
+}
+
+/// Validation messages seen so far (warnings and errors; info/verbose are ignored).
+#[derive(Default)]
+struct ValidationLog {
+    errors: AtomicU32,
+    warnings: AtomicU32,
+    first: Mutex<Option<String>>,
+}
+
+/// Counts of validation messages since the device was created.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct ValidationReport {
+    pub errors: u32,
+    pub warnings: u32,
+    pub first: Option<String>,
+}
+
+unsafe extern "system" fn debug_callback(
+    severity: vk::DebugUtilsMessageSeverityFlagsEXT,
+    _types: vk::DebugUtilsMessageTypeFlagsEXT,
+    data: *const vk::DebugUtilsMessengerCallbackDataEXT<'_>,
+    user: *mut c_void,
+) -> vk::Bool32 {
+    // SAFETY: `user` is the `ValidationLog` boxed inside `DeviceShared`, alive until the messenger is
+    // destroyed; `data` is valid for the duration of the callback (Vulkan spec).
+    let log = unsafe { &*(user as *const ValidationLog) };
+    let msg = unsafe { data.as_ref() }
+        .and_then(|d| (!d.p_message.is_null()).then(|| unsafe { CStr::from_ptr(d.p_message) }))
+        .map(|m| m.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let counter = if severity.contains(vk::DebugUtilsMessageSeverityFlagsEXT::ERROR) {
+        &log.errors
+    } else if severity.contains(vk::DebugUtilsMessageSeverityFlagsEXT::WARNING) {
+        &log.warnings
+    } else {
+        return vk::FALSE;
+    };
+    counter.fetch_add(1, Ordering::Relaxed);
+    eprintln!("[vulkan validation] {msg}");
+    if let Ok(mut first) = log.first.lock() {
+        first.get_or_insert(msg);
+    }
+    vk::FALSE
+}
+
+/// Owns the instance, the device and the allocator. Never used directly: see [`Device`].
+pub struct DeviceShared {
+    pub entry: ash::Entry,
+    pub instance: ash::Instance,
+    pub physical: vk::PhysicalDevice,
+    pub raw: ash::Device,
+    pub queue: vk::Queue,
+    pub queue_family: u32,
+    pub caps: Capabilities,
+    pub(crate) allocator: ManuallyDrop<Mutex<Allocator>>,
+    pub(crate) debug_utils_instance: Option<ash::ext::debug_utils::Instance>,
+    pub(crate) debug_utils_device: Option<ash::ext::debug_utils::Device>,
+    messenger: vk::DebugUtilsMessengerEXT,
+    validation: Box<ValidationLog>,
+    pub validation_enabled: bool,
+    /// Serialises queue submission (vkQueueSubmit requires external synchronisation).
+    pub(crate) queue_lock: Mutex<()>,
+}
+
+/// The one owner of the Vulkan device; cheap to clone.
+pub type Device = Arc<DeviceShared>;
+
+impl Drop for DeviceShared {
+    fn drop(&mut self) {
+        // SAFETY: every wrapper holding resources holds an Arc to us, so none is alive; nothing is in
+        // flight (every submission is waited on). Allocator before device, messenger before instance.
+        unsafe {
+            let _ = self.raw.device_wait_idle();
+            ManuallyDrop::drop(&mut self.allocator);
+            self.raw.destroy_device(None);
+            if let Some(du) = &self.debug_utils_instance {
+                du.destroy_debug_utils_messenger(self.messenger, None);
+            }
+            self.instance.destroy_instance(None);
+        }
+    }
+}
+
+fn device_type_rank(t: vk::PhysicalDeviceType) -> u32 {
+    match t {
+        vk::PhysicalDeviceType::DISCRETE_GPU => 0,
+        vk::PhysicalDeviceType::INTEGRATED_GPU => 1,
+        vk::PhysicalDeviceType::VIRTUAL_GPU => 2,
+        vk::PhysicalDeviceType::CPU => 3,
+        _ => 4,
+    }
+}
+
+fn cstr_field(chars: &[std::ffi::c_char]) -> String {
+    // SAFETY: Vulkan guarantees these fixed arrays are NUL-terminated.
+    unsafe { CStr::from_ptr(chars.as_ptr()) }.to_string_lossy().into_owned()
+}
+
+impl DeviceShared {
+    /// Creates a headless instance and device as `desc` says.
+    pub fn new(desc: &DeviceDesc) -> Result<Device> {
+        // SAFETY: loading the system Vulkan loader; failure is reported, not assumed.
+        let entry = unsafe { ash::Entry::load() }.map_err(|e| Error::Loader(e.to_string()))?;
+        let layers = unsafe { entry.enumerate_instance_layer_properties() }.vk("vkEnumerateInstanceLayerProperties")?;
+        let has_layer = |name: &CStr| layers.iter().any(|l| l.layer_name_as_c_str().ok() == Some(name));
+        let inst_exts =
+            unsafe { entry.enumerate_instance_extension_properties(None) }.vk("vkEnumerateInstanceExtensionProperties")?;
+        let mut debug_utils = inst_exts.iter().any(|e| e.extension_name_as_c_str().ok() == Some(ash::ext::debug_utils::NAME));
+        let validation = desc.validation && has_layer(VALIDATION_LAYER);
+        if desc.validation && !validation {
+            log::warn!("validation requested but VK_LAYER_KHRONOS_validation is not installed (vulkan-validationlayers)");
+            eprintln!("warning: validation requested but VK_LAYER_KHRONOS_validation is not installed");
+        }
+        if validation {
+            // The validation layer always provides debug utils.
+            debug_utils = true;
+        }
+
+        let app_name = c"shutter";
+        let app = vk::ApplicationInfo::default()
+            .application_name(app_name)
+            .engine_name(app_name)
+            .api_version(vk::API_VERSION_1_3);
+        let layer_ptrs: Vec<*const std::ffi::c_char> =
+            if validation { vec![VALIDATION_LAYER.as_ptr()] } else { vec![] };
+        let mut ext_ptrs = vec![];
+        if debug_utils {
+            ext_ptrs.push(ash::ext::debug_utils::NAME.as_ptr());
+        }
+        let validation_log = Box::<ValidationLog>::default();
+        let severity = vk::DebugUtilsMessageSeverityFlagsEXT::ERROR | vk::DebugUtilsMessageSeverityFlagsEXT::WARNING;
+        let types = vk::DebugUtilsMessageTypeFlagsEXT::GENERAL
+            | vk::DebugUtilsMessageTypeFlagsEXT::VALIDATION
+            | vk::DebugUtilsMessageTypeFlagsEXT::PERFORMANCE;
+        let mut messenger_info = vk::DebugUtilsMessengerCreateInfoEXT::default()
+            .message_severity(severity)
+            .message_type(vk::DebugUtilsMessageTypeFlagsEXT::GENERAL | vk::DebugUtilsMessageTypeFlagsEXT::VALIDATION)
+            .pfn_user_callback(Some(debug_callback))
+            .user_data(&*validation_log as *const ValidationLog as *mut c_void);
+        let enabled_features = [vk::ValidationFeatureEnableEXT::SYNCHRONIZATION_VALIDATION];
+        let mut validation_features =
+            vk::ValidationFeaturesEXT::default().enabled_validation_features(&enabled_features);
+        let mut inst_info = vk::InstanceCreateInfo::default()
+            .application_info(&app)
+            .enabled_layer_names(&layer_ptrs)
+            .enabled_extension_names(&ext_ptrs);
+        if validation {
+            // Chained so that instance creation and destruction are validated too.
+            inst_info = inst_info.push_next(&mut messenger_info);
+            if desc.sync_validation {
+                inst_info = inst_info.push_next(&mut validation_features);
+            }
+        }
+        let instance = unsafe { entry.create_instance(&inst_info, None) }.vk("vkCreateInstance")?;
+        // From here on, clean up the instance on error.
+        let guard = InstanceGuard { instance: Some(instance.clone()) };
+
+        let (debug_utils_instance, messenger) = if validation || debug_utils {
+            let du = ash::ext::debug_utils::Instance::new(&entry, &instance);
+            let m = if validation {
+                let info = vk::DebugUtilsMessengerCreateInfoEXT::default()
+                    .message_severity(severity)
+                    .message_type(types)
+                    .pfn_user_callback(Some(debug_callback))
+                    .user_data(&*validation_log as *const ValidationLog as *mut c_void);
+                unsafe { du.create_debug_utils_messenger(&info, None) }.vk("vkCreateDebugUtilsMessengerEXT")?
+            } else {
+                vk::DebugUtilsMessengerEXT::null()
+            };
+            (Some(du), m)
+        } else {
+            (None, vk::DebugUtilsMessengerEXT::null())
+        };
+        let messenger_guard = MessengerGuard { du: debug_utils_instance.clone(), messenger };
+
+        let physicals = unsafe { instance.enumerate_physical_devices() }.vk("vkEnumeratePhysicalDevices")?;
+        let mut candidates: Vec<(vk::PhysicalDevice, vk::PhysicalDeviceProperties)> =
+            physicals.iter().map(|&p| (p, unsafe { instance.get_physical_device_properties(p) })).collect();
+        let names: Vec<String> = candidates
+            .iter()
+            .map(|(_, p)| format!("{} ({:?})", cstr_field(&p.device_name), p.device_type))
+            .collect();
+        if let Some(wanted) = &desc.device_name {
+            let w = wanted.to_lowercase();
+            candidates.retain(|(_, p)| cstr_field(&p.device_name).to_lowercase().contains(&w));
+            if candidates.is_empty() {
+                return Err(Error::NoDevice { wanted: wanted.clone(), available: names });
+            }
+        }
+        candidates.sort_by_key(|(_, p)| device_type_rank(p.device_type));
+        let (physical, props) = *candidates
+            .first()
+            .ok_or_else(|| Error::NoDevice { wanted: "any Vulkan 1.3 device".into(), available: names.clone() })?;
+        if props.api_version < vk::API_VERSION_1_3 {
+            return Err(Error::MissingFeature {
+                device: cstr_field(&props.device_name),
+                feature: "Vulkan 1.3".into(),
+                needed_by: "Shutter (dynamic rendering, synchronization2)".into(),
+            });
+        }
+
+        let families = unsafe { instance.get_physical_device_queue_family_properties(physical) };
+        let queue_family = families
+            .iter()
+            .position(|f| f.queue_flags.contains(vk::QueueFlags::GRAPHICS | vk::QueueFlags::COMPUTE))
+            .ok_or_else(|| Error::MissingFeature {
+                device: cstr_field(&props.device_name),
+                feature: "a graphics+compute queue".into(),
+                needed_by: "every technique".into(),
+            })? as u32;
+
+        let dev_exts = unsafe { instance.enumerate_device_extension_properties(physical) }
+            .vk("vkEnumerateDeviceExtensionProperties")?;
+        let has_dev_ext =
+            |n: &CStr| dev_exts.iter().any(|e| e.extension_name_as_c_str().ok() == Some(n));
+        let conservative = has_dev_ext(ash::ext::conservative_rasterization::NAME);
+
+        let mut driver_props = vk::PhysicalDeviceDriverProperties::default();
+        let mut props2 = vk::PhysicalDeviceProperties2::default().push_next(&mut driver_props);
+        unsafe { instance.get_physical_device_properties2(physical, &mut props2) };
+        let supported = unsafe { instance.get_physical_device_features(physical) };
+        let mut f13 = vk::PhysicalDeviceVulkan13Features::default();
+        let mut f12 = vk::PhysicalDeviceVulkan12Features::default();
+        let mut feats2 = vk::PhysicalDeviceFeatures2::default().push_next(&mut f13).push_next(&mut f12);
+        unsafe { instance.get_physical_device_features2(physical, &mut feats2) };
+        if f13.dynamic_rendering == vk::FALSE || f13.synchronization2 == vk::FALSE {
+            return Err(Error::MissingFeature {
+                device: cstr_field(&props.device_name),
+                feature: "dynamicRendering and synchronization2".into(),
+                needed_by: "every technique".into(),
+            });
+        }
+        let limits = props.limits;
+        let counts = limits.framebuffer_color_sample_counts & limits.framebuffer_depth_sample_counts;
+        let framebuffer_sample_counts =
+            [1u32, 2, 4, 8, 16, 32, 64].into_iter().filter(|&c| counts.as_raw() & c != 0).collect();
+        let caps = Capabilities {
+            device_name: cstr_field(&props.device_name),
+            device_type: format!("{:?}", props.device_type),
+            driver_name: cstr_field(&driver_props.driver_name),
+            driver_info: cstr_field(&driver_props.driver_info),
+            api_version: format!(
+                "{}.{}.{}",
+                vk::api_version_major(props.api_version),
+                vk::api_version_minor(props.api_version),
+                vk::api_version_patch(props.api_version)
+            ),
+            framebuffer_sample_counts,
+            geometry_shader: supported.geometry_shader == vk::TRUE,
+            sample_rate_shading: supported.sample_rate_shading == vk::TRUE,
+            fragment_stores_and_atomics: supported.fragment_stores_and_atomics == vk::TRUE,
+            conservative_rasterization: conservative,
+            max_geometry_output_vertices: limits.max_geometry_output_vertices,
+            max_geometry_total_output_components: limits.max_geometry_total_output_components,
+            max_push_constants_size: limits.max_push_constants_size,
+            max_image_dimension_2d: limits.max_image_dimension2_d,
+            timestamps: limits.timestamp_compute_and_graphics == vk::TRUE
+                && families[queue_family as usize].timestamp_valid_bits > 0,
+            timestamp_period_ns: limits.timestamp_period,
+            debug_utils: debug_utils_instance.is_some(),
+        };
+
+        // Enable what later techniques use, where present; techniques check `caps` before relying on it.
+        let features = vk::PhysicalDeviceFeatures::default()
+            .geometry_shader(caps.geometry_shader)
+            .sample_rate_shading(caps.sample_rate_shading)
+            .fragment_stores_and_atomics(caps.fragment_stores_and_atomics)
+            .sampler_anisotropy(supported.sampler_anisotropy == vk::TRUE)
+            .shader_storage_image_write_without_format(supported.shader_storage_image_write_without_format == vk::TRUE);
+        let mut enable13 = vk::PhysicalDeviceVulkan13Features::default().dynamic_rendering(true).synchronization2(true);
+        let mut enable12 =
+            vk::PhysicalDeviceVulkan12Features::default().host_query_reset(f12.host_query_reset == vk::TRUE);
+        let priorities = [1.0f32];
+        let queue_info =
+            [vk::DeviceQueueCreateInfo::default().queue_family_index(queue_family).queue_priorities(&priorities)];
+        let mut dev_ext_ptrs = vec![];
+        if conservative {
+            dev_ext_ptrs.push(ash::ext::conservative_rasterization::NAME.as_ptr());
+        }
+        let dev_info = vk::DeviceCreateInfo::default()
+            .queue_create_infos(&queue_info)
+            .enabled_extension_names(&dev_ext_ptrs)
+            .enabled_features(&features)
+            .push_next(&mut enable13)
+            .push_next(&mut enable12);
+        let raw = unsafe { instance.create_device(physical, &dev_info, None) }.vk("vkCreateDevice")?;
+        let queue = unsafe { raw.get_device_queue(queue_family, 0) };
+        let allocator = Allocator::new(&AllocatorCreateDesc {
+            instance: instance.clone(),
+            device: raw.clone(),
+            physical_device: physical,
+            debug_settings: Default::default(),
+            buffer_device_address: false,
+            allocation_sizes: Default::default(),
+        });
+        let allocator = match allocator {
+            Ok(a) => a,
+            Err(e) => {
+                unsafe { raw.destroy_device(None) };
+                return Err(e.into());
+            }
+        };
+        let debug_utils_device = debug_utils_instance.as_ref().map(|_| ash::ext::debug_utils::Device::new(&instance, &raw));
+        std::mem::forget(messenger_guard);
+        std::mem::forget(guard);
+        Ok(Arc::new(DeviceShared {
+            entry,
+            instance,
+            physical,
+            raw,
+            queue,
+            queue_family,
+            caps,
+            allocator: ManuallyDrop::new(Mutex::new(allocator)),
+            debug_utils_instance,
+            debug_utils_device,
+            messenger,
+            validation: validation_log,
+            validation_enabled: validation,
+            queue_lock: Mutex::new(()),
+        }))
+    }
+
+    /// Validation messages (errors and warnings) counted so far.
+    pub fn validation_report(&self) -> ValidationReport {
+        ValidationReport {
+            errors: self.validation.errors.load(Ordering::Relaxed),
+            warnings: self.validation.warnings.load(Ordering::Relaxed),
+            first: self.validation.first.lock().ok().and_then(|f| f.clone()),
+        }
+    }
+
+    /// `Err(Error::Validation)` if the validation layer has reported any error or warning.
+    pub fn check_validation(&self) -> Result<()> {
+        let r = self.validation_report();
+        if r.errors + r.warnings > 0 {
+            return Err(Error::Validation {
+                errors: r.errors,
+                warnings: r.warnings,
+                first: r.first.unwrap_or_default(),
+            });
+        }
+        Ok(())
+    }
+
+    /// Names a Vulkan object for debuggers and validation messages (no-op without debug utils).
+    pub fn set_name<H: vk::Handle>(&self, handle: H, name: &str) {
+        if let Some(du) = &self.debug_utils_device {
+            if let Ok(name) = CString::new(name) {
+                let info = vk::DebugUtilsObjectNameInfoEXT::default().object_handle(handle).object_name(&name);
+                // SAFETY: handle belongs to this device; naming failure is harmless.
+                let _ = unsafe { du.set_debug_utils_object_name(&info) };
+            }
+        }
+    }
+
+    /// Opens a debug label region in `cmd` (RenderDoc/validation show pass names).
+    pub fn begin_label(&self, cmd: vk::CommandBuffer, name: &str) {
+        if let Some(du) = &self.debug_utils_device {
+            if let Ok(name) = CString::new(name) {
+                let label = vk::DebugUtilsLabelEXT::default().label_name(&name);
+                unsafe { du.cmd_begin_debug_utils_label(cmd, &label) };
+            }
+        }
+    }
+
+    pub fn end_label(&self, cmd: vk::CommandBuffer) {
+        if let Some(du) = &self.debug_utils_device {
+            unsafe { du.cmd_end_debug_utils_label(cmd) };
+        }
+    }
+}
+
+/// Destroys the instance if device creation fails half-way.
+struct InstanceGuard {
+    instance: Option<ash::Instance>,
+}
+impl Drop for InstanceGuard {
+    fn drop(&mut self) {
+        if let Some(i) = self.instance.take() {
+            unsafe { i.destroy_instance(None) };
+        }
+    }
+}
+struct MessengerGuard {
+    du: Option<ash::ext::debug_utils::Instance>,
+    messenger: vk::DebugUtilsMessengerEXT,
+}
+impl Drop for MessengerGuard {
+    fn drop(&mut self) {
+        if let Some(du) = &self.du {
+            if self.messenger != vk::DebugUtilsMessengerEXT::null() {
+                unsafe { du.destroy_debug_utils_messenger(self.messenger, None) };
+            }
+        }
+    }
+}

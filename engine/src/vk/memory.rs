@@ -1,0 +1,95 @@
+//! Buffers with their gpu-allocator allocations, RAII.
+
+use ash::vk;
+use gpu_allocator::vulkan::{Allocation, AllocationCreateDesc, AllocationScheme};
+use gpu_allocator::MemoryLocation;
+
+use super::Device;
+use crate::error::{Error, Result, VkContext};
+
+/// A buffer and its memory. Freed on drop (safe: nothing is ever in flight, see `context.rs`).
+pub struct Buffer {
+    pub raw: vk::Buffer,
+    pub size: u64,
+    allocation: Option<Allocation>,
+    device: Device,
+}
+
+impl Buffer {
+    pub fn new(device: &Device, name: &str, size: u64, usage: vk::BufferUsageFlags, location: MemoryLocation) -> Result<Buffer> {
+        let info = vk::BufferCreateInfo::default().size(size.max(4)).usage(usage).sharing_mode(vk::SharingMode::EXCLUSIVE);
+        let raw = unsafe { device.raw.create_buffer(&info, None) }.vk("vkCreateBuffer")?;
+        let reqs = unsafe { device.raw.get_buffer_memory_requirements(raw) };
+        let alloc = device.allocator.lock().expect("allocator poisoned").allocate(&AllocationCreateDesc {
+            name,
+            requirements: reqs,
+            location,
+            linear: true,
+            allocation_scheme: AllocationScheme::GpuAllocatorManaged,
+        });
+        let allocation = match alloc {
+            Ok(a) => a,
+            Err(e) => {
+                unsafe { device.raw.destroy_buffer(raw, None) };
+                return Err(e.into());
+            }
+        };
+        let buffer = Buffer { raw, size, allocation: Some(allocation), device: device.clone() };
+        let a = buffer.allocation.as_ref().expect("just set");
+        unsafe { device.raw.bind_buffer_memory(raw, a.memory(), a.offset()) }.vk("vkBindBufferMemory")?;
+        device.set_name(raw, name);
+        Ok(buffer)
+    }
+
+    /// A host-visible buffer filled with `data`.
+    pub fn with_data<T: Copy>(device: &Device, name: &str, usage: vk::BufferUsageFlags, data: &[T]) -> Result<Buffer> {
+        let bytes = std::mem::size_of_val(data) as u64;
+        let mut b = Buffer::new(device, name, bytes, usage, MemoryLocation::CpuToGpu)?;
+        b.write(data)?;
+        Ok(b)
+    }
+
+    /// Copies `data` into a host-visible buffer.
+    pub fn write<T: Copy>(&mut self, data: &[T]) -> Result<()> {
+        let bytes = std::mem::size_of_val(data);
+        let slice = self.mapped_mut()?;
+        if bytes > slice.len() {
+            return Err(Error::Unsupported(format!("write of {bytes} bytes into a {}-byte buffer", slice.len())));
+        }
+        // SAFETY: T is Copy (plain data); the destination is at least `bytes` long.
+        unsafe { std::ptr::copy_nonoverlapping(data.as_ptr() as *const u8, slice.as_mut_ptr(), bytes) };
+        Ok(())
+    }
+
+    fn mapped_mut(&mut self) -> Result<&mut [u8]> {
+        self.allocation
+            .as_mut()
+            .and_then(|a| a.mapped_slice_mut())
+            .ok_or_else(|| Error::Unsupported("buffer is not host-visible".into()))
+    }
+
+    /// Host-visible contents.
+    pub fn mapped(&self) -> Result<&[u8]> {
+        self.allocation
+            .as_ref()
+            .and_then(|a| a.mapped_slice())
+            .ok_or_else(|| Error::Unsupported("buffer is not host-visible".into()))
+    }
+}
+
+impl Drop for Buffer {
+    fn drop(&mut self) {
+        if let Some(a) = self.allocation.take() {
+            if let Ok(mut alloc) = self.device.allocator.lock() {
+                let _ = alloc.free(a);
+            }
+        }
+        unsafe { self.device.raw.destroy_buffer(self.raw, None) };
+    }
+}
+
+/// Views a slice of plain data as bytes (for push constants).
+pub fn as_bytes<T: Copy>(v: &T) -> &[u8] {
+    // SAFETY: T is Copy plain data without padding requirements beyond its layout.
+    unsafe { std::slice::from_raw_parts(v as *const T as *const u8, std::mem::size_of::<T>()) }
+}

@@ -1,0 +1,32 @@
+//! The Vulkan layer: one file per concern, small safe helpers over raw `ash`. Techniques touch Vulkan
+//! only through these.
+//!
+//! - `context`: instance, device choice, validation messenger, [`Capabilities`]
+//! - `memory`: buffers (gpu-allocator); `image`: images, views, samplers, barriers
+//! - `pipeline`: shader modules, descriptor layouts/pools/writes, pipeline layouts and pipelines
+//! - `commands`: record-submit-wait; `queries`: named GPU timestamps; `transfer`: uploads and readback
+
+mod commands;
+mod context;
+mod image;
+mod memory;
+mod pipeline;
+mod queries;
+mod transfer;
+
+pub use commands::{image_barriers, memory_barrier, CommandRecorder};
+pub use context::{Capabilities, Device, DeviceDesc, DeviceShared, ValidationReport};
+pub use image::{aspect_of, barrier, Image, ImageDesc, Sampler};
+pub use memory::{as_bytes, Buffer};
+pub use pipeline::{
+    write_descriptors, DescriptorPool, DescriptorSetLayout, DescriptorWrite, GraphicsDesc, Pipeline, PipelineLayout,
+    ShaderModule,
+};
+pub use queries::{GpuTimer, PassTimings};
+pub use transfer::{read_rgba32f, record_readback, srgb_mip_chain, upload_texture};
+
+/// Creates the device as the environment says (`SHUTTER_DEVICE`, `SHUTTER_VALIDATION`,
+/// `SHUTTER_SYNC_VALIDATION`).
+pub fn create_device() -> crate::Result<Device> {
+    DeviceShared::new(&DeviceDesc::from_env())
+}

@@ -1,0 +1,271 @@
+//! Shader modules, pipeline layouts, graphics (dynamic rendering) and compute pipelines, RAII.
+
+use ash::vk;
+
+use super::Device;
+use crate::error::{Result, VkContext};
+use crate::shaders::{ShaderSource, ShaderStage};
+
+fn stage_flags(s: ShaderStage) -> vk::ShaderStageFlags {
+    match s {
+        ShaderStage::Vertex => vk::ShaderStageFlags::VERTEX,
+        ShaderStage::Geometry => vk::ShaderStageFlags::GEOMETRY,
+        ShaderStage::Fragment => vk::ShaderStageFlags::FRAGMENT,
+        ShaderStage::Compute => vk::ShaderStageFlags::COMPUTE,
+    }
+}
+
+/// A shader module made from an embedded permutation.
+pub struct ShaderModule {
+    pub raw: vk::ShaderModule,
+    pub source: ShaderSource,
+    device: Device,
+}
+
+impl ShaderModule {
+    pub fn new(device: &Device, source: ShaderSource) -> Result<Self> {
+        let words = ash::util::read_spv(&mut std::io::Cursor::new(source.spirv))
+            .map_err(|e| crate::Error::Unsupported(format!("corrupt embedded SPIR-V {}: {e}", source.file)))?;
+        let info = vk::ShaderModuleCreateInfo::default().code(&words);
+        let raw = unsafe { device.raw.create_shader_module(&info, None) }.vk("vkCreateShaderModule")?;
+        device.set_name(raw, &format!("{}[{}]", source.file, source.permutation));
+        Ok(ShaderModule { raw, source, device: device.clone() })
+    }
+    fn stage_info(&self) -> vk::PipelineShaderStageCreateInfo<'_> {
+        vk::PipelineShaderStageCreateInfo::default().stage(stage_flags(self.source.stage)).module(self.raw).name(c"main")
+    }
+}
+
+impl Drop for ShaderModule {
+    fn drop(&mut self) {
+        unsafe { self.device.raw.destroy_shader_module(self.raw, None) };
+    }
+}
+
+/// A descriptor set layout, RAII.
+pub struct DescriptorSetLayout {
+    pub raw: vk::DescriptorSetLayout,
+    device: Device,
+}
+
+impl DescriptorSetLayout {
+    /// `bindings`: (binding, type, stages), one descriptor each.
+    pub fn new(device: &Device, name: &str, bindings: &[(u32, vk::DescriptorType, vk::ShaderStageFlags)]) -> Result<Self> {
+        let b: Vec<_> = bindings
+            .iter()
+            .map(|&(binding, ty, stages)| {
+                vk::DescriptorSetLayoutBinding::default()
+                    .binding(binding)
+                    .descriptor_type(ty)
+                    .descriptor_count(1)
+                    .stage_flags(stages)
+            })
+            .collect();
+        let info = vk::DescriptorSetLayoutCreateInfo::default().bindings(&b);
+        let raw = unsafe { device.raw.create_descriptor_set_layout(&info, None) }.vk("vkCreateDescriptorSetLayout")?;
+        device.set_name(raw, name);
+        Ok(DescriptorSetLayout { raw, device: device.clone() })
+    }
+}
+
+impl Drop for DescriptorSetLayout {
+    fn drop(&mut self) {
+        unsafe { self.device.raw.destroy_descriptor_set_layout(self.raw, None) };
+    }
+}
+
+/// A descriptor pool from which sets are allocated; sets die with the pool.
+pub struct DescriptorPool {
+    pub raw: vk::DescriptorPool,
+    device: Device,
+}
+
+impl DescriptorPool {
+    pub fn new(device: &Device, max_sets: u32, sizes: &[(vk::DescriptorType, u32)]) -> Result<Self> {
+        let s: Vec<_> =
+            sizes.iter().map(|&(ty, n)| vk::DescriptorPoolSize { ty, descriptor_count: n.max(1) }).collect();
+        let info = vk::DescriptorPoolCreateInfo::default().max_sets(max_sets.max(1)).pool_sizes(&s);
+        let raw = unsafe { device.raw.create_descriptor_pool(&info, None) }.vk("vkCreateDescriptorPool")?;
+        Ok(DescriptorPool { raw, device: device.clone() })
+    }
+    pub fn allocate(&self, layout: &DescriptorSetLayout) -> Result<vk::DescriptorSet> {
+        let layouts = [layout.raw];
+        let info = vk::DescriptorSetAllocateInfo::default().descriptor_pool(self.raw).set_layouts(&layouts);
+        Ok(unsafe { self.device.raw.allocate_descriptor_sets(&info) }.vk("vkAllocateDescriptorSets")?[0])
+    }
+}
+
+impl Drop for DescriptorPool {
+    fn drop(&mut self) {
+        unsafe { self.device.raw.destroy_descriptor_pool(self.raw, None) };
+    }
+}
+
+/// One descriptor write, as data (applied by [`write_descriptors`]).
+pub enum DescriptorWrite {
+    Buffer { binding: u32, ty: vk::DescriptorType, buffer: vk::Buffer },
+    StorageImage { binding: u32, view: vk::ImageView },
+    SampledImage { binding: u32, view: vk::ImageView, sampler: vk::Sampler },
+}
+
+pub fn write_descriptors(device: &Device, set: vk::DescriptorSet, writes: &[DescriptorWrite]) {
+    let buffer_infos: Vec<[vk::DescriptorBufferInfo; 1]> = writes
+        .iter()
+        .map(|w| match w {
+            DescriptorWrite::Buffer { buffer, .. } => [vk::DescriptorBufferInfo::default().buffer(*buffer).range(vk::WHOLE_SIZE)],
+            _ => [vk::DescriptorBufferInfo::default()],
+        })
+        .collect();
+    let image_infos: Vec<[vk::DescriptorImageInfo; 1]> = writes
+        .iter()
+        .map(|w| match w {
+            DescriptorWrite::StorageImage { view, .. } => {
+                [vk::DescriptorImageInfo::default().image_view(*view).image_layout(vk::ImageLayout::GENERAL)]
+            }
+            DescriptorWrite::SampledImage { view, sampler, .. } => [vk::DescriptorImageInfo::default()
+                .image_view(*view)
+                .sampler(*sampler)
+                .image_layout(vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL)],
+            _ => [vk::DescriptorImageInfo::default()],
+        })
+        .collect();
+    let vk_writes: Vec<_> = writes
+        .iter()
+        .enumerate()
+        .map(|(i, w)| {
+            let base = vk::WriteDescriptorSet::default().dst_set(set);
+            match w {
+                DescriptorWrite::Buffer { binding, ty, .. } => {
+                    base.dst_binding(*binding).descriptor_type(*ty).buffer_info(&buffer_infos[i])
+                }
+                DescriptorWrite::StorageImage { binding, .. } => base
+                    .dst_binding(*binding)
+                    .descriptor_type(vk::DescriptorType::STORAGE_IMAGE)
+                    .image_info(&image_infos[i]),
+                DescriptorWrite::SampledImage { binding, .. } => base
+                    .dst_binding(*binding)
+                    .descriptor_type(vk::DescriptorType::COMBINED_IMAGE_SAMPLER)
+                    .image_info(&image_infos[i]),
+            }
+        })
+        .collect();
+    unsafe { device.raw.update_descriptor_sets(&vk_writes, &[]) };
+}
+
+/// A pipeline layout, RAII.
+pub struct PipelineLayout {
+    pub raw: vk::PipelineLayout,
+    device: Device,
+}
+
+impl PipelineLayout {
+    pub fn new(device: &Device, sets: &[&DescriptorSetLayout], push_bytes: u32, push_stages: vk::ShaderStageFlags) -> Result<Self> {
+        let set_layouts: Vec<_> = sets.iter().map(|s| s.raw).collect();
+        let ranges = [vk::PushConstantRange { stage_flags: push_stages, offset: 0, size: push_bytes }];
+        let mut info = vk::PipelineLayoutCreateInfo::default().set_layouts(&set_layouts);
+        if push_bytes > 0 {
+            info = info.push_constant_ranges(&ranges);
+        }
+        let raw = unsafe { device.raw.create_pipeline_layout(&info, None) }.vk("vkCreatePipelineLayout")?;
+        Ok(PipelineLayout { raw, device: device.clone() })
+    }
+}
+
+impl Drop for PipelineLayout {
+    fn drop(&mut self) {
+        unsafe { self.device.raw.destroy_pipeline_layout(self.raw, None) };
+    }
+}
+
+/// A pipeline, RAII.
+pub struct Pipeline {
+    pub raw: vk::Pipeline,
+    pub bind_point: vk::PipelineBindPoint,
+    device: Device,
+}
+
+impl Drop for Pipeline {
+    fn drop(&mut self) {
+        unsafe { self.device.raw.destroy_pipeline(self.raw, None) };
+    }
+}
+
+/// What a graphics pipeline renders into and how (declared up front, Falcor-style).
+pub struct GraphicsDesc<'a> {
+    pub name: &'a str,
+    pub stages: &'a [&'a ShaderModule],
+    pub vertex_bindings: &'a [vk::VertexInputBindingDescription],
+    pub vertex_attributes: &'a [vk::VertexInputAttributeDescription],
+    pub color_formats: &'a [vk::Format],
+    pub depth_format: Option<vk::Format>,
+    pub samples: u32,
+    /// `Some(min)`: sample-rate shading with minSampleShading = min.
+    pub sample_shading: Option<f32>,
+    pub cull_mode: vk::CullModeFlags,
+    pub front_face: vk::FrontFace,
+    pub depth_compare: vk::CompareOp,
+    pub depth_write: bool,
+}
+
+impl Pipeline {
+    pub fn graphics(device: &Device, layout: &PipelineLayout, d: &GraphicsDesc) -> Result<Pipeline> {
+        let stages: Vec<_> = d.stages.iter().map(|s| s.stage_info()).collect();
+        let vertex_input = vk::PipelineVertexInputStateCreateInfo::default()
+            .vertex_binding_descriptions(d.vertex_bindings)
+            .vertex_attribute_descriptions(d.vertex_attributes);
+        let input_assembly =
+            vk::PipelineInputAssemblyStateCreateInfo::default().topology(vk::PrimitiveTopology::TRIANGLE_LIST);
+        let viewport = vk::PipelineViewportStateCreateInfo::default().viewport_count(1).scissor_count(1);
+        let raster = vk::PipelineRasterizationStateCreateInfo::default()
+            .polygon_mode(vk::PolygonMode::FILL)
+            .cull_mode(d.cull_mode)
+            .front_face(d.front_face)
+            .line_width(1.0);
+        let mut multisample =
+            vk::PipelineMultisampleStateCreateInfo::default().rasterization_samples(vk::SampleCountFlags::from_raw(d.samples));
+        if let Some(min) = d.sample_shading {
+            multisample = multisample.sample_shading_enable(true).min_sample_shading(min);
+        }
+        let depth = vk::PipelineDepthStencilStateCreateInfo::default()
+            .depth_test_enable(d.depth_format.is_some())
+            .depth_write_enable(d.depth_write)
+            .depth_compare_op(d.depth_compare);
+        let blend_attachments: Vec<_> = d
+            .color_formats
+            .iter()
+            .map(|_| vk::PipelineColorBlendAttachmentState::default().color_write_mask(vk::ColorComponentFlags::RGBA))
+            .collect();
+        let blend = vk::PipelineColorBlendStateCreateInfo::default().attachments(&blend_attachments);
+        let dynamic_states = [vk::DynamicState::VIEWPORT, vk::DynamicState::SCISSOR];
+        let dynamic = vk::PipelineDynamicStateCreateInfo::default().dynamic_states(&dynamic_states);
+        let mut rendering = vk::PipelineRenderingCreateInfo::default()
+            .color_attachment_formats(d.color_formats)
+            .depth_attachment_format(d.depth_format.unwrap_or(vk::Format::UNDEFINED));
+        let info = vk::GraphicsPipelineCreateInfo::default()
+            .stages(&stages)
+            .vertex_input_state(&vertex_input)
+            .input_assembly_state(&input_assembly)
+            .viewport_state(&viewport)
+            .rasterization_state(&raster)
+            .multisample_state(&multisample)
+            .depth_stencil_state(&depth)
+            .color_blend_state(&blend)
+            .dynamic_state(&dynamic)
+            .layout(layout.raw)
+            .push_next(&mut rendering);
+        let raw = unsafe { device.raw.create_graphics_pipelines(vk::PipelineCache::null(), &[info], None) }
+            .map_err(|(_, e)| e)
+            .vk("vkCreateGraphicsPipelines")?[0];
+        device.set_name(raw, d.name);
+        Ok(Pipeline { raw, bind_point: vk::PipelineBindPoint::GRAPHICS, device: device.clone() })
+    }
+
+    pub fn compute(device: &Device, name: &str, layout: &PipelineLayout, shader: &ShaderModule) -> Result<Pipeline> {
+        let info = vk::ComputePipelineCreateInfo::default().stage(shader.stage_info()).layout(layout.raw);
+        let raw = unsafe { device.raw.create_compute_pipelines(vk::PipelineCache::null(), &[info], None) }
+            .map_err(|(_, e)| e)
+            .vk("vkCreateComputePipelines")?[0];
+        device.set_name(raw, name);
+        Ok(Pipeline { raw, bind_point: vk::PipelineBindPoint::COMPUTE, device: device.clone() })
+    }
+}

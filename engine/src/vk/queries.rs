@@ -1,0 +1,106 @@
+//! Named GPU timestamps per pass.
+
+use ash::vk;
+
+use super::Device;
+use crate::error::{Result, VkContext};
+
+/// Timestamps around named scopes within one submission; a scope name may repeat (e.g. one per
+/// accumulation pass) and [`GpuTimer::results`] sums repeats.
+pub struct GpuTimer {
+    pool: vk::QueryPool,
+    capacity: u32,
+    next: u32,
+    scopes: Vec<(String, u32)>,
+    enabled: bool,
+    device: Device,
+}
+
+/// Milliseconds per named scope, in first-use order.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct PassTimings {
+    pub passes: Vec<(String, f64)>,
+}
+
+impl PassTimings {
+    pub fn total_ms(&self) -> f64 {
+        self.passes.iter().map(|(_, ms)| ms).sum()
+    }
+    pub fn get(&self, name: &str) -> Option<f64> {
+        self.passes.iter().find(|(n, _)| n == name).map(|(_, ms)| *ms)
+    }
+}
+
+impl GpuTimer {
+    /// A timer for up to `max_scopes` scopes. Without timestamp support it records nothing.
+    pub fn new(device: &Device, max_scopes: u32) -> Result<Self> {
+        let enabled = device.caps.timestamps;
+        let capacity = max_scopes * 2;
+        let pool = if enabled {
+            let info = vk::QueryPoolCreateInfo::default().query_type(vk::QueryType::TIMESTAMP).query_count(capacity);
+            unsafe { device.raw.create_query_pool(&info, None) }.vk("vkCreateQueryPool")?
+        } else {
+            vk::QueryPool::null()
+        };
+        Ok(GpuTimer { pool, capacity, next: 0, scopes: vec![], enabled, device: device.clone() })
+    }
+
+    /// Resets the pool; record at the start of the command buffer.
+    pub fn reset(&mut self, cmd: vk::CommandBuffer) {
+        self.next = 0;
+        self.scopes.clear();
+        if self.enabled {
+            unsafe { self.device.raw.cmd_reset_query_pool(cmd, self.pool, 0, self.capacity) };
+        }
+    }
+
+    /// Starts scope `name`; returns a token for [`GpuTimer::end`].
+    pub fn begin(&mut self, cmd: vk::CommandBuffer, name: &str) -> Option<u32> {
+        if !self.enabled || self.next + 2 > self.capacity {
+            return None;
+        }
+        let q = self.next;
+        self.next += 2;
+        self.scopes.push((name.to_string(), q));
+        unsafe { self.device.raw.cmd_write_timestamp2(cmd, vk::PipelineStageFlags2::ALL_COMMANDS, self.pool, q) };
+        Some(q)
+    }
+
+    pub fn end(&mut self, cmd: vk::CommandBuffer, token: Option<u32>) {
+        if let Some(q) = token {
+            unsafe {
+                self.device.raw.cmd_write_timestamp2(cmd, vk::PipelineStageFlags2::ALL_COMMANDS, self.pool, q + 1)
+            };
+        }
+    }
+
+    /// Reads back the scopes' durations after the submission completed.
+    pub fn results(&self) -> Result<PassTimings> {
+        let mut out = PassTimings::default();
+        if !self.enabled || self.next == 0 {
+            return Ok(out);
+        }
+        let mut ticks = vec![0u64; self.next as usize];
+        unsafe {
+            self.device.raw.get_query_pool_results(self.pool, 0, &mut ticks, vk::QueryResultFlags::TYPE_64 | vk::QueryResultFlags::WAIT)
+        }
+        .vk("vkGetQueryPoolResults")?;
+        let period = self.device.caps.timestamp_period_ns as f64;
+        for (name, q) in &self.scopes {
+            let ms = ticks[*q as usize + 1].saturating_sub(ticks[*q as usize]) as f64 * period * 1e-6;
+            match out.passes.iter_mut().find(|(n, _)| n == name) {
+                Some((_, acc)) => *acc += ms,
+                None => out.passes.push((name.clone(), ms)),
+            }
+        }
+        Ok(out)
+    }
+}
+
+impl Drop for GpuTimer {
+    fn drop(&mut self) {
+        if self.pool != vk::QueryPool::null() {
+            unsafe { self.device.raw.destroy_query_pool(self.pool, None) };
+        }
+    }
+}

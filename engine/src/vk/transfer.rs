@@ -1,0 +1,126 @@
+//! Uploads (textures with mips) and readback of images to the CPU.
+
+use ash::vk;
+use gpu_allocator::MemoryLocation;
+
+use super::{barrier, image_barriers, Buffer, CommandRecorder, Device, Image, ImageDesc};
+use crate::error::Result;
+use crate::image::LinearImage;
+use crate::scene::texture::{linear_to_srgb, Texture};
+
+/// The mip chain of a texture as sRGB RGBA8 levels, box-filtered in linear light on the CPU
+/// (deterministic across drivers, unlike blits).
+pub fn srgb_mip_chain(tex: &Texture) -> Vec<(u32, u32, Vec<u8>)> {
+    let mut levels = vec![(tex.width, tex.height, tex.srgb_rgba8.clone())];
+    let mut cur: Vec<[f32; 3]> = tex.linear.iter().map(|c| c.to_array()).collect();
+    let (mut w, mut h) = (tex.width, tex.height);
+    while w > 1 || h > 1 {
+        let (nw, nh) = ((w / 2).max(1), (h / 2).max(1));
+        let mut next = vec![[0.0f32; 3]; (nw * nh) as usize];
+        for y in 0..nh {
+            for x in 0..nw {
+                let mut acc = [0.0f32; 3];
+                let mut n = 0.0;
+                for dy in 0..2 {
+                    for dx in 0..2 {
+                        let (sx, sy) = ((2 * x + dx).min(w - 1), (2 * y + dy).min(h - 1));
+                        let c = cur[(sy * w + sx) as usize];
+                        for i in 0..3 {
+                            acc[i] += c[i];
+                        }
+                        n += 1.0;
+                    }
+                }
+                next[(y * nw + x) as usize] = acc.map(|v| v / n);
+            }
+        }
+        let bytes = next
+            .iter()
+            .flat_map(|c| {
+                let e = |v: f32| (linear_to_srgb(v) * 255.0 + 0.5) as u8;
+                [e(c[0]), e(c[1]), e(c[2]), 255]
+            })
+            .collect();
+        levels.push((nw, nh, bytes));
+        cur = next;
+        (w, h) = (nw, nh);
+    }
+    levels
+}
+
+/// Creates a sampled `R8G8B8A8_SRGB` image with the full mip chain of `tex`, ready for sampling.
+pub fn upload_texture(device: &Device, rec: &mut CommandRecorder, tex: &Texture) -> Result<Image> {
+    let levels = srgb_mip_chain(tex);
+    let desc = ImageDesc::new_2d(
+        tex.width,
+        tex.height,
+        vk::Format::R8G8B8A8_SRGB,
+        vk::ImageUsageFlags::SAMPLED | vk::ImageUsageFlags::TRANSFER_DST,
+    )
+    .mips(levels.len() as u32);
+    let image = Image::new(device, &format!("texture:{}", tex.name), desc)?;
+    let total: usize = levels.iter().map(|l| l.2.len()).sum();
+    let mut staging = Buffer::new(device, "texture staging", total as u64, vk::BufferUsageFlags::TRANSFER_SRC, MemoryLocation::CpuToGpu)?;
+    let mut data = Vec::with_capacity(total);
+    let mut regions = vec![];
+    for (i, (w, h, bytes)) in levels.iter().enumerate() {
+        regions.push(
+            vk::BufferImageCopy::default()
+                .buffer_offset(data.len() as u64)
+                .image_subresource(vk::ImageSubresourceLayers::default().aspect_mask(vk::ImageAspectFlags::COLOR).mip_level(i as u32).layer_count(1))
+                .image_extent(vk::Extent3D { width: *w, height: *h, depth: 1 }),
+        );
+        data.extend_from_slice(bytes);
+    }
+    staging.write(&data)?;
+    rec.submit(|d, cmd| {
+        image_barriers(d, cmd, &[barrier(&image, vk::ImageLayout::UNDEFINED, vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+            (vk::PipelineStageFlags2::NONE, vk::AccessFlags2::NONE),
+            (vk::PipelineStageFlags2::COPY, vk::AccessFlags2::TRANSFER_WRITE))]);
+        unsafe { d.raw.cmd_copy_buffer_to_image(cmd, staging.raw, image.raw, vk::ImageLayout::TRANSFER_DST_OPTIMAL, &regions) };
+        image_barriers(d, cmd, &[barrier(&image, vk::ImageLayout::TRANSFER_DST_OPTIMAL, vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
+            (vk::PipelineStageFlags2::COPY, vk::AccessFlags2::TRANSFER_WRITE),
+            (vk::PipelineStageFlags2::FRAGMENT_SHADER, vk::AccessFlags2::SHADER_SAMPLED_READ))]);
+        Ok(())
+    })?;
+    Ok(image)
+}
+
+/// Records a copy of an `R32G32B32A32_SFLOAT` image (in `layout`, whose last writer was `src`) into a
+/// new host-visible buffer; read it with [`read_rgba32f`] after the submission completed.
+pub fn record_readback(
+    device: &Device,
+    cmd: vk::CommandBuffer,
+    image: &Image,
+    layout: vk::ImageLayout,
+    src: (vk::PipelineStageFlags2, vk::AccessFlags2),
+) -> Result<Buffer> {
+    let bytes = image.desc.width as u64 * image.desc.height as u64 * 16;
+    let buffer = Buffer::new(device, "readback", bytes, vk::BufferUsageFlags::TRANSFER_DST, MemoryLocation::GpuToCpu)?;
+    image_barriers(device, cmd, &[barrier(image, layout, vk::ImageLayout::TRANSFER_SRC_OPTIMAL, src,
+        (vk::PipelineStageFlags2::COPY, vk::AccessFlags2::TRANSFER_READ))]);
+    let region = vk::BufferImageCopy::default()
+        .image_subresource(vk::ImageSubresourceLayers::default().aspect_mask(vk::ImageAspectFlags::COLOR).layer_count(1))
+        .image_extent(vk::Extent3D { width: image.desc.width, height: image.desc.height, depth: 1 });
+    unsafe { device.raw.cmd_copy_image_to_buffer(cmd, image.raw, vk::ImageLayout::TRANSFER_SRC_OPTIMAL, buffer.raw, &[region]) };
+    // Make the copy visible to the host read after the fence.
+    super::memory_barrier(device, cmd, (vk::PipelineStageFlags2::COPY, vk::AccessFlags2::TRANSFER_WRITE),
+        (vk::PipelineStageFlags2::HOST, vk::AccessFlags2::HOST_READ));
+    Ok(buffer)
+}
+
+/// Converts a completed readback buffer into a [`LinearImage`].
+pub fn read_rgba32f(buffer: &Buffer, width: u32, height: u32) -> Result<LinearImage> {
+    let bytes = buffer.mapped()?;
+    let n = (width * height) as usize;
+    let mut img = LinearImage::new(width, height);
+    for i in 0..n {
+        let mut px = [0f32; 4];
+        for (c, v) in px.iter_mut().enumerate() {
+            let o = i * 16 + c * 4;
+            *v = f32::from_le_bytes([bytes[o], bytes[o + 1], bytes[o + 2], bytes[o + 3]]);
+        }
+        img.pixels[i] = px;
+    }
+    Ok(img)
+}
