@@ -11,6 +11,7 @@ pub mod image;
 pub mod sampling;
 pub mod scene;
 pub mod shading;
+pub mod techniques;
 pub mod vk;
 
 pub use error::{Error, Result};

@@ -22,14 +22,19 @@ impl CommandRecorder {
             .flags(vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER);
         let pool = unsafe { device.raw.create_command_pool(&info, None) }.vk("vkCreateCommandPool")?;
         // Owned from here on so an error below still destroys the pool.
-        let mut rec =
-            CommandRecorder { pool, cmd: vk::CommandBuffer::null(), fence: vk::Fence::null(), device: device.clone() };
+        let mut rec = CommandRecorder {
+            pool,
+            cmd: vk::CommandBuffer::null(),
+            fence: vk::Fence::null(),
+            device: device.clone(),
+        };
         let alloc = vk::CommandBufferAllocateInfo::default()
             .command_pool(pool)
             .level(vk::CommandBufferLevel::PRIMARY)
             .command_buffer_count(1);
         rec.cmd = unsafe { device.raw.allocate_command_buffers(&alloc) }.vk("vkAllocateCommandBuffers")?[0];
-        rec.fence = unsafe { device.raw.create_fence(&vk::FenceCreateInfo::default(), None) }.vk("vkCreateFence")?;
+        rec.fence =
+            unsafe { device.raw.create_fence(&vk::FenceCreateInfo::default(), None) }.vk("vkCreateFence")?;
         device.set_name(rec.cmd, name);
         Ok(rec)
     }
@@ -38,11 +43,14 @@ impl CommandRecorder {
     pub fn submit<R>(&mut self, f: impl FnOnce(&Device, vk::CommandBuffer) -> Result<R>) -> Result<R> {
         let d = &self.device;
         unsafe {
-            d.raw.reset_command_buffer(self.cmd, vk::CommandBufferResetFlags::empty()).vk("vkResetCommandBuffer")?;
+            d.raw
+                .reset_command_buffer(self.cmd, vk::CommandBufferResetFlags::empty())
+                .vk("vkResetCommandBuffer")?;
             d.raw
                 .begin_command_buffer(
                     self.cmd,
-                    &vk::CommandBufferBeginInfo::default().flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT),
+                    &vk::CommandBufferBeginInfo::default()
+                        .flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT),
                 )
                 .vk("vkBeginCommandBuffer")?;
         }

@@ -199,11 +199,13 @@ impl DeviceShared {
     pub fn new(desc: &DeviceDesc) -> Result<Device> {
         // SAFETY: loading the system Vulkan loader; failure is reported, not assumed.
         let entry = unsafe { ash::Entry::load() }.map_err(|e| Error::Loader(e.to_string()))?;
-        let layers = unsafe { entry.enumerate_instance_layer_properties() }.vk("vkEnumerateInstanceLayerProperties")?;
+        let layers = unsafe { entry.enumerate_instance_layer_properties() }
+            .vk("vkEnumerateInstanceLayerProperties")?;
         let has_layer = |name: &CStr| layers.iter().any(|l| l.layer_name_as_c_str().ok() == Some(name));
-        let inst_exts =
-            unsafe { entry.enumerate_instance_extension_properties(None) }.vk("vkEnumerateInstanceExtensionProperties")?;
-        let mut debug_utils = inst_exts.iter().any(|e| e.extension_name_as_c_str().ok() == Some(ash::ext::debug_utils::NAME));
+        let inst_exts = unsafe { entry.enumerate_instance_extension_properties(None) }
+            .vk("vkEnumerateInstanceExtensionProperties")?;
+        let mut debug_utils =
+            inst_exts.iter().any(|e| e.extension_name_as_c_str().ok() == Some(ash::ext::debug_utils::NAME));
         let validation = desc.validation && has_layer(VALIDATION_LAYER);
         if desc.validation && !validation {
             log::warn!("validation requested but VK_LAYER_KHRONOS_validation is not installed (vulkan-validationlayers)");
@@ -226,13 +228,16 @@ impl DeviceShared {
             ext_ptrs.push(ash::ext::debug_utils::NAME.as_ptr());
         }
         let validation_log = Box::<ValidationLog>::default();
-        let severity = vk::DebugUtilsMessageSeverityFlagsEXT::ERROR | vk::DebugUtilsMessageSeverityFlagsEXT::WARNING;
+        let severity =
+            vk::DebugUtilsMessageSeverityFlagsEXT::ERROR | vk::DebugUtilsMessageSeverityFlagsEXT::WARNING;
         let types = vk::DebugUtilsMessageTypeFlagsEXT::GENERAL
             | vk::DebugUtilsMessageTypeFlagsEXT::VALIDATION
             | vk::DebugUtilsMessageTypeFlagsEXT::PERFORMANCE;
         let mut messenger_info = vk::DebugUtilsMessengerCreateInfoEXT::default()
             .message_severity(severity)
-            .message_type(vk::DebugUtilsMessageTypeFlagsEXT::GENERAL | vk::DebugUtilsMessageTypeFlagsEXT::VALIDATION)
+            .message_type(
+                vk::DebugUtilsMessageTypeFlagsEXT::GENERAL | vk::DebugUtilsMessageTypeFlagsEXT::VALIDATION,
+            )
             .pfn_user_callback(Some(debug_callback))
             .user_data(&*validation_log as *const ValidationLog as *mut c_void);
         let enabled_features = [vk::ValidationFeatureEnableEXT::SYNCHRONIZATION_VALIDATION];
@@ -261,7 +266,8 @@ impl DeviceShared {
                     .message_type(types)
                     .pfn_user_callback(Some(debug_callback))
                     .user_data(&*validation_log as *const ValidationLog as *mut c_void);
-                unsafe { du.create_debug_utils_messenger(&info, None) }.vk("vkCreateDebugUtilsMessengerEXT")?
+                unsafe { du.create_debug_utils_messenger(&info, None) }
+                    .vk("vkCreateDebugUtilsMessengerEXT")?
             } else {
                 vk::DebugUtilsMessengerEXT::null()
             };
@@ -286,9 +292,10 @@ impl DeviceShared {
             }
         }
         candidates.sort_by_key(|(_, p)| device_type_rank(p.device_type));
-        let (physical, props) = *candidates
-            .first()
-            .ok_or_else(|| Error::NoDevice { wanted: "any Vulkan 1.3 device".into(), available: names.clone() })?;
+        let (physical, props) = *candidates.first().ok_or_else(|| Error::NoDevice {
+            wanted: "any Vulkan 1.3 device".into(),
+            available: names.clone(),
+        })?;
         if props.api_version < vk::API_VERSION_1_3 {
             return Err(Error::MissingFeature {
                 device: cstr_field(&props.device_name),
@@ -309,8 +316,7 @@ impl DeviceShared {
 
         let dev_exts = unsafe { instance.enumerate_device_extension_properties(physical) }
             .vk("vkEnumerateDeviceExtensionProperties")?;
-        let has_dev_ext =
-            |n: &CStr| dev_exts.iter().any(|e| e.extension_name_as_c_str().ok() == Some(n));
+        let has_dev_ext = |n: &CStr| dev_exts.iter().any(|e| e.extension_name_as_c_str().ok() == Some(n));
         let conservative = has_dev_ext(ash::ext::conservative_rasterization::NAME);
 
         let mut driver_props = vk::PhysicalDeviceDriverProperties::default();
@@ -364,13 +370,17 @@ impl DeviceShared {
             .sample_rate_shading(caps.sample_rate_shading)
             .fragment_stores_and_atomics(caps.fragment_stores_and_atomics)
             .sampler_anisotropy(supported.sampler_anisotropy == vk::TRUE)
-            .shader_storage_image_write_without_format(supported.shader_storage_image_write_without_format == vk::TRUE);
-        let mut enable13 = vk::PhysicalDeviceVulkan13Features::default().dynamic_rendering(true).synchronization2(true);
+            .shader_storage_image_write_without_format(
+                supported.shader_storage_image_write_without_format == vk::TRUE,
+            );
+        let mut enable13 =
+            vk::PhysicalDeviceVulkan13Features::default().dynamic_rendering(true).synchronization2(true);
         let mut enable12 =
             vk::PhysicalDeviceVulkan12Features::default().host_query_reset(f12.host_query_reset == vk::TRUE);
         let priorities = [1.0f32];
-        let queue_info =
-            [vk::DeviceQueueCreateInfo::default().queue_family_index(queue_family).queue_priorities(&priorities)];
+        let queue_info = [vk::DeviceQueueCreateInfo::default()
+            .queue_family_index(queue_family)
+            .queue_priorities(&priorities)];
         let mut dev_ext_ptrs = vec![];
         if conservative {
             dev_ext_ptrs.push(ash::ext::conservative_rasterization::NAME.as_ptr());
@@ -398,7 +408,8 @@ impl DeviceShared {
                 return Err(e.into());
             }
         };
-        let debug_utils_device = debug_utils_instance.as_ref().map(|_| ash::ext::debug_utils::Device::new(&instance, &raw));
+        let debug_utils_device =
+            debug_utils_instance.as_ref().map(|_| ash::ext::debug_utils::Device::new(&instance, &raw));
         std::mem::forget(messenger_guard);
         std::mem::forget(guard);
         Ok(Arc::new(DeviceShared {
@@ -445,7 +456,8 @@ impl DeviceShared {
     pub fn set_name<H: vk::Handle>(&self, handle: H, name: &str) {
         if let Some(du) = &self.debug_utils_device {
             if let Ok(name) = CString::new(name) {
-                let info = vk::DebugUtilsObjectNameInfoEXT::default().object_handle(handle).object_name(&name);
+                let info =
+                    vk::DebugUtilsObjectNameInfoEXT::default().object_handle(handle).object_name(&name);
                 // SAFETY: handle belongs to this device; naming failure is harmless.
                 let _ = unsafe { du.set_debug_utils_object_name(&info) };
             }

@@ -76,8 +76,13 @@ impl Image {
                 return Err(e.into());
             }
         };
-        let mut image =
-            Image { raw, view: vk::ImageView::null(), desc, allocation: Some(allocation), device: device.clone() };
+        let mut image = Image {
+            raw,
+            view: vk::ImageView::null(),
+            desc,
+            allocation: Some(allocation),
+            device: device.clone(),
+        };
         let a = image.allocation.as_ref().expect("just set");
         unsafe { device.raw.bind_image_memory(raw, a.memory(), a.offset()) }.vk("vkBindImageMemory")?;
         let view_info = vk::ImageViewCreateInfo::default()

@@ -16,8 +16,17 @@ pub struct Buffer {
 }
 
 impl Buffer {
-    pub fn new(device: &Device, name: &str, size: u64, usage: vk::BufferUsageFlags, location: MemoryLocation) -> Result<Buffer> {
-        let info = vk::BufferCreateInfo::default().size(size.max(4)).usage(usage).sharing_mode(vk::SharingMode::EXCLUSIVE);
+    pub fn new(
+        device: &Device,
+        name: &str,
+        size: u64,
+        usage: vk::BufferUsageFlags,
+        location: MemoryLocation,
+    ) -> Result<Buffer> {
+        let info = vk::BufferCreateInfo::default()
+            .size(size.max(4))
+            .usage(usage)
+            .sharing_mode(vk::SharingMode::EXCLUSIVE);
         let raw = unsafe { device.raw.create_buffer(&info, None) }.vk("vkCreateBuffer")?;
         let reqs = unsafe { device.raw.get_buffer_memory_requirements(raw) };
         let alloc = device.allocator.lock().expect("allocator poisoned").allocate(&AllocationCreateDesc {
@@ -42,7 +51,12 @@ impl Buffer {
     }
 
     /// A host-visible buffer filled with `data`.
-    pub fn with_data<T: Copy>(device: &Device, name: &str, usage: vk::BufferUsageFlags, data: &[T]) -> Result<Buffer> {
+    pub fn with_data<T: Copy>(
+        device: &Device,
+        name: &str,
+        usage: vk::BufferUsageFlags,
+        data: &[T],
+    ) -> Result<Buffer> {
         let bytes = std::mem::size_of_val(data) as u64;
         let mut b = Buffer::new(device, name, bytes, usage, MemoryLocation::CpuToGpu)?;
         b.write(data)?;
@@ -54,7 +68,10 @@ impl Buffer {
         let bytes = std::mem::size_of_val(data);
         let slice = self.mapped_mut()?;
         if bytes > slice.len() {
-            return Err(Error::Unsupported(format!("write of {bytes} bytes into a {}-byte buffer", slice.len())));
+            return Err(Error::Unsupported(format!(
+                "write of {bytes} bytes into a {}-byte buffer",
+                slice.len()
+            )));
         }
         // SAFETY: T is Copy (plain data); the destination is at least `bytes` long.
         unsafe { std::ptr::copy_nonoverlapping(data.as_ptr() as *const u8, slice.as_mut_ptr(), bytes) };

@@ -19,8 +19,8 @@ pub use context::{Capabilities, Device, DeviceDesc, DeviceShared, ValidationRepo
 pub use image::{aspect_of, barrier, Image, ImageDesc, Sampler};
 pub use memory::{as_bytes, Buffer};
 pub use pipeline::{
-    write_descriptors, DescriptorPool, DescriptorSetLayout, DescriptorWrite, GraphicsDesc, Pipeline, PipelineLayout,
-    ShaderModule,
+    write_descriptors, DescriptorPool, DescriptorSetLayout, DescriptorWrite, GraphicsDesc, Pipeline,
+    PipelineLayout, ShaderModule,
 };
 pub use queries::{GpuTimer, PassTimings};
 pub use transfer::{read_rgba32f, record_readback, srgb_mip_chain, upload_texture};

@@ -24,15 +24,19 @@ pub struct ShaderModule {
 
 impl ShaderModule {
     pub fn new(device: &Device, source: ShaderSource) -> Result<Self> {
-        let words = ash::util::read_spv(&mut std::io::Cursor::new(source.spirv))
-            .map_err(|e| crate::Error::Unsupported(format!("corrupt embedded SPIR-V {}: {e}", source.file)))?;
+        let words = ash::util::read_spv(&mut std::io::Cursor::new(source.spirv)).map_err(|e| {
+            crate::Error::Unsupported(format!("corrupt embedded SPIR-V {}: {e}", source.file))
+        })?;
         let info = vk::ShaderModuleCreateInfo::default().code(&words);
         let raw = unsafe { device.raw.create_shader_module(&info, None) }.vk("vkCreateShaderModule")?;
         device.set_name(raw, &format!("{}[{}]", source.file, source.permutation));
         Ok(ShaderModule { raw, source, device: device.clone() })
     }
     fn stage_info(&self) -> vk::PipelineShaderStageCreateInfo<'_> {
-        vk::PipelineShaderStageCreateInfo::default().stage(stage_flags(self.source.stage)).module(self.raw).name(c"main")
+        vk::PipelineShaderStageCreateInfo::default()
+            .stage(stage_flags(self.source.stage))
+            .module(self.raw)
+            .name(c"main")
     }
 }
 
@@ -50,7 +54,11 @@ pub struct DescriptorSetLayout {
 
 impl DescriptorSetLayout {
     /// `bindings`: (binding, type, stages), one descriptor each.
-    pub fn new(device: &Device, name: &str, bindings: &[(u32, vk::DescriptorType, vk::ShaderStageFlags)]) -> Result<Self> {
+    pub fn new(
+        device: &Device,
+        name: &str,
+        bindings: &[(u32, vk::DescriptorType, vk::ShaderStageFlags)],
+    ) -> Result<Self> {
         let b: Vec<_> = bindings
             .iter()
             .map(|&(binding, ty, stages)| {
@@ -62,7 +70,8 @@ impl DescriptorSetLayout {
             })
             .collect();
         let info = vk::DescriptorSetLayoutCreateInfo::default().bindings(&b);
-        let raw = unsafe { device.raw.create_descriptor_set_layout(&info, None) }.vk("vkCreateDescriptorSetLayout")?;
+        let raw = unsafe { device.raw.create_descriptor_set_layout(&info, None) }
+            .vk("vkCreateDescriptorSetLayout")?;
         device.set_name(raw, name);
         Ok(DescriptorSetLayout { raw, device: device.clone() })
     }
@@ -112,7 +121,9 @@ pub fn write_descriptors(device: &Device, set: vk::DescriptorSet, writes: &[Desc
     let buffer_infos: Vec<[vk::DescriptorBufferInfo; 1]> = writes
         .iter()
         .map(|w| match w {
-            DescriptorWrite::Buffer { buffer, .. } => [vk::DescriptorBufferInfo::default().buffer(*buffer).range(vk::WHOLE_SIZE)],
+            DescriptorWrite::Buffer { buffer, .. } => {
+                [vk::DescriptorBufferInfo::default().buffer(*buffer).range(vk::WHOLE_SIZE)]
+            }
             _ => [vk::DescriptorBufferInfo::default()],
         })
         .collect();
@@ -159,7 +170,12 @@ pub struct PipelineLayout {
 }
 
 impl PipelineLayout {
-    pub fn new(device: &Device, sets: &[&DescriptorSetLayout], push_bytes: u32, push_stages: vk::ShaderStageFlags) -> Result<Self> {
+    pub fn new(
+        device: &Device,
+        sets: &[&DescriptorSetLayout],
+        push_bytes: u32,
+        push_stages: vk::ShaderStageFlags,
+    ) -> Result<Self> {
         let set_layouts: Vec<_> = sets.iter().map(|s| s.raw).collect();
         let ranges = [vk::PushConstantRange { stage_flags: push_stages, offset: 0, size: push_bytes }];
         let mut info = vk::PipelineLayoutCreateInfo::default().set_layouts(&set_layouts);
@@ -213,16 +229,16 @@ impl Pipeline {
         let vertex_input = vk::PipelineVertexInputStateCreateInfo::default()
             .vertex_binding_descriptions(d.vertex_bindings)
             .vertex_attribute_descriptions(d.vertex_attributes);
-        let input_assembly =
-            vk::PipelineInputAssemblyStateCreateInfo::default().topology(vk::PrimitiveTopology::TRIANGLE_LIST);
+        let input_assembly = vk::PipelineInputAssemblyStateCreateInfo::default()
+            .topology(vk::PrimitiveTopology::TRIANGLE_LIST);
         let viewport = vk::PipelineViewportStateCreateInfo::default().viewport_count(1).scissor_count(1);
         let raster = vk::PipelineRasterizationStateCreateInfo::default()
             .polygon_mode(vk::PolygonMode::FILL)
             .cull_mode(d.cull_mode)
             .front_face(d.front_face)
             .line_width(1.0);
-        let mut multisample =
-            vk::PipelineMultisampleStateCreateInfo::default().rasterization_samples(vk::SampleCountFlags::from_raw(d.samples));
+        let mut multisample = vk::PipelineMultisampleStateCreateInfo::default()
+            .rasterization_samples(vk::SampleCountFlags::from_raw(d.samples));
         if let Some(min) = d.sample_shading {
             multisample = multisample.sample_shading_enable(true).min_sample_shading(min);
         }
@@ -233,7 +249,10 @@ impl Pipeline {
         let blend_attachments: Vec<_> = d
             .color_formats
             .iter()
-            .map(|_| vk::PipelineColorBlendAttachmentState::default().color_write_mask(vk::ColorComponentFlags::RGBA))
+            .map(|_| {
+                vk::PipelineColorBlendAttachmentState::default()
+                    .color_write_mask(vk::ColorComponentFlags::RGBA)
+            })
             .collect();
         let blend = vk::PipelineColorBlendStateCreateInfo::default().attachments(&blend_attachments);
         let dynamic_states = [vk::DynamicState::VIEWPORT, vk::DynamicState::SCISSOR];
@@ -260,7 +279,12 @@ impl Pipeline {
         Ok(Pipeline { raw, bind_point: vk::PipelineBindPoint::GRAPHICS, device: device.clone() })
     }
 
-    pub fn compute(device: &Device, name: &str, layout: &PipelineLayout, shader: &ShaderModule) -> Result<Pipeline> {
+    pub fn compute(
+        device: &Device,
+        name: &str,
+        layout: &PipelineLayout,
+        shader: &ShaderModule,
+    ) -> Result<Pipeline> {
         let info = vk::ComputePipelineCreateInfo::default().stage(shader.stage_info()).layout(layout.raw);
         let raw = unsafe { device.raw.create_compute_pipelines(vk::PipelineCache::null(), &[info], None) }
             .map_err(|(_, e)| e)

@@ -37,7 +37,8 @@ impl GpuTimer {
         let enabled = device.caps.timestamps;
         let capacity = max_scopes * 2;
         let pool = if enabled {
-            let info = vk::QueryPoolCreateInfo::default().query_type(vk::QueryType::TIMESTAMP).query_count(capacity);
+            let info =
+                vk::QueryPoolCreateInfo::default().query_type(vk::QueryType::TIMESTAMP).query_count(capacity);
             unsafe { device.raw.create_query_pool(&info, None) }.vk("vkCreateQueryPool")?
         } else {
             vk::QueryPool::null()
@@ -62,14 +63,21 @@ impl GpuTimer {
         let q = self.next;
         self.next += 2;
         self.scopes.push((name.to_string(), q));
-        unsafe { self.device.raw.cmd_write_timestamp2(cmd, vk::PipelineStageFlags2::ALL_COMMANDS, self.pool, q) };
+        unsafe {
+            self.device.raw.cmd_write_timestamp2(cmd, vk::PipelineStageFlags2::ALL_COMMANDS, self.pool, q)
+        };
         Some(q)
     }
 
     pub fn end(&mut self, cmd: vk::CommandBuffer, token: Option<u32>) {
         if let Some(q) = token {
             unsafe {
-                self.device.raw.cmd_write_timestamp2(cmd, vk::PipelineStageFlags2::ALL_COMMANDS, self.pool, q + 1)
+                self.device.raw.cmd_write_timestamp2(
+                    cmd,
+                    vk::PipelineStageFlags2::ALL_COMMANDS,
+                    self.pool,
+                    q + 1,
+                )
             };
         }
     }
@@ -82,7 +90,12 @@ impl GpuTimer {
         }
         let mut ticks = vec![0u64; self.next as usize];
         unsafe {
-            self.device.raw.get_query_pool_results(self.pool, 0, &mut ticks, vk::QueryResultFlags::TYPE_64 | vk::QueryResultFlags::WAIT)
+            self.device.raw.get_query_pool_results(
+                self.pool,
+                0,
+                &mut ticks,
+                vk::QueryResultFlags::TYPE_64 | vk::QueryResultFlags::WAIT,
+            )
         }
         .vk("vkGetQueryPoolResults")?;
         let period = self.device.caps.timestamp_period_ns as f64;

@@ -60,27 +60,62 @@ pub fn upload_texture(device: &Device, rec: &mut CommandRecorder, tex: &Texture)
     .mips(levels.len() as u32);
     let image = Image::new(device, &format!("texture:{}", tex.name), desc)?;
     let total: usize = levels.iter().map(|l| l.2.len()).sum();
-    let mut staging = Buffer::new(device, "texture staging", total as u64, vk::BufferUsageFlags::TRANSFER_SRC, MemoryLocation::CpuToGpu)?;
+    let mut staging = Buffer::new(
+        device,
+        "texture staging",
+        total as u64,
+        vk::BufferUsageFlags::TRANSFER_SRC,
+        MemoryLocation::CpuToGpu,
+    )?;
     let mut data = Vec::with_capacity(total);
     let mut regions = vec![];
     for (i, (w, h, bytes)) in levels.iter().enumerate() {
         regions.push(
             vk::BufferImageCopy::default()
                 .buffer_offset(data.len() as u64)
-                .image_subresource(vk::ImageSubresourceLayers::default().aspect_mask(vk::ImageAspectFlags::COLOR).mip_level(i as u32).layer_count(1))
+                .image_subresource(
+                    vk::ImageSubresourceLayers::default()
+                        .aspect_mask(vk::ImageAspectFlags::COLOR)
+                        .mip_level(i as u32)
+                        .layer_count(1),
+                )
                 .image_extent(vk::Extent3D { width: *w, height: *h, depth: 1 }),
         );
         data.extend_from_slice(bytes);
     }
     staging.write(&data)?;
     rec.submit(|d, cmd| {
-        image_barriers(d, cmd, &[barrier(&image, vk::ImageLayout::UNDEFINED, vk::ImageLayout::TRANSFER_DST_OPTIMAL,
-            (vk::PipelineStageFlags2::NONE, vk::AccessFlags2::NONE),
-            (vk::PipelineStageFlags2::COPY, vk::AccessFlags2::TRANSFER_WRITE))]);
-        unsafe { d.raw.cmd_copy_buffer_to_image(cmd, staging.raw, image.raw, vk::ImageLayout::TRANSFER_DST_OPTIMAL, &regions) };
-        image_barriers(d, cmd, &[barrier(&image, vk::ImageLayout::TRANSFER_DST_OPTIMAL, vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
-            (vk::PipelineStageFlags2::COPY, vk::AccessFlags2::TRANSFER_WRITE),
-            (vk::PipelineStageFlags2::FRAGMENT_SHADER, vk::AccessFlags2::SHADER_SAMPLED_READ))]);
+        image_barriers(
+            d,
+            cmd,
+            &[barrier(
+                &image,
+                vk::ImageLayout::UNDEFINED,
+                vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+                (vk::PipelineStageFlags2::NONE, vk::AccessFlags2::NONE),
+                (vk::PipelineStageFlags2::COPY, vk::AccessFlags2::TRANSFER_WRITE),
+            )],
+        );
+        unsafe {
+            d.raw.cmd_copy_buffer_to_image(
+                cmd,
+                staging.raw,
+                image.raw,
+                vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+                &regions,
+            )
+        };
+        image_barriers(
+            d,
+            cmd,
+            &[barrier(
+                &image,
+                vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+                vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
+                (vk::PipelineStageFlags2::COPY, vk::AccessFlags2::TRANSFER_WRITE),
+                (vk::PipelineStageFlags2::FRAGMENT_SHADER, vk::AccessFlags2::SHADER_SAMPLED_READ),
+            )],
+        );
         Ok(())
     })?;
     Ok(image)
@@ -96,16 +131,40 @@ pub fn record_readback(
     src: (vk::PipelineStageFlags2, vk::AccessFlags2),
 ) -> Result<Buffer> {
     let bytes = image.desc.width as u64 * image.desc.height as u64 * 16;
-    let buffer = Buffer::new(device, "readback", bytes, vk::BufferUsageFlags::TRANSFER_DST, MemoryLocation::GpuToCpu)?;
-    image_barriers(device, cmd, &[barrier(image, layout, vk::ImageLayout::TRANSFER_SRC_OPTIMAL, src,
-        (vk::PipelineStageFlags2::COPY, vk::AccessFlags2::TRANSFER_READ))]);
+    let buffer =
+        Buffer::new(device, "readback", bytes, vk::BufferUsageFlags::TRANSFER_DST, MemoryLocation::GpuToCpu)?;
+    image_barriers(
+        device,
+        cmd,
+        &[barrier(
+            image,
+            layout,
+            vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+            src,
+            (vk::PipelineStageFlags2::COPY, vk::AccessFlags2::TRANSFER_READ),
+        )],
+    );
     let region = vk::BufferImageCopy::default()
-        .image_subresource(vk::ImageSubresourceLayers::default().aspect_mask(vk::ImageAspectFlags::COLOR).layer_count(1))
+        .image_subresource(
+            vk::ImageSubresourceLayers::default().aspect_mask(vk::ImageAspectFlags::COLOR).layer_count(1),
+        )
         .image_extent(vk::Extent3D { width: image.desc.width, height: image.desc.height, depth: 1 });
-    unsafe { device.raw.cmd_copy_image_to_buffer(cmd, image.raw, vk::ImageLayout::TRANSFER_SRC_OPTIMAL, buffer.raw, &[region]) };
+    unsafe {
+        device.raw.cmd_copy_image_to_buffer(
+            cmd,
+            image.raw,
+            vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+            buffer.raw,
+            &[region],
+        )
+    };
     // Make the copy visible to the host read after the fence.
-    super::memory_barrier(device, cmd, (vk::PipelineStageFlags2::COPY, vk::AccessFlags2::TRANSFER_WRITE),
-        (vk::PipelineStageFlags2::HOST, vk::AccessFlags2::HOST_READ));
+    super::memory_barrier(
+        device,
+        cmd,
+        (vk::PipelineStageFlags2::COPY, vk::AccessFlags2::TRANSFER_WRITE),
+        (vk::PipelineStageFlags2::HOST, vk::AccessFlags2::HOST_READ),
+    );
     Ok(buffer)
 }
 

@@ -1,0 +1,183 @@
+//! Techniques: each estimates the pixel integral its own way from the same [`GpuScene`].
+//!
+//! - `pinhole`: one pass at mid-shutter through the lens centre (no effect), MSAA 4×
+//! - `accumulation`: P full-scene passes, one (x,y,u,v,t) each, averaged
+//!
+//! [`Renderer`] owns the device-side state that outlives a frame (the command recorder) and renders a
+//! [`Scene`] with a [`Technique`] into a [`RenderOutput`].
+
+pub mod accumulation;
+pub mod forward;
+pub mod gpu_scene;
+pub mod pinhole;
+
+use std::str::FromStr;
+use std::time::Instant;
+
+pub use forward::PassSample;
+pub use gpu_scene::GpuScene;
+
+use crate::error::{Error, Result};
+use crate::image::LinearImage;
+use crate::scene::file::{MAX_IMAGE_DIMENSION, MAX_SPP};
+use crate::scene::Scene;
+use crate::vk::{CommandRecorder, Device, PassTimings};
+
+/// A way of estimating the pixel integral on the GPU.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Technique {
+    Pinhole,
+    Accumulation,
+}
+
+impl Technique {
+    pub const ALL: &'static [Technique] = &[Technique::Pinhole, Technique::Accumulation];
+    pub fn name(&self) -> &'static str {
+        match self {
+            Technique::Pinhole => "pinhole",
+            Technique::Accumulation => "accumulation",
+        }
+    }
+}
+
+impl FromStr for Technique {
+    type Err = Error;
+    fn from_str(s: &str) -> Result<Self> {
+        Technique::ALL.iter().copied().find(|t| t.name() == s).ok_or_else(|| {
+            Error::Unsupported(format!(
+                "unknown technique `{s}`; available: {}",
+                Technique::ALL.iter().map(|t| t.name()).collect::<Vec<_>>().join(", ")
+            ))
+        })
+    }
+}
+
+/// What to render: image size, samples and seed (defaults come from the scene's `[image]`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct RenderSettings {
+    pub width: u32,
+    pub height: u32,
+    /// Samples per pixel: passes for `accumulation`; ignored by `pinhole` (MSAA 4×).
+    pub spp: u32,
+    pub seed: u64,
+}
+
+impl RenderSettings {
+    pub fn from_scene(scene: &Scene) -> Self {
+        let i = scene.image;
+        RenderSettings { width: i.width, height: i.height, spp: i.spp, seed: i.seed }
+    }
+}
+
+/// Counters of one render.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct RenderStats {
+    pub passes: u32,
+    pub msaa_samples: u32,
+    pub triangles: usize,
+    /// CPU time to record and submit, and wait for, the frame (ms), upload excluded.
+    pub cpu_frame_ms: f64,
+    /// CPU time to upload the scene (ms).
+    pub upload_ms: f64,
+}
+
+/// An image with how it was made.
+#[derive(Clone, Debug)]
+pub struct RenderOutput {
+    pub image: LinearImage,
+    /// GPU time per named pass, summed over repeats.
+    pub timings: PassTimings,
+    pub stats: RenderStats,
+}
+
+/// Renders scenes on one device.
+pub struct Renderer {
+    device: Device,
+    recorder: CommandRecorder,
+}
+
+impl Renderer {
+    pub fn new(device: Device) -> Result<Self> {
+        let recorder = CommandRecorder::new(&device, "shutter frame")?;
+        Ok(Renderer { device, recorder })
+    }
+
+    pub fn device(&self) -> &Device {
+        &self.device
+    }
+
+    /// Validates `settings` against the engine's and the device's limits.
+    pub fn check_settings(&self, settings: &RenderSettings) -> Result<()> {
+        let max_dim = MAX_IMAGE_DIMENSION.min(self.device.caps.max_image_dimension_2d);
+        for (what, v) in [("width", settings.width), ("height", settings.height)] {
+            if v == 0 || v > max_dim {
+                return Err(Error::Limit {
+                    what,
+                    value: v.to_string(),
+                    limit: format!("1..={max_dim} pixels"),
+                });
+            }
+        }
+        if settings.spp == 0 || settings.spp > MAX_SPP {
+            return Err(Error::Limit {
+                what: "spp",
+                value: settings.spp.to_string(),
+                limit: format!("1..={MAX_SPP}"),
+            });
+        }
+        Ok(())
+    }
+
+    /// Renders `scene` with `technique`.
+    pub fn render(
+        &mut self,
+        scene: &Scene,
+        technique: Technique,
+        settings: &RenderSettings,
+    ) -> Result<RenderOutput> {
+        self.check_settings(settings)?;
+        if let Some(o) = scene.objects.iter().find(|o| o.material.alpha < 1.0) {
+            return Err(Error::Unsupported(format!(
+                "object `{}` has alpha {} < 1: technique `{}` renders opaque surfaces only (the CPU reference \
+                 renders alpha as stochastic coverage)",
+                o.name,
+                o.material.alpha,
+                technique.name()
+            )));
+        }
+        let t0 = Instant::now();
+        let gpu_scene =
+            GpuScene::upload(&self.device, &mut self.recorder, scene, settings.width, settings.height)?;
+        let upload_ms = t0.elapsed().as_secs_f64() * 1e3;
+        let (passes, msaa) = match technique {
+            Technique::Pinhole => {
+                (pinhole::pinhole_passes(), self.device.caps.msaa_samples(pinhole::PINHOLE_MSAA))
+            }
+            Technique::Accumulation => (
+                accumulation::accumulation_passes(
+                    settings.spp,
+                    settings.seed,
+                    scene.camera.aperture,
+                    scene.camera.shutter,
+                ),
+                1,
+            ),
+        };
+        let forward = forward::ForwardRenderer::new(&self.device, &gpu_scene, msaa)?;
+        let t1 = Instant::now();
+        let (image, timings) = forward.render(&self.device, &mut self.recorder, &gpu_scene, &passes)?;
+        let cpu_frame_ms = t1.elapsed().as_secs_f64() * 1e3;
+        self.device.check_validation()?;
+        Ok(RenderOutput {
+            image,
+            timings,
+            stats: RenderStats {
+                passes: passes.len() as u32,
+                msaa_samples: msaa,
+                triangles: scene.triangle_count(),
+                cpu_frame_ms,
+                upload_ms,
+            },
+        })
+    }
+}

@@ -1,0 +1,14 @@
+//! Technique `pinhole`: the scene at mid-shutter through the lens centre, one forward pass with MSAA
+//! 4× where available. This is the "no effect" path every blur technique is compared with.
+
+use glam::Vec2;
+
+use super::forward::PassSample;
+
+/// MSAA count the pinhole technique asks for (the device may offer less).
+pub const PINHOLE_MSAA: u32 = 4;
+
+/// The single pass: t = 0.5, lens centre, no jitter (MSAA provides the spatial samples).
+pub fn pinhole_passes() -> Vec<PassSample> {
+    vec![PassSample { time: 0.5, lens: Vec2::ZERO, jitter: Vec2::ZERO }]
+}

@@ -1,0 +1,46 @@
+// The one shading model, GLSL mirror of engine/src/shading.rs (see there for the formula).
+#ifndef SHUTTER_SHADING_GLSL
+#define SHUTTER_SHADING_GLSL
+#include "common/frame.glsl"
+
+float specular_exponent(float roughness) {
+    float r = max(roughness, 1e-3);
+    return clamp(2.0 / (r * r) - 2.0, 1.0, 1.0e4);
+}
+
+// Radiance at camera-space `pos` with unit normal `n` facing the viewer and unit `view` towards the
+// lens sample, lights interpolated to shutter time t.
+vec3 shade(vec3 pos, vec3 n, vec3 view, vec3 albedo, float specular, float roughness, float t) {
+    float n_exp = specular_exponent(roughness);
+    float norm = (n_exp + 8.0) / (8.0 * 3.14159265358979);
+    vec3 diffuse = frame.ambient.rgb;
+    vec3 spec = vec3(0.0);
+    int count = int(frame.viewport.w);
+    for (int i = 0; i < count; ++i) {
+        Light light = frame.lights[i];
+        vec3 a = mix(light.at_open.xyz, light.at_close.xyz, t);
+        vec3 l;
+        vec3 e = light.color.rgb;
+        if (light.at_open.w == LIGHT_DIRECTIONAL) {
+            float len = length(a);
+            l = len > 0.0 ? a / len : vec3(0.0);
+        } else {
+            vec3 d = a - pos;
+            float d2 = max(dot(d, d), 1e-8);
+            l = d / sqrt(d2);
+            e /= d2;
+        }
+        float ndl = max(dot(n, l), 0.0);
+        if (ndl <= 0.0) continue;
+        diffuse += e * ndl;
+        if (specular > 0.0) {
+            vec3 h = l + view;
+            float hl = length(h);
+            h = hl > 0.0 ? h / hl : vec3(0.0);
+            spec += e * (norm * pow(max(dot(n, h), 0.0), n_exp) * ndl);
+        }
+    }
+    return albedo * diffuse + specular * spec;
+}
+
+#endif

@@ -1,0 +1,30 @@
+#version 460
+// Forward pass vertex stage: one (u,v,t) per draw (pinhole and accumulation passes).
+// Camera-space position at t is the lerp of the positions at shutter open and close (DESIGN.md).
+#include "common/camera.glsl"
+
+layout(location = 0) in vec3 in_position;
+layout(location = 1) in vec3 in_normal;
+layout(location = 2) in vec2 in_uv;
+
+layout(push_constant) uniform Push {
+    uint object;
+    float time;
+    vec2 lens;    // unit aperture coordinates (already mapped to the aperture shape)
+    vec2 jitter;  // subpixel offset of this pass, pixels
+} pc;
+
+layout(location = 0) out vec3 v_position;  // camera space at t
+layout(location = 1) out vec3 v_normal;
+layout(location = 2) out vec2 v_uv;
+
+void main() {
+    ObjectData o = objects[pc.object];
+    vec3 p0 = (o.model_view[0] * vec4(in_position, 1.0)).xyz;
+    vec3 p1 = (o.model_view[1] * vec4(in_position, 1.0)).xyz;
+    vec3 p = mix(p0, p1, pc.time);
+    v_position = p;
+    v_normal = mix(mat3(o.normal_matrix[0]) * in_normal, mat3(o.normal_matrix[1]) * in_normal, pc.time);
+    v_uv = in_uv;
+    gl_Position = thin_lens_clip(p, pc.lens, pc.jitter);
+}
