@@ -1,1 +1,109 @@
+//! Helpers shared by the integration tests: devices with validation on, small hand-built scenes,
+//! image measurements, and writing actual/reference/difference images when a check fails.
 
+use std::path::PathBuf;
+use std::sync::Arc;
+
+use glam::{Mat4, Vec2, Vec3};
+use shutter::image::LinearImage;
+use shutter::sampling::{ApertureShape, ShutterCurve};
+use shutter::scene::{Camera, CameraPose, Environment, ImageSettings, Light, Material, Mesh, Object, Scene};
+use shutter::techniques::Renderer;
+
+/// A renderer on the environment's device with validation forced on (any message fails a render).
+pub fn renderer() -> Renderer {
+    // SAFETY of set_var: tests in one binary all set the same value.
+    unsafe { std::env::set_var("SHUTTER_VALIDATION", "1") };
+    let device = shutter::vk::create_device().expect("a Vulkan device (run scripts/setup.sh for lavapipe)");
+    assert!(device.validation_enabled, "validation layer missing: install vulkan-validationlayers");
+    Renderer::new(device).expect("renderer")
+}
+
+/// Where tests write images for a person to look at.
+pub fn output_dir() -> PathBuf {
+    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../target/test-output");
+    std::fs::create_dir_all(&dir).expect("create target/test-output");
+    dir
+}
+
+/// Saves `actual`, `reference` and their FLIP map under target/test-output/<name>-*.png.
+pub fn save_comparison(name: &str, reference: &LinearImage, actual: &LinearImage) {
+    let dir = output_dir();
+    let _ = shutter::image_io::save_image(dir.join(format!("{name}-actual.png")), actual);
+    let _ = shutter::image_io::save_image(dir.join(format!("{name}-reference.png")), reference);
+    let _ = shutter::metrics::write_flip_diff_png(dir.join(format!("{name}-difference.png")), reference, actual);
+}
+
+/// An axis-aligned square of side `size` in the XY plane facing +Z, centred at the origin.
+pub fn square(size: f32) -> Arc<Mesh> {
+    let h = size * 0.5;
+    Arc::new(
+        Mesh::new(
+            "square",
+            vec![Vec3::new(-h, -h, 0.0), Vec3::new(h, -h, 0.0), Vec3::new(h, h, 0.0), Vec3::new(-h, h, 0.0)],
+            vec![],
+            vec![Vec2::new(0.0, 1.0), Vec2::new(1.0, 1.0), Vec2::new(1.0, 0.0), Vec2::ZERO],
+            vec![0, 1, 2, 0, 2, 3],
+        )
+        .expect("square mesh"),
+    )
+}
+
+/// A camera at the origin looking down −Z.
+pub fn camera(vfov_deg: f32, aperture_radius: f32, focus_distance: f32) -> Camera {
+    Camera {
+        open: CameraPose { position: Vec3::ZERO, look_at: -Vec3::Z, up: Vec3::Y },
+        close: None,
+        vfov_deg,
+        aperture_radius,
+        focus_distance,
+        aperture: ApertureShape::Disk,
+        shutter: ShutterCurve::Box,
+        near: 0.05,
+        far: 1000.0,
+    }
+}
+
+/// A scene of one emissive-looking (ambient-only, albedo 1) object over black.
+pub fn single_object_scene(camera: Camera, mesh: Arc<Mesh>, open: Mat4, close: Option<Mat4>, w: u32, h: u32) -> Scene {
+    Scene {
+        name: "test".into(),
+        image: ImageSettings { width: w, height: h, spp: 16, seed: 1 },
+        camera,
+        objects: vec![Object {
+            name: "object".into(),
+            mesh,
+            transform_open: open,
+            transform_close: close,
+            material: Material { albedo: Vec3::ONE, ..Material::default() },
+        }],
+        lights: vec![],
+        environment: Environment { ambient: Vec3::ONE, background: Vec3::ZERO },
+    }
+}
+
+/// Luminance-weighted moments of an image: (energy, centroid, covariance xx, yy).
+pub fn moments(img: &LinearImage) -> (f64, (f64, f64), (f64, f64)) {
+    let (mut e, mut sx, mut sy) = (0.0f64, 0.0f64, 0.0f64);
+    for y in 0..img.height {
+        for x in 0..img.width {
+            let v = img.get(x, y)[1] as f64;
+            e += v;
+            sx += v * (x as f64 + 0.5);
+            sy += v * (y as f64 + 0.5);
+        }
+    }
+    let (cx, cy) = (sx / e, sy / e);
+    let (mut vxx, mut vyy) = (0.0f64, 0.0f64);
+    for y in 0..img.height {
+        for x in 0..img.width {
+            let v = img.get(x, y)[1] as f64;
+            vxx += v * (x as f64 + 0.5 - cx).powi(2);
+            vyy += v * (y as f64 + 0.5 - cy).powi(2);
+        }
+    }
+    (e, (cx, cy), (vxx / e, vyy / e))
+}
+
+/// Unused-import guard for helpers only some test binaries use.
+pub fn _unused(_: Light) {}

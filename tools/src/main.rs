@@ -1,1 +1,189 @@
-fn main() {}
+//! `shutter`: render scenes with each technique, render the CPU ground truth, compare images, probe
+//! the device.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, Result};
+use clap::{Parser, Subcommand};
+
+use shutter::image_io::{load_image, save_image};
+use shutter::metrics::{compare, write_flip_diff_png};
+use shutter::reference::{render_reference, ReferenceSettings};
+use shutter::scene::builtin::BUILTIN_SCENES;
+use shutter::scene::file::load_scene;
+use shutter::techniques::{RenderSettings, Renderer, Technique};
+
+#[derive(Parser)]
+#[command(name = "shutter", version, about = "Depth of field and motion blur by stochastic rasterization on Vulkan")]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Render a scene on the GPU.
+    Render {
+        /// A built-in scene name or a path to a .toml scene file.
+        #[arg(default_value = "default")]
+        scene: String,
+        /// pinhole | accumulation
+        #[arg(long, default_value = "accumulation")]
+        technique: String,
+        /// Samples per pixel (accumulation: passes). Default: the scene's [image] spp.
+        #[arg(long)]
+        spp: Option<u32>,
+        /// Image size WxH. Default: the scene's [image] size.
+        #[arg(long, value_parser = parse_size)]
+        size: Option<(u32, u32)>,
+        #[arg(long)]
+        seed: Option<u64>,
+        /// Output file, .png (sRGB) or .exr (linear). Default: out/<scene>-<technique>.png
+        #[arg(long)]
+        out: Option<PathBuf>,
+    },
+    /// Render the CPU ground truth (distribution ray tracer).
+    Reference {
+        #[arg(default_value = "default")]
+        scene: String,
+        /// Rays per pixel.
+        #[arg(long, default_value_t = 256)]
+        spp: u32,
+        #[arg(long, value_parser = parse_size)]
+        size: Option<(u32, u32)>,
+        #[arg(long)]
+        seed: Option<u64>,
+        /// Default: out/<scene>-reference.exr
+        #[arg(long)]
+        out: Option<PathBuf>,
+    },
+    /// Compare two images: prints RMSE, PSNR and mean FLIP of B against reference A.
+    Compare {
+        a: PathBuf,
+        b: PathBuf,
+        /// Write the FLIP error map (magma colour map) as a PNG.
+        #[arg(long)]
+        diff: Option<PathBuf>,
+    },
+    /// Print the device, driver and capabilities.
+    Probe,
+    /// List the built-in scenes.
+    Scenes,
+}
+
+fn parse_size(s: &str) -> std::result::Result<(u32, u32), String> {
+    let (w, h) = s.split_once(['x', 'X']).ok_or_else(|| format!("size `{s}` is not WxH (e.g. 640x360)"))?;
+    let w = w.trim().parse::<u32>().map_err(|e| format!("width `{w}`: {e}"))?;
+    let h = h.trim().parse::<u32>().map_err(|e| format!("height `{h}`: {e}"))?;
+    Ok((w, h))
+}
+
+fn default_out(scene: &str, what: &str, ext: &str) -> Result<PathBuf> {
+    let stem = Path::new(scene).file_stem().and_then(|s| s.to_str()).unwrap_or("scene");
+    std::fs::create_dir_all("out").context("creating out/")?;
+    Ok(PathBuf::from(format!("out/{stem}-{what}.{ext}")))
+}
+
+fn main() {
+    if let Err(e) = run() {
+        eprintln!("error: {e:#}");
+        std::process::exit(1);
+    }
+}
+
+fn run() -> Result<()> {
+    let cli = Cli::parse();
+    match cli.command {
+        Command::Render { scene, technique, spp, size, seed, out } => {
+            let technique: Technique = technique.parse()?;
+            let sc = load_scene(&scene)?;
+            let mut settings = RenderSettings::from_scene(&sc);
+            if let Some((w, h)) = size {
+                (settings.width, settings.height) = (w, h);
+            }
+            if let Some(s) = spp {
+                settings.spp = s;
+            }
+            if let Some(s) = seed {
+                settings.seed = s;
+            }
+            let device = shutter::vk::create_device()?;
+            let device_name = device.caps.device_name.clone();
+            let mut renderer = Renderer::new(device)?;
+            let output = renderer.render(&sc, technique, &settings)?;
+            let out = match out {
+                Some(o) => o,
+                None => default_out(&scene, technique.name(), "png")?,
+            };
+            save_image(&out, &output.image)?;
+            println!(
+                "{} {} {}x{} spp {} on {}: {} passes, MSAA {}x, GPU {:.1} ms, CPU frame {:.1} ms, upload {:.1} ms",
+                sc.name,
+                technique.name(),
+                settings.width,
+                settings.height,
+                settings.spp,
+                device_name,
+                output.stats.passes,
+                output.stats.msaa_samples,
+                output.timings.total_ms(),
+                output.stats.cpu_frame_ms,
+                output.stats.upload_ms
+            );
+            for (name, ms) in &output.timings.passes {
+                println!("  {name:<12} {ms:>10.2} ms");
+            }
+            println!("wrote {}", out.display());
+        }
+        Command::Reference { scene, spp, size, seed, out } => {
+            let sc = load_scene(&scene)?;
+            let (width, height) = size.unwrap_or((sc.image.width, sc.image.height));
+            let settings = ReferenceSettings { width, height, spp, seed: seed.unwrap_or(sc.image.seed), progress: true };
+            let start = std::time::Instant::now();
+            let image = render_reference(&sc, &settings)?;
+            let secs = start.elapsed().as_secs_f64();
+            let out = match out {
+                Some(o) => o,
+                None => default_out(&scene, "reference", "exr")?,
+            };
+            save_image(&out, &image)?;
+            println!(
+                "{} reference {}x{} spp {} in {:.1} s on {} CPU threads; wrote {}",
+                sc.name,
+                width,
+                height,
+                spp,
+                secs,
+                rayon_threads(),
+                out.display()
+            );
+        }
+        Command::Compare { a, b, diff } => {
+            let ia = load_image(&a)?;
+            let ib = load_image(&b)?;
+            let m = compare(&ia, &ib)?;
+            println!("RMSE {:.6}", m.rmse);
+            println!("PSNR {:.3}", m.psnr);
+            println!("FLIP {:.6}", m.flip);
+            if let Some(d) = diff {
+                write_flip_diff_png(&d, &ia, &ib)?;
+                println!("wrote {}", d.display());
+            }
+        }
+        Command::Probe => {
+            let device = shutter::vk::create_device()?;
+            println!("{}", device.caps);
+            println!("validation        {}", if device.validation_enabled { "on" } else { "off" });
+        }
+        Command::Scenes => {
+            for s in BUILTIN_SCENES {
+                println!("{s}");
+            }
+        }
+    }
+    Ok(())
+}
+
+fn rayon_threads() -> usize {
+    std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1)
+}

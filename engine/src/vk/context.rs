@@ -68,7 +68,56 @@ pub struct Capabilities {
     pub debug_utils: bool,
 }
 
+/// A device capability a technique may depend on.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Feature {
+    GeometryShader,
+    SampleRateShading,
+    FragmentStoresAndAtomics,
+    ConservativeRasterization,
+    TimestampQueries,
+    /// MSAA with this many samples for colour and depth.
+    Msaa(u32),
+}
+
+impl Feature {
+    /// The name Vulkan gives it.
+    pub fn vulkan_name(&self) -> String {
+        match self {
+            Feature::GeometryShader => "geometryShader".into(),
+            Feature::SampleRateShading => "sampleRateShading".into(),
+            Feature::FragmentStoresAndAtomics => "fragmentStoresAndAtomics".into(),
+            Feature::ConservativeRasterization => "VK_EXT_conservative_rasterization".into(),
+            Feature::TimestampQueries => "timestampComputeAndGraphics".into(),
+            Feature::Msaa(n) => format!("{n}x MSAA (framebufferColorSampleCounts & framebufferDepthSampleCounts)"),
+        }
+    }
+}
+
 impl Capabilities {
+    pub fn has(&self, feature: Feature) -> bool {
+        match feature {
+            Feature::GeometryShader => self.geometry_shader,
+            Feature::SampleRateShading => self.sample_rate_shading,
+            Feature::FragmentStoresAndAtomics => self.fragment_stores_and_atomics,
+            Feature::ConservativeRasterization => self.conservative_rasterization,
+            Feature::TimestampQueries => self.timestamps,
+            Feature::Msaa(n) => self.framebuffer_sample_counts.contains(&n),
+        }
+    }
+
+    /// `Err(Error::MissingFeature)` naming the device, the feature and who needs it.
+    pub fn require(&self, feature: Feature, needed_by: &str) -> Result<()> {
+        if self.has(feature) {
+            return Ok(());
+        }
+        Err(Error::MissingFeature {
+            device: self.device_name.clone(),
+            feature: feature.vulkan_name(),
+            needed_by: needed_by.to_string(),
+        })
+    }
+
     /// Largest supported MSAA count not above `wanted`.
     pub fn msaa_samples(&self, wanted: u32) -> u32 {
         self.framebuffer_sample_counts.iter().copied().filter(|&s| s <= wanted).max().unwrap_or(1)

@@ -1,0 +1,7 @@
+#!/usr/bin/env bash
+# Sets up (scripts/setup.sh), builds, and renders the embedded default scene (depth of field + motion
+# blur) with accumulation buffering to out/default-accumulation.png.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+bash scripts/setup.sh
+cargo run --release --locked --bin shutter -- render "$@"
