@@ -8,6 +8,8 @@
 
 pub mod error;
 pub mod image;
+pub mod image_io;
+pub mod metrics;
 pub mod sampling;
 pub mod scene;
 pub mod shading;
