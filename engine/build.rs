@@ -14,6 +14,9 @@ use std::collections::BTreeSet;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
+/// (stage file, permutation name, defines as (name, value)).
+type Permutation = (String, String, Vec<(String, Option<String>)>);
+
 fn main() {
     let manifest = PathBuf::from(std::env::var("CARGO_MANIFEST_DIR").unwrap());
     let root = manifest.join("../shaders-glsl").canonicalize().expect("shaders-glsl/ exists");
@@ -26,7 +29,7 @@ fn main() {
 
     let perm_file = root.join("permutations.txt");
     println!("cargo:rerun-if-changed={}", perm_file.display());
-    let mut perms: Vec<(String, String, Vec<(String, Option<String>)>)> =
+    let mut perms: Vec<Permutation> =
         stages.iter().map(|s| (s.clone(), "DEFAULT".to_string(), Vec::new())).collect();
     if let Ok(text) = std::fs::read_to_string(&perm_file) {
         for (i, line) in text.lines().enumerate() {

@@ -64,7 +64,7 @@ pub struct Sample5 {
 /// Grid shape `m × k = n` with `m` the largest divisor of `n` not above `sqrt(n)`.
 pub fn grid_shape(n: u32) -> (u32, u32) {
     let mut m = (n as f64).sqrt().floor().max(1.0) as u32;
-    while n % m != 0 {
+    while !n.is_multiple_of(m) {
         m -= 1;
     }
     (m, n / m)

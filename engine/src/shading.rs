@@ -31,7 +31,8 @@ pub fn specular_exponent(roughness: f32) -> f32 {
 }
 
 /// Outgoing radiance at `position` with unit shading normal `normal` (already facing the viewer) and
-/// unit `view` towards the lens sample.
+/// unit `view` towards the lens sample. Same argument list as `shade()` in `common/shading.glsl`.
+#[allow(clippy::too_many_arguments)]
 pub fn shade(
     position: Vec3,
     normal: Vec3,

@@ -8,9 +8,17 @@ use shutter::techniques::{RenderSettings, Renderer, Technique};
 
 /// Loads a scene (built-in name or .toml path), renders it with `technique` at `width × height` with
 /// `spp` samples per pixel, writes `out` (.png or .exr) and returns the GPU milliseconds.
-pub fn render_to_png(scene: &str, technique: Technique, width: u32, height: u32, spp: u32, out: &Path) -> Result<f64> {
+pub fn render_to_png(
+    scene: &str,
+    technique: Technique,
+    width: u32,
+    height: u32,
+    spp: u32,
+    out: &Path,
+) -> Result<f64> {
     // 1. The scene: camera, lens, shutter, objects with transforms at shutter open and close.
-    let scene = shutter::scene::file::load_scene(scene).with_context(|| format!("loading scene `{scene}`"))?;
+    let scene =
+        shutter::scene::file::load_scene(scene).with_context(|| format!("loading scene `{scene}`"))?;
     // 2. A device (SHUTTER_DEVICE picks one by name) and a renderer that owns per-frame state.
     let device = shutter::vk::create_device()?;
     let mut renderer = Renderer::new(device)?;

@@ -31,7 +31,8 @@ pub fn save_comparison(name: &str, reference: &LinearImage, actual: &LinearImage
     let dir = output_dir();
     let _ = shutter::image_io::save_image(dir.join(format!("{name}-actual.png")), actual);
     let _ = shutter::image_io::save_image(dir.join(format!("{name}-reference.png")), reference);
-    let _ = shutter::metrics::write_flip_diff_png(dir.join(format!("{name}-difference.png")), reference, actual);
+    let _ =
+        shutter::metrics::write_flip_diff_png(dir.join(format!("{name}-difference.png")), reference, actual);
 }
 
 /// An axis-aligned square of side `size` in the XY plane facing +Z, centred at the origin.
@@ -65,7 +66,14 @@ pub fn camera(vfov_deg: f32, aperture_radius: f32, focus_distance: f32) -> Camer
 }
 
 /// A scene of one emissive-looking (ambient-only, albedo 1) object over black.
-pub fn single_object_scene(camera: Camera, mesh: Arc<Mesh>, open: Mat4, close: Option<Mat4>, w: u32, h: u32) -> Scene {
+pub fn single_object_scene(
+    camera: Camera,
+    mesh: Arc<Mesh>,
+    open: Mat4,
+    close: Option<Mat4>,
+    w: u32,
+    h: u32,
+) -> Scene {
     Scene {
         name: "test".into(),
         image: ImageSettings { width: w, height: h, spp: 16, seed: 1 },

@@ -8,9 +8,10 @@ use shutter_tests::{camera, renderer, single_object_scene, square};
 
 #[test]
 fn unknown_device_name_lists_the_devices() {
-    let err = DeviceShared::new(&DeviceDesc { device_name: Some("no-such-gpu-xyz".into()), ..Default::default() })
-        .err()
-        .expect("must fail");
+    let err =
+        DeviceShared::new(&DeviceDesc { device_name: Some("no-such-gpu-xyz".into()), ..Default::default() })
+            .err()
+            .expect("must fail");
     let msg = err.to_string();
     assert!(matches!(err, Error::NoDevice { .. }), "{msg}");
     assert!(msg.contains("no-such-gpu-xyz") && msg.contains("available devices"), "{msg}");
@@ -18,7 +19,14 @@ fn unknown_device_name_lists_the_devices() {
 
 #[test]
 fn absurd_sizes_and_sample_counts_are_rejected_with_the_limit() {
-    let scene = single_object_scene(camera(40.0, 0.0, 5.0), square(1.0), Mat4::from_translation(-5.0 * Vec3::Z), None, 8, 8);
+    let scene = single_object_scene(
+        camera(40.0, 0.0, 5.0),
+        square(1.0),
+        Mat4::from_translation(-5.0 * Vec3::Z),
+        None,
+        8,
+        8,
+    );
     let mut r = renderer();
     for (s, what) in [
         (RenderSettings { width: 100_000, height: 8, spp: 1, seed: 0 }, "width"),
@@ -37,18 +45,30 @@ fn missing_device_feature_is_a_clear_error() {
     let r = renderer();
     let mut caps = r.device().caps.clone();
     caps.geometry_shader = false;
-    let err = caps.require(shutter::vk::Feature::GeometryShader, "the stochastic rasterizer's hull").unwrap_err();
+    let err =
+        caps.require(shutter::vk::Feature::GeometryShader, "the stochastic rasterizer's hull").unwrap_err();
     let msg = err.to_string();
-    assert!(msg.contains("geometryShader") && msg.contains("stochastic") && msg.contains(&caps.device_name), "{msg}");
+    assert!(
+        msg.contains("geometryShader") && msg.contains("stochastic") && msg.contains(&caps.device_name),
+        "{msg}"
+    );
     assert!(r.device().caps.require(shutter::vk::Feature::TimestampQueries, "bench").is_ok());
 }
 
 #[test]
 fn translucent_material_is_refused_by_opaque_techniques() {
-    let mut scene =
-        single_object_scene(camera(40.0, 0.0, 5.0), square(1.0), Mat4::from_translation(-5.0 * Vec3::Z), None, 8, 8);
+    let mut scene = single_object_scene(
+        camera(40.0, 0.0, 5.0),
+        square(1.0),
+        Mat4::from_translation(-5.0 * Vec3::Z),
+        None,
+        8,
+        8,
+    );
     scene.objects[0].material.alpha = 0.5;
     let mut r = renderer();
-    let err = r.render(&scene, Technique::Pinhole, &RenderSettings { width: 8, height: 8, spp: 1, seed: 0 }).unwrap_err();
+    let err = r
+        .render(&scene, Technique::Pinhole, &RenderSettings { width: 8, height: 8, spp: 1, seed: 0 })
+        .unwrap_err();
     assert!(err.to_string().contains("alpha"), "{err}");
 }

@@ -11,7 +11,8 @@ use shutter_tests::{renderer, save_comparison};
 
 fn reference(name: &str, w: u32, h: u32, spp: u32) -> shutter::image::LinearImage {
     let scene = builtin_scene(name).expect("built-in").expect("parses");
-    render_reference(&scene, &ReferenceSettings { width: w, height: h, spp, seed: 1, progress: false }).expect("reference")
+    render_reference(&scene, &ReferenceSettings { width: w, height: h, spp, seed: 1, progress: false })
+        .expect("reference")
 }
 
 /// Pinhole vs reference on `static` (no blur anywhere): only antialiasing and texture filtering differ.
@@ -21,7 +22,9 @@ fn pinhole_matches_reference_on_static() {
     let scene = builtin_scene("static").unwrap().unwrap();
     let reference = reference("static", w, h, 64);
     let mut r = renderer();
-    let out = r.render(&scene, Technique::Pinhole, &RenderSettings { width: w, height: h, spp: 1, seed: 1 }).unwrap();
+    let out = r
+        .render(&scene, Technique::Pinhole, &RenderSettings { width: w, height: h, spp: 1, seed: 1 })
+        .unwrap();
     let m = compare(&reference, &out.image).unwrap();
     println!("static pinhole vs reference: RMSE {:.5} PSNR {:.2} FLIP {:.5}", m.rmse, m.psnr, m.flip);
     save_comparison("static-pinhole", &reference, &out.image);
@@ -38,7 +41,11 @@ fn accumulation_converges_to_reference_on_default() {
     let mut errors = vec![];
     for passes in [4u32, 16, 64] {
         let out = r
-            .render(&scene, Technique::Accumulation, &RenderSettings { width: w, height: h, spp: passes, seed: 2 })
+            .render(
+                &scene,
+                Technique::Accumulation,
+                &RenderSettings { width: w, height: h, spp: passes, seed: 2 },
+            )
             .unwrap();
         let m = compare(&reference, &out.image).unwrap();
         println!("default accumulation P={passes}: RMSE {:.5} PSNR {:.2} FLIP {:.5}", m.rmse, m.psnr, m.flip);
@@ -50,8 +57,18 @@ fn accumulation_converges_to_reference_on_default() {
         assert!(pair[1].flip < pair[0].flip, "FLIP did not fall: {} -> {}", pair[0].flip, pair[1].flip);
     }
     let last = errors.last().unwrap();
-    assert!(last.rmse < ACCUMULATION_64_RMSE_MAX, "RMSE at 64 passes {} >= {}", last.rmse, ACCUMULATION_64_RMSE_MAX);
-    assert!(last.flip < ACCUMULATION_64_FLIP_MAX, "FLIP at 64 passes {} >= {}", last.flip, ACCUMULATION_64_FLIP_MAX);
+    assert!(
+        last.rmse < ACCUMULATION_64_RMSE_MAX,
+        "RMSE at 64 passes {} >= {}",
+        last.rmse,
+        ACCUMULATION_64_RMSE_MAX
+    );
+    assert!(
+        last.flip < ACCUMULATION_64_FLIP_MAX,
+        "FLIP at 64 passes {} >= {}",
+        last.flip,
+        ACCUMULATION_64_FLIP_MAX
+    );
 }
 
 const ACCUMULATION_64_RMSE_MAX: f64 = 0.03;

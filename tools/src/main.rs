@@ -14,7 +14,11 @@ use shutter::scene::file::load_scene;
 use shutter::techniques::{RenderSettings, Renderer, Technique};
 
 #[derive(Parser)]
-#[command(name = "shutter", version, about = "Depth of field and motion blur by stochastic rasterization on Vulkan")]
+#[command(
+    name = "shutter",
+    version,
+    about = "Depth of field and motion blur by stochastic rasterization on Vulkan"
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -138,7 +142,8 @@ fn run() -> Result<()> {
         Command::Reference { scene, spp, size, seed, out } => {
             let sc = load_scene(&scene)?;
             let (width, height) = size.unwrap_or((sc.image.width, sc.image.height));
-            let settings = ReferenceSettings { width, height, spp, seed: seed.unwrap_or(sc.image.seed), progress: true };
+            let settings =
+                ReferenceSettings { width, height, spp, seed: seed.unwrap_or(sc.image.seed), progress: true };
             let start = std::time::Instant::now();
             let image = render_reference(&sc, &settings)?;
             let secs = start.elapsed().as_secs_f64();

@@ -89,7 +89,9 @@ impl Feature {
             Feature::FragmentStoresAndAtomics => "fragmentStoresAndAtomics".into(),
             Feature::ConservativeRasterization => "VK_EXT_conservative_rasterization".into(),
             Feature::TimestampQueries => "timestampComputeAndGraphics".into(),
-            Feature::Msaa(n) => format!("{n}x MSAA (framebufferColorSampleCounts & framebufferDepthSampleCounts)"),
+            Feature::Msaa(n) => {
+                format!("{n}x MSAA (framebufferColorSampleCounts & framebufferDepthSampleCounts)")
+            }
         }
     }
 }

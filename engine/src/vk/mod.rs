@@ -15,7 +15,7 @@ mod queries;
 mod transfer;
 
 pub use commands::{image_barriers, memory_barrier, CommandRecorder};
-pub use context::{Capabilities, Feature, Device, DeviceDesc, DeviceShared, ValidationReport};
+pub use context::{Capabilities, Device, DeviceDesc, DeviceShared, Feature, ValidationReport};
 pub use image::{aspect_of, barrier, Image, ImageDesc, Sampler};
 pub use memory::{as_bytes, Buffer};
 pub use pipeline::{
