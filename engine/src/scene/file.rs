@@ -491,3 +491,277 @@ fn resolve_material(
     cx.range(&format!("{field}.alpha"), alpha, (0.0..=1.0).contains(&alpha), "in [0, 1]")?;
     Ok(Material { albedo, texture, specular, roughness, alpha })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::Vec2;
+
+    fn temp_path(tag: &str, ext: &str) -> PathBuf {
+        std::env::temp_dir().join(format!(
+            "shutter-scene-{}-{}-{tag}.{ext}",
+            std::process::id(),
+            std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.as_nanos())
+        ))
+    }
+
+    const CAMERA: &str = "[camera]\nposition = [0, 1, 5]\nlook_at = [0, 0, 0]\n";
+
+    fn parse(text: &str) -> Result<Scene> {
+        parse_scene(text, &std::env::temp_dir(), "test")
+    }
+
+    fn err(text: &str) -> String {
+        parse(text).map(|_| ()).unwrap_err().to_string()
+    }
+
+    /// Object centre (object-space origin) at shutter open: (view depth, pixel position), and the
+    /// pixel position at close, for lens centre.
+    fn centre(scene: &Scene, name: &str) -> (f32, Vec2, Vec2) {
+        let o = scene.objects.iter().find(|o| o.name == name).unwrap();
+        let k = scene.camera.intrinsics(scene.image.width, scene.image.height);
+        let p0 =
+            scene.camera.open.view_matrix().transform_point3(o.transform_open.transform_point3(Vec3::ZERO));
+        let p1 = scene
+            .camera
+            .pose_at_close()
+            .view_matrix()
+            .transform_point3(o.transform_at_close().transform_point3(Vec3::ZERO));
+        (-p0.z, k.project(p0, Vec2::ZERO), k.project(p1, Vec2::ZERO))
+    }
+
+    fn in_frame(scene: &Scene, px: Vec2) -> bool {
+        px.x >= 0.0 && px.y >= 0.0 && px.x < scene.image.width as f32 && px.y < scene.image.height as f32
+    }
+
+    #[test]
+    fn default_scene_has_depth_of_field_and_motion_blur() {
+        let s = load_scene("default").unwrap();
+        assert_eq!((s.image.width, s.image.height), (640, 360));
+        assert!(s.camera.aperture_radius > 0.0);
+        let k = s.camera.intrinsics(640, 360);
+        let coc = |name: &str| k.circle_of_confusion_px(centre(&s, name).0).abs();
+        for near in ["near-box", "near-sphere"] {
+            assert!(coc(near) >= 8.0, "{near}: {}", coc(near));
+        }
+        for far in ["far-box", "far-sphere"] {
+            assert!(coc(far) >= 6.0, "{far}: {}", coc(far));
+        }
+        assert!(coc("spot") < 0.5, "spot is in focus: {}", coc("spot"));
+        let spot = s.objects.iter().find(|o| o.name == "spot").unwrap();
+        assert!(spot.material.texture.is_some() && spot.mesh.has_uvs());
+        assert!(s.objects.iter().any(|o| o.material.specular > 0.0));
+        // A fast mover, a slightly panning camera.
+        let (_, a, b) = centre(&s, "mover");
+        assert!((b - a).length() >= 30.0, "mover moves {} px", (b - a).length());
+        let (_, a, b) = centre(&s, "spot");
+        let pan = (b - a).length();
+        assert!(s.camera.close.is_some() && (1.0..10.0).contains(&pan), "camera pan {pan} px");
+        for o in &s.objects {
+            if o.name != "ground" {
+                let (z, a, b) = centre(&s, &o.name);
+                assert!(z > 0.0 && in_frame(&s, a) && in_frame(&s, b), "{} is off screen", o.name);
+            }
+        }
+        assert!(s.lights.iter().any(|l| matches!(l, Light::Directional { .. })));
+        assert!(s.lights.iter().any(|l| matches!(l, Light::Point { .. })));
+        assert_eq!(s.skipped_triangles(), 0);
+    }
+
+    #[test]
+    fn static_scene_has_no_blur() {
+        let s = load_scene("static").unwrap();
+        assert_eq!((s.image.width, s.image.height), (640, 360));
+        assert_eq!(s.camera.aperture_radius, 0.0);
+        assert!(s.camera.close.is_none());
+        assert!(s.objects.iter().all(|o| o.transform_close.is_none()));
+        assert!(s.objects.iter().any(|o| o.material.texture.is_some()));
+        assert!(s.objects.iter().any(|o| o.material.specular > 0.0));
+    }
+
+    #[test]
+    fn focus_sweep_has_a_blurred_high_poly_sphere_before_a_sharp_background() {
+        let s = load_scene("focus-sweep").unwrap();
+        assert_eq!((s.image.width, s.image.height), (640, 360));
+        let k = s.camera.intrinsics(640, 360);
+        let sphere = s.objects.iter().find(|o| o.name == "displaced-sphere").unwrap();
+        assert!(sphere.mesh.triangle_count() >= 100_000);
+        let (z, px, _) = centre(&s, "displaced-sphere");
+        assert!(k.circle_of_confusion_px(z).abs() >= 8.0 && in_frame(&s, px));
+        let (z, _, _) = centre(&s, "back-wall");
+        assert!(z > 10.0 && k.circle_of_confusion_px(z - 0.3).abs() < 0.5);
+    }
+
+    #[test]
+    fn defaults_and_names() {
+        let s = parse(CAMERA).unwrap();
+        assert_eq!(s.name, "test");
+        assert_eq!(s.image, ImageSettings { width: 640, height: 360, spp: 16, seed: 1 });
+        assert!((s.camera.focus_distance - 26f32.sqrt()).abs() < 1e-5);
+        assert_eq!(s.camera.open.up, Vec3::Y);
+        let s = parse(&format!("name = \"x\"\n{CAMERA}[[object]]\nmesh = \"box\"\n")).unwrap();
+        assert_eq!((s.name.as_str(), s.objects[0].name.as_str()), ("x", "object0"));
+        let e = load_scene("no-such-scene").unwrap_err().to_string();
+        assert!(e.contains("default") && e.contains("focus-sweep"), "{e}");
+    }
+
+    #[test]
+    fn transforms_compose_t_rz_ry_rx_s() {
+        let text = format!(
+            "{CAMERA}[[object]]\nmesh = \"box\"\n[object.transform]\ntranslate = [1, 2, 3]\n\
+             rotate_deg = [90, 90, 0]\nscale = [2, 1, 1]\n[object.transform_close]\nscale = 3\n"
+        );
+        let s = parse(&text).unwrap();
+        let m = s.objects[0].transform_open;
+        // X: scale 2 → (2,0,0); Rx(90) keeps it; Ry(90) takes +X to −Z; then translate.
+        assert!((m.transform_point3(Vec3::X) - Vec3::new(1.0, 2.0, 1.0)).length() < 1e-5);
+        // Y: Rx(90) takes +Y to +Z, Ry(90) takes +Z to +X.
+        assert!((m.transform_point3(Vec3::Y) - Vec3::new(2.0, 2.0, 3.0)).length() < 1e-5);
+        let c = s.objects[0].transform_close.unwrap();
+        assert!((c.transform_point3(Vec3::ONE) - Vec3::splat(3.0)).length() < 1e-6);
+        // Meshes are shared between objects.
+        let text = format!("{CAMERA}[[object]]\nmesh = \"sphere\"\n[[object]]\nmesh = \"sphere\"\n");
+        let s = parse(&text).unwrap();
+        assert!(Arc::ptr_eq(&s.objects[0].mesh, &s.objects[1].mesh));
+    }
+
+    #[test]
+    fn malformed_and_unknown_keys() {
+        assert!(err("[camera\nposition = ").contains("invalid scene TOML"));
+        let e = err(&format!("{CAMERA}colour = 1\n"));
+        assert!(e.contains("colour"), "{e}");
+        let e = err(&format!("{CAMERA}[[object]]\nmesh = \"box\"\n[object.material]\nshiny = 1\n"));
+        assert!(e.contains("shiny"), "{e}");
+        let e = err(&format!("{CAMERA}[[light]]\ntype = \"spot\"\nposition = [0,0,0]\ncolor = [1,1,1]\n"));
+        assert!(e.contains("spot"), "{e}");
+        let e = err(&format!(
+            "{CAMERA}[[light]]\ntype = \"point\"\nposition = [0,0,0]\ncolor = [1,1,1]\nradius = 1\n"
+        ));
+        assert!(e.contains("radius"), "{e}");
+        let e = err("[image]\nwidth = 10\n");
+        assert!(e.contains("camera"), "{e}");
+        let e = err(&format!("{CAMERA}[[object]]\nmesh = \"teapot\"\n"));
+        assert!(e.contains("teapot") && e.contains("displaced-sphere"), "{e}");
+    }
+
+    #[test]
+    fn limits_are_enforced() {
+        let e = err(&format!("[image]\nwidth = 100000\n{CAMERA}"));
+        assert!(e.contains("image.width") && e.contains("8192") && e.contains("MAX_IMAGE_DIMENSION"), "{e}");
+        let e = err(&format!("[image]\nspp = 0\n{CAMERA}"));
+        assert!(e.contains("image.spp") && e.contains("65536"), "{e}");
+        assert!(err(&format!("[image]\nheight = -3\n{CAMERA}")).contains("image.height"));
+        assert!(err(&format!("[image]\nseed = -3\n{CAMERA}")).contains("image.seed"));
+        let cam = |extra: &str| err(&format!("{CAMERA}{extra}\n"));
+        assert!(cam("vfov_deg = 180").contains("camera.vfov_deg"));
+        assert!(cam("vfov_deg = 0").contains("camera.vfov_deg"));
+        assert!(cam("aperture_radius = -0.1").contains("camera.aperture_radius"));
+        assert!(cam("focus_distance = 0").contains("camera.focus_distance"));
+        assert!(cam("near = 0").contains("camera.near"));
+        assert!(cam("near = 2\nfar = 1").contains("camera.far"));
+        assert!(cam("aperture = { shape = \"blades\", blades = 2 }").contains("blades"));
+        assert!(cam("up = [0, 2, 10]").contains("parallel"));
+        assert!(cam("[camera.close]\nlook_at = [0, 1, 5]").contains("camera.close.look_at"));
+        assert!(err("[camera]\nposition = [1, 1, 1]\nlook_at = [1, 1, 1]\n").contains("camera.look_at"));
+        let s = parse(&format!("{CAMERA}aperture = {{ shape = \"blades\", blades = 6, rotation_deg = 15 }}"))
+            .unwrap();
+        assert_eq!(s.camera.aperture, ApertureShape::Blades { blades: 6, rotation_deg: 15.0 });
+        let mat = |m: &str| err(&format!("{CAMERA}[[object]]\nmesh = \"box\"\n[object.material]\n{m}\n"));
+        assert!(mat("roughness = 0").contains("roughness"));
+        assert!(mat("roughness = 1.5").contains("roughness"));
+        assert!(mat("alpha = 1.5").contains("alpha"));
+        assert!(mat("specular = -1").contains("specular"));
+        assert!(mat("albedo = [1, -1, 0]").contains("albedo"));
+        let xf = |t: &str| err(&format!("{CAMERA}[[object]]\nmesh = \"box\"\n[object.transform]\n{t}\n"));
+        assert!(xf("scale = 0").contains("scale"));
+        assert!(xf("scale = [1, 0, 1]").contains("scale"));
+        assert!(xf("scale = inf").contains("scale"));
+    }
+
+    #[test]
+    fn non_finite_values_are_rejected() {
+        let e = err(&format!(
+            "{CAMERA}[[object]]\nmesh = \"box\"\n[object.transform]\ntranslate = [nan, 0, 0]\n"
+        ));
+        assert!(e.contains("translate") && e.contains("NaN") && e.contains("scene `test`"), "{e}");
+        assert!(err("[camera]\nposition = [0, inf, 5]\nlook_at = [0, 0, 0]\n").contains("camera.position"));
+        assert!(err(&format!("{CAMERA}focus_distance = nan\n")).contains("camera.focus_distance"));
+        assert!(err(&format!(
+            "{CAMERA}[[light]]\ntype = \"directional\"\ndirection = [0, -inf, 0]\ncolor = [1, 1, 1]\n"
+        ))
+        .contains("light[0].direction"));
+        assert!(
+            err(&format!("{CAMERA}[environment]\nambient = [nan, 0, 0]\n")).contains("environment.ambient")
+        );
+    }
+
+    #[test]
+    fn files_meshes_and_textures_from_disk() {
+        let dir = std::env::temp_dir();
+        // A good scene with an OBJ (one good, one zero-area, one duplicate-vertex triangle) and a PNG.
+        let obj = temp_path("mesh", "obj");
+        std::fs::write(&obj, "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 2 0 0\nvt 0 0\nf 1 2 3\nf 1 2 4\nf 2 2 3\n")
+            .unwrap();
+        let png = temp_path("tex", "png");
+        image::RgbaImage::from_raw(1, 1, vec![255, 128, 0, 255])
+            .unwrap()
+            .save_with_format(&png, image::ImageFormat::Png)
+            .unwrap();
+        let name = |p: &Path| p.file_name().unwrap().to_string_lossy().into_owned();
+        let scene_path = temp_path("good", "toml");
+        let text = format!(
+            "{CAMERA}[[object]]\nmesh = \"{}\"\nnormalize = true\n[object.material]\ntexture = \"{}\"\n",
+            name(&obj),
+            name(&png)
+        );
+        std::fs::write(&scene_path, &text).unwrap();
+        let s = load_scene(&scene_path.display().to_string()).unwrap();
+        assert_eq!(s.name, scene_path.file_stem().unwrap().to_string_lossy());
+        assert_eq!(s.objects[0].mesh.triangle_count(), 1);
+        assert_eq!(s.objects[0].mesh.stats.skipped_degenerate, 2);
+        assert_eq!(s.skipped_triangles(), 2);
+        assert_eq!(s.objects[0].material.albedo, Vec3::ONE);
+        assert_eq!(s.objects[0].material.texture.as_ref().unwrap().width, 1);
+
+        // Missing OBJ / texture: errors name the path.
+        let write_scene = |mesh: &str, texture: &str| {
+            let p = temp_path("bad", "toml");
+            let t = format!(
+                "{CAMERA}[[object]]\nmesh = \"{mesh}\"\n[object.material]\ntexture = \"{texture}\"\n"
+            );
+            std::fs::write(&p, t).unwrap();
+            let e = load_scene_file(&p).unwrap_err().to_string();
+            let _ = std::fs::remove_file(&p);
+            e
+        };
+        let e = write_scene("missing-mesh-xyz.obj", &name(&png));
+        assert!(e.contains("missing-mesh-xyz.obj"), "{e}");
+        let e = write_scene(&name(&obj), "missing-texture-xyz.png");
+        assert!(e.contains("missing-texture-xyz.png"), "{e}");
+
+        // Corrupt OBJ (garbage bytes) and corrupt texture.
+        let garbage: Vec<u8> = (0..2048u32).map(|i| (i.wrapping_mul(2654435761) >> 11) as u8).collect();
+        let bad_obj = temp_path("garbage", "obj");
+        std::fs::write(&bad_obj, &garbage).unwrap();
+        let e = write_scene(&name(&bad_obj), &name(&png));
+        assert!(e.contains(&name(&bad_obj)), "{e}");
+        let bad_png = temp_path("garbage", "png");
+        std::fs::write(&bad_png, &garbage).unwrap();
+        let e = write_scene(&name(&obj), &name(&bad_png));
+        assert!(e.contains(&name(&bad_png)), "{e}");
+
+        // inf in a vertex.
+        let inf_obj = temp_path("inf", "obj");
+        std::fs::write(&inf_obj, "v inf 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
+        let e = write_scene(&name(&inf_obj), &name(&png));
+        assert!(e.contains(&name(&inf_obj)) && e.contains("non-finite"), "{e}");
+
+        // Missing scene file.
+        let e = load_scene_file(&dir.join("no-such-scene-xyz.toml")).unwrap_err().to_string();
+        assert!(e.contains("no-such-scene-xyz.toml"), "{e}");
+
+        for p in [obj, png, scene_path, bad_obj, bad_png, inf_obj] {
+            let _ = std::fs::remove_file(p);
+        }
+    }
+}

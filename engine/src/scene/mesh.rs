@@ -37,7 +37,7 @@ impl Mesh {
         uvs: Vec<Vec2>,
         indices: Vec<u32>,
     ) -> Result<Mesh> {
-        if indices.len() % 3 != 0 {
+        if !indices.len().is_multiple_of(3) {
             return Err(Error::scene(
                 context,
                 format!("index count {} is not a multiple of 3", indices.len()),
