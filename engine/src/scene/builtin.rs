@@ -1,1 +1,309 @@
+//! Built-in procedural meshes and scenes, embedded in the binary so nothing needs files on disk.
+//!
+//! Meshes (all centred at the origin, outward counter-clockwise winding):
+//! * `plane` — the square `[-1, 1]²` in XZ, normal +Y, uvs `(0,0)` at `(-1, -1)`; `detail` = quads per
+//!   side (default 1, at most [`MAX_PLANE_DETAIL`]).
+//! * `box` — the cube `[-1, 1]³`, flat-shaded faces (24 vertices), each face uv-mapped to `[0, 1]²`.
+//! * `sphere` — a UV sphere of radius 1 with uvs; `detail` = longitudinal segments (default 48, half as
+//!   many rings, 3..=[`MAX_SPHERE_DETAIL`]).
+//! * `displaced-sphere` — an icosphere subdivided `detail` times (default 7: 327,680 triangles),
+//!   radially displaced by a smooth deterministic noise of ±4 % of the radius; the high-poly benchmark
+//!   mesh of the `focus-sweep` scene. No uvs.
+//! * `spot` — Keenan Crane's Spot (public domain, `assets/spot/README.txt`), normalized to `[-1, 1]³`
+//!   (largest half-extent 1), with uvs for the embedded texture (`texture = "spot"` in a scene file).
+//!
+//! Scenes are TOML files in the repository's `scenes/` folder, embedded and parsed with
+//! [`parse_scene`](super::file::parse_scene): see [`BUILTIN_SCENES`].
 
+use std::collections::HashMap;
+use std::path::Path;
+use std::sync::{Arc, OnceLock};
+
+use glam::{Vec2, Vec3};
+
+use super::mesh::{parse_obj, Mesh};
+use super::texture::{texture_from_png_bytes, Texture};
+use super::Scene;
+use crate::error::{Error, Result};
+
+/// Names accepted by [`builtin_mesh`].
+pub const BUILTIN_MESHES: &[&str] = &["plane", "box", "sphere", "displaced-sphere", "spot"];
+/// Names accepted by [`builtin_scene`].
+pub const BUILTIN_SCENES: &[&str] = &["default", "static", "focus-sweep"];
+
+pub const MAX_PLANE_DETAIL: u32 = 1024;
+pub const MAX_SPHERE_DETAIL: u32 = 4096;
+/// 9 subdivisions = 5,242,880 triangles.
+pub const MAX_ICOSPHERE_DETAIL: u32 = 9;
+/// Default subdivision level of `displaced-sphere`: 20·4⁷ = 327,680 triangles (≥ 100k).
+pub const DEFAULT_ICOSPHERE_DETAIL: u32 = 7;
+
+const SPOT_OBJ: &[u8] = include_bytes!("../../../assets/spot/spot_triangulated.obj");
+const SPOT_PNG: &[u8] = include_bytes!("../../../assets/spot/spot_texture.png");
+/// The licence note that travels with Spot (public domain, Keenan Crane).
+pub const SPOT_README: &str = include_str!("../../../assets/spot/README.txt");
+
+const SCENE_DEFAULT: &str = include_str!("../../../scenes/default.toml");
+const SCENE_STATIC: &str = include_str!("../../../scenes/static.toml");
+const SCENE_FOCUS_SWEEP: &str = include_str!("../../../scenes/focus-sweep.toml");
+
+/// A procedural or embedded mesh by name; `None` when `name` is not a built-in mesh. `detail` is the
+/// tessellation level (ignored by `box` and `spot`).
+pub fn builtin_mesh(name: &str, detail: Option<u32>) -> Option<Result<Mesh>> {
+    let mesh = match name {
+        "plane" => plane(detail.unwrap_or(1)),
+        "box" => unit_box(),
+        "sphere" => uv_sphere(detail.unwrap_or(48)),
+        "displaced-sphere" => displaced_sphere(detail.unwrap_or(DEFAULT_ICOSPHERE_DETAIL)),
+        "spot" => parse_obj(SPOT_OBJ, "built-in mesh `spot`", true),
+        _ => return None,
+    };
+    Some(mesh)
+}
+
+/// The embedded Spot texture (decoded once, shared).
+pub fn spot_texture() -> Result<Arc<Texture>> {
+    static SPOT: OnceLock<std::result::Result<Arc<Texture>, String>> = OnceLock::new();
+    SPOT.get_or_init(|| {
+        texture_from_png_bytes("spot", Path::new("<embedded spot_texture.png>"), SPOT_PNG)
+            .map(Arc::new)
+            .map_err(|e| e.to_string())
+    })
+    .clone()
+    .map_err(|m| Error::scene("built-in texture `spot`", m))
+}
+
+/// A built-in scene by name (see [`BUILTIN_SCENES`]); `None` when there is no such scene.
+pub fn builtin_scene(name: &str) -> Option<Result<Scene>> {
+    let text = match name {
+        "default" => SCENE_DEFAULT,
+        "static" => SCENE_STATIC,
+        "focus-sweep" => SCENE_FOCUS_SWEEP,
+        _ => return None,
+    };
+    Some(super::file::parse_scene(text, Path::new("."), name))
+}
+
+fn detail_limit(what: &'static str, value: u32, lo: u32, hi: u32) -> Result<()> {
+    if (lo..=hi).contains(&value) {
+        Ok(())
+    } else {
+        Err(Error::Limit { what, value: value.to_string(), limit: format!("must be in {lo}..={hi}") })
+    }
+}
+
+fn plane(n: u32) -> Result<Mesh> {
+    detail_limit("plane detail", n, 1, MAX_PLANE_DETAIL)?;
+    let mut positions = Vec::new();
+    let mut uvs = Vec::new();
+    for j in 0..=n {
+        for i in 0..=n {
+            let (u, v) = (i as f32 / n as f32, j as f32 / n as f32);
+            positions.push(Vec3::new(-1.0 + 2.0 * u, 0.0, -1.0 + 2.0 * v));
+            uvs.push(Vec2::new(u, v));
+        }
+    }
+    let normals = vec![Vec3::Y; positions.len()];
+    let row = n + 1;
+    let mut indices = Vec::new();
+    for j in 0..n {
+        for i in 0..n {
+            let a = j * row + i;
+            let (b, c, d) = (a + row, a + 1, a + row + 1);
+            // (b − a) = +Z, (c − a) = +X: +Z × +X = +Y.
+            indices.extend_from_slice(&[a, b, c, c, b, d]);
+        }
+    }
+    Mesh::new("built-in mesh `plane`", positions, normals, uvs, indices)
+}
+
+fn unit_box() -> Result<Mesh> {
+    let (mut positions, mut normals, mut uvs, mut indices) = (vec![], vec![], vec![], vec![]);
+    for axis in 0..3 {
+        for sign in [1.0f32, -1.0] {
+            let mut n = Vec3::ZERO;
+            n[axis] = sign;
+            // Tangents with u × v = n.
+            let mut u = Vec3::ZERO;
+            u[(axis + 1) % 3] = 1.0;
+            let v = n.cross(u);
+            let base = positions.len() as u32;
+            for (cu, cv) in [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)] {
+                positions.push(n + cu * u + cv * v);
+                normals.push(n);
+                uvs.push(Vec2::new(0.5 + 0.5 * cu, 0.5 - 0.5 * cv));
+            }
+            indices.extend_from_slice(&[base, base + 1, base + 2, base, base + 2, base + 3]);
+        }
+    }
+    Mesh::new("built-in mesh `box`", positions, normals, uvs, indices)
+}
+
+fn uv_sphere(segments: u32) -> Result<Mesh> {
+    detail_limit("sphere detail", segments, 3, MAX_SPHERE_DETAIL)?;
+    let rings = (segments / 2).max(2);
+    let (mut positions, mut uvs) = (vec![], vec![]);
+    for r in 0..=rings {
+        let v = r as f32 / rings as f32;
+        let theta = v * std::f32::consts::PI;
+        for s in 0..=segments {
+            let u = s as f32 / segments as f32;
+            let phi = u * std::f32::consts::TAU;
+            positions.push(Vec3::new(theta.sin() * phi.cos(), theta.cos(), -theta.sin() * phi.sin()));
+            uvs.push(Vec2::new(u, v));
+        }
+    }
+    let normals = positions.clone();
+    let row = segments + 1;
+    let mut indices = Vec::new();
+    for r in 0..rings {
+        for s in 0..segments {
+            let a = r * row + s;
+            let (b, c, d) = (a + row, a + 1, a + row + 1);
+            // a is above b; c is a's neighbour in +φ (counter-clockwise seen from +Y).
+            if r != 0 {
+                indices.extend_from_slice(&[a, b, c]);
+            }
+            if r != rings - 1 {
+                indices.extend_from_slice(&[c, b, d]);
+            }
+        }
+    }
+    Mesh::new("built-in mesh `sphere`", positions, normals, uvs, indices)
+}
+
+/// Smooth deterministic noise on the unit sphere, in about [-1, 1]: a few sums of products of sines.
+fn sphere_noise(p: Vec3) -> f32 {
+    let a = (3.1 * p.x + 1.3).sin() * (2.7 * p.y + 0.4).sin() * (3.3 * p.z + 2.1).sin();
+    let b = (7.3 * p.y + 0.9).sin() * (6.1 * p.z + 1.7).sin() * (5.9 * p.x + 0.2).sin();
+    let c = (13.7 * p.z + 0.5).sin() * (12.9 * p.x + 2.3).sin() * (14.3 * p.y + 1.1).sin();
+    0.55 * a + 0.3 * b + 0.15 * c
+}
+
+fn displaced_sphere(subdivisions: u32) -> Result<Mesh> {
+    detail_limit("displaced-sphere detail", subdivisions, 0, MAX_ICOSPHERE_DETAIL)?;
+    let (mut positions, mut indices) = icosahedron();
+    for _ in 0..subdivisions {
+        let mut midpoints: HashMap<(u32, u32), u32> = HashMap::with_capacity(indices.len());
+        let mut next = Vec::with_capacity(indices.len() * 4);
+        let mut midpoint = |a: u32, b: u32, positions: &mut Vec<Vec3>| -> u32 {
+            let key = (a.min(b), a.max(b));
+            *midpoints.entry(key).or_insert_with(|| {
+                positions.push((positions[a as usize] + positions[b as usize]).normalize());
+                positions.len() as u32 - 1
+            })
+        };
+        for tri in indices.chunks_exact(3) {
+            let [a, b, c] = [tri[0], tri[1], tri[2]];
+            let ab = midpoint(a, b, &mut positions);
+            let bc = midpoint(b, c, &mut positions);
+            let ca = midpoint(c, a, &mut positions);
+            next.extend_from_slice(&[a, ab, ca, ab, b, bc, ca, bc, c, ab, bc, ca]);
+        }
+        indices = next;
+    }
+    for p in &mut positions {
+        *p *= 1.0 + 0.04 * sphere_noise(*p);
+    }
+    Mesh::new("built-in mesh `displaced-sphere`", positions, vec![], vec![], indices)
+}
+
+/// The regular icosahedron on the unit sphere: faces are the vertex triples at pairwise edge length,
+/// oriented outward.
+fn icosahedron() -> (Vec<Vec3>, Vec<u32>) {
+    let t = (1.0 + 5.0f32.sqrt()) / 2.0;
+    let mut v = Vec::new();
+    for a in [-1.0f32, 1.0] {
+        for b in [-t, t] {
+            v.push(Vec3::new(0.0, a, b));
+            v.push(Vec3::new(a, b, 0.0));
+            v.push(Vec3::new(b, 0.0, a));
+        }
+    }
+    let edge = 2.0f32;
+    let is_edge = |i: usize, j: usize| ((v[i] - v[j]).length() - edge).abs() < 1e-3;
+    let mut indices = Vec::new();
+    for i in 0..12 {
+        for j in i + 1..12 {
+            for k in j + 1..12 {
+                if is_edge(i, j) && is_edge(j, k) && is_edge(i, k) {
+                    let n = (v[j] - v[i]).cross(v[k] - v[i]);
+                    let tri = if n.dot(v[i] + v[j] + v[k]) > 0.0 { [i, j, k] } else { [i, k, j] };
+                    indices.extend(tri.map(|x| x as u32));
+                }
+            }
+        }
+    }
+    (v.into_iter().map(Vec3::normalize).collect(), indices)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn assert_outward(m: &Mesh, name: &str) {
+        for tri in m.indices.chunks_exact(3) {
+            let [a, b, c] = [0, 1, 2].map(|i| m.positions[tri[i] as usize]);
+            let n = (b - a).cross(c - a);
+            assert!(n.dot(a + b + c) > 0.0, "{name}: inward triangle {a} {b} {c}");
+        }
+    }
+
+    #[test]
+    fn procedural_meshes_are_clean_and_outward() {
+        for (name, detail) in [("box", None), ("sphere", Some(12)), ("displaced-sphere", Some(2))] {
+            let m = builtin_mesh(name, detail).unwrap().unwrap();
+            assert_eq!(m.stats.skipped_degenerate, 0, "{name}");
+            assert_outward(&m, name);
+        }
+        let ico = builtin_mesh("displaced-sphere", Some(0)).unwrap().unwrap();
+        assert_eq!(ico.triangle_count(), 20);
+        let s = builtin_mesh("sphere", Some(12)).unwrap().unwrap();
+        assert_eq!(s.triangle_count(), 2 * 12 * 6 - 2 * 12);
+        assert!(s.positions.iter().zip(&s.normals).all(|(p, n)| (*p - *n).length() < 1e-5));
+        let b = builtin_mesh("box", None).unwrap().unwrap();
+        assert_eq!(b.triangle_count(), 12);
+        assert_eq!(b.bounds(), (Vec3::splat(-1.0), Vec3::splat(1.0)));
+    }
+
+    #[test]
+    fn plane_faces_up() {
+        let m = builtin_mesh("plane", Some(4)).unwrap().unwrap();
+        assert_eq!(m.triangle_count(), 32);
+        for tri in m.indices.chunks_exact(3) {
+            let [a, b, c] = [0, 1, 2].map(|i| m.positions[tri[i] as usize]);
+            assert!((b - a).cross(c - a).normalize().dot(Vec3::Y) > 0.999);
+        }
+        assert!(m.uvs.iter().all(|uv| (0.0..=1.0).contains(&uv.x) && (0.0..=1.0).contains(&uv.y)));
+    }
+
+    #[test]
+    fn displaced_sphere_default_is_high_poly_and_smooth() {
+        let m = builtin_mesh("displaced-sphere", None).unwrap().unwrap();
+        assert!(m.triangle_count() >= 100_000, "{}", m.triangle_count());
+        let r: Vec<f32> = m.positions.iter().map(|p| p.length()).collect();
+        let (lo, hi) = r.iter().fold((f32::MAX, f32::MIN), |(lo, hi), &x| (lo.min(x), hi.max(x)));
+        assert!(lo > 0.94 && hi < 1.06 && hi - lo > 0.02, "{lo}..{hi}");
+    }
+
+    #[test]
+    fn spot_is_embedded_normalized_and_textured() {
+        let m = builtin_mesh("spot", None).unwrap().unwrap();
+        assert_eq!(m.triangle_count(), 5856);
+        assert!(m.has_uvs());
+        let (lo, hi) = m.bounds();
+        assert!((hi - lo).max_element() > 1.999 && lo.min_element() >= -1.0001 && hi.max_element() <= 1.0001);
+        let t = spot_texture().unwrap();
+        assert!(t.width > 0 && t.height > 0);
+        assert!(SPOT_README.contains("public domain"));
+    }
+
+    #[test]
+    fn bad_names_and_details() {
+        assert!(builtin_mesh("teapot", None).is_none());
+        assert!(builtin_scene("nope").is_none());
+        assert!(builtin_mesh("plane", Some(0)).unwrap().is_err());
+        let e = builtin_mesh("displaced-sphere", Some(40)).unwrap().unwrap_err().to_string();
+        assert!(e.contains("displaced-sphere detail"), "{e}");
+    }
+}

@@ -1,3 +1,767 @@
-// TEMP placeholder until the scene-file module lands.
+//! Scene files: TOML (+ OBJ meshes + PNG textures) → a resolved [`Scene`].
+//!
+//! Paths inside a scene file are relative to the file's folder. Unknown keys are errors naming the
+//! key, and every value is validated (finite, in range) with an error naming the file and the field.
+//!
+//! ```toml
+//! name = "optional"             # default: the file stem (or the built-in's name)
+//!
+//! [image]                       # all optional
+//! width = 640                   # 1..=8192 (MAX_IMAGE_DIMENSION)
+//! height = 360                  # 1..=8192
+//! spp = 16                      # 1..=65536 (MAX_SPP)
+//! seed = 1                      # ≥ 0
+//!
+//! [camera]                      # required
+//! position = [0, 1, 6]          # required
+//! look_at = [0, 0.5, 0]         # required, ≠ position
+//! up = [0, 1, 0]                # default +Y; not parallel to the view direction
+//! vfov_deg = 40                 # in (0, 180)
+//! aperture_radius = 0.0         # lens radius A in world units, ≥ 0 (0 = pinhole)
+//! focus_distance = 6.0          # F > 0; default |look_at − position|
+//! near = 0.05                   # 0 < near < far
+//! far = 1000
+//! aperture = { shape = "disk" } # or { shape = "blades", blades = 6, rotation_deg = 0 } (blades ≥ 3)
+//! shutter = "box"               # or "tent"
+//!
+//! [camera.close]                # optional: pose at shutter close; each key defaults to the open value
+//! position = [0.05, 1, 6]
+//! look_at = [0.05, 0.5, 0]
+//! up = [0, 1, 0]
+//!
+//! [[object]]                    # any number
+//! name = "spot"                 # default "object<i>" (i counts from 0)
+//! mesh = "spot"                 # built-in: plane, box, sphere, displaced-sphere, spot — or an .obj path
+//! detail = 3                    # optional tessellation level of procedural meshes
+//! normalize = false             # OBJ only: fit into [-1, 1]³ centred at the origin
+//! [object.transform]            # optional; matrix T · Rz · Ry · Rx · S
+//! translate = [0, 0, 0]
+//! rotate_deg = [0, 0, 0]        # degrees about X, then Y, then Z
+//! scale = 1.0                   # a number or [x, y, z]; no component 0
+//! [object.transform_close]      # optional: same keys, the transform at shutter close
+//! [object.material]             # optional
+//! albedo = [0.8, 0.8, 0.8]      # linear RGB ≥ 0; default 0.8, or 1 when there is a texture
+//! texture = "spot.png"          # PNG path, or "spot" for the embedded Spot texture
+//! specular = 0.0                # ≥ 0
+//! roughness = 0.5               # in (0, 1]
+//! alpha = 1.0                   # in [0, 1]
+//!
+//! [[light]]                     # any number
+//! type = "directional"          # direction = [x, y, z] (from the light into the scene), color = [r, g, b]
+//! # type = "point"              # position = [x, y, z], color = [r, g, b] (falls off with 1/d²)
+//!
+//! [environment]                 # optional
+//! ambient = [0.05, 0.05, 0.05]
+//! background = [0, 0, 0]
+//! ```
+//!
+//! Meshes and textures referenced by several objects are loaded once and shared.
+
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use glam::{Mat4, Vec3};
+use serde::Deserialize;
+
+use super::builtin::{builtin_mesh, builtin_scene, spot_texture, BUILTIN_MESHES, BUILTIN_SCENES};
+use super::mesh::{load_obj, Mesh};
+use super::texture::{load_texture, Texture};
+use super::{Camera, CameraPose, Environment, ImageSettings, Light, Material, Object, Scene};
+use crate::error::{Error, Result};
+use crate::sampling::{ApertureShape, ShutterCurve};
+
+/// Largest accepted image width or height, in pixels.
 pub const MAX_IMAGE_DIMENSION: u32 = 8192;
+/// Largest accepted samples per pixel.
 pub const MAX_SPP: u32 = 65536;
+
+type V3 = [f32; 3];
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FileScene {
+    name: Option<String>,
+    #[serde(default)]
+    image: FileImage,
+    camera: FileCamera,
+    #[serde(default)]
+    object: Vec<FileObject>,
+    #[serde(default)]
+    light: Vec<FileLight>,
+    environment: Option<FileEnvironment>,
+}
+
+#[derive(Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+struct FileImage {
+    width: Option<i64>,
+    height: Option<i64>,
+    spp: Option<i64>,
+    seed: Option<i64>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FileCamera {
+    position: V3,
+    look_at: V3,
+    up: Option<V3>,
+    vfov_deg: Option<f32>,
+    aperture_radius: Option<f32>,
+    focus_distance: Option<f32>,
+    near: Option<f32>,
+    far: Option<f32>,
+    aperture: Option<ApertureShape>,
+    shutter: Option<ShutterCurve>,
+    close: Option<FilePose>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FilePose {
+    position: Option<V3>,
+    look_at: Option<V3>,
+    up: Option<V3>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FileObject {
+    name: Option<String>,
+    mesh: String,
+    detail: Option<u32>,
+    #[serde(default)]
+    normalize: bool,
+    transform: Option<FileTransform>,
+    transform_close: Option<FileTransform>,
+    material: Option<FileMaterial>,
+}
+
+#[derive(Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+struct FileTransform {
+    translate: Option<V3>,
+    rotate_deg: Option<V3>,
+    scale: Option<FileScale>,
+}
+
+#[derive(Deserialize)]
+#[serde(untagged)]
+enum FileScale {
+    Uniform(f32),
+    PerAxis(V3),
+}
+
+#[derive(Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+struct FileMaterial {
+    albedo: Option<V3>,
+    texture: Option<String>,
+    specular: Option<f32>,
+    roughness: Option<f32>,
+    alpha: Option<f32>,
+}
+
+#[derive(Deserialize)]
+#[serde(tag = "type", rename_all = "lowercase", deny_unknown_fields)]
+enum FileLight {
+    Directional { direction: V3, color: V3 },
+    Point { position: V3, color: V3 },
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FileEnvironment {
+    ambient: Option<V3>,
+    background: Option<V3>,
+}
+
+/// Loads a scene file. Paths inside it are relative to its folder; the scene is named after the file
+/// stem unless the file sets `name`.
+pub fn load_scene_file(path: &Path) -> Result<Scene> {
+    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+    let base_dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
+    let stem = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "scene".into());
+    parse_with_source(&text, &base_dir, &stem, &path.display().to_string())
+}
+
+/// Parses scene TOML; relative paths are resolved against `base_dir`, `name` is the scene's name unless
+/// the text sets one.
+pub fn parse_scene(text: &str, base_dir: &Path, name: &str) -> Result<Scene> {
+    parse_with_source(text, base_dir, name, &format!("scene `{name}`"))
+}
+
+/// A built-in scene name (see [`BUILTIN_SCENES`]) or the path of a scene file.
+pub fn load_scene(spec: &str) -> Result<Scene> {
+    if let Some(scene) = builtin_scene(spec) {
+        return scene;
+    }
+    let path = Path::new(spec);
+    if path.is_file() {
+        return load_scene_file(path);
+    }
+    Err(Error::scene(
+        spec,
+        format!(
+            "not a built-in scene ({}) and no such scene file",
+            BUILTIN_SCENES.iter().map(|s| format!("`{s}`")).collect::<Vec<_>>().join(", ")
+        ),
+    ))
+}
+
+/// Validation helpers that name the source and the field.
+struct Ctx<'a> {
+    source: &'a str,
+}
+
+impl Ctx<'_> {
+    fn err(&self, field: &str, message: impl std::fmt::Display) -> Error {
+        Error::scene(self.source, format!("{field}: {message}"))
+    }
+    fn finite(&self, field: &str, x: f32) -> Result<f32> {
+        if x.is_finite() {
+            Ok(x)
+        } else {
+            Err(self.err(field, format!("{x} is not a finite number")))
+        }
+    }
+    fn vec3(&self, field: &str, v: V3) -> Result<Vec3> {
+        for (i, x) in v.iter().enumerate() {
+            if !x.is_finite() {
+                return Err(self.err(field, format!("component {i} is {x}, not a finite number")));
+            }
+        }
+        Ok(Vec3::from_array(v))
+    }
+    fn non_negative3(&self, field: &str, v: V3) -> Result<Vec3> {
+        let v = self.vec3(field, v)?;
+        if v.min_element() < 0.0 {
+            return Err(self.err(field, format!("{v} has a negative component")));
+        }
+        Ok(v)
+    }
+    fn range(&self, field: &str, x: f32, ok: bool, expected: &str) -> Result<f32> {
+        let x = self.finite(field, x)?;
+        if ok {
+            Ok(x)
+        } else {
+            Err(self.err(field, format!("{x} is out of range: must be {expected}")))
+        }
+    }
+    fn limit(
+        &self,
+        what: &'static str,
+        value: Option<i64>,
+        default: u32,
+        max: u32,
+        name: &str,
+    ) -> Result<u32> {
+        let v = value.unwrap_or(default as i64);
+        if (1..=max as i64).contains(&v) {
+            Ok(v as u32)
+        } else {
+            Err(Error::Limit {
+                what,
+                value: v.to_string(),
+                limit: format!("must be in 1..={max} ({name}) in {}", self.source),
+            })
+        }
+    }
+}
+
+fn parse_with_source(text: &str, base_dir: &Path, default_name: &str, source: &str) -> Result<Scene> {
+    let file: FileScene =
+        toml::from_str(text).map_err(|e| Error::scene(source, format!("invalid scene TOML: {e}")))?;
+    let cx = Ctx { source };
+
+    let image = ImageSettings {
+        width: cx.limit("image.width", file.image.width, 640, MAX_IMAGE_DIMENSION, "MAX_IMAGE_DIMENSION")?,
+        height: cx.limit(
+            "image.height",
+            file.image.height,
+            360,
+            MAX_IMAGE_DIMENSION,
+            "MAX_IMAGE_DIMENSION",
+        )?,
+        spp: cx.limit("image.spp", file.image.spp, 16, MAX_SPP, "MAX_SPP")?,
+        seed: match file.image.seed {
+            None => 1,
+            Some(s) if s >= 0 => s as u64,
+            Some(s) => return Err(cx.err("image.seed", format!("{s} is negative"))),
+        },
+    };
+
+    let camera = resolve_camera(&cx, &file.camera)?;
+
+    let mut meshes: HashMap<(String, Option<u32>, bool), Arc<Mesh>> = HashMap::new();
+    let mut textures: HashMap<String, Arc<Texture>> = HashMap::new();
+    let mut objects = Vec::with_capacity(file.object.len());
+    for (i, o) in file.object.iter().enumerate() {
+        let name = o.name.clone().unwrap_or_else(|| format!("object{i}"));
+        let field = format!("object[{i}] (`{name}`)");
+        let key = (o.mesh.clone(), o.detail, o.normalize);
+        let mesh = match meshes.get(&key) {
+            Some(m) => m.clone(),
+            None => {
+                let m = Arc::new(resolve_mesh(&cx, &field, base_dir, o)?);
+                meshes.insert(key, m.clone());
+                m
+            }
+        };
+        let transform_open = match &o.transform {
+            Some(t) => resolve_transform(&cx, &format!("{field}.transform"), t)?,
+            None => Mat4::IDENTITY,
+        };
+        let transform_close = match &o.transform_close {
+            Some(t) => Some(resolve_transform(&cx, &format!("{field}.transform_close"), t)?),
+            None => None,
+        };
+        let material = resolve_material(
+            &cx,
+            &format!("{field}.material"),
+            base_dir,
+            o.material.as_ref().unwrap_or(&FileMaterial::default()),
+            &mut textures,
+        )?;
+        objects.push(Object { name, mesh, transform_open, transform_close, material });
+    }
+
+    let mut lights = Vec::with_capacity(file.light.len());
+    for (i, l) in file.light.iter().enumerate() {
+        lights.push(match *l {
+            FileLight::Directional { direction, color } => {
+                let field = format!("light[{i}].direction");
+                let d = cx.vec3(&field, direction)?;
+                let direction = d.try_normalize().ok_or_else(|| cx.err(&field, "must not be zero"))?;
+                Light::Directional {
+                    direction,
+                    color: cx.non_negative3(&format!("light[{i}].color"), color)?,
+                }
+            }
+            FileLight::Point { position, color } => Light::Point {
+                position: cx.vec3(&format!("light[{i}].position"), position)?,
+                color: cx.non_negative3(&format!("light[{i}].color"), color)?,
+            },
+        });
+    }
+
+    let mut environment = Environment::default();
+    if let Some(env) = &file.environment {
+        if let Some(a) = env.ambient {
+            environment.ambient = cx.non_negative3("environment.ambient", a)?;
+        }
+        if let Some(b) = env.background {
+            environment.background = cx.non_negative3("environment.background", b)?;
+        }
+    }
+
+    Ok(Scene {
+        name: file.name.clone().unwrap_or_else(|| default_name.to_string()),
+        image,
+        camera,
+        objects,
+        lights,
+        environment,
+    })
+}
+
+fn resolve_pose(cx: &Ctx, field: &str, position: V3, look_at: V3, up: V3) -> Result<CameraPose> {
+    let position = cx.vec3(&format!("{field}.position"), position)?;
+    let look_at = cx.vec3(&format!("{field}.look_at"), look_at)?;
+    let up = cx.vec3(&format!("{field}.up"), up)?;
+    let view = (look_at - position)
+        .try_normalize()
+        .ok_or_else(|| cx.err(&format!("{field}.look_at"), "must differ from position"))?;
+    let up_n = up.try_normalize().ok_or_else(|| cx.err(&format!("{field}.up"), "must not be zero"))?;
+    if view.cross(up_n).length() < 1e-4 {
+        return Err(cx.err(&format!("{field}.up"), "is parallel to the view direction"));
+    }
+    Ok(CameraPose { position, look_at, up })
+}
+
+fn resolve_camera(cx: &Ctx, c: &FileCamera) -> Result<Camera> {
+    let up = c.up.unwrap_or([0.0, 1.0, 0.0]);
+    let open = resolve_pose(cx, "camera", c.position, c.look_at, up)?;
+    let close = match &c.close {
+        Some(p) => Some(resolve_pose(
+            cx,
+            "camera.close",
+            p.position.unwrap_or(c.position),
+            p.look_at.unwrap_or(c.look_at),
+            p.up.unwrap_or(up),
+        )?),
+        None => None,
+    };
+    let vfov_deg = c.vfov_deg.unwrap_or(40.0);
+    cx.range("camera.vfov_deg", vfov_deg, vfov_deg > 0.0 && vfov_deg < 180.0, "in (0, 180)")?;
+    let aperture_radius = c.aperture_radius.unwrap_or(0.0);
+    cx.range("camera.aperture_radius", aperture_radius, aperture_radius >= 0.0, "≥ 0")?;
+    let focus_distance = c.focus_distance.unwrap_or_else(|| (open.look_at - open.position).length());
+    cx.range("camera.focus_distance", focus_distance, focus_distance > 0.0, "> 0")?;
+    let near = c.near.unwrap_or(0.05);
+    let far = c.far.unwrap_or(1000.0);
+    cx.range("camera.near", near, near > 0.0, "> 0")?;
+    cx.range("camera.far", far, far > near, "> near")?;
+    let aperture = c.aperture.unwrap_or_default();
+    if let ApertureShape::Blades { blades, rotation_deg } = aperture {
+        if blades < 3 {
+            return Err(cx.err("camera.aperture.blades", format!("{blades} is out of range: must be ≥ 3")));
+        }
+        cx.finite("camera.aperture.rotation_deg", rotation_deg)?;
+    }
+    Ok(Camera {
+        open,
+        close,
+        vfov_deg,
+        aperture_radius,
+        focus_distance,
+        aperture,
+        shutter: c.shutter.unwrap_or_default(),
+        near,
+        far,
+    })
+}
+
+fn resolve_mesh(cx: &Ctx, field: &str, base_dir: &Path, o: &FileObject) -> Result<Mesh> {
+    if let Some(mesh) = builtin_mesh(&o.mesh, o.detail) {
+        return mesh.map_err(|e| match e {
+            Error::Limit { .. } => e,
+            other => cx.err(&format!("{field}.mesh"), other),
+        });
+    }
+    let path: PathBuf = base_dir.join(&o.mesh);
+    let is_obj = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("obj"));
+    if !is_obj {
+        return Err(cx.err(
+            &format!("{field}.mesh"),
+            format!(
+                "`{}` is neither a built-in mesh ({}) nor an .obj path",
+                o.mesh,
+                BUILTIN_MESHES.join(", ")
+            ),
+        ));
+    }
+    load_obj(&path, o.normalize)
+}
+
+fn resolve_transform(cx: &Ctx, field: &str, t: &FileTransform) -> Result<Mat4> {
+    let translate = cx.vec3(&format!("{field}.translate"), t.translate.unwrap_or([0.0; 3]))?;
+    let rot = cx.vec3(&format!("{field}.rotate_deg"), t.rotate_deg.unwrap_or([0.0; 3]))?;
+    let scale = match t.scale {
+        None => Vec3::ONE,
+        Some(FileScale::Uniform(s)) => Vec3::splat(cx.finite(&format!("{field}.scale"), s)?),
+        Some(FileScale::PerAxis(s)) => cx.vec3(&format!("{field}.scale"), s)?,
+    };
+    if scale.abs().min_element() == 0.0 {
+        return Err(cx.err(&format!("{field}.scale"), format!("{scale} has a zero component")));
+    }
+    let r = Mat4::from_rotation_z(rot.z.to_radians())
+        * Mat4::from_rotation_y(rot.y.to_radians())
+        * Mat4::from_rotation_x(rot.x.to_radians());
+    Ok(Mat4::from_translation(translate) * r * Mat4::from_scale(scale))
+}
+
+fn resolve_material(
+    cx: &Ctx,
+    field: &str,
+    base_dir: &Path,
+    m: &FileMaterial,
+    textures: &mut HashMap<String, Arc<Texture>>,
+) -> Result<Material> {
+    let texture = match &m.texture {
+        None => None,
+        Some(t) => Some(match textures.get(t) {
+            Some(tex) => tex.clone(),
+            None => {
+                let tex =
+                    if t == "spot" { spot_texture()? } else { Arc::new(load_texture(&base_dir.join(t))?) };
+                textures.insert(t.clone(), tex.clone());
+                tex
+            }
+        }),
+    };
+    let default_albedo = if texture.is_some() { [1.0; 3] } else { [0.8; 3] };
+    let albedo = cx.non_negative3(&format!("{field}.albedo"), m.albedo.unwrap_or(default_albedo))?;
+    let specular = m.specular.unwrap_or(0.0);
+    cx.range(&format!("{field}.specular"), specular, specular >= 0.0, "≥ 0")?;
+    let roughness = m.roughness.unwrap_or(0.5);
+    cx.range(&format!("{field}.roughness"), roughness, roughness > 0.0 && roughness <= 1.0, "in (0, 1]")?;
+    let alpha = m.alpha.unwrap_or(1.0);
+    cx.range(&format!("{field}.alpha"), alpha, (0.0..=1.0).contains(&alpha), "in [0, 1]")?;
+    Ok(Material { albedo, texture, specular, roughness, alpha })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::Vec2;
+
+    fn temp_path(tag: &str, ext: &str) -> PathBuf {
+        std::env::temp_dir().join(format!(
+            "shutter-scene-{}-{}-{tag}.{ext}",
+            std::process::id(),
+            std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.as_nanos())
+        ))
+    }
+
+    const CAMERA: &str = "[camera]\nposition = [0, 1, 5]\nlook_at = [0, 0, 0]\n";
+
+    fn parse(text: &str) -> Result<Scene> {
+        parse_scene(text, &std::env::temp_dir(), "test")
+    }
+
+    fn err(text: &str) -> String {
+        parse(text).map(|_| ()).unwrap_err().to_string()
+    }
+
+    /// Object centre (object-space origin) at shutter open: (view depth, pixel position), and the
+    /// pixel position at close, for lens centre.
+    fn centre(scene: &Scene, name: &str) -> (f32, Vec2, Vec2) {
+        let o = scene.objects.iter().find(|o| o.name == name).unwrap();
+        let k = scene.camera.intrinsics(scene.image.width, scene.image.height);
+        let p0 =
+            scene.camera.open.view_matrix().transform_point3(o.transform_open.transform_point3(Vec3::ZERO));
+        let p1 = scene
+            .camera
+            .pose_at_close()
+            .view_matrix()
+            .transform_point3(o.transform_at_close().transform_point3(Vec3::ZERO));
+        (-p0.z, k.project(p0, Vec2::ZERO), k.project(p1, Vec2::ZERO))
+    }
+
+    fn in_frame(scene: &Scene, px: Vec2) -> bool {
+        px.x >= 0.0 && px.y >= 0.0 && px.x < scene.image.width as f32 && px.y < scene.image.height as f32
+    }
+
+    #[test]
+    fn default_scene_has_depth_of_field_and_motion_blur() {
+        let s = load_scene("default").unwrap();
+        assert_eq!((s.image.width, s.image.height), (640, 360));
+        assert!(s.camera.aperture_radius > 0.0);
+        let k = s.camera.intrinsics(640, 360);
+        let coc = |name: &str| k.circle_of_confusion_px(centre(&s, name).0).abs();
+        for near in ["near-box", "near-sphere"] {
+            assert!(coc(near) >= 8.0, "{near}: {}", coc(near));
+        }
+        for far in ["far-box", "far-sphere"] {
+            assert!(coc(far) >= 6.0, "{far}: {}", coc(far));
+        }
+        assert!(coc("spot") < 0.5, "spot is in focus: {}", coc("spot"));
+        let spot = s.objects.iter().find(|o| o.name == "spot").unwrap();
+        assert!(spot.material.texture.is_some() && spot.mesh.has_uvs());
+        assert!(s.objects.iter().any(|o| o.material.specular > 0.0));
+        // A fast mover, a slightly panning camera.
+        let (_, a, b) = centre(&s, "mover");
+        assert!((b - a).length() >= 30.0, "mover moves {} px", (b - a).length());
+        let (_, a, b) = centre(&s, "spot");
+        let pan = (b - a).length();
+        assert!(s.camera.close.is_some() && (1.0..10.0).contains(&pan), "camera pan {pan} px");
+        for o in &s.objects {
+            if o.name != "ground" {
+                let (z, a, b) = centre(&s, &o.name);
+                assert!(z > 0.0 && in_frame(&s, a) && in_frame(&s, b), "{} is off screen", o.name);
+            }
+        }
+        assert!(s.lights.iter().any(|l| matches!(l, Light::Directional { .. })));
+        assert!(s.lights.iter().any(|l| matches!(l, Light::Point { .. })));
+        assert_eq!(s.skipped_triangles(), 0);
+    }
+
+    #[test]
+    fn static_scene_has_no_blur() {
+        let s = load_scene("static").unwrap();
+        assert_eq!((s.image.width, s.image.height), (640, 360));
+        assert_eq!(s.camera.aperture_radius, 0.0);
+        assert!(s.camera.close.is_none());
+        assert!(s.objects.iter().all(|o| o.transform_close.is_none()));
+        assert!(s.objects.iter().any(|o| o.material.texture.is_some()));
+        assert!(s.objects.iter().any(|o| o.material.specular > 0.0));
+    }
+
+    #[test]
+    fn focus_sweep_has_a_blurred_high_poly_sphere_before_a_sharp_background() {
+        let s = load_scene("focus-sweep").unwrap();
+        assert_eq!((s.image.width, s.image.height), (640, 360));
+        let k = s.camera.intrinsics(640, 360);
+        let sphere = s.objects.iter().find(|o| o.name == "displaced-sphere").unwrap();
+        assert!(sphere.mesh.triangle_count() >= 100_000);
+        let (z, px, _) = centre(&s, "displaced-sphere");
+        assert!(k.circle_of_confusion_px(z).abs() >= 8.0 && in_frame(&s, px));
+        let (z, _, _) = centre(&s, "back-wall");
+        assert!(z > 10.0 && k.circle_of_confusion_px(z - 0.3).abs() < 0.5);
+    }
+
+    #[test]
+    fn defaults_and_names() {
+        let s = parse(CAMERA).unwrap();
+        assert_eq!(s.name, "test");
+        assert_eq!(s.image, ImageSettings { width: 640, height: 360, spp: 16, seed: 1 });
+        assert!((s.camera.focus_distance - 26f32.sqrt()).abs() < 1e-5);
+        assert_eq!(s.camera.open.up, Vec3::Y);
+        let s = parse(&format!("name = \"x\"\n{CAMERA}[[object]]\nmesh = \"box\"\n")).unwrap();
+        assert_eq!((s.name.as_str(), s.objects[0].name.as_str()), ("x", "object0"));
+        let e = load_scene("no-such-scene").unwrap_err().to_string();
+        assert!(e.contains("default") && e.contains("focus-sweep"), "{e}");
+    }
+
+    #[test]
+    fn transforms_compose_t_rz_ry_rx_s() {
+        let text = format!(
+            "{CAMERA}[[object]]\nmesh = \"box\"\n[object.transform]\ntranslate = [1, 2, 3]\n\
+             rotate_deg = [90, 90, 0]\nscale = [2, 1, 1]\n[object.transform_close]\nscale = 3\n"
+        );
+        let s = parse(&text).unwrap();
+        let m = s.objects[0].transform_open;
+        // X: scale 2 → (2,0,0); Rx(90) keeps it; Ry(90) takes +X to −Z; then translate.
+        assert!((m.transform_point3(Vec3::X) - Vec3::new(1.0, 2.0, 1.0)).length() < 1e-5);
+        // Y: Rx(90) takes +Y to +Z, Ry(90) takes +Z to +X.
+        assert!((m.transform_point3(Vec3::Y) - Vec3::new(2.0, 2.0, 3.0)).length() < 1e-5);
+        let c = s.objects[0].transform_close.unwrap();
+        assert!((c.transform_point3(Vec3::ONE) - Vec3::splat(3.0)).length() < 1e-6);
+        // Meshes are shared between objects.
+        let text = format!("{CAMERA}[[object]]\nmesh = \"sphere\"\n[[object]]\nmesh = \"sphere\"\n");
+        let s = parse(&text).unwrap();
+        assert!(Arc::ptr_eq(&s.objects[0].mesh, &s.objects[1].mesh));
+    }
+
+    #[test]
+    fn malformed_and_unknown_keys() {
+        assert!(err("[camera\nposition = ").contains("invalid scene TOML"));
+        let e = err(&format!("{CAMERA}colour = 1\n"));
+        assert!(e.contains("colour"), "{e}");
+        let e = err(&format!("{CAMERA}[[object]]\nmesh = \"box\"\n[object.material]\nshiny = 1\n"));
+        assert!(e.contains("shiny"), "{e}");
+        let e = err(&format!("{CAMERA}[[light]]\ntype = \"spot\"\nposition = [0,0,0]\ncolor = [1,1,1]\n"));
+        assert!(e.contains("spot"), "{e}");
+        let e = err(&format!(
+            "{CAMERA}[[light]]\ntype = \"point\"\nposition = [0,0,0]\ncolor = [1,1,1]\nradius = 1\n"
+        ));
+        assert!(e.contains("radius"), "{e}");
+        let e = err("[image]\nwidth = 10\n");
+        assert!(e.contains("camera"), "{e}");
+        let e = err(&format!("{CAMERA}[[object]]\nmesh = \"teapot\"\n"));
+        assert!(e.contains("teapot") && e.contains("displaced-sphere"), "{e}");
+    }
+
+    #[test]
+    fn limits_are_enforced() {
+        let e = err(&format!("[image]\nwidth = 100000\n{CAMERA}"));
+        assert!(e.contains("image.width") && e.contains("8192") && e.contains("MAX_IMAGE_DIMENSION"), "{e}");
+        let e = err(&format!("[image]\nspp = 0\n{CAMERA}"));
+        assert!(e.contains("image.spp") && e.contains("65536"), "{e}");
+        assert!(err(&format!("[image]\nheight = -3\n{CAMERA}")).contains("image.height"));
+        assert!(err(&format!("[image]\nseed = -3\n{CAMERA}")).contains("image.seed"));
+        let cam = |extra: &str| err(&format!("{CAMERA}{extra}\n"));
+        assert!(cam("vfov_deg = 180").contains("camera.vfov_deg"));
+        assert!(cam("vfov_deg = 0").contains("camera.vfov_deg"));
+        assert!(cam("aperture_radius = -0.1").contains("camera.aperture_radius"));
+        assert!(cam("focus_distance = 0").contains("camera.focus_distance"));
+        assert!(cam("near = 0").contains("camera.near"));
+        assert!(cam("near = 2\nfar = 1").contains("camera.far"));
+        assert!(cam("aperture = { shape = \"blades\", blades = 2 }").contains("blades"));
+        assert!(cam("up = [0, 2, 10]").contains("parallel"));
+        assert!(cam("[camera.close]\nlook_at = [0, 1, 5]").contains("camera.close.look_at"));
+        assert!(err("[camera]\nposition = [1, 1, 1]\nlook_at = [1, 1, 1]\n").contains("camera.look_at"));
+        let s = parse(&format!("{CAMERA}aperture = {{ shape = \"blades\", blades = 6, rotation_deg = 15 }}"))
+            .unwrap();
+        assert_eq!(s.camera.aperture, ApertureShape::Blades { blades: 6, rotation_deg: 15.0 });
+        let mat = |m: &str| err(&format!("{CAMERA}[[object]]\nmesh = \"box\"\n[object.material]\n{m}\n"));
+        assert!(mat("roughness = 0").contains("roughness"));
+        assert!(mat("roughness = 1.5").contains("roughness"));
+        assert!(mat("alpha = 1.5").contains("alpha"));
+        assert!(mat("specular = -1").contains("specular"));
+        assert!(mat("albedo = [1, -1, 0]").contains("albedo"));
+        let xf = |t: &str| err(&format!("{CAMERA}[[object]]\nmesh = \"box\"\n[object.transform]\n{t}\n"));
+        assert!(xf("scale = 0").contains("scale"));
+        assert!(xf("scale = [1, 0, 1]").contains("scale"));
+        assert!(xf("scale = inf").contains("scale"));
+    }
+
+    #[test]
+    fn non_finite_values_are_rejected() {
+        let e = err(&format!(
+            "{CAMERA}[[object]]\nmesh = \"box\"\n[object.transform]\ntranslate = [nan, 0, 0]\n"
+        ));
+        assert!(e.contains("translate") && e.contains("NaN") && e.contains("scene `test`"), "{e}");
+        assert!(err("[camera]\nposition = [0, inf, 5]\nlook_at = [0, 0, 0]\n").contains("camera.position"));
+        assert!(err(&format!("{CAMERA}focus_distance = nan\n")).contains("camera.focus_distance"));
+        assert!(err(&format!(
+            "{CAMERA}[[light]]\ntype = \"directional\"\ndirection = [0, -inf, 0]\ncolor = [1, 1, 1]\n"
+        ))
+        .contains("light[0].direction"));
+        assert!(
+            err(&format!("{CAMERA}[environment]\nambient = [nan, 0, 0]\n")).contains("environment.ambient")
+        );
+    }
+
+    #[test]
+    fn files_meshes_and_textures_from_disk() {
+        let dir = std::env::temp_dir();
+        // A good scene with an OBJ (one good, one zero-area, one duplicate-vertex triangle) and a PNG.
+        let obj = temp_path("mesh", "obj");
+        std::fs::write(&obj, "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 2 0 0\nvt 0 0\nf 1 2 3\nf 1 2 4\nf 2 2 3\n")
+            .unwrap();
+        let png = temp_path("tex", "png");
+        image::RgbaImage::from_raw(1, 1, vec![255, 128, 0, 255])
+            .unwrap()
+            .save_with_format(&png, image::ImageFormat::Png)
+            .unwrap();
+        let name = |p: &Path| p.file_name().unwrap().to_string_lossy().into_owned();
+        let scene_path = temp_path("good", "toml");
+        let text = format!(
+            "{CAMERA}[[object]]\nmesh = \"{}\"\nnormalize = true\n[object.material]\ntexture = \"{}\"\n",
+            name(&obj),
+            name(&png)
+        );
+        std::fs::write(&scene_path, &text).unwrap();
+        let s = load_scene(&scene_path.display().to_string()).unwrap();
+        assert_eq!(s.name, scene_path.file_stem().unwrap().to_string_lossy());
+        assert_eq!(s.objects[0].mesh.triangle_count(), 1);
+        assert_eq!(s.objects[0].mesh.stats.skipped_degenerate, 2);
+        assert_eq!(s.skipped_triangles(), 2);
+        assert_eq!(s.objects[0].material.albedo, Vec3::ONE);
+        assert_eq!(s.objects[0].material.texture.as_ref().unwrap().width, 1);
+
+        // Missing OBJ / texture: errors name the path.
+        let write_scene = |mesh: &str, texture: &str| {
+            let p = temp_path("bad", "toml");
+            let t = format!(
+                "{CAMERA}[[object]]\nmesh = \"{mesh}\"\n[object.material]\ntexture = \"{texture}\"\n"
+            );
+            std::fs::write(&p, t).unwrap();
+            let e = load_scene_file(&p).unwrap_err().to_string();
+            let _ = std::fs::remove_file(&p);
+            e
+        };
+        let e = write_scene("missing-mesh-xyz.obj", &name(&png));
+        assert!(e.contains("missing-mesh-xyz.obj"), "{e}");
+        let e = write_scene(&name(&obj), "missing-texture-xyz.png");
+        assert!(e.contains("missing-texture-xyz.png"), "{e}");
+
+        // Corrupt OBJ (garbage bytes) and corrupt texture.
+        let garbage: Vec<u8> = (0..2048u32).map(|i| (i.wrapping_mul(2654435761) >> 11) as u8).collect();
+        let bad_obj = temp_path("garbage", "obj");
+        std::fs::write(&bad_obj, &garbage).unwrap();
+        let e = write_scene(&name(&bad_obj), &name(&png));
+        assert!(e.contains(&name(&bad_obj)), "{e}");
+        let bad_png = temp_path("garbage", "png");
+        std::fs::write(&bad_png, &garbage).unwrap();
+        let e = write_scene(&name(&obj), &name(&bad_png));
+        assert!(e.contains(&name(&bad_png)), "{e}");
+
+        // inf in a vertex.
+        let inf_obj = temp_path("inf", "obj");
+        std::fs::write(&inf_obj, "v inf 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
+        let e = write_scene(&name(&inf_obj), &name(&png));
+        assert!(e.contains(&name(&inf_obj)) && e.contains("non-finite"), "{e}");
+
+        // Missing scene file.
+        let e = load_scene_file(&dir.join("no-such-scene-xyz.toml")).unwrap_err().to_string();
+        assert!(e.contains("no-such-scene-xyz.toml"), "{e}");
+
+        for p in [obj, png, scene_path, bad_obj, bad_png, inf_obj] {
+            let _ = std::fs::remove_file(p);
+        }
+    }
+}

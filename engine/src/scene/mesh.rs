@@ -1,5 +1,7 @@
 //! Triangle meshes: indexed positions, smooth normals and optional UVs, cleaned on construction.
 
+use std::path::Path;
+
 use glam::{Vec2, Vec3};
 
 use crate::error::{Error, Result};
@@ -101,6 +103,77 @@ impl Mesh {
     }
 }
 
+/// Loads a Wavefront OBJ file as one mesh (all its groups merged). See [`parse_obj`].
+pub fn load_obj(path: &Path, normalize: bool) -> Result<Mesh> {
+    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    parse_obj(&bytes, &path.display().to_string(), normalize)
+}
+
+/// Parses OBJ text (faces triangulated as fans, one index per vertex; materials ignored). All groups
+/// are merged into one mesh; normals are kept only when every group has them (else smooth normals are
+/// computed), uvs only when every group has them. OBJ's v = 0 is the bottom of the image, so uvs are
+/// flipped to Vulkan's convention (`uv.y = 1 − v`). `normalize` recentres the mesh on its bounding-box
+/// centre and scales it uniformly so the largest half-extent is 1 (it fits in `[-1, 1]³`). `context`
+/// names the source in errors; a file without any triangle is an error.
+pub fn parse_obj(bytes: &[u8], context: &str, normalize: bool) -> Result<Mesh> {
+    let options =
+        tobj::LoadOptions { single_index: true, triangulate: true, ignore_points: true, ignore_lines: true };
+    let mut reader = std::io::BufReader::new(bytes);
+    let (models, _materials) = tobj::load_obj_buf(&mut reader, &options, |_| {
+        // Materials are described in the scene file, not in MTL files.
+        Ok((Vec::new(), Default::default()))
+    })
+    .map_err(|e| Error::scene(context, format!("cannot parse OBJ: {e}")))?;
+    if models.iter().all(|m| m.mesh.indices.is_empty()) {
+        return Err(Error::scene(context, "OBJ contains no faces"));
+    }
+    let all_normals = models.iter().all(|m| !m.mesh.normals.is_empty());
+    let all_uvs = models.iter().all(|m| !m.mesh.texcoords.is_empty());
+    let (mut positions, mut normals, mut uvs, mut indices) = (vec![], vec![], vec![], vec![]);
+    for model in &models {
+        let m = &model.mesh;
+        let base = positions.len() as u32;
+        let count = m.positions.len() / 3;
+        positions.extend(m.positions.chunks_exact(3).map(|p| Vec3::new(p[0], p[1], p[2])));
+        if all_normals {
+            if m.normals.len() != m.positions.len() {
+                return Err(Error::scene(
+                    context,
+                    format!("group `{}` has a normal count mismatch", model.name),
+                ));
+            }
+            normals.extend(m.normals.chunks_exact(3).map(|n| Vec3::new(n[0], n[1], n[2])));
+        }
+        if all_uvs {
+            if m.texcoords.len() / 2 != count {
+                return Err(Error::scene(context, format!("group `{}` has a uv count mismatch", model.name)));
+            }
+            uvs.extend(m.texcoords.chunks_exact(2).map(|t| Vec2::new(t[0], 1.0 - t[1])));
+        }
+        indices.extend(m.indices.iter().map(|&i| base + i));
+    }
+    if normalize {
+        if let Some(i) = positions.iter().position(|p| !p.is_finite()) {
+            return Err(Error::scene(
+                context,
+                format!("vertex {i} has a non-finite position {}", positions[i]),
+            ));
+        }
+        let (lo, hi) = positions
+            .iter()
+            .fold((Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)), |(lo, hi), p| (lo.min(*p), hi.max(*p)));
+        let centre = 0.5 * (lo + hi);
+        let half = 0.5 * (hi - lo).max_element();
+        if !(half > 0.0 && half.is_finite()) {
+            return Err(Error::scene(context, "cannot normalize a mesh of zero extent"));
+        }
+        for p in &mut positions {
+            *p = (*p - centre) / half;
+        }
+    }
+    Mesh::new(context, positions, normals, uvs, indices)
+}
+
 /// Area-weighted vertex normals (a vertex with no non-degenerate triangle gets +Y).
 pub fn smooth_normals(positions: &[Vec3], indices: &[u32]) -> Vec<Vec3> {
     let mut n = vec![Vec3::ZERO; positions.len()];
@@ -142,5 +215,68 @@ mod tests {
     fn out_of_range_index_is_an_error() {
         let e = Mesh::new("m", vec![Vec3::ZERO; 3], vec![], vec![], vec![0, 1, 7]).unwrap_err();
         assert!(e.to_string().contains("out of range"));
+    }
+
+    fn temp_file(tag: &str, contents: &[u8]) -> std::path::PathBuf {
+        let path = std::env::temp_dir().join(format!(
+            "shutter-mesh-{}-{}-{tag}.obj",
+            std::process::id(),
+            std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.as_nanos())
+        ));
+        std::fs::write(&path, contents).unwrap();
+        path
+    }
+
+    #[test]
+    fn obj_quad_is_triangulated_with_flipped_uvs() {
+        let text = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\nf 1/1 2/2 3/3 4/4\n";
+        let m = parse_obj(text.as_bytes(), "quad.obj", false).unwrap();
+        assert_eq!(m.triangle_count(), 2);
+        assert!(m.has_uvs());
+        // Vertex at y = 0 had v = 0 (bottom of the image) → uv.y = 1 (Vulkan: bottom row).
+        let i = m.positions.iter().position(|p| *p == Vec3::ZERO).unwrap();
+        assert_eq!(m.uvs[i], Vec2::new(0.0, 1.0));
+        assert!(m.normals.iter().all(|n| (*n - Vec3::Z).length() < 1e-6));
+    }
+
+    #[test]
+    fn obj_normalize_fits_unit_box() {
+        let text = "v 10 10 10\nv 14 10 10\nv 10 12 10\nf 1 2 3\n";
+        let m = parse_obj(text.as_bytes(), "t.obj", true).unwrap();
+        let (lo, hi) = m.bounds();
+        assert!((lo - Vec3::new(-1.0, -0.5, 0.0)).length() < 1e-6, "{lo}");
+        assert!((hi - Vec3::new(1.0, 0.5, 0.0)).length() < 1e-6, "{hi}");
+    }
+
+    #[test]
+    fn obj_degenerate_triangles_are_skipped_and_counted() {
+        // One good triangle, one zero-area (collinear) and one with a repeated vertex.
+        let text = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 2 0 0\nf 1 2 3\nf 1 2 4\nf 1 1 3\n";
+        let path = temp_file("degenerate", text.as_bytes());
+        let m = load_obj(&path, false).unwrap();
+        let _ = std::fs::remove_file(&path);
+        assert_eq!(m.triangle_count(), 1);
+        assert_eq!(m.stats.skipped_degenerate, 2);
+    }
+
+    #[test]
+    fn obj_bad_input_is_an_error_naming_the_file() {
+        let path = temp_file("inf", b"v inf 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
+        let e = load_obj(&path, false).unwrap_err().to_string();
+        assert!(e.contains(&path.display().to_string()) && e.contains("non-finite"), "{e}");
+        assert!(load_obj(&path, true).is_err(), "normalize must not hide the inf");
+        let _ = std::fs::remove_file(&path);
+
+        let garbage: Vec<u8> = (0..4096u32).map(|i| (i.wrapping_mul(2654435761) >> 13) as u8).collect();
+        let path = temp_file("garbage", &garbage);
+        let e = load_obj(&path, false).unwrap_err().to_string();
+        assert!(e.contains(&path.display().to_string()), "{e}");
+        let _ = std::fs::remove_file(&path);
+
+        let missing = std::env::temp_dir().join("shutter-definitely-missing-mesh.obj");
+        let e = load_obj(&missing, false).unwrap_err().to_string();
+        assert!(e.contains("shutter-definitely-missing-mesh.obj"), "{e}");
+        assert!(parse_obj(b"f 1 2 3\n", "oob.obj", false).is_err());
+        assert!(parse_obj(b"# nothing\n", "empty.obj", false).is_err());
     }
 }

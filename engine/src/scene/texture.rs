@@ -1,7 +1,14 @@
 //! Albedo textures: decoded to linear RGB, with a mip chain for the GPU and bilinear lookup for the
 //! CPU reference (which supersamples, so it filters the texture by integrating over the pixel).
 
+use std::path::Path;
+
 use glam::{Vec2, Vec3};
+
+use crate::error::{Error, Result};
+
+/// Largest accepted texture side, in texels.
+pub const MAX_TEXTURE_DIMENSION: u32 = 16384;
 
 /// A linear-RGB texture (decoded from sRGB) with its full mip chain, level 0 first.
 #[derive(Clone, Debug)]
@@ -71,6 +78,29 @@ impl Texture {
     }
 }
 
+/// Loads a PNG texture (any bit depth/colour type; converted to 8-bit sRGB RGBA). Errors name the path.
+pub fn load_texture(path: &Path) -> Result<Texture> {
+    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    texture_from_png_bytes(&path.display().to_string(), path, &bytes)
+}
+
+/// Decodes PNG bytes into a texture called `name`; `path` is what errors name.
+pub fn texture_from_png_bytes(name: &str, path: &Path, bytes: &[u8]) -> Result<Texture> {
+    let image_error = |message: String| Error::Image { path: path.to_path_buf(), message };
+    let mut reader = image::ImageReader::with_format(std::io::Cursor::new(bytes), image::ImageFormat::Png);
+    let mut limits = image::Limits::default();
+    limits.max_image_width = Some(MAX_TEXTURE_DIMENSION);
+    limits.max_image_height = Some(MAX_TEXTURE_DIMENSION);
+    reader.limits(limits);
+    let decoded = reader.decode().map_err(|e| image_error(format!("cannot decode PNG: {e}")))?;
+    let rgba = decoded.to_rgba8();
+    let (width, height) = rgba.dimensions();
+    if width == 0 || height == 0 {
+        return Err(image_error("texture has zero size".into()));
+    }
+    Ok(Texture::from_srgb_rgba8(name, width, height, rgba.into_raw()))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -91,5 +121,37 @@ mod tests {
         assert!((t.sample_bilinear(Vec2::new(1.25, 0.5)).x - 1.0).abs() < 1e-6, "repeat");
         assert!((t.sample_bilinear(Vec2::new(0.5, 0.5)).x - 0.5).abs() < 1e-6);
         assert_eq!(t.mip_levels(), 2);
+    }
+
+    fn temp_path(tag: &str) -> std::path::PathBuf {
+        std::env::temp_dir().join(format!(
+            "shutter-tex-{}-{}-{tag}.png",
+            std::process::id(),
+            std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.as_nanos())
+        ))
+    }
+
+    #[test]
+    fn png_round_trip_and_bad_files() {
+        let path = temp_path("ok");
+        let img = image::RgbaImage::from_raw(2, 1, vec![255, 0, 0, 255, 0, 0, 255, 255]).unwrap();
+        img.save_with_format(&path, image::ImageFormat::Png).unwrap();
+        let t = load_texture(&path).unwrap();
+        assert_eq!((t.width, t.height), (2, 1));
+        assert_eq!(t.linear[0], Vec3::new(1.0, 0.0, 0.0));
+        assert_eq!(t.linear[1], Vec3::new(0.0, 0.0, 1.0));
+
+        // Truncated PNG: header intact, data cut.
+        let bytes = std::fs::read(&path).unwrap();
+        std::fs::write(&path, &bytes[..bytes.len() / 2]).unwrap();
+        let e = load_texture(&path).unwrap_err().to_string();
+        assert!(e.contains(&path.display().to_string()), "{e}");
+        std::fs::write(&path, b"definitely not a png").unwrap();
+        assert!(load_texture(&path).is_err());
+        let _ = std::fs::remove_file(&path);
+
+        let missing = temp_path("missing");
+        let e = load_texture(&missing).unwrap_err().to_string();
+        assert!(e.contains(&missing.display().to_string()), "{e}");
     }
 }
