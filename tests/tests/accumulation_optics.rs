@@ -19,7 +19,7 @@ fn defocus_blur_radius_matches_circle_of_confusion() {
     let k = cam.intrinsics(W, H);
     let z = 8.0;
     let px_world = z / k.pixel_scale; // one pixel at depth z
-    let a = 1.0; // square side in pixels
+    let a = 1.0f32; // square side in pixels
     let scene = single_object_scene(
         cam,
         square(a * px_world),
@@ -36,7 +36,8 @@ fn defocus_blur_radius_matches_circle_of_confusion() {
         .expect("render");
     let _ = shutter::image_io::save_image(shutter_tests::output_dir().join("coc-disc.png"), &out.image);
     let (_, (cx, cy), (vxx, vyy)) = moments(&out.image);
-    let radius = (2.0 * (vxx + vyy) - (a * a + 1.0) / 3.0).sqrt();
+    let a2 = (a * a) as f64;
+    let radius = (2.0 * (vxx + vyy) - (a2 + 1.0) / 3.0).sqrt();
     println!("measured radius {radius:.3} px, |phi| {phi:.3} px, centroid ({cx:.2}, {cy:.2})");
     assert!((radius / phi as f64 - 1.0).abs() < 0.05, "radius {radius} vs |phi| {phi}");
     assert!((cx - W as f64 / 2.0).abs() < 0.5 && (cy - H as f64 / 2.0).abs() < 0.5, "centroid moved");
@@ -48,7 +49,7 @@ fn motion_streak_length_matches_screen_motion() {
     let k = cam.intrinsics(W, H);
     let z = 5.0;
     let px_world = z / k.pixel_scale;
-    let a = 1.0;
+    let a = 1.0f32;
     let motion_px = 40.0f32;
     let open = Mat4::from_translation(Vec3::new(-0.5 * motion_px * px_world, 0.0, -z));
     let close = Mat4::from_translation(Vec3::new(0.5 * motion_px * px_world, 0.0, -z));
@@ -63,8 +64,10 @@ fn motion_streak_length_matches_screen_motion() {
     println!("measured streak {length:.3} px, expected {motion_px} px; vertical variance {vyy:.4}");
     assert!((length / motion_px as f64 - 1.0).abs() < 0.05, "streak {length} vs {motion_px}");
     assert!((cx - W as f64 / 2.0).abs() < 0.5);
-    // Across the streak only the square and the pixel box: (a² + 1)/12.
-    assert!((vyy - (a as f64 * a as f64 + 1.0) / 12.0).abs() < 0.05, "vertical spread {vyy}");
+    // Across the streak only the square and the pixel box remain: the 1-px square centred on the pixel
+    // boundary y = 48, box-filtered, is a tent of half-width 1 px sampled at pixel centres 47.5 and
+    // 48.5 → weights ½, ½ → variance exactly 0.25 px² (no smear from the motion).
+    assert!((vyy - 0.25).abs() < 0.01, "vertical spread {vyy}");
 }
 
 #[test]
