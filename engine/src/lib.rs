@@ -8,6 +8,7 @@
 
 pub mod error;
 pub mod image;
+pub mod reference;
 pub mod sampling;
 pub mod scene;
 pub mod shading;
