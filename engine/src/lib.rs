@@ -10,6 +10,7 @@ pub mod error;
 pub mod image;
 pub mod image_io;
 pub mod metrics;
+pub mod reference;
 pub mod sampling;
 pub mod scene;
 pub mod shading;

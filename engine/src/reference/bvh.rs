@@ -1,0 +1,558 @@
+//! A bounding volume hierarchy over **moving** triangles (camera space, linear vertex motion).
+//!
+//! Every node stores its bounding box at shutter open and at shutter close; at ray time `t` the node
+//! is tested against `lerp(box0, box1, t)`. Because each vertex moves linearly, a vertex at time `t`
+//! lies inside the interpolated box of any box pair that contains it at both ends, so the test is
+//! conservative (boxes are padded by a few ulps to absorb rounding of the interpolation).
+//!
+//! Built top-down with binned SAH on the mid-shutter centroids (cost = open + close surface area),
+//! flattened depth-first (left child follows its parent), traversed iteratively, nearest child first.
+
+use glam::Vec3;
+
+/// A triangle's camera-space vertices at shutter open `[0]` and close `[1]`.
+pub type MovingTriangle = [[Vec3; 3]; 2];
+
+/// Axis-aligned box.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Aabb {
+    pub min: Vec3,
+    pub max: Vec3,
+}
+
+impl Aabb {
+    pub const EMPTY: Aabb = Aabb { min: Vec3::splat(f32::INFINITY), max: Vec3::splat(f32::NEG_INFINITY) };
+
+    fn of(points: &[Vec3; 3]) -> Aabb {
+        Aabb { min: points[0].min(points[1]).min(points[2]), max: points[0].max(points[1]).max(points[2]) }
+    }
+    fn union(self, o: Aabb) -> Aabb {
+        Aabb { min: self.min.min(o.min), max: self.max.max(o.max) }
+    }
+    fn grow(self, p: Vec3) -> Aabb {
+        Aabb { min: self.min.min(p), max: self.max.max(p) }
+    }
+    fn centre(self) -> Vec3 {
+        0.5 * (self.min + self.max)
+    }
+    /// Surface area (0 for an empty box).
+    fn area(self) -> f32 {
+        let e = (self.max - self.min).max(Vec3::ZERO);
+        2.0 * (e.x * e.y + e.y * e.z + e.z * e.x)
+    }
+}
+
+/// One node of the flattened tree: boxes at both shutter ends. `count == 0`: interior node whose left
+/// child is the next node and whose right child is `first`; otherwise a leaf over triangles
+/// `first..first + count` (BVH order).
+#[derive(Clone, Copy, Debug)]
+struct Node {
+    bounds: [Aabb; 2],
+    first: u32,
+    count: u32,
+}
+
+/// Triangle as stored for intersection: vertices at both shutter ends.
+#[derive(Clone, Copy, Debug)]
+struct TriGeom {
+    v0: [Vec3; 3],
+    v1: [Vec3; 3],
+}
+
+impl TriGeom {
+    /// Vertices at time `t`, interpolated exactly as the GPU does (`mix(p0, p1, t)`).
+    #[inline(always)]
+    fn at(&self, t: f32) -> [Vec3; 3] {
+        [self.v0[0].lerp(self.v1[0], t), self.v0[1].lerp(self.v1[1], t), self.v0[2].lerp(self.v1[2], t)]
+    }
+}
+
+/// The nearest accepted intersection along a ray.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Hit {
+    /// Ray parameter (distance along the unit direction).
+    pub t: f32,
+    /// Barycentric weights of vertices 1 and 2 (vertex 0 gets `1 − u − v`).
+    pub u: f32,
+    pub v: f32,
+    /// Index of the triangle in the list given to [`Bvh::build`].
+    pub id: u32,
+}
+
+/// Möller–Trumbore on the triangle `p` (two-sided). Returns `(t, u, v)` when the ray hits it with
+/// `t_min <= t < t_max`. Rays (nearly) parallel to the plane and non-finite intermediate values are
+/// rejected, so needle and huge triangles never produce NaN.
+#[inline(always)]
+pub fn intersect_triangle(
+    p: &[Vec3; 3],
+    o: Vec3,
+    d: Vec3,
+    t_min: f32,
+    t_max: f32,
+) -> Option<(f32, f32, f32)> {
+    let e1 = p[1] - p[0];
+    let e2 = p[2] - p[0];
+    let pvec = d.cross(e2);
+    let det = e1.dot(pvec);
+    // Scale-aware parallel test: |det| ≤ |e1|·|d × e2|, so this rejects grazing angles below ~1e-7.
+    let scale = e1.abs().max_element() * pvec.abs().max_element();
+    if det.abs() <= 1e-7 * scale || !det.is_finite() || scale == 0.0 {
+        return None;
+    }
+    let inv = 1.0 / det;
+    let s = o - p[0];
+    let u = s.dot(pvec) * inv;
+    if !(0.0..=1.0).contains(&u) {
+        return None;
+    }
+    let q = s.cross(e1);
+    let v = d.dot(q) * inv;
+    if !(v >= 0.0 && u + v <= 1.0) {
+        return None;
+    }
+    let t = e2.dot(q) * inv;
+    if t >= t_min && t < t_max {
+        Some((t, u, v))
+    } else {
+        None
+    }
+}
+
+/// BVH over moving triangles.
+#[derive(Clone, Debug)]
+pub struct Bvh {
+    nodes: Vec<Node>,
+    /// Triangles in BVH (leaf) order.
+    tris: Vec<TriGeom>,
+    /// For each triangle in BVH order, its index in the input list.
+    ids: Vec<u32>,
+}
+
+const BINS: usize = 16;
+const MAX_LEAF: usize = 8;
+/// Past this depth the builder splits at the object median, which bounds the depth by
+/// `FORCE_MEDIAN_DEPTH + log2(n)`.
+const FORCE_MEDIAN_DEPTH: usize = 64;
+/// Traversal stack size: depth can reach `FORCE_MEDIAN_DEPTH + 32`.
+const STACK: usize = 128;
+/// Relative cost of visiting a node vs. testing a triangle.
+const TRAVERSAL_COST: f32 = 1.0;
+
+struct Builder<'a> {
+    boxes: &'a [[Aabb; 2]],
+    centres: &'a [Vec3],
+    nodes: Vec<Node>,
+}
+
+fn cost_area(b: &[Aabb; 2]) -> f32 {
+    b[0].area() + b[1].area()
+}
+
+impl Builder<'_> {
+    fn bounds_of(&self, prims: &[u32]) -> ([Aabb; 2], Aabb) {
+        let mut b = [Aabb::EMPTY; 2];
+        let mut c = Aabb::EMPTY;
+        for &i in prims {
+            let pb = &self.boxes[i as usize];
+            b[0] = b[0].union(pb[0]);
+            b[1] = b[1].union(pb[1]);
+            c = c.grow(self.centres[i as usize]);
+        }
+        (b, c)
+    }
+
+    /// Builds the subtree over `prims` (which start at `offset` in the final triangle order), returns
+    /// its node index.
+    fn build(&mut self, prims: &mut [u32], offset: usize, depth: usize) -> u32 {
+        let (bounds, cbox) = self.bounds_of(prims);
+        let index = self.nodes.len() as u32;
+        self.nodes.push(Node { bounds, first: offset as u32, count: prims.len() as u32 });
+        let n = prims.len();
+        if n <= 2 {
+            return index;
+        }
+        let mid = match self.choose_split(prims, &bounds, cbox, depth) {
+            Some(mid) => mid,
+            None => return index,
+        };
+        let (left, right) = prims.split_at_mut(mid);
+        self.build(left, offset, depth + 1);
+        let r = self.build(right, offset + mid, depth + 1);
+        let node = &mut self.nodes[index as usize];
+        node.first = r;
+        node.count = 0;
+        index
+    }
+
+    /// Partitions `prims` and returns the split point, or None to make a leaf.
+    fn choose_split(&self, prims: &mut [u32], bounds: &[Aabb; 2], cbox: Aabb, depth: usize) -> Option<usize> {
+        let n = prims.len();
+        let extent = cbox.max - cbox.min;
+        let axis = if extent.x >= extent.y && extent.x >= extent.z {
+            0
+        } else if extent.y >= extent.z {
+            1
+        } else {
+            2
+        };
+        if depth >= FORCE_MEDIAN_DEPTH
+            || extent.max_element().partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater)
+        {
+            if n <= MAX_LEAF {
+                return None;
+            }
+            return self.median(prims, axis);
+        }
+        // Binned SAH over all three axes.
+        let mut best: Option<(f32, usize, usize)> = None; // (cost, axis, first bin of the right side)
+        for ax in 0..3 {
+            let (lo, ext) = (cbox.min[ax], extent[ax]);
+            if ext.is_nan() || ext <= 0.0 {
+                continue;
+            }
+            let k = BINS as f32 / ext;
+            let bin_of = |i: u32| (((self.centres[i as usize][ax] - lo) * k) as usize).min(BINS - 1);
+            let mut counts = [0usize; BINS];
+            let mut boxes = [[Aabb::EMPTY; 2]; BINS];
+            for &i in prims.iter() {
+                let b = bin_of(i);
+                counts[b] += 1;
+                let pb = &self.boxes[i as usize];
+                boxes[b] = [boxes[b][0].union(pb[0]), boxes[b][1].union(pb[1])];
+            }
+            // Suffix sweep.
+            let mut right_cost = [0.0f32; BINS];
+            let mut acc = [Aabb::EMPTY; 2];
+            let mut cnt = 0;
+            for b in (1..BINS).rev() {
+                acc = [acc[0].union(boxes[b][0]), acc[1].union(boxes[b][1])];
+                cnt += counts[b];
+                right_cost[b] = cnt as f32 * cost_area(&acc);
+            }
+            let mut acc = [Aabb::EMPTY; 2];
+            let mut cnt = 0;
+            for b in 0..BINS - 1 {
+                acc = [acc[0].union(boxes[b][0]), acc[1].union(boxes[b][1])];
+                cnt += counts[b];
+                if cnt == 0 || cnt == n {
+                    continue;
+                }
+                let cost = cnt as f32 * cost_area(&acc) + right_cost[b + 1];
+                if !matches!(best, Some((c, _, _)) if c <= cost) {
+                    best = Some((cost, ax, b + 1));
+                }
+            }
+        }
+        let parent_area = cost_area(bounds).max(f32::MIN_POSITIVE);
+        let Some((cost, ax, best_bin)) = best else {
+            return if n <= MAX_LEAF { None } else { self.median(prims, axis) };
+        };
+        let split_cost = TRAVERSAL_COST + cost / parent_area;
+        if split_cost >= n as f32 && n <= MAX_LEAF {
+            return None;
+        }
+        // Partition by the same bin function used for costing (so the split matches the estimate).
+        let lo = cbox.min[ax];
+        let k = BINS as f32 / extent[ax];
+        let in_left =
+            |i: u32| ((((self.centres[i as usize][ax] - lo) * k) as usize).min(BINS - 1)) < best_bin;
+        let mut l = 0;
+        for j in 0..n {
+            if in_left(prims[j]) {
+                prims.swap(l, j);
+                l += 1;
+            }
+        }
+        if l == 0 || l == n {
+            return self.median(prims, axis);
+        }
+        Some(l)
+    }
+
+    /// Object median along `axis` (index order breaks ties, so the result is deterministic).
+    fn median(&self, prims: &mut [u32], axis: usize) -> Option<usize> {
+        let mid = prims.len() / 2;
+        let c = self.centres;
+        prims.select_nth_unstable_by(mid, |&a, &b| {
+            c[a as usize][axis].total_cmp(&c[b as usize][axis]).then(a.cmp(&b))
+        });
+        Some(mid)
+    }
+}
+
+/// Pads a box outward by a few ulps of the largest coordinate magnitude on each axis (over both ends),
+/// so rounding in `lerp` can never put an interpolated vertex outside its interpolated node box.
+fn pad(bounds: [Aabb; 2]) -> [Aabb; 2] {
+    let mag = bounds[0].min.abs().max(bounds[0].max.abs()).max(bounds[1].min.abs()).max(bounds[1].max.abs());
+    let eps = mag * 4.0e-6 + Vec3::splat(1.0e-30);
+    bounds.map(|b| Aabb { min: b.min - eps, max: b.max + eps })
+}
+
+impl Bvh {
+    /// Builds the tree. Triangles with non-finite vertices are left out (they can never be hit).
+    pub fn build(triangles: &[MovingTriangle]) -> Bvh {
+        let boxes: Vec<[Aabb; 2]> = triangles.iter().map(|t| [Aabb::of(&t[0]), Aabb::of(&t[1])]).collect();
+        let centres: Vec<Vec3> = boxes.iter().map(|b| 0.5 * (b[0].centre() + b[1].centre())).collect();
+        let mut prims: Vec<u32> = (0..triangles.len() as u32)
+            .filter(|&i| triangles[i as usize].iter().flatten().all(|p| p.is_finite()))
+            .collect();
+        let mut builder = Builder { boxes: &boxes, centres: &centres, nodes: Vec::new() };
+        if !prims.is_empty() {
+            builder.nodes.reserve(2 * prims.len());
+            builder.build(&mut prims, 0, 0);
+        }
+        let mut nodes = builder.nodes;
+        for n in &mut nodes {
+            n.bounds = pad(n.bounds);
+        }
+        let tris = prims
+            .iter()
+            .map(|&i| TriGeom { v0: triangles[i as usize][0], v1: triangles[i as usize][1] })
+            .collect();
+        Bvh { nodes, tris, ids: prims }
+    }
+
+    pub fn node_count(&self) -> usize {
+        self.nodes.len()
+    }
+
+    pub fn triangle_count(&self) -> usize {
+        self.tris.len()
+    }
+
+    /// Depth of the tree (a single leaf has depth 1; empty tree 0).
+    pub fn depth(&self) -> usize {
+        fn rec(nodes: &[Node], i: usize) -> usize {
+            let n = &nodes[i];
+            if n.count > 0 {
+                1
+            } else {
+                1 + rec(nodes, i + 1).max(rec(nodes, n.first as usize))
+            }
+        }
+        if self.nodes.is_empty() {
+            0
+        } else {
+            rec(&self.nodes, 0)
+        }
+    }
+
+    /// Entry distance of the ray into `node`'s box at `time`, or +∞ when it misses within
+    /// `[t_min, t_max]`.
+    #[inline(always)]
+    fn enter(node: &Node, time: f32, o: Vec3, inv_d: Vec3, t_min: f32, t_max: f32) -> f32 {
+        let lo = node.bounds[0].min.lerp(node.bounds[1].min, time);
+        let hi = node.bounds[0].max.lerp(node.bounds[1].max, time);
+        let a = (lo - o) * inv_d;
+        let b = (hi - o) * inv_d;
+        // A NaN slab (origin on a flat box's plane, ray parallel to it) is ignored by min/max, i.e. the
+        // axis is treated as unbounded: conservative.
+        let near = a.min(b).max_element().max(t_min);
+        // 1 + 2γ₃ widening of the far distance (robust slab test).
+        let far = a.max(b).min_element().min(t_max) * (1.0 + 4.0 * f32::EPSILON);
+        if near <= far {
+            near
+        } else {
+            f32::INFINITY
+        }
+    }
+
+    /// Nearest intersection with `t_min <= t < t_max` at shutter time `time` among triangles for which
+    /// `accept(id)` says yes (`id` = index in the build list). `accept` is asked only for triangles the
+    /// ray actually hits nearer than the best hit so far (stochastic alpha).
+    #[inline]
+    pub fn intersect(
+        &self,
+        o: Vec3,
+        d: Vec3,
+        time: f32,
+        t_min: f32,
+        t_max: f32,
+        mut accept: impl FnMut(u32) -> bool,
+    ) -> Option<Hit> {
+        if self.nodes.is_empty() || t_min.is_nan() || t_max.is_nan() || t_min > t_max {
+            return None;
+        }
+        let inv_d = d.recip();
+        let mut best = t_max;
+        let mut hit: Option<Hit> = None;
+        let mut stack = [(0u32, 0.0f32); STACK];
+        let root = Self::enter(&self.nodes[0], time, o, inv_d, t_min, best);
+        if root == f32::INFINITY {
+            return None;
+        }
+        stack[0] = (0, root);
+        let mut sp = 1;
+        while sp > 0 {
+            sp -= 1;
+            let (mut ni, entry) = stack[sp];
+            if entry > best {
+                continue;
+            }
+            loop {
+                let node = &self.nodes[ni as usize];
+                if node.count > 0 {
+                    let first = node.first as usize;
+                    for k in first..first + node.count as usize {
+                        let p = self.tris[k].at(time);
+                        if let Some((t, u, v)) = intersect_triangle(&p, o, d, t_min, best) {
+                            let id = self.ids[k];
+                            if accept(id) {
+                                best = t;
+                                hit = Some(Hit { t, u, v, id });
+                            }
+                        }
+                    }
+                    break;
+                }
+                let (l, r) = (ni + 1, node.first);
+                let tl = Self::enter(&self.nodes[l as usize], time, o, inv_d, t_min, best);
+                let tr = Self::enter(&self.nodes[r as usize], time, o, inv_d, t_min, best);
+                let (near, far, tn, tf) = if tl <= tr { (l, r, tl, tr) } else { (r, l, tr, tl) };
+                if tn == f32::INFINITY {
+                    break;
+                }
+                if tf != f32::INFINITY {
+                    stack[sp] = (far, tf);
+                    sp += 1;
+                }
+                ni = near;
+            }
+        }
+        hit
+    }
+
+    /// Reference for tests: the nearest hit found by testing every triangle (same triangle test).
+    pub fn brute_force(
+        triangles: &[MovingTriangle],
+        o: Vec3,
+        d: Vec3,
+        time: f32,
+        t_min: f32,
+        t_max: f32,
+    ) -> Option<Hit> {
+        let mut best = t_max;
+        let mut hit = None;
+        for (i, tri) in triangles.iter().enumerate() {
+            let g = TriGeom { v0: tri[0], v1: tri[1] };
+            if let Some((t, u, v)) = intersect_triangle(&g.at(time), o, d, t_min, best) {
+                best = t;
+                hit = Some(Hit { t, u, v, id: i as u32 });
+            }
+        }
+        hit
+    }
+}
+
+/// Vertices of a moving triangle at time `t` (same interpolation as the BVH and the GPU).
+#[inline(always)]
+pub fn triangle_at(tri: &MovingTriangle, t: f32) -> [Vec3; 3] {
+    TriGeom { v0: tri[0], v1: tri[1] }.at(t)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sampling::Pcg32;
+
+    fn rnd3(r: &mut Pcg32, scale: f32) -> Vec3 {
+        Vec3::new(r.next_f32() - 0.5, r.next_f32() - 0.5, r.next_f32() - 0.5) * scale
+    }
+
+    fn random_scene(r: &mut Pcg32, n: usize) -> Vec<MovingTriangle> {
+        (0..n)
+            .map(|i| {
+                let c = rnd3(r, 20.0);
+                let size = if i % 17 == 0 { 8.0 } else { 1.5 };
+                let v0 = [c + rnd3(r, size), c + rnd3(r, size), c + rnd3(r, size)];
+                let motion = if i % 3 == 0 { Vec3::ZERO } else { rnd3(r, 6.0) };
+                // Some triangles also deform (vertices move independently).
+                let v1 = if i % 5 == 0 {
+                    [v0[0] + motion, v0[1] + rnd3(r, 4.0), v0[2] + motion]
+                } else {
+                    v0.map(|p| p + motion)
+                };
+                [v0, v1]
+            })
+            .collect()
+    }
+
+    #[test]
+    fn bvh_matches_brute_force_on_moving_triangles() {
+        let mut r = Pcg32::new(42, 9);
+        for n in [1usize, 2, 7, 40, 1500] {
+            let tris = random_scene(&mut r, n);
+            let bvh = Bvh::build(&tris);
+            assert_eq!(bvh.triangle_count(), n);
+            assert!(bvh.depth() < STACK);
+            let mut hits = 0;
+            for _ in 0..4000 {
+                let o = rnd3(&mut r, 40.0);
+                let time = r.next_f32();
+                // Half the rays aim near a random triangle at the ray's time, half anywhere.
+                let target = if r.next_u32() & 1 == 0 {
+                    let p = triangle_at(&tris[r.below(n as u32) as usize], time);
+                    (p[0] + p[1] + p[2]) / 3.0 + rnd3(&mut r, 0.3)
+                } else {
+                    rnd3(&mut r, 20.0)
+                };
+                let d = (target - o).normalize();
+                let (t_min, t_max) = if r.next_u32() & 3 == 0 { (5.0, 30.0) } else { (0.0, f32::INFINITY) };
+                let a = bvh.intersect(o, d, time, t_min, t_max, |_| true);
+                let b = Bvh::brute_force(&tris, o, d, time, t_min, t_max);
+                match (a, b) {
+                    (None, None) => {}
+                    (Some(a), Some(b)) => {
+                        hits += 1;
+                        assert_eq!(a.t, b.t, "n={n}: {a:?} vs {b:?}");
+                        if a.id != b.id {
+                            // Only an exact tie may pick a different triangle.
+                            assert_eq!(a.t, b.t);
+                        }
+                    }
+                    _ => panic!("n={n} o={o} d={d} time={time}: bvh {a:?} vs brute force {b:?}"),
+                }
+            }
+            if n >= 40 {
+                assert!(hits > 800, "test rays should hit something (n={n}, hits={hits})");
+            }
+        }
+    }
+
+    #[test]
+    fn accept_filter_skips_rejected_triangles() {
+        // Two parallel quads' worth of triangles; rejecting the near one yields the far one.
+        let near = [[Vec3::new(-1.0, -1.0, -2.0), Vec3::new(1.0, -1.0, -2.0), Vec3::new(0.0, 1.0, -2.0)]; 2];
+        let far = [[Vec3::new(-1.0, -1.0, -4.0), Vec3::new(1.0, -1.0, -4.0), Vec3::new(0.0, 1.0, -4.0)]; 2];
+        let bvh = Bvh::build(&[near, far]);
+        let h = bvh.intersect(Vec3::ZERO, -Vec3::Z, 0.5, 0.0, f32::INFINITY, |_| true).unwrap();
+        assert_eq!((h.id, h.t), (0, 2.0));
+        let h = bvh.intersect(Vec3::ZERO, -Vec3::Z, 0.5, 0.0, f32::INFINITY, |id| id != 0).unwrap();
+        assert_eq!((h.id, h.t), (1, 4.0));
+        // The t range acts like clip planes.
+        let h = bvh.intersect(Vec3::ZERO, -Vec3::Z, 0.5, 3.0, f32::INFINITY, |_| true).unwrap();
+        assert_eq!(h.id, 1);
+        assert!(bvh.intersect(Vec3::ZERO, -Vec3::Z, 0.5, 0.0, 1.5, |_| true).is_none());
+    }
+
+    #[test]
+    fn degenerate_inputs_do_not_produce_nan() {
+        let needle = [[Vec3::new(0.0, 0.0, -3.0), Vec3::new(1e-9, 5.0, -3.0), Vec3::new(0.0, 5.0, -3.0)]; 2];
+        let huge =
+            [[Vec3::new(-1e18, -1e18, -5.0), Vec3::new(1e18, -1e18, -5.0), Vec3::new(0.0, 1e18, -5.0)]; 2];
+        let line = [[Vec3::new(0.0, 0.0, -2.0), Vec3::new(1.0, 1.0, -2.0), Vec3::new(2.0, 2.0, -2.0)]; 2];
+        let tris = [needle, huge, line];
+        let bvh = Bvh::build(&tris);
+        let mut r = Pcg32::new(1, 2);
+        for _ in 0..2000 {
+            let d = (rnd3(&mut r, 2.0) - Vec3::Z).normalize();
+            if let Some(h) = bvh.intersect(Vec3::ZERO, d, r.next_f32(), 0.0, f32::INFINITY, |_| true) {
+                assert!(h.t.is_finite() && h.u.is_finite() && h.v.is_finite(), "{h:?}");
+            }
+        }
+        // Straight down the axis hits the huge triangle at depth 5 (the needle is grazed or missed).
+        let h = bvh.intersect(Vec3::new(0.3, 0.2, 0.0), -Vec3::Z, 0.0, 0.0, f32::INFINITY, |_| true).unwrap();
+        assert_eq!(h.id, 1);
+        assert!((h.t - 5.0).abs() < 1e-4);
+    }
+}

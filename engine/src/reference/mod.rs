@@ -1,0 +1,362 @@
+//! The CPU reference: a distribution ray tracer of the scene model of DESIGN.md — the ground truth every
+//! GPU image is measured against.
+//!
+//! It estimates the pixel integral over pixel area, lens and shutter with exactly the samples the GPU
+//! techniques use (the seeded [`SampleTile`](crate::sampling::SampleTile) sets) and exactly the same
+//! model:
+//!
+//! * **Camera space.** Everything happens in camera space (+Y up, looking down −Z, view depth
+//!   `z = −p.z`). At shutter time `t` a vertex is at `mix(P0, P1, t)` with `[P0, P1]` its camera-space
+//!   positions at open and close ([`ObjectMotion::positions`]); vertex normals are `mix(N0, N1, t)` of
+//!   [`ObjectMotion::normals`]; lights are [`CameraSpaceLight::at`]`(t)`.
+//! * **Rays.** Sample `s` of pixel `(px, py)` is the thin-lens ray [`Intrinsics::primary_ray`] through
+//!   `(px + s.xy.x, py + s.xy.y)` from lens point `aperture.map(s.lens)` at time `shutter.warp(s.time)`.
+//!   The pixel value is the plain mean of its samples (box filter); alpha is 1.
+//! * **Visibility.** The nearest hit whose view depth lies in `[near, far]` (the GPU's clip planes;
+//!   hits outside are skipped, the ray goes on). Triangles are two-sided.
+//! * **Shading.** Shading normal = barycentric interpolation (the ray's barycentrics are the GPU's
+//!   perspective-correct ones) of the per-vertex `mix(N0, N1, t)`, normalised, and flipped when the
+//!   triangle's geometric normal at `t` faces away from the ray origin (the GPU's `gl_FrontFacing`).
+//!   UVs are interpolated likewise; albedo is `material.albedo × texture.sample_bilinear(uv)`. The view
+//!   vector is `−direction`, i.e. towards the lens sample (thesis §5.1). Radiance is
+//!   [`shade`]`(hit, n, view, albedo, specular, roughness, lights(t), ambient)`; a miss sees
+//!   `environment.background`.
+//! * **Alpha.** A material with alpha < 1 is stochastic coverage: the ray hits the surface with
+//!   probability alpha and passes through it otherwise, decided by a hash of (seed, pixel, sample,
+//!   triangle) so renders are reproducible.
+//!
+//! Geometry lives in a [`Bvh`] over moving triangles (boxes at both shutter ends, interpolated at ray
+//! time). Rendering is parallel over 16×16-pixel tiles with rayon; every pixel depends only on its own
+//! samples, so images are bit-identical for any thread count.
+
+mod bvh;
+
+use std::time::Instant;
+
+use glam::{DVec3, Vec2, Vec3};
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use rayon::prelude::*;
+
+pub use bvh::{intersect_triangle, Bvh, Hit, MovingTriangle};
+
+use crate::error::{Error, Result};
+use crate::image::LinearImage;
+use crate::sampling::{stratified_samples, Pcg32, Sample5, SAMPLE_TILE_SIZE};
+use crate::scene::{Camera, CameraSpaceScene, Intrinsics, Scene, Texture};
+use crate::shading::{shade, ShadingLight};
+
+/// Largest accepted image width and height.
+pub const MAX_SIZE: u32 = 8192;
+/// Largest accepted samples per pixel.
+pub const MAX_SPP: u32 = 65536;
+/// Side of the square pixel tiles rendered in parallel.
+pub const TILE: u32 = 16;
+
+/// What to render.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ReferenceSettings {
+    pub width: u32,
+    pub height: u32,
+    /// Rays per pixel, 1..=65536.
+    pub spp: u32,
+    /// Seed of the sample sets (and of stochastic alpha).
+    pub seed: u64,
+    /// Show a progress bar on stderr (not drawn when stderr is not a terminal).
+    pub progress: bool,
+}
+
+/// What a render cost.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ReferenceStats {
+    /// Triangles in the BVH.
+    pub triangles: usize,
+    pub bvh_nodes: usize,
+    /// Primary rays traced (`width × height × spp`).
+    pub rays: u64,
+    /// Wall time of the whole call, BVH build included.
+    pub seconds: f64,
+    /// Wall time of preparing camera-space geometry and building the BVH.
+    pub build_seconds: f64,
+}
+
+/// Renders `scene` with the CPU reference.
+pub fn render_reference(scene: &Scene, settings: &ReferenceSettings) -> Result<LinearImage> {
+    render_reference_with_stats(scene, settings).map(|(image, _)| image)
+}
+
+/// Renders `scene` with the CPU reference and reports what it cost.
+pub fn render_reference_with_stats(
+    scene: &Scene,
+    settings: &ReferenceSettings,
+) -> Result<(LinearImage, ReferenceStats)> {
+    validate(settings, &scene.camera)?;
+    let start = Instant::now();
+    let tracer = Tracer::new(scene, settings);
+    let build_seconds = start.elapsed().as_secs_f64();
+
+    let (w, h) = (settings.width, settings.height);
+    let tiles_x = w.div_ceil(TILE);
+    let tiles_y = h.div_ceil(TILE);
+    let tile_count = (tiles_x * tiles_y) as u64;
+    let bar = if settings.progress {
+        let bar = ProgressBar::with_draw_target(Some(tile_count), ProgressDrawTarget::stderr());
+        if let Ok(style) =
+            ProgressStyle::with_template("reference {bar:40} {pos}/{len} tiles, {elapsed} elapsed, eta {eta}")
+        {
+            bar.set_style(style);
+        }
+        bar
+    } else {
+        ProgressBar::hidden()
+    };
+
+    let blocks: Vec<Vec<[f32; 4]>> = (0..tiles_x * tiles_y)
+        .into_par_iter()
+        .map_init(Vec::new, |lights, i| {
+            let x0 = (i % tiles_x) * TILE;
+            let y0 = (i / tiles_x) * TILE;
+            let block = tracer.render_block(x0, y0, (x0 + TILE).min(w), (y0 + TILE).min(h), lights);
+            bar.inc(1);
+            block
+        })
+        .collect();
+    bar.finish_and_clear();
+
+    let mut image = LinearImage::new(w, h);
+    for (i, block) in blocks.iter().enumerate() {
+        let i = i as u32;
+        let (x0, y0) = ((i % tiles_x) * TILE, (i / tiles_x) * TILE);
+        let bw = (x0 + TILE).min(w) - x0;
+        for (k, px) in block.iter().enumerate() {
+            let k = k as u32;
+            image.set(x0 + k % bw, y0 + k / bw, *px);
+        }
+    }
+    let stats = ReferenceStats {
+        triangles: tracer.bvh.triangle_count(),
+        bvh_nodes: tracer.bvh.node_count(),
+        rays: w as u64 * h as u64 * settings.spp as u64,
+        seconds: start.elapsed().as_secs_f64(),
+        build_seconds,
+    };
+    Ok((image, stats))
+}
+
+fn limit(what: &'static str, value: impl ToString, limit: &str) -> Error {
+    Error::Limit { what, value: value.to_string(), limit: limit.to_string() }
+}
+
+fn validate(s: &ReferenceSettings, camera: &Camera) -> Result<()> {
+    if !(1..=MAX_SIZE).contains(&s.width) {
+        return Err(limit("width", s.width, "1..=8192"));
+    }
+    if !(1..=MAX_SIZE).contains(&s.height) {
+        return Err(limit("height", s.height, "1..=8192"));
+    }
+    if !(1..=MAX_SPP).contains(&s.spp) {
+        return Err(limit("spp", s.spp, "1..=65536"));
+    }
+    if !(camera.near > 0.0 && camera.near.is_finite()) {
+        return Err(limit("camera.near", camera.near, "finite and > 0"));
+    }
+    if camera.far.is_nan() || camera.far <= camera.near {
+        return Err(limit("camera.far", camera.far, "> camera.near"));
+    }
+    if !(camera.focus_distance > 0.0 && camera.focus_distance.is_finite()) {
+        return Err(limit("camera.focus_distance", camera.focus_distance, "finite and > 0"));
+    }
+    if !(camera.aperture_radius >= 0.0 && camera.aperture_radius.is_finite()) {
+        return Err(limit("camera.aperture_radius", camera.aperture_radius, "finite and >= 0"));
+    }
+    if !(camera.vfov_deg > 0.0 && camera.vfov_deg < 180.0) {
+        return Err(limit("camera.vfov_deg", camera.vfov_deg, "(0, 180)"));
+    }
+    Ok(())
+}
+
+/// The samples of pixel `(x, y)`: exactly `SampleTile::new(spp, SAMPLE_TILE_SIZE, seed).pixel(x, y)`,
+/// generated on the fly so that huge sample counts need no 64×64×spp table.
+pub fn pixel_samples(spp: u32, seed: u64, x: u32, y: u32) -> Vec<Sample5> {
+    let p = (y % SAMPLE_TILE_SIZE) * SAMPLE_TILE_SIZE + x % SAMPLE_TILE_SIZE;
+    stratified_samples(spp, &mut Pcg32::new(seed, p as u64 + 1))
+}
+
+/// Per-triangle shading data, in build (scene) order.
+#[derive(Clone, Copy, Debug)]
+struct SurfaceTri {
+    /// Camera-space vertex normals (unnormalised) at open `[0]` and close `[1]`.
+    n: [[Vec3; 3]; 2],
+    uv: [Vec2; 3],
+    object: u32,
+}
+
+struct SurfaceMaterial<'a> {
+    albedo: Vec3,
+    /// Texture, only when the mesh also has UVs.
+    texture: Option<&'a Texture>,
+    specular: f32,
+    roughness: f32,
+    alpha: f32,
+}
+
+struct Tracer<'a> {
+    bvh: Bvh,
+    geometry: Vec<MovingTriangle>,
+    surface: Vec<SurfaceTri>,
+    materials: Vec<SurfaceMaterial<'a>>,
+    camera: &'a Camera,
+    intrinsics: Intrinsics,
+    scene_space: CameraSpaceScene,
+    ambient: Vec3,
+    background: Vec3,
+    width: u32,
+    spp: u32,
+    seed: u64,
+}
+
+impl<'a> Tracer<'a> {
+    fn new(scene: &'a Scene, s: &ReferenceSettings) -> Tracer<'a> {
+        let scene_space = CameraSpaceScene::new(scene);
+        let n = scene.triangle_count();
+        let mut geometry = Vec::with_capacity(n);
+        let mut surface = Vec::with_capacity(n);
+        let mut materials = Vec::with_capacity(scene.objects.len());
+        for (oi, (object, motion)) in scene.objects.iter().zip(&scene_space.objects).enumerate() {
+            let mesh = &object.mesh;
+            let positions: Vec<[Vec3; 2]> = mesh.positions.iter().map(|&p| motion.positions(p)).collect();
+            let normals: Vec<[Vec3; 2]> = mesh.normals.iter().map(|&n| motion.normals(n)).collect();
+            for tri in mesh.indices.chunks_exact(3) {
+                let idx = [tri[0] as usize, tri[1] as usize, tri[2] as usize];
+                geometry.push([idx.map(|i| positions[i][0]), idx.map(|i| positions[i][1])]);
+                let normal_at = |end: usize| idx.map(|i| normals.get(i).map_or(Vec3::ZERO, |n| n[end]));
+                let uv = if mesh.has_uvs() { idx.map(|i| mesh.uvs[i]) } else { [Vec2::ZERO; 3] };
+                surface.push(SurfaceTri { n: [normal_at(0), normal_at(1)], uv, object: oi as u32 });
+            }
+            let m = &object.material;
+            materials.push(SurfaceMaterial {
+                albedo: m.albedo,
+                texture: m.texture.as_deref().filter(|_| mesh.has_uvs()),
+                specular: m.specular,
+                roughness: m.roughness,
+                alpha: m.alpha,
+            });
+        }
+        let bvh = Bvh::build(&geometry);
+        Tracer {
+            bvh,
+            geometry,
+            surface,
+            materials,
+            camera: &scene.camera,
+            intrinsics: scene.camera.intrinsics(s.width, s.height),
+            scene_space,
+            ambient: scene.environment.ambient,
+            background: scene.environment.background,
+            width: s.width,
+            spp: s.spp,
+            seed: s.seed,
+        }
+    }
+
+    /// Renders pixels `[x0, x1) × [y0, y1)`, row-major.
+    fn render_block(
+        &self,
+        x0: u32,
+        y0: u32,
+        x1: u32,
+        y1: u32,
+        lights: &mut Vec<ShadingLight>,
+    ) -> Vec<[f32; 4]> {
+        let mut out = Vec::with_capacity(((x1 - x0) * (y1 - y0)) as usize);
+        for y in y0..y1 {
+            for x in x0..x1 {
+                let c = self.render_pixel(x, y, lights);
+                out.push([c.x, c.y, c.z, 1.0]);
+            }
+        }
+        out
+    }
+
+    fn render_pixel(&self, x: u32, y: u32, lights: &mut Vec<ShadingLight>) -> Vec3 {
+        let samples = pixel_samples(self.spp, self.seed, x, y);
+        let pixel_index = y as u64 * self.width as u64 + x as u64;
+        let mut sum = DVec3::ZERO;
+        for (k, s) in samples.iter().enumerate() {
+            let pos = Vec2::new(x as f32 + s.xy.x, y as f32 + s.xy.y);
+            let lens = self.camera.aperture.map(s.lens);
+            let time = self.camera.shutter.warp(s.time);
+            let (o, d) = self.intrinsics.primary_ray(pos, lens);
+            sum += self.radiance(o, d, time, pixel_index, k as u32, lights).as_dvec3();
+        }
+        (sum / self.spp as f64).as_vec3()
+    }
+
+    /// Radiance along one primary ray.
+    fn radiance(
+        &self,
+        o: Vec3,
+        d: Vec3,
+        time: f32,
+        pixel: u64,
+        sample: u32,
+        lights: &mut Vec<ShadingLight>,
+    ) -> Vec3 {
+        // View depth along the ray is −(o.z + t·d.z); clip to [near, far] as the GPU does.
+        if d.z.is_nan() || d.z >= 0.0 {
+            return self.background;
+        }
+        let t_near = (self.camera.near + o.z) / -d.z;
+        let t_far = (self.camera.far + o.z) / -d.z;
+        let hit = self.bvh.intersect(o, d, time, t_near.max(0.0), t_far, |id| {
+            let alpha = self.materials[self.surface[id as usize].object as usize].alpha;
+            alpha >= 1.0 || coverage_hash(self.seed, pixel, sample, id) < alpha
+        });
+        let Some(hit) = hit else {
+            return self.background;
+        };
+        let tri = &self.surface[hit.id as usize];
+        let material = &self.materials[tri.object as usize];
+        let w = [1.0 - hit.u - hit.v, hit.u, hit.v];
+
+        let p = bvh::triangle_at(&self.geometry[hit.id as usize], time);
+        let geometric = (p[1] - p[0]).cross(p[2] - p[0]);
+        let mut n = Vec3::ZERO;
+        for (i, &wi) in w.iter().enumerate() {
+            n += wi * tri.n[0][i].lerp(tri.n[1][i], time);
+        }
+        let mut n = n.try_normalize().or_else(|| geometric.try_normalize()).unwrap_or(-d);
+        if geometric.dot(d) > 0.0 {
+            n = -n;
+        }
+        let mut albedo = material.albedo;
+        if let Some(texture) = material.texture {
+            let uv = w[0] * tri.uv[0] + w[1] * tri.uv[1] + w[2] * tri.uv[2];
+            albedo *= texture.sample_bilinear(uv);
+        }
+        lights.clear();
+        lights.extend(self.scene_space.lights.iter().map(|l| l.at(time)));
+        let position = o + hit.t * d;
+        shade(position, n, -d, albedo, material.specular, material.roughness, lights, self.ambient)
+    }
+}
+
+fn mix64(mut x: u64) -> u64 {
+    x ^= x >> 30;
+    x = x.wrapping_mul(0xbf58_476d_1ce4_e5b9);
+    x ^= x >> 27;
+    x = x.wrapping_mul(0x94d0_49bb_1331_11eb);
+    x ^ (x >> 31)
+}
+
+/// Uniform number in [0, 1) from (seed, pixel, sample, triangle): the stochastic-alpha decision.
+pub fn coverage_hash(seed: u64, pixel: u64, sample: u32, triangle: u32) -> f32 {
+    let h = mix64(
+        seed ^ mix64(
+            pixel.wrapping_add(0x9e37_79b9_7f4a_7c15) ^ mix64(((sample as u64) << 32) | triangle as u64),
+        ),
+    );
+    (h >> 40) as f32 * (1.0 / 16_777_216.0)
+}
+
+#[cfg(test)]
+mod tests;

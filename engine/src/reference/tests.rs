@@ -1,0 +1,368 @@
+//! Tests of the reference renderer against closed-form expectations of the model.
+
+use std::sync::Arc;
+
+use glam::{Mat4, Vec2, Vec3};
+
+use super::*;
+use crate::sampling::{ApertureShape, SampleTile, ShutterCurve};
+use crate::scene::{CameraPose, Environment, ImageSettings, Light, Material, Mesh, Object};
+
+const W: u32 = 64;
+const H: u32 = 64;
+
+fn camera(aperture_radius: f32, focus_distance: f32) -> Camera {
+    Camera {
+        open: CameraPose { position: Vec3::ZERO, look_at: -Vec3::Z, up: Vec3::Y },
+        close: None,
+        vfov_deg: 40.0,
+        aperture_radius,
+        focus_distance,
+        aperture: ApertureShape::Disk,
+        shutter: ShutterCurve::Box,
+        near: 0.1,
+        far: 100.0,
+    }
+}
+
+/// Camera-space point at depth `z` that the pinhole camera sees at pixel position `(px, py)`.
+fn unproject(cam: &Camera, w: u32, h: u32, px: f32, py: f32, z: f32) -> Vec3 {
+    let tan = cam.intrinsics(w, h).pixel_to_tan(Vec2::new(px, py));
+    Vec3::new(tan.x * z, tan.y * z, -z)
+}
+
+/// A quad covering pixel rectangle `[x0, x1] × [y0, y1]` (pinhole view) at depth `z`, facing the
+/// camera, with uvs.
+fn pixel_quad(cam: &Camera, w: u32, h: u32, [x0, x1, y0, y1]: [f32; 4], z: f32) -> Arc<Mesh> {
+    let p = [
+        unproject(cam, w, h, x0, y1, z),
+        unproject(cam, w, h, x1, y1, z),
+        unproject(cam, w, h, x1, y0, z),
+        unproject(cam, w, h, x0, y0, z),
+    ];
+    let uv = vec![Vec2::new(0.0, 1.0), Vec2::new(1.0, 1.0), Vec2::new(1.0, 0.0), Vec2::new(0.0, 0.0)];
+    Arc::new(Mesh::new("quad", p.to_vec(), vec![Vec3::Z; 4], uv, vec![0, 1, 2, 0, 2, 3]).unwrap())
+}
+
+fn object(mesh: Arc<Mesh>, albedo: Vec3, alpha: f32) -> Object {
+    Object {
+        name: "quad".into(),
+        mesh,
+        transform_open: Mat4::IDENTITY,
+        transform_close: None,
+        material: Material { albedo, alpha, ..Material::default() },
+    }
+}
+
+/// A scene lit only by unit ambient light, so radiance = albedo and a white surface's pixel value is
+/// its coverage.
+fn scene(camera: Camera, objects: Vec<Object>, background: Vec3) -> Scene {
+    Scene {
+        name: "test".into(),
+        image: ImageSettings { width: W, height: H, spp: 64, seed: 1 },
+        camera,
+        objects,
+        lights: vec![],
+        environment: Environment { ambient: Vec3::ONE, background },
+    }
+}
+
+fn settings(width: u32, height: u32, spp: u32) -> ReferenceSettings {
+    ReferenceSettings { width, height, spp, seed: 7, progress: false }
+}
+
+fn render(scene: &Scene, s: ReferenceSettings) -> LinearImage {
+    let (image, stats) = render_reference_with_stats(scene, &s).unwrap();
+    assert!(image.all_finite());
+    assert!(image.pixels.iter().all(|p| p[3] == 1.0));
+    assert_eq!(stats.rays, s.width as u64 * s.height as u64 * s.spp as u64);
+    image
+}
+
+#[test]
+fn pixel_samples_are_the_sample_tile() {
+    for spp in [1, 5, 16] {
+        let tile = SampleTile::new(spp, SAMPLE_TILE_SIZE, 99);
+        for (x, y) in [(0, 0), (5, 9), (63, 63), (64, 0), (130, 77)] {
+            assert_eq!(tile.pixel(x, y), &pixel_samples(spp, 99, x, y)[..]);
+        }
+    }
+}
+
+#[test]
+fn limits_are_errors_naming_the_limit() {
+    let sc = scene(camera(0.0, 5.0), vec![], Vec3::ZERO);
+    for (s, what) in [
+        (settings(0, 10, 1), "width"),
+        (settings(8193, 10, 1), "width"),
+        (settings(10, 0, 1), "height"),
+        (settings(10, 9000, 1), "height"),
+        (settings(10, 10, 0), "spp"),
+        (settings(10, 10, 65537), "spp"),
+    ] {
+        match render_reference(&sc, &s) {
+            Err(Error::Limit { what: w, .. }) => assert_eq!(w, what),
+            other => panic!("{what}: expected a limit error, got {other:?}"),
+        }
+    }
+    let mut bad = sc.clone();
+    bad.camera.near = 0.0;
+    assert!(matches!(render_reference(&bad, &settings(4, 4, 1)), Err(Error::Limit { .. })));
+}
+
+#[test]
+fn empty_scene_is_background() {
+    let img = render(&scene(camera(0.1, 5.0), vec![], Vec3::new(0.1, 0.2, 0.3)), settings(20, 10, 4));
+    assert!(img.pixels.iter().all(|p| *p == [0.1, 0.2, 0.3, 1.0]));
+}
+
+/// (2) Pinhole coverage at edges through known subpixel positions is exact (x and y are stratified
+/// in `spp` strata each).
+#[test]
+fn pinhole_edge_coverage_is_exact() {
+    let cam = camera(0.0, 5.0);
+    let quad = pixel_quad(&cam, W, H, [10.5, 20.25, 8.75, 24.5], 5.0);
+    let sc = scene(cam, vec![object(quad, Vec3::ONE, 1.0)], Vec3::ZERO);
+    let img = render(&sc, settings(W, H, 64));
+    let at = |x, y| img.get(x, y)[0];
+    for y in 9..24 {
+        assert_eq!(at(9, y), 0.0);
+        assert!((at(10, y) - 0.5).abs() < 0.02, "left edge through pixel centres: {}", at(10, y));
+        assert_eq!(at(15, y), 1.0);
+        assert!((at(20, y) - 0.25).abs() < 0.02, "right edge at quarter: {}", at(20, y));
+        assert_eq!(at(21, y), 0.0);
+    }
+    for x in 11..20 {
+        assert!((at(x, 8) - 0.25).abs() < 0.02, "top edge: {}", at(x, 8));
+        assert!((at(x, 24) - 0.5).abs() < 0.02, "bottom edge: {}", at(x, 24));
+        assert_eq!(at(x, 25), 0.0);
+    }
+    // Corner pixel: 0.5 × 0.25 of the area.
+    assert!((at(10, 8) - 0.125).abs() < 0.03, "corner: {}", at(10, 8));
+}
+
+/// (3) Same inputs → bit-identical images, for any number of threads.
+#[test]
+fn renders_are_deterministic_across_thread_counts() {
+    let mut cam = camera(0.15, 4.0);
+    cam.close = Some(CameraPose { position: Vec3::new(0.2, 0.0, 0.0), look_at: -Vec3::Z, up: Vec3::Y });
+    let a = pixel_quad(&cam, 40, 30, [5.0, 30.0, 5.0, 25.0], 3.0);
+    let b = pixel_quad(&cam, 40, 30, [15.0, 38.0, 2.0, 20.0], 6.0);
+    let mut moving = object(a, Vec3::new(0.9, 0.5, 0.2), 0.6);
+    moving.transform_close = Some(Mat4::from_translation(Vec3::new(0.5, 0.2, -0.3)));
+    let mut sc = scene(cam, vec![moving, object(b, Vec3::new(0.2, 0.7, 0.9), 1.0)], Vec3::new(0.0, 0.0, 0.1));
+    sc.lights = vec![
+        Light::Directional { direction: Vec3::new(-1.0, -1.0, -1.0), color: Vec3::ONE },
+        Light::Point { position: Vec3::new(1.0, 1.0, -1.0), color: Vec3::splat(2.0) },
+    ];
+    sc.objects[1].material.specular = 0.5;
+    let s = settings(40, 30, 16);
+    let one = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
+    let three = rayon::ThreadPoolBuilder::new().num_threads(3).build().unwrap();
+    let x = one.install(|| render(&sc, s));
+    let y = three.install(|| render(&sc, s));
+    let z = render(&sc, s);
+    assert_eq!(x, y);
+    assert_eq!(x, z);
+    // A different seed is a different estimate.
+    let other = render(&sc, ReferenceSettings { seed: 8, ..s });
+    assert_ne!(x, other);
+}
+
+/// Crossing positions (pixel-centre coordinates) where a row's coverage profile passes `level` going
+/// up and going down.
+fn crossings(row: &[f32], level: f32) -> (f32, f32) {
+    let mut up = f32::NAN;
+    let mut down = f32::NAN;
+    for x in 0..row.len() - 1 {
+        let (a, b) = (row[x], row[x + 1]);
+        let at = x as f32 + 0.5 + (level - a) / (b - a);
+        if a < level && b >= level && up.is_nan() {
+            up = at;
+        }
+        if a >= level && b < level {
+            down = at;
+        }
+    }
+    (up, down)
+}
+
+/// (4) A quad moving `m` pixels during a box shutter leaves ramps of width `m` at both ends.
+#[test]
+fn motion_streak_ramp_matches_motion_length() {
+    let (w, h, m) = (96u32, 24u32, 24.0f32);
+    let cam = camera(0.0, 5.0);
+    let z = 5.0;
+    let quad = pixel_quad(&cam, w, h, [10.0, 40.0, 4.0, 20.0], z);
+    let shift = m * z / cam.intrinsics(w, h).pixel_scale;
+    let mut o = object(quad, Vec3::ONE, 1.0);
+    o.transform_close = Some(Mat4::from_translation(Vec3::new(shift, 0.0, 0.0)));
+    let sc = scene(cam, vec![o], Vec3::ZERO);
+    let img = render(&sc, settings(w, h, 64));
+    let row: Vec<f32> = (0..w).map(|x| img.get(x, 12)[0]).collect();
+    // Trailing ramp rises over [10, 34], leading ramp falls over [40, 64]: 10 % → 90 % spans 0.8 m.
+    let (up10, down10) = crossings(&row, 0.1);
+    let (up90, down90) = crossings(&row, 0.9);
+    assert!(((up90 - up10) - 0.8 * m).abs() < 1.0, "trailing ramp {up10}..{up90}");
+    assert!(((down10 - down90) - 0.8 * m).abs() < 1.0, "leading ramp {down90}..{down10}");
+    assert!((up10 - (10.0 + 0.1 * m)).abs() < 1.0 && (down10 - (40.0 + 0.9 * m)).abs() < 1.0);
+    // Coverage is conserved: the streak integrates to the quad's width.
+    let total: f32 = row.iter().sum();
+    assert!((total - 30.0).abs() < 0.5, "total {total}");
+    // Full coverage in the overlap of start and end positions.
+    assert!(row[36] > 0.99 && row[37] > 0.99, "{row:?}");
+}
+
+/// (5) A small bright quad far behind the focus plane blurs into a disc of radius |φ(z)|.
+#[test]
+fn defocus_blur_disc_has_coc_radius() {
+    let (f, z, q) = (2.0f32, 10.0f32, 3.0f32);
+    let mut cam = camera(0.0, f);
+    let s = cam.intrinsics(W, H).pixel_scale;
+    let radius = 12.0f32;
+    cam.aperture_radius = radius / (s * (1.0 / f - 1.0 / z));
+    let intr = cam.intrinsics(W, H);
+    assert!((intr.circle_of_confusion_px(z).abs() - radius).abs() < 1e-3);
+    let c = 0.5 * W as f32;
+    let quad = pixel_quad(&cam, W, H, [c - 0.5 * q, c + 0.5 * q, c - 0.5 * q, c + 0.5 * q], z);
+    let sc = scene(cam, vec![object(quad, Vec3::ONE, 1.0)], Vec3::ZERO);
+    let img = render(&sc, settings(W, H, 256));
+    let (mut energy, mut second, mut outside) = (0.0f64, 0.0f64, 0.0f32);
+    let mut centroid = Vec2::ZERO;
+    for y in 0..H {
+        for x in 0..W {
+            let v = img.get(x, y)[0];
+            let r = Vec2::new(x as f32 + 0.5 - c, y as f32 + 0.5 - c);
+            energy += v as f64;
+            second += (v * r.length_squared()) as f64;
+            centroid += v * r;
+            if r.length() > radius + q / std::f32::consts::SQRT_2 + 1.0 {
+                outside = outside.max(v);
+            }
+        }
+    }
+    // Each lens point sees the quad's q² pixels, shifted: the total is conserved.
+    assert!((energy - (q * q) as f64).abs() < 0.03 * (q * q) as f64, "energy {energy}");
+    assert!((centroid / energy as f32).length() < 0.3, "centroid {}", centroid / energy as f32);
+    assert_eq!(outside, 0.0, "light outside the disc");
+    // E[r²] = R²/2 (uniform disc) + q²/6 (the quad) + 1/6 (box filter over the pixel).
+    let mean_r2 = second / energy;
+    let est = (2.0 * (mean_r2 - (q * q + 1.0) as f64 / 6.0)).sqrt() as f32;
+    assert!((est - radius).abs() < 0.04 * radius, "disc radius {est}, expected {radius}");
+}
+
+/// (6) Alpha 0.5 is a 50 % blend, over the background and over another surface.
+#[test]
+fn half_alpha_blends_half() {
+    let cam = camera(0.0, 5.0);
+    let front = pixel_quad(&cam, W, H, [-1.0, 65.0, -1.0, 65.0], 2.0);
+    let back = pixel_quad(&cam, W, H, [-1.0, 65.0, 32.0, 65.0], 4.0);
+    let sc = scene(cam, vec![object(front, Vec3::X, 0.5), object(back, Vec3::Y, 1.0)], Vec3::Z);
+    let img = render(&sc, settings(W, H, 64));
+    let mean = |y0: u32, y1: u32| {
+        let mut m = Vec3::ZERO;
+        for y in y0..y1 {
+            for x in 0..W {
+                let p = img.get(x, y);
+                m += Vec3::new(p[0], p[1], p[2]);
+                assert!((p[0] - 0.5).abs() < 0.3, "pixel {x},{y} = {p:?}");
+            }
+        }
+        m / ((y1 - y0) * W) as f32
+    };
+    let over_background = mean(0, 32);
+    assert!((over_background - Vec3::new(0.5, 0.0, 0.5)).abs().max_element() < 0.02, "{over_background}");
+    let over_surface = mean(32, 64);
+    assert!((over_surface - Vec3::new(0.5, 0.5, 0.0)).abs().max_element() < 0.02, "{over_surface}");
+}
+
+/// (7) A triangle that crosses the camera plane z = 0 during the shutter (and one that always
+/// straddles it) renders without NaN; hits nearer than `near` are clipped.
+#[test]
+fn triangle_crossing_camera_plane_is_finite() {
+    let mut cam = camera(0.2, 3.0);
+    cam.shutter = ShutterCurve::Tent;
+    let tri = Arc::new(
+        Mesh::new(
+            "t",
+            vec![Vec3::new(-3.0, -2.0, -2.0), Vec3::new(3.0, -2.0, -2.0), Vec3::new(0.0, 3.0, -2.0)],
+            vec![],
+            vec![],
+            vec![0, 1, 2],
+        )
+        .unwrap(),
+    );
+    let straddle = Arc::new(
+        Mesh::new(
+            "s",
+            vec![Vec3::new(-1.0, 0.0, 2.0), Vec3::new(1.0, 0.0, 2.0), Vec3::new(0.0, 0.5, -3.0)],
+            vec![],
+            vec![],
+            vec![0, 1, 2],
+        )
+        .unwrap(),
+    );
+    let mut crossing = object(tri, Vec3::ONE, 1.0);
+    crossing.transform_close = Some(Mat4::from_translation(Vec3::new(0.0, 0.0, 3.0)));
+    let mut sc = scene(cam, vec![crossing, object(straddle, Vec3::X, 1.0)], Vec3::ZERO);
+    sc.lights = vec![Light::Point { position: Vec3::ZERO, color: Vec3::ONE }];
+    let img = render(&sc, settings(48, 32, 16));
+    let lit = img.pixels.iter().filter(|p| p[0] > 0.0).count();
+    assert!(lit > 100, "the triangle is visible for part of the shutter ({lit} pixels)");
+}
+
+/// Two-sided shading: a quad seen from its back shades like its front, with the normal flipped.
+#[test]
+fn back_faces_shade_like_front_faces() {
+    let cam = camera(0.0, 5.0);
+    let front = pixel_quad(&cam, 16, 16, [-1.0, 17.0, -1.0, 17.0], 3.0);
+    // Same quad with reversed winding and normals pointing away from the camera.
+    let back = Arc::new(
+        Mesh::new("back", front.positions.clone(), vec![-Vec3::Z; 4], vec![], vec![0, 2, 1, 0, 3, 2])
+            .unwrap(),
+    );
+    let mut images = vec![];
+    for mesh in [front, back] {
+        let mut sc = scene(cam.clone(), vec![object(mesh, Vec3::ONE, 1.0)], Vec3::ZERO);
+        sc.environment.ambient = Vec3::ZERO;
+        sc.lights = vec![Light::Directional { direction: Vec3::new(0.3, -0.2, -1.0), color: Vec3::ONE }];
+        images.push(render(&sc, settings(16, 16, 4)));
+    }
+    // Flat quad, directional light, no specular: radiance is the same Lambert term everywhere.
+    let lambert = Vec3::new(-0.3, 0.2, 1.0).normalize().z;
+    for p in &images[0].pixels {
+        assert!((p[0] - lambert).abs() < 1e-5, "{p:?} vs {lambert}");
+    }
+    for (a, b) in images[0].pixels.iter().zip(&images[1].pixels) {
+        assert!((a[0] - b[0]).abs() < 1e-5, "{a:?} vs {b:?}");
+    }
+}
+
+/// Textured quads: albedo × bilinear texture at the interpolated uv.
+#[test]
+fn textures_modulate_albedo() {
+    let cam = camera(0.0, 5.0);
+    let quad = pixel_quad(&cam, 8, 8, [0.0, 8.0, 0.0, 8.0], 3.0);
+    // 4×1 texture: left half white, right half black (sRGB 255 / 0).
+    let texels = [[255u8; 4], [255; 4], [0, 0, 0, 255], [0, 0, 0, 255]].concat();
+    let texture = Arc::new(Texture::from_srgb_rgba8("t", 4, 1, texels));
+    let mut o = object(quad, Vec3::new(0.5, 1.0, 1.0), 1.0);
+    o.material.texture = Some(texture);
+    let img = render(&scene(cam, vec![o], Vec3::ZERO), settings(8, 8, 16));
+    // Pixel 1 spans u ∈ [1/8, 1/4]: between the centres of the two white texels; pixel 6 the black ones.
+    let left = img.get(1, 4);
+    let right = img.get(6, 4);
+    assert!((left[0] - 0.5).abs() < 0.03 && (left[1] - 1.0).abs() < 0.03, "{left:?}");
+    assert!(right[1] < 0.03, "{right:?}");
+}
+
+/// The progress bar draws to stderr only when it is a terminal; under the test harness it is not.
+#[test]
+fn progress_bar_without_terminal_is_harmless() {
+    let cam = camera(0.05, 3.0);
+    let quad = pixel_quad(&cam, 40, 40, [5.0, 30.0, 5.0, 30.0], 3.0);
+    let sc = scene(cam, vec![object(quad, Vec3::ONE, 1.0)], Vec3::ZERO);
+    let quiet = render(&sc, settings(40, 40, 4));
+    let loud = render(&sc, ReferenceSettings { progress: true, ..settings(40, 40, 4) });
+    assert_eq!(quiet, loud);
+}
