@@ -1,8 +1,10 @@
 //! The one shading model (DESIGN.md "Shading"), CPU side. `shaders-glsl/common/shading.glsl` is its
 //! GLSL mirror; `tests/` compares the two through rendered images.
 //!
+//! ```text
 //!     L = albedo · (ambient + Σ E_i · max(0, N·L_i))
 //!       + specular · Σ E_i · (n + 8)/(8π) · max(0, N·H_i)^n · max(0, N·L_i)
+//! ```
 //!
 //! with Blinn-Phong exponent `n = 2/roughness² − 2` clamped to [1, 10⁴], `E_i` the light colour
 //! (divided by d² for point lights) and `H_i = normalize(L_i + V)`. V points from the shaded point to

@@ -71,5 +71,7 @@ fn accumulation_converges_to_reference_on_default() {
     );
 }
 
-const ACCUMULATION_64_RMSE_MAX: f64 = 0.03;
-const ACCUMULATION_64_FLIP_MAX: f64 = 0.08;
+// Measured on lavapipe (Mesa 22.3.6): RMSE 0.0149, FLIP 0.0170 at 64 passes. The floor comes mostly
+// from texture filtering (trilinear mips vs the reference's supersampled bilinear) and 64-sample noise.
+const ACCUMULATION_64_RMSE_MAX: f64 = 0.022;
+const ACCUMULATION_64_FLIP_MAX: f64 = 0.03;
