@@ -34,7 +34,7 @@ fn absurd_sizes_and_sample_counts_are_rejected_with_the_limit() {
         (RenderSettings { width: 8, height: 8, spp: 0, seed: 0 }, "spp"),
         (RenderSettings { width: 8, height: 8, spp: 10_000_000, seed: 0 }, "spp"),
     ] {
-        let err = r.render(&scene, Technique::Accumulation, &s).err().expect("must fail");
+        let err = r.render(&scene, Technique::Accumulation, &s).expect_err("must fail");
         let msg = err.to_string();
         assert!(matches!(err, Error::Limit { .. }) && msg.contains(what) && msg.contains("..="), "{msg}");
     }
