@@ -72,3 +72,16 @@ fn translucent_material_is_refused_by_opaque_techniques() {
         .unwrap_err();
     assert!(err.to_string().contains("alpha"), "{err}");
 }
+
+#[test]
+fn probe_names_the_device_and_lavapipe() {
+    let r = renderer();
+    let caps = &r.device().caps;
+    let text = caps.to_string();
+    assert!(text.contains(&caps.device_name) && text.contains("MSAA counts"), "{text}");
+    if caps.device_name.contains("llvmpipe") {
+        assert!(caps.is_lavapipe() && text.contains("lavapipe"), "{text}");
+        // Lavapipe offers 1x and 4x MSAA, a geometry shader and sample-rate shading (DESIGN.md).
+        assert!(caps.has(shutter::vk::Feature::Msaa(4)) && caps.geometry_shader && caps.sample_rate_shading);
+    }
+}

@@ -69,6 +69,8 @@ enum Command {
         #[arg(long)]
         diff: Option<PathBuf>,
     },
+    /// Convert an image between .exr (linear) and .png (sRGB).
+    Convert { input: PathBuf, output: PathBuf },
     /// Print the device, driver and capabilities.
     Probe,
     /// List the built-in scenes.
@@ -174,6 +176,10 @@ fn run() -> Result<()> {
                 write_flip_diff_png(&d, &ia, &ib)?;
                 println!("wrote {}", d.display());
             }
+        }
+        Command::Convert { input, output } => {
+            save_image(&output, &load_image(&input)?)?;
+            println!("wrote {}", output.display());
         }
         Command::Probe => {
             let device = shutter::vk::create_device()?;

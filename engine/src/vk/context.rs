@@ -50,6 +50,8 @@ pub struct Capabilities {
     pub device_type: String,
     pub driver_name: String,
     pub driver_info: String,
+    /// `VkDriverId`, e.g. `MESA_LLVMPIPE` (lavapipe).
+    pub driver_id: String,
     pub api_version: String,
     /// MSAA sample counts usable for colour *and* depth attachments.
     pub framebuffer_sample_counts: Vec<u32>,
@@ -97,6 +99,11 @@ impl Feature {
 }
 
 impl Capabilities {
+    /// Mesa's software rasterizer (lavapipe, device name "llvmpipe").
+    pub fn is_lavapipe(&self) -> bool {
+        self.driver_id == format!("{:?}", vk::DriverId::MESA_LLVMPIPE)
+    }
+
     pub fn has(&self, feature: Feature) -> bool {
         match feature {
             Feature::GeometryShader => self.geometry_shader,
@@ -129,7 +136,10 @@ impl Capabilities {
 impl std::fmt::Display for Capabilities {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         writeln!(f, "device            {} ({})", self.device_name, self.device_type)?;
-        writeln!(f, "driver            {} — {}", self.driver_name, self.driver_info)?;
+        writeln!(f, "driver            {} — {} ({})", self.driver_name, self.driver_info, self.driver_id)?;
+        if self.is_lavapipe() {
+            writeln!(f, "                  Mesa lavapipe: software Vulkan on the CPU (Shutter's CI target)")?;
+        }
         writeln!(f, "api version       {}", self.api_version)?;
         writeln!(f, "MSAA counts       {:?}", self.framebuffer_sample_counts)?;
         writeln!(f, "geometry shader   {}", self.geometry_shader)?;
@@ -394,6 +404,7 @@ impl DeviceShared {
             device_type: format!("{:?}", props.device_type),
             driver_name: cstr_field(&driver_props.driver_name),
             driver_info: cstr_field(&driver_props.driver_info),
+            driver_id: format!("{:?}", driver_props.driver_id),
             api_version: format!(
                 "{}.{}.{}",
                 vk::api_version_major(props.api_version),
