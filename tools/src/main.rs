@@ -37,14 +37,8 @@ enum Command {
         /// Samples per pixel (accumulation: passes). Default: the scene's [image] spp.
         #[arg(long)]
         spp: Option<u32>,
-        /// Image size WxH. Default: the scene's [image] size.
-        #[arg(long, value_parser = parse_size)]
-        size: Option<(u32, u32)>,
-        #[arg(long)]
-        seed: Option<u64>,
-        /// Output file, .png (sRGB) or .exr (linear). Default: out/<scene>-<technique>.png
-        #[arg(long)]
-        out: Option<PathBuf>,
+        #[command(flatten)]
+        image: ImageArgs,
     },
     /// Render the CPU ground truth (distribution ray tracer).
     Reference {
@@ -53,13 +47,8 @@ enum Command {
         /// Rays per pixel.
         #[arg(long, default_value_t = 256)]
         spp: u32,
-        #[arg(long, value_parser = parse_size)]
-        size: Option<(u32, u32)>,
-        #[arg(long)]
-        seed: Option<u64>,
-        /// Default: out/<scene>-reference.exr
-        #[arg(long)]
-        out: Option<PathBuf>,
+        #[command(flatten)]
+        image: ImageArgs,
     },
     /// Compare two images: prints RMSE, PSNR and mean FLIP of B against reference A.
     Compare {
@@ -75,6 +64,21 @@ enum Command {
     Probe,
     /// List the built-in scenes.
     Scenes,
+}
+
+/// Image options shared by `render` and `reference`.
+#[derive(clap::Args)]
+struct ImageArgs {
+    /// Image size WxH. Default: the scene's [image] size.
+    #[arg(long, value_parser = parse_size)]
+    size: Option<(u32, u32)>,
+    /// Sample-set seed. Default: the scene's [image] seed.
+    #[arg(long)]
+    seed: Option<u64>,
+    /// Output file, .png (sRGB) or .exr (linear). Default: out/<scene>-<technique>.png for render,
+    /// out/<scene>-reference.exr for reference.
+    #[arg(long)]
+    out: Option<PathBuf>,
 }
 
 fn parse_size(s: &str) -> std::result::Result<(u32, u32), String> {
@@ -100,7 +104,7 @@ fn main() {
 fn run() -> Result<()> {
     let cli = Cli::parse();
     match cli.command {
-        Command::Render { scene, technique, spp, size, seed, out } => {
+        Command::Render { scene, technique, spp, image: ImageArgs { size, seed, out } } => {
             let technique: Technique = technique.parse()?;
             let sc = load_scene(&scene)?;
             let mut settings = RenderSettings::from_scene(&sc);
@@ -141,7 +145,7 @@ fn run() -> Result<()> {
             }
             println!("wrote {}", out.display());
         }
-        Command::Reference { scene, spp, size, seed, out } => {
+        Command::Reference { scene, spp, image: ImageArgs { size, seed, out } } => {
             let sc = load_scene(&scene)?;
             let (width, height) = size.unwrap_or((sc.image.width, sc.image.height));
             let settings =

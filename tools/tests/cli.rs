@@ -1,0 +1,55 @@
+//! The CLI reports bad input as `error: …` with exit code 1, never a panic.
+
+use std::process::Command;
+
+fn shutter(args: &[&str]) -> (i32, String, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_shutter"))
+        .args(args)
+        .env("SHUTTER_VALIDATION", "1")
+        .output()
+        .expect("run shutter");
+    (
+        out.status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+fn temp(name: &str, contents: &[u8]) -> String {
+    let p = std::env::temp_dir().join(format!("shutter-cli-{}-{name}", std::process::id()));
+    std::fs::write(&p, contents).unwrap();
+    p.display().to_string()
+}
+
+#[test]
+fn bad_input_is_a_clear_error_not_a_panic() {
+    let malformed = temp("bad.toml", b"[camera\nposition = ");
+    let unknown = temp("unknown.toml", b"[camera]\nposition=[0,0,5]\nlook_at=[0,0,0]\nfocal_length = 3\n");
+    let cases: Vec<(Vec<&str>, &str)> = vec![
+        (vec!["render", "no-such-scene"], "default"),
+        (vec!["render", &malformed], "bad.toml"),
+        (vec!["render", &unknown], "focal_length"),
+        (vec!["render", "static", "--size", "100000x10"], "8192"),
+        (vec!["render", "static", "--technique", "raytraced"], "pinhole"),
+        (vec!["render", "static", "--out", "x.bmp"], "png"),
+        (vec!["compare", "/no/such/a.exr", "/no/such/b.exr"], "a.exr"),
+    ];
+    for (args, needle) in cases {
+        let (code, _, err) = shutter(&args);
+        assert_eq!(code, 1, "{args:?}: {err}");
+        assert!(err.starts_with("error:") && err.contains(needle), "{args:?}: {err}");
+        assert!(!err.contains("panicked"), "{args:?} panicked: {err}");
+    }
+}
+
+#[test]
+fn probe_and_scenes_work() {
+    let (code, out, err) = shutter(&["probe"]);
+    assert_eq!(code, 0, "{err}");
+    assert!(out.contains("device") && out.contains("MSAA counts"), "{out}");
+    let (code, out, _) = shutter(&["scenes"]);
+    assert_eq!(code, 0);
+    for s in ["default", "static", "focus-sweep"] {
+        assert!(out.lines().any(|l| l == s), "{out}");
+    }
+}
