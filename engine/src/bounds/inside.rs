@@ -24,6 +24,9 @@ const PARALLEL_EPS: f32 = 1e-7;
 /// coordinates, already mapped to the aperture shape) with the triangle at shutter time `t`
 /// (Möller–Trumbore in camera space). Edges are inclusive. Hits outside the depth range
 /// `[near, far]` are rejected; so are degenerate triangles and rays in the triangle's plane.
+///
+/// As on the GPU, it is meant for samples inside a non-culled [`super::bound`]: for a triangle that is
+/// degenerate at every time (culled) it may report hits that are f32 rounding artifacts.
 pub fn sample_hit(tri: &MovingTriangle, k: &Intrinsics, pixel: Vec2, lens: Vec2, t: f32) -> Option<Hit> {
     let [a, b, c] = tri.at(t);
     let (o, d) = k.primary_ray(pixel, lens);

@@ -179,7 +179,10 @@ pub fn bound(tri: &MovingTriangle, k: &Intrinsics, kind: BoundKind) -> ScreenBou
         return ScreenBound::Culled;
     }
     let z = verts.map(|v| -v.z);
-    if z.iter().all(|&z| z < k.near) || z.iter().all(|&z| z > k.far) || tri.is_degenerate() {
+    // Depth culling keeps a rounding margin: f32 interpolation (`at(t)`, barycentrics) can overshoot
+    // the end vertices' depths by a few ulps of the coordinates.
+    let m = 8.0 * f32::EPSILON * verts.iter().map(|v| v.abs().max_element()).fold(0.0, f32::max);
+    if z.iter().all(|&z| z < k.near - m) || z.iter().all(|&z| z > k.far + m) || tri.is_degenerate() {
         return ScreenBound::Culled;
     }
     if z.iter().any(|&z| z <= k.near) {
