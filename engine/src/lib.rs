@@ -6,6 +6,7 @@
 //!
 //! Data flows one way: [`scene`] → [`scene::CameraSpaceScene`] → technique passes → image → metrics.
 
+pub mod bounds;
 pub mod error;
 pub mod image;
 pub mod image_io;

@@ -1,0 +1,229 @@
+//! CPU mirror of the screen-space bounds and the 5D inside test of stochastic rasterization
+//! (McGuire et al. HPG 2010; Toth & Linder 2008). A geometry shader will emit one of these bounds per
+//! moving, defocused triangle; the fragment shader then runs [`sample_hit`] for every (x, y, u, v, t)
+//! sample the bound covers. The CPU code is the specification and the test oracle for that port.
+//!
+//! # Model
+//! A [`MovingTriangle`] holds camera-space vertices at shutter open and close; at time t each vertex is
+//! the linear interpolation (DESIGN.md "Shutter"). A point `p` seen through lens sample `l` (unit disk)
+//! lands at pixel [`Intrinsics::project`]`(p, l) = pinhole(p) + φ(z)·(l.x, −l.y)` with
+//! `φ(z) = A·s·(1/F − 1/z)`.
+//!
+//! # Why the convex hull bound is conservative
+//! Every point of the triangle at any time is `P(b, t) = Σᵢ bᵢ((1−t)·vᵢ₀ + t·vᵢ₁)`, a convex
+//! combination of the six end vertices, so the whole space-time triangle lies in the 3D polytope
+//! `K = conv{vᵢⱼ}`. For a *fixed* lens sample `l` the map `p ↦ project(p, l)` is a projective map
+//! (`(p.xy − A·l)/z + A·l/F`, then affine) whose denominator `z` is positive on `K` whenever it is
+//! positive at the six vertices. A projective map with positive denominator sends convex combinations
+//! to convex combinations (with weights reweighted by `z`), so `project(K, l) ⊆ conv{project(vᵢⱼ, l)}`
+//! (in particular a linearly moving point traces a straight screen segment for each fixed lens). Each
+//! `project(vᵢⱼ, l)` lies in the disc of radius `|φ(zᵢⱼ)|` around the pinhole projection of `vᵢⱼ`,
+//! because the aperture (disk or blades) is inside the unit disk. Hence, for every lens sample and
+//! every time, the triangle's image lies in `conv(⋃ discs)`, which lies in the hull of the
+//! *circumscribed* regular `n`-gons of those discs (vertex radius `r / cos(π/n)`). Note the argument
+//! never needs φ to be monotone along the motion or the screen path to be linear in t.
+//!
+//! The argument holds in real arithmetic; `f32` rounding of [`Intrinsics::project`] and of the hull
+//! makes points fall outside by a few ulps of the pixel coordinates, so consumers test with a small
+//! tolerance ([`ScreenBound::contains`]'s `tol`; the GPU port should pad by about a pixel).
+//!
+//! # Hard cases (McGuire's z = 0 crossing; thesis §4.8)
+//! Let z range over the six end vertices (their convex hull contains every point at every time):
+//! * all `z < near` or all `z > far` → [`ScreenBound::Culled`] (no point is ever in the depth range);
+//! * otherwise some `z ≤ near` (behind the camera, or crossing the near plane during the shutter) →
+//!   the projection is invalid or unbounded, return the whole viewport as [`ScreenBound::Rect`]
+//!   ("clip and box"). **Future work:** clip `K` against `z ≥ near` (its vertices are the end vertices
+//!   in front plus the intersections of the 15 vertex pairs with the plane) and bound that instead;
+//! * degenerate at **every** time → `Culled`. Being degenerate at both shutter ends is *not* enough:
+//!   the area vector `cross(e₁(t), e₂(t))` is quadratic in t and its middle coefficient can be non-zero
+//!   (see the `degenerate_at_both_ends_but_not_between` test);
+//! * non-finite input → `Culled`; a non-finite projected point → the viewport.
+//!
+//! # Implemented / not implemented
+//! Implemented: [`BoundKind::ConvexHull`] (McGuire's space-time hull, extended to defocus with
+//! circumscribed discs) and [`BoundKind::BoundingBox`] (its axis-aligned box); the 5D inside test
+//! [`sample_hit`]; a Monte Carlo [`sample_test_efficiency_estimate`].
+//! Not implemented (future [`BoundKind`] variants): the thesis' defocus-only shapes (2D hexagon,
+//! parallel-edge triangle, …), the tighter near-plane-clipped polytope bound above, per-time-interval
+//! bounds (interleaved/tiled time slices), and viewport clipping/culling of off-screen bounds.
+
+mod hull;
+mod inside;
+#[cfg(test)]
+mod tests;
+
+pub use hull::{convex_contains, convex_hull, orient, signed_area};
+pub use inside::{sample_hit, sample_test_efficiency_estimate, Hit};
+
+use glam::{DVec3, Vec2, Vec3};
+
+use crate::scene::camera::Intrinsics;
+
+/// Sides of the regular polygon circumscribing each circle of confusion in [`BoundKind::ConvexHull`].
+pub const DISC_SIDES: usize = 8;
+
+/// A triangle whose camera-space vertices move linearly from `v0` (shutter open) to `v1` (close).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MovingTriangle {
+    pub v0: [Vec3; 3],
+    pub v1: [Vec3; 3],
+}
+
+impl MovingTriangle {
+    /// A triangle that does not move.
+    pub fn fixed(v: [Vec3; 3]) -> Self {
+        MovingTriangle { v0: v, v1: v }
+    }
+    /// Camera-space vertices at shutter time `t ∈ [0, 1]`.
+    pub fn at(&self, t: f32) -> [Vec3; 3] {
+        [0, 1, 2].map(|i| self.v0[i].lerp(self.v1[i], t))
+    }
+    /// The six end vertices (open then close); their convex hull contains the triangle at every time.
+    pub fn end_vertices(&self) -> [Vec3; 6] {
+        [self.v0[0], self.v0[1], self.v0[2], self.v1[0], self.v1[1], self.v1[2]]
+    }
+    /// Does the triangle have zero area at every time in [0, 1]? The area vector
+    /// `cross(e₁(t), e₂(t)) = (1−t)²·X₀ + t(1−t)·Xₘ + t²·X₁` is checked coefficient by coefficient in
+    /// `f64`, relative to the triangle's extent (threshold 1e-12·L²).
+    pub fn is_degenerate(&self) -> bool {
+        let d = |v: Vec3| v.as_dvec3();
+        let e = |v: &[Vec3; 3]| (d(v[1]) - d(v[0]), d(v[2]) - d(v[0]));
+        let (a0, b0) = e(&self.v0);
+        let (a1, b1) = e(&self.v1);
+        let x0 = a0.cross(b0);
+        let x1 = a1.cross(b1);
+        let xm = a0.cross(b1) + a1.cross(b0);
+        let l2 = [a0, b0, a1, b1].iter().map(|v| v.length_squared()).fold(0.0, f64::max);
+        let eps = 1e-12 * l2;
+        let small = |x: DVec3| x.length() <= eps;
+        small(x0) && small(x1) && small(xm)
+    }
+}
+
+/// Which screen-space bound to build. More kinds (the thesis' defocus shapes, clipped hulls,
+/// time-sliced hulls) are added as variants; [`bound`] dispatches on them.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[non_exhaustive]
+pub enum BoundKind {
+    /// Axis-aligned box of the [`BoundKind::ConvexHull`] points.
+    BoundingBox,
+    /// McGuire'10 space-time convex hull of the six projected end vertices, each widened to a
+    /// circumscribed [`DISC_SIDES`]-gon of its circle of confusion when the aperture is open.
+    ConvexHull,
+}
+
+impl BoundKind {
+    pub const ALL: [BoundKind; 2] = [BoundKind::BoundingBox, BoundKind::ConvexHull];
+}
+
+/// A screen-space region (pixel coordinates, x right, y down) that contains the triangle's image for
+/// every lens sample and shutter time — restricted to the viewport and the depth range `[near, far]`.
+#[derive(Clone, Debug, PartialEq)]
+pub enum ScreenBound {
+    /// Convex polygon, counter-clockwise in (x, y) pixel coordinates (positive shoelace area; that is
+    /// clockwise on a y-down screen), no repeated or collinear vertices. May have 1 or 2 vertices when
+    /// the image degenerates to a point or segment (e.g. a static edge-on pinhole triangle).
+    Polygon(Vec<Vec2>),
+    /// Axis-aligned rectangle: a bounding box, or the whole viewport for the hard cases.
+    Rect { min: Vec2, max: Vec2 },
+    /// Nothing to rasterize.
+    Culled,
+}
+
+impl ScreenBound {
+    /// The whole viewport of `k`.
+    pub fn viewport(k: &Intrinsics) -> Self {
+        ScreenBound::Rect { min: Vec2::ZERO, max: Vec2::new(k.width, k.height) }
+    }
+    pub fn is_viewport(&self, k: &Intrinsics) -> bool {
+        *self == ScreenBound::viewport(k)
+    }
+    /// Is `p` inside the bound, widened by `tol` pixels?
+    pub fn contains(&self, p: Vec2, tol: f32) -> bool {
+        match self {
+            ScreenBound::Polygon(poly) => convex_contains(poly, p, tol),
+            ScreenBound::Rect { min, max } => {
+                p.x >= min.x - tol && p.y >= min.y - tol && p.x <= max.x + tol && p.y <= max.y + tol
+            }
+            ScreenBound::Culled => false,
+        }
+    }
+    /// Area in square pixels (0 for `Culled` and for point/segment polygons).
+    pub fn area(&self) -> f64 {
+        match self {
+            ScreenBound::Polygon(poly) => signed_area(poly),
+            ScreenBound::Rect { min, max } => ((max.x - min.x) as f64) * ((max.y - min.y) as f64),
+            ScreenBound::Culled => 0.0,
+        }
+    }
+    /// Axis-aligned bounding box, `None` when culled.
+    pub fn aabb(&self) -> Option<(Vec2, Vec2)> {
+        match self {
+            ScreenBound::Polygon(poly) => aabb(poly),
+            ScreenBound::Rect { min, max } => Some((*min, *max)),
+            ScreenBound::Culled => None,
+        }
+    }
+}
+
+fn aabb(points: &[Vec2]) -> Option<(Vec2, Vec2)> {
+    let first = *points.first()?;
+    Some(points.iter().fold((first, first), |(lo, hi), &p| (lo.min(p), hi.max(p))))
+}
+
+/// The screen-space bound of `tri` over the whole shutter and aperture (see the module docs for the
+/// conservativeness argument and the hard cases).
+pub fn bound(tri: &MovingTriangle, k: &Intrinsics, kind: BoundKind) -> ScreenBound {
+    let verts = tri.end_vertices();
+    if verts.iter().any(|v| !v.is_finite()) {
+        return ScreenBound::Culled;
+    }
+    let z = verts.map(|v| -v.z);
+    // Depth culling keeps a rounding margin: f32 interpolation (`at(t)`, barycentrics) can overshoot
+    // the end vertices' depths by a few ulps of the coordinates.
+    let m = 8.0 * f32::EPSILON * verts.iter().map(|v| v.abs().max_element()).fold(0.0, f32::max);
+    if z.iter().all(|&z| z < k.near - m) || z.iter().all(|&z| z > k.far + m) || tri.is_degenerate() {
+        return ScreenBound::Culled;
+    }
+    if z.iter().any(|&z| z <= k.near) {
+        return ScreenBound::viewport(k);
+    }
+    let points = hull_points(&verts, k);
+    if points.iter().any(|p| !p.is_finite()) {
+        return ScreenBound::viewport(k);
+    }
+    match kind {
+        BoundKind::ConvexHull => ScreenBound::Polygon(convex_hull(&points)),
+        BoundKind::BoundingBox => match aabb(&points) {
+            Some((min, max)) => ScreenBound::Rect { min, max },
+            None => ScreenBound::Culled,
+        },
+    }
+}
+
+/// The points whose convex hull is the [`BoundKind::ConvexHull`] bound: each end vertex's pinhole
+/// projection, or, when the aperture is open, the [`DISC_SIDES`] corners of the regular polygon
+/// circumscribing its circle of confusion. Requires every `z > 0`.
+pub fn hull_points(verts: &[Vec3], k: &Intrinsics) -> Vec<Vec2> {
+    let n = DISC_SIDES;
+    let circumscribe = 1.0 / (std::f32::consts::PI / n as f32).cos();
+    let corners: Vec<Vec2> = (0..n)
+        .map(|j| {
+            let a = (j as f32 + 0.5) * std::f32::consts::TAU / n as f32;
+            Vec2::new(a.cos(), a.sin()) * circumscribe
+        })
+        .collect();
+    let mut out = Vec::with_capacity(verts.len() * n);
+    for &v in verts {
+        let c = k.project(v, Vec2::ZERO);
+        let r = k.circle_of_confusion_px(-v.z).abs();
+        if r > 0.0 {
+            // Round the corner radius up a little so f32 rounding of the corners cannot cut the disc.
+            let r = r * (1.0 + 4.0 * f32::EPSILON);
+            out.extend(corners.iter().map(|&d| c + d * r));
+        } else {
+            out.push(c);
+        }
+    }
+    out
+}
