@@ -100,22 +100,32 @@ pub fn multi_jittered(n: u32, rng: &mut Pcg32) -> Vec<Vec2> {
     for j in 0..k {
         for i in 0..m {
             let c = (j * m + i) as usize;
-            let x = (i * k + xs[c]) as f32 + rng.next_f32();
-            let y = (j * m + ys[c]) as f32 + rng.next_f32();
-            out.push(Vec2::new(stratum_value(x, n), stratum_value(y, n)));
+            let x = stratum_value(i * k + xs[c], rng.next_f32(), n);
+            let y = stratum_value(j * m + ys[c], rng.next_f32(), n);
+            out.push(Vec2::new(x, y));
         }
     }
     out
 }
 
-/// `(index + jitter) / n`, kept strictly below 1 when f32 rounding would reach it.
-fn stratum_value(v: f32, n: u32) -> f32 {
-    (v / n as f32).min(1.0 - f32::EPSILON / 2.0)
+/// `(stratum + jitter) / n` as f32, guaranteed to fall in stratum `stratum` when a consumer computes
+/// `floor(v · n)` in f32: the sum is formed in f64 (an f32 `200.0 + 0.99999994` rounds to 201), and a
+/// value that rounding pushed across a stratum edge is nudged back one ulp at a time.
+fn stratum_value(stratum: u32, jitter: f32, n: u32) -> f32 {
+    let mut v = ((stratum as f64 + jitter as f64) / n as f64) as f32;
+    for _ in 0..8 {
+        let bucket = (v * n as f32).floor() as i64;
+        if bucket == stratum as i64 {
+            break;
+        }
+        v = if bucket > stratum as i64 { v.next_down() } else { v.next_up() };
+    }
+    v.min(1.0 - f32::EPSILON / 2.0)
 }
 
 /// `n` jittered points in [0,1), one per stratum of width `1/n`, in random order.
 pub fn jittered_1d(n: u32, rng: &mut Pcg32) -> Vec<f32> {
-    let mut v: Vec<f32> = (0..n).map(|s| stratum_value(s as f32 + rng.next_f32(), n)).collect();
+    let mut v: Vec<f32> = (0..n).map(|s| stratum_value(s, rng.next_f32(), n)).collect();
     rng.shuffle(&mut v);
     v
 }
@@ -313,6 +323,14 @@ mod tests {
                 if a < b { prop_assert!(wa <= wb); }
             }
         }
+    }
+
+    #[test]
+    fn prime_sample_count_keeps_strata_despite_f32_rounding() {
+        // Found by proptest: n = 239 → 1 × 239 grid; f32 `s + jitter` rounded into the next stratum.
+        let pts = multi_jittered(239, &mut Pcg32::new(11524451655901442155, 7));
+        assert!(strata_hit_once(pts.iter().map(|p| p.y), 239));
+        assert!(strata_hit_once(pts.iter().map(|p| p.x), 239));
     }
 
     #[test]
