@@ -146,12 +146,8 @@ impl GpuScene {
                 ],
             })
             .collect();
-        let object_ssbo = Buffer::with_data(
-            device,
-            "object data",
-            vk::BufferUsageFlags::STORAGE_BUFFER,
-            if object_data.is_empty() { &[] } else { &object_data[..] },
-        )?;
+        let object_ssbo =
+            Buffer::with_data(device, "object data", vk::BufferUsageFlags::STORAGE_BUFFER, &object_data)?;
 
         let frame_layout = DescriptorSetLayout::new(
             device,

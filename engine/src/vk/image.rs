@@ -1,9 +1,10 @@
 //! Images with views and allocations, RAII; samplers.
 
 use ash::vk;
-use gpu_allocator::vulkan::{Allocation, AllocationCreateDesc, AllocationScheme};
+use gpu_allocator::vulkan::Allocation;
 use gpu_allocator::MemoryLocation;
 
+use super::memory::{allocate, free};
 use super::Device;
 use crate::error::{Result, VkContext};
 
@@ -62,14 +63,7 @@ impl Image {
             .initial_layout(vk::ImageLayout::UNDEFINED);
         let raw = unsafe { device.raw.create_image(&info, None) }.vk("vkCreateImage")?;
         let reqs = unsafe { device.raw.get_image_memory_requirements(raw) };
-        let alloc = device.allocator.lock().expect("allocator poisoned").allocate(&AllocationCreateDesc {
-            name,
-            requirements: reqs,
-            location: MemoryLocation::GpuOnly,
-            linear: false,
-            allocation_scheme: AllocationScheme::GpuAllocatorManaged,
-        });
-        let allocation = match alloc {
+        let allocation = match allocate(device, name, reqs, MemoryLocation::GpuOnly, false) {
             Ok(a) => a,
             Err(e) => {
                 unsafe { device.raw.destroy_image(raw, None) };
@@ -115,11 +109,7 @@ impl Drop for Image {
                 self.device.raw.destroy_image_view(self.view, None);
             }
         }
-        if let Some(a) = self.allocation.take() {
-            if let Ok(mut alloc) = self.device.allocator.lock() {
-                let _ = alloc.free(a);
-            }
-        }
+        free(&self.device, self.allocation.take());
         unsafe { self.device.raw.destroy_image(self.raw, None) };
     }
 }

@@ -29,14 +29,7 @@ impl Buffer {
             .sharing_mode(vk::SharingMode::EXCLUSIVE);
         let raw = unsafe { device.raw.create_buffer(&info, None) }.vk("vkCreateBuffer")?;
         let reqs = unsafe { device.raw.get_buffer_memory_requirements(raw) };
-        let alloc = device.allocator.lock().expect("allocator poisoned").allocate(&AllocationCreateDesc {
-            name,
-            requirements: reqs,
-            location,
-            linear: true,
-            allocation_scheme: AllocationScheme::GpuAllocatorManaged,
-        });
-        let allocation = match alloc {
+        let allocation = match allocate(device, name, reqs, location, true) {
             Ok(a) => a,
             Err(e) => {
                 unsafe { device.raw.destroy_buffer(raw, None) };
@@ -96,12 +89,35 @@ impl Buffer {
 
 impl Drop for Buffer {
     fn drop(&mut self) {
-        if let Some(a) = self.allocation.take() {
-            if let Ok(mut alloc) = self.device.allocator.lock() {
-                let _ = alloc.free(a);
-            }
-        }
+        free(&self.device, self.allocation.take());
         unsafe { self.device.raw.destroy_buffer(self.raw, None) };
+    }
+}
+
+/// Allocates memory for a buffer or image (`linear`: buffers and linear-tiled images) with
+/// gpu-allocator; the caller binds it and destroys its handle if this fails.
+pub(crate) fn allocate(
+    device: &Device,
+    name: &str,
+    requirements: vk::MemoryRequirements,
+    location: MemoryLocation,
+    linear: bool,
+) -> std::result::Result<Allocation, gpu_allocator::AllocationError> {
+    device.allocator.lock().expect("allocator poisoned").allocate(&AllocationCreateDesc {
+        name,
+        requirements,
+        location,
+        linear,
+        allocation_scheme: AllocationScheme::GpuAllocatorManaged,
+    })
+}
+
+/// Returns an allocation to the allocator (from a wrapper's `Drop`).
+pub(crate) fn free(device: &Device, allocation: Option<Allocation>) {
+    if let Some(a) = allocation {
+        if let Ok(mut alloc) = device.allocator.lock() {
+            let _ = alloc.free(a);
+        }
     }
 }
 
