@@ -23,7 +23,7 @@ pub fn render_to_png(
     let device = shutter::vk::create_device()?;
     let mut renderer = Renderer::new(device)?;
     // 3. One frame. The output is linear HDR plus per-pass GPU timestamps.
-    let settings = RenderSettings { width, height, spp, seed: scene.image.seed };
+    let settings = RenderSettings::new(width, height, spp, scene.image.seed);
     let output = renderer.render(&scene, technique, &settings)?;
     // 4. sRGB PNG or linear EXR by extension.
     shutter::image_io::save_image(out, &output.image)?;

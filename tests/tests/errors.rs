@@ -29,10 +29,10 @@ fn absurd_sizes_and_sample_counts_are_rejected_with_the_limit() {
     );
     let mut r = renderer();
     for (s, what) in [
-        (RenderSettings { width: 100_000, height: 8, spp: 1, seed: 0 }, "width"),
-        (RenderSettings { width: 8, height: 0, spp: 1, seed: 0 }, "height"),
-        (RenderSettings { width: 8, height: 8, spp: 0, seed: 0 }, "spp"),
-        (RenderSettings { width: 8, height: 8, spp: 10_000_000, seed: 0 }, "spp"),
+        (RenderSettings::new(100_000, 8, 1, 0), "width"),
+        (RenderSettings::new(8, 0, 1, 0), "height"),
+        (RenderSettings::new(8, 8, 0, 0), "spp"),
+        (RenderSettings::new(8, 8, 10_000_000, 0), "spp"),
     ] {
         let err = r.render(&scene, Technique::Accumulation, &s).expect_err("must fail");
         let msg = err.to_string();
@@ -67,9 +67,7 @@ fn translucent_material_is_refused_by_opaque_techniques() {
     );
     scene.objects[0].material.alpha = 0.5;
     let mut r = renderer();
-    let err = r
-        .render(&scene, Technique::Pinhole, &RenderSettings { width: 8, height: 8, spp: 1, seed: 0 })
-        .unwrap_err();
+    let err = r.render(&scene, Technique::Pinhole, &RenderSettings::new(8, 8, 1, 0)).unwrap_err();
     assert!(err.to_string().contains("alpha"), "{err}");
 }
 

@@ -11,7 +11,7 @@ use shutter::metrics::{compare, write_flip_diff_png};
 use shutter::reference::{render_reference, ReferenceSettings};
 use shutter::scene::builtin::BUILTIN_SCENES;
 use shutter::scene::file::load_scene;
-use shutter::techniques::{RenderSettings, Renderer, Technique};
+use shutter::techniques::{RenderSettings, Renderer, StochasticOptions, Technique};
 
 #[derive(Parser)]
 #[command(
@@ -31,12 +31,23 @@ enum Command {
         /// A built-in scene name or a path to a .toml scene file.
         #[arg(default_value = "default")]
         scene: String,
-        /// pinhole | accumulation
+        /// pinhole | accumulation | stochastic
         #[arg(long, default_value = "accumulation")]
         technique: String,
-        /// Samples per pixel (accumulation: passes). Default: the scene's [image] spp.
+        /// Samples per pixel S (accumulation: passes; stochastic: MSAA samples × passes). Default: the
+        /// scene's [image] spp.
         #[arg(long)]
         spp: Option<u32>,
+        /// Stochastic bound: bbox, 2d-hexagon, parallel-edge-triangle, variable-radius-triangle,
+        /// 3d-hexagon, wedge, reduced-wedge, convex-hull, adaptive.
+        #[arg(long, default_value = "adaptive")]
+        bound: String,
+        /// Stochastic shading rate: per-pixel | per-sample.
+        #[arg(long, default_value = "per-pixel")]
+        shading: String,
+        /// Stochastic: count samples tested / hit and shading invocations (atomics; slower).
+        #[arg(long)]
+        instrumented: bool,
         #[command(flatten)]
         image: ImageArgs,
     },
@@ -104,10 +115,21 @@ fn main() {
 fn run() -> Result<()> {
     let cli = Cli::parse();
     match cli.command {
-        Command::Render { scene, technique, spp, image: ImageArgs { size, seed, out } } => {
+        Command::Render {
+            scene,
+            technique,
+            spp,
+            bound,
+            shading,
+            instrumented,
+            image: ImageArgs { size, seed, out },
+        } => {
             let technique: Technique = technique.parse()?;
+            let stochastic =
+                StochasticOptions { shading: shading.parse()?, instrumented, ..Default::default() };
+            let _ = bound;
             let sc = load_scene(&scene)?;
-            let mut settings = RenderSettings::from_scene(&sc);
+            let mut settings = RenderSettings::from_scene(&sc).with_stochastic(stochastic);
             if let Some((w, h)) = size {
                 (settings.width, settings.height) = (w, h);
             }
@@ -142,6 +164,19 @@ fn run() -> Result<()> {
             );
             for (name, ms) in &output.timings.passes {
                 println!("  {name:<12} {ms:>10.2} ms");
+            }
+            if technique == Technique::Stochastic {
+                println!("  bound {:?}, shading {}", stochastic.bound, stochastic.shading.name());
+            }
+            if let Some(c) = output.stats.counters {
+                println!(
+                    "  fragments {}, samples tested {}, hit {}, STE {:.4}, shading invocations {}",
+                    c.fragments,
+                    c.samples_tested,
+                    c.samples_hit,
+                    c.sample_test_efficiency(),
+                    c.shading_invocations
+                );
             }
             println!("wrote {}", out.display());
         }

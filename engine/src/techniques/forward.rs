@@ -1,25 +1,18 @@
 //! The forward pass shared by `pinhole` and `accumulation`: the whole scene rendered with one
-//! (u, v, t) and one subpixel offset, MSAA-resolved, then added with a weight into an RGBA32F
-//! accumulation image (Haeberli & Akeley 1990). Shaders: `shaders-glsl/forward/`,
-//! `shaders-glsl/accumulation/accumulate.comp`.
+//! (u, v, t) and one subpixel offset per pass, on the multipass frame of [`super::targets`].
+//! Shaders: `shaders-glsl/forward/`.
 
 use ash::vk;
 use glam::Vec2;
 
 use super::gpu_scene::GpuScene;
+use super::targets::{PassTargets, COLOR_FORMAT, DEPTH_FORMAT};
 use crate::error::Result;
 use crate::image::LinearImage;
 use crate::shaders;
 use crate::vk::{
-    as_bytes, barrier, image_barriers, read_rgba32f, record_readback, write_descriptors, CommandRecorder,
-    DescriptorPool, DescriptorSetLayout, DescriptorWrite, Device, GpuTimer, GraphicsDesc, Image, ImageDesc,
-    PassTimings, Pipeline, PipelineLayout, ShaderModule,
+    as_bytes, CommandRecorder, Device, GraphicsDesc, PassTimings, Pipeline, PipelineLayout, ShaderModule,
 };
-
-/// Pass colour format (HDR) and depth format. Depth is reversed Z: cleared to 0, nearer is greater.
-pub const COLOR_FORMAT: vk::Format = vk::Format::R16G16B16A16_SFLOAT;
-pub const DEPTH_FORMAT: vk::Format = vk::Format::D32_SFLOAT;
-pub const ACCUM_FORMAT: vk::Format = vk::Format::R32G32B32A32_SFLOAT;
 
 /// One pass' sample of the lens and shutter.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -41,32 +34,18 @@ struct ForwardPush {
     jitter: [f32; 2],
 }
 
-/// Pipelines and targets for rendering passes of one size and MSAA count.
+/// The forward pipeline and its targets for one image size and MSAA count.
 pub struct ForwardRenderer {
-    samples: u32,
+    targets: PassTargets,
     pipeline: Pipeline,
     layout: PipelineLayout,
-    accumulate: Pipeline,
-    accumulate_layout: PipelineLayout,
-    accumulate_set: vk::DescriptorSet,
-    _accumulate_set_layout: DescriptorSetLayout,
-    _pool: DescriptorPool,
-    color_ms: Option<Image>,
-    depth: Image,
-    resolved: Image,
-    accum: Image,
     _shaders: Vec<ShaderModule>,
 }
 
-/// Passes recorded per command buffer (bounds command-buffer size and query-pool size).
-const PASSES_PER_SUBMIT: usize = 64;
-
 impl ForwardRenderer {
     pub fn new(device: &Device, scene: &GpuScene, samples: u32) -> Result<Self> {
-        let (w, h) = (scene.width, scene.height);
         let vert = ShaderModule::new(device, shaders::FORWARD_FORWARD_VERT)?;
         let frag = ShaderModule::new(device, shaders::FORWARD_FORWARD_FRAG)?;
-        let comp = ShaderModule::new(device, shaders::ACCUMULATION_ACCUMULATE_COMP)?;
         let layout = PipelineLayout::new(
             device,
             &[&scene.frame_layout, &scene.material_layout],
@@ -93,81 +72,12 @@ impl ForwardRenderer {
                 depth_write: true,
             },
         )?;
-        let accumulate_set_layout = DescriptorSetLayout::new(
-            device,
-            "accumulate set layout",
-            &[
-                (0, vk::DescriptorType::STORAGE_IMAGE, vk::ShaderStageFlags::COMPUTE),
-                (1, vk::DescriptorType::STORAGE_IMAGE, vk::ShaderStageFlags::COMPUTE),
-            ],
-        )?;
-        let accumulate_layout =
-            PipelineLayout::new(device, &[&accumulate_set_layout], 4, vk::ShaderStageFlags::COMPUTE)?;
-        let accumulate = Pipeline::compute(device, "accumulate", &accumulate_layout, &comp)?;
-
-        let attach = vk::ImageUsageFlags::COLOR_ATTACHMENT;
-        let color_ms = if samples > 1 {
-            Some(Image::new(
-                device,
-                "forward color (MSAA)",
-                ImageDesc::new_2d(w, h, COLOR_FORMAT, attach | vk::ImageUsageFlags::TRANSIENT_ATTACHMENT)
-                    .samples(samples),
-            )?)
-        } else {
-            None
-        };
-        let depth = Image::new(
-            device,
-            "forward depth",
-            ImageDesc::new_2d(w, h, DEPTH_FORMAT, vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT)
-                .samples(samples),
-        )?;
-        let resolved = Image::new(
-            device,
-            "forward resolved",
-            ImageDesc::new_2d(w, h, COLOR_FORMAT, attach | vk::ImageUsageFlags::STORAGE),
-        )?;
-        let accum = Image::new(
-            device,
-            "accumulation",
-            ImageDesc::new_2d(
-                w,
-                h,
-                ACCUM_FORMAT,
-                vk::ImageUsageFlags::STORAGE
-                    | vk::ImageUsageFlags::TRANSFER_SRC
-                    | vk::ImageUsageFlags::TRANSFER_DST,
-            ),
-        )?;
-        let pool = DescriptorPool::new(device, 1, &[(vk::DescriptorType::STORAGE_IMAGE, 2)])?;
-        let accumulate_set = pool.allocate(&accumulate_set_layout)?;
-        write_descriptors(
-            device,
-            accumulate_set,
-            &[
-                DescriptorWrite::StorageImage { binding: 0, view: resolved.view },
-                DescriptorWrite::StorageImage { binding: 1, view: accum.view },
-            ],
-        );
-        Ok(ForwardRenderer {
-            samples,
-            pipeline,
-            layout,
-            accumulate,
-            accumulate_layout,
-            accumulate_set,
-            _accumulate_set_layout: accumulate_set_layout,
-            _pool: pool,
-            color_ms,
-            depth,
-            resolved,
-            accum,
-            _shaders: vec![vert, frag, comp],
-        })
+        let targets = PassTargets::new(device, scene.width, scene.height, samples)?;
+        Ok(ForwardRenderer { targets, pipeline, layout, _shaders: vec![vert, frag] })
     }
 
     pub fn samples(&self) -> u32 {
-        self.samples
+        self.targets.samples()
     }
 
     /// Renders every pass, averages them (equal weights) and reads the result back.
@@ -178,171 +88,14 @@ impl ForwardRenderer {
         scene: &GpuScene,
         passes: &[PassSample],
     ) -> Result<(LinearImage, PassTimings)> {
-        let weight = 1.0 / passes.len().max(1) as f32;
-        let mut timings = PassTimings::default();
-        let mut timer = GpuTimer::new(device, 2 * PASSES_PER_SUBMIT as u32)?;
-        let chunks: Vec<&[PassSample]> = passes.chunks(PASSES_PER_SUBMIT).collect();
-        let last = chunks.len().saturating_sub(1);
-        let mut readback = None;
-        for (ci, chunk) in chunks.iter().enumerate() {
-            readback = rec.submit(|d, cmd| {
-                timer.reset(cmd);
-                if ci == 0 {
-                    self.clear_accumulator(d, cmd);
-                }
-                for pass in chunk.iter() {
-                    let t = timer.begin(cmd, "forward");
-                    self.record_pass(d, cmd, scene, pass);
-                    timer.end(cmd, t);
-                    let t = timer.begin(cmd, "accumulate");
-                    self.record_accumulate(d, cmd, weight);
-                    timer.end(cmd, t);
-                }
-                if ci == last {
-                    Ok(Some(record_readback(
-                        d,
-                        cmd,
-                        &self.accum,
-                        vk::ImageLayout::GENERAL,
-                        (vk::PipelineStageFlags2::COMPUTE_SHADER, vk::AccessFlags2::SHADER_STORAGE_WRITE),
-                    )?))
-                } else {
-                    Ok(None)
-                }
-            })?;
-            for (name, ms) in timer.results()?.passes {
-                match timings.passes.iter_mut().find(|(n, _)| *n == name) {
-                    Some((_, acc)) => *acc += ms,
-                    None => timings.passes.push((name, ms)),
-                }
-            }
-        }
-        let buffer = readback.ok_or_else(|| crate::Error::Unsupported("no passes to render".into()))?;
-        Ok((read_rgba32f(&buffer, scene.width, scene.height)?, timings))
+        self.targets.render(device, rec, scene.background, passes.len(), "forward", &mut |d, cmd, i| {
+            self.record_draws(d, cmd, scene, &passes[i])
+        })
     }
 
-    fn clear_accumulator(&self, d: &Device, cmd: vk::CommandBuffer) {
-        image_barriers(
-            d,
-            cmd,
-            &[barrier(
-                &self.accum,
-                vk::ImageLayout::UNDEFINED,
-                vk::ImageLayout::GENERAL,
-                (vk::PipelineStageFlags2::NONE, vk::AccessFlags2::NONE),
-                (vk::PipelineStageFlags2::CLEAR, vk::AccessFlags2::TRANSFER_WRITE),
-            )],
-        );
-        let zero = vk::ClearColorValue { float32: [0.0; 4] };
+    fn record_draws(&self, d: &Device, cmd: vk::CommandBuffer, scene: &GpuScene, pass: &PassSample) {
         unsafe {
-            d.raw.cmd_clear_color_image(
-                cmd,
-                self.accum.raw,
-                vk::ImageLayout::GENERAL,
-                &zero,
-                &[self.accum.full_range()],
-            )
-        };
-        image_barriers(
-            d,
-            cmd,
-            &[barrier(
-                &self.accum,
-                vk::ImageLayout::GENERAL,
-                vk::ImageLayout::GENERAL,
-                (vk::PipelineStageFlags2::CLEAR, vk::AccessFlags2::TRANSFER_WRITE),
-                (
-                    vk::PipelineStageFlags2::COMPUTE_SHADER,
-                    vk::AccessFlags2::SHADER_STORAGE_READ | vk::AccessFlags2::SHADER_STORAGE_WRITE,
-                ),
-            )],
-        );
-    }
-
-    /// One forward pass into `resolved` (layout GENERAL afterwards, ready for the compute read).
-    fn record_pass(&self, d: &Device, cmd: vk::CommandBuffer, scene: &GpuScene, pass: &PassSample) {
-        d.begin_label(cmd, "forward");
-        let color_write =
-            (vk::PipelineStageFlags2::COLOR_ATTACHMENT_OUTPUT, vk::AccessFlags2::COLOR_ATTACHMENT_WRITE);
-        let depth_access = (
-            vk::PipelineStageFlags2::EARLY_FRAGMENT_TESTS | vk::PipelineStageFlags2::LATE_FRAGMENT_TESTS,
-            vk::AccessFlags2::DEPTH_STENCIL_ATTACHMENT_WRITE
-                | vk::AccessFlags2::DEPTH_STENCIL_ATTACHMENT_READ,
-        );
-        // The previous pass' accumulate read `resolved`; its contents are discarded (UNDEFINED).
-        let mut barriers = vec![
-            barrier(
-                &self.resolved,
-                vk::ImageLayout::UNDEFINED,
-                vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL,
-                (vk::PipelineStageFlags2::COMPUTE_SHADER, vk::AccessFlags2::SHADER_STORAGE_READ),
-                color_write,
-            ),
-            barrier(
-                &self.depth,
-                vk::ImageLayout::UNDEFINED,
-                vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL,
-                depth_access,
-                depth_access,
-            ),
-        ];
-        if let Some(ms) = &self.color_ms {
-            barriers.push(barrier(
-                ms,
-                vk::ImageLayout::UNDEFINED,
-                vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL,
-                color_write,
-                color_write,
-            ));
-        }
-        image_barriers(d, cmd, &barriers);
-
-        let clear = vk::ClearValue { color: vk::ClearColorValue { float32: scene.background } };
-        let color_attachment = match &self.color_ms {
-            Some(ms) => vk::RenderingAttachmentInfo::default()
-                .image_view(ms.view)
-                .image_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL)
-                .resolve_mode(vk::ResolveModeFlags::AVERAGE)
-                .resolve_image_view(self.resolved.view)
-                .resolve_image_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL)
-                .load_op(vk::AttachmentLoadOp::CLEAR)
-                .store_op(vk::AttachmentStoreOp::DONT_CARE)
-                .clear_value(clear),
-            None => vk::RenderingAttachmentInfo::default()
-                .image_view(self.resolved.view)
-                .image_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL)
-                .load_op(vk::AttachmentLoadOp::CLEAR)
-                .store_op(vk::AttachmentStoreOp::STORE)
-                .clear_value(clear),
-        };
-        let color_attachments = [color_attachment];
-        let depth_attachment = vk::RenderingAttachmentInfo::default()
-            .image_view(self.depth.view)
-            .image_layout(vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL)
-            .load_op(vk::AttachmentLoadOp::CLEAR)
-            .store_op(vk::AttachmentStoreOp::DONT_CARE)
-            .clear_value(vk::ClearValue {
-                depth_stencil: vk::ClearDepthStencilValue { depth: 0.0, stencil: 0 },
-            });
-        let area = vk::Rect2D { offset: vk::Offset2D::default(), extent: self.resolved.extent_2d() };
-        let info = vk::RenderingInfo::default()
-            .render_area(area)
-            .layer_count(1)
-            .color_attachments(&color_attachments)
-            .depth_attachment(&depth_attachment);
-        unsafe {
-            d.raw.cmd_begin_rendering(cmd, &info);
             d.raw.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, self.pipeline.raw);
-            let viewport = vk::Viewport {
-                x: 0.0,
-                y: 0.0,
-                width: scene.width as f32,
-                height: scene.height as f32,
-                min_depth: 0.0,
-                max_depth: 1.0,
-            };
-            d.raw.cmd_set_viewport(cmd, 0, &[viewport]);
-            d.raw.cmd_set_scissor(cmd, 0, &[area]);
             d.raw.cmd_bind_descriptor_sets(
                 cmd,
                 vk::PipelineBindPoint::GRAPHICS,
@@ -380,55 +133,6 @@ impl ForwardRenderer {
                 d.raw.cmd_bind_index_buffer(cmd, o.indices.raw, 0, vk::IndexType::UINT32);
                 d.raw.cmd_draw_indexed(cmd, o.index_count, 1, 0, 0, 0);
             }
-            d.raw.cmd_end_rendering(cmd);
         }
-        // Resolve (or direct) writes happen in COLOR_ATTACHMENT_OUTPUT; the compute pass reads them.
-        image_barriers(
-            d,
-            cmd,
-            &[barrier(
-                &self.resolved,
-                vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL,
-                vk::ImageLayout::GENERAL,
-                color_write,
-                (vk::PipelineStageFlags2::COMPUTE_SHADER, vk::AccessFlags2::SHADER_STORAGE_READ),
-            )],
-        );
-        d.end_label(cmd);
-    }
-
-    /// `accum += weight · resolved`.
-    fn record_accumulate(&self, d: &Device, cmd: vk::CommandBuffer, weight: f32) {
-        d.begin_label(cmd, "accumulate");
-        unsafe {
-            d.raw.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, self.accumulate.raw);
-            d.raw.cmd_bind_descriptor_sets(
-                cmd,
-                vk::PipelineBindPoint::COMPUTE,
-                self.accumulate_layout.raw,
-                0,
-                &[self.accumulate_set],
-                &[],
-            );
-            d.raw.cmd_push_constants(
-                cmd,
-                self.accumulate_layout.raw,
-                vk::ShaderStageFlags::COMPUTE,
-                0,
-                as_bytes(&weight),
-            );
-            d.raw.cmd_dispatch(cmd, self.accum.desc.width.div_ceil(8), self.accum.desc.height.div_ceil(8), 1);
-        }
-        // The next accumulate reads and writes `accum` again.
-        crate::vk::memory_barrier(
-            d,
-            cmd,
-            (vk::PipelineStageFlags2::COMPUTE_SHADER, vk::AccessFlags2::SHADER_STORAGE_WRITE),
-            (
-                vk::PipelineStageFlags2::COMPUTE_SHADER,
-                vk::AccessFlags2::SHADER_STORAGE_READ | vk::AccessFlags2::SHADER_STORAGE_WRITE,
-            ),
-        );
-        d.end_label(cmd);
     }
 }

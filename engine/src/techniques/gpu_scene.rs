@@ -216,13 +216,13 @@ impl GpuScene {
             let vb = Buffer::with_data(
                 device,
                 &format!("vertices:{}", o.name),
-                vk::BufferUsageFlags::VERTEX_BUFFER,
+                vk::BufferUsageFlags::VERTEX_BUFFER | vk::BufferUsageFlags::STORAGE_BUFFER,
                 &vertices,
             )?;
             let ib = Buffer::with_data(
                 device,
                 &format!("indices:{}", o.name),
-                vk::BufferUsageFlags::INDEX_BUFFER,
+                vk::BufferUsageFlags::INDEX_BUFFER | vk::BufferUsageFlags::STORAGE_BUFFER,
                 &mesh.indices,
             )?;
             let tex_slot = match &o.material.texture {

@@ -2,6 +2,8 @@
 //!
 //! - `pinhole`: one pass at mid-shutter through the lens centre (no effect), MSAA 4×
 //! - `accumulation`: P full-scene passes, one (x,y,u,v,t) each, averaged
+//! - `stochastic`: stochastic rasterization, S = M MSAA samples × P passes per pixel, each sample its
+//!   own (x,y,u,v,t), tested per triangle inside a conservative bound (`stochastic.rs`)
 //!
 //! [`Renderer`] owns the device-side state that outlives a frame (the command recorder) and renders a
 //! [`Scene`] with a [`Technique`] into a [`RenderOutput`].
@@ -10,12 +12,15 @@ pub mod accumulation;
 pub mod forward;
 pub mod gpu_scene;
 pub mod pinhole;
+pub mod stochastic;
+pub mod targets;
 
 use std::str::FromStr;
 use std::time::Instant;
 
 pub use forward::PassSample;
 pub use gpu_scene::GpuScene;
+pub use stochastic::{SampleCounters, ShadingRate, StochasticOptions};
 
 use crate::error::{Error, Result};
 use crate::image::LinearImage;
@@ -28,14 +33,17 @@ use crate::vk::{CommandRecorder, Device, PassTimings};
 pub enum Technique {
     Pinhole,
     Accumulation,
+    Stochastic,
 }
 
 impl Technique {
-    pub const ALL: &'static [Technique] = &[Technique::Pinhole, Technique::Accumulation];
+    pub const ALL: &'static [Technique] =
+        &[Technique::Pinhole, Technique::Accumulation, Technique::Stochastic];
     pub fn name(&self) -> &'static str {
         match self {
             Technique::Pinhole => "pinhole",
             Technique::Accumulation => "accumulation",
+            Technique::Stochastic => "stochastic",
         }
     }
 }
@@ -57,15 +65,32 @@ impl FromStr for Technique {
 pub struct RenderSettings {
     pub width: u32,
     pub height: u32,
-    /// Samples per pixel: passes for `accumulation`; ignored by `pinhole` (MSAA 4×).
+    /// Samples per pixel S: passes for `accumulation`, MSAA samples × passes for `stochastic`; ignored
+    /// by `pinhole` (MSAA 4×).
     pub spp: u32,
     pub seed: u64,
+    /// Settings of technique `stochastic` (ignored by the others).
+    pub stochastic: StochasticOptions,
 }
 
 impl RenderSettings {
+    /// `width × height`, `spp` samples per pixel, `seed`; default technique options.
+    pub fn new(width: u32, height: u32, spp: u32, seed: u64) -> Self {
+        RenderSettings { width, height, spp, seed, stochastic: StochasticOptions::default() }
+    }
+    /// The same with these `stochastic` options.
+    pub fn with_stochastic(self, stochastic: StochasticOptions) -> Self {
+        RenderSettings { stochastic, ..self }
+    }
     pub fn from_scene(scene: &Scene) -> Self {
         let i = scene.image;
-        RenderSettings { width: i.width, height: i.height, spp: i.spp, seed: i.seed }
+        RenderSettings {
+            width: i.width,
+            height: i.height,
+            spp: i.spp,
+            seed: i.seed,
+            stochastic: StochasticOptions::default(),
+        }
     }
 }
 
@@ -79,6 +104,8 @@ pub struct RenderStats {
     pub cpu_frame_ms: f64,
     /// CPU time to upload the scene (ms).
     pub upload_ms: f64,
+    /// Sample counters of an instrumented `stochastic` render.
+    pub counters: Option<SampleCounters>,
 }
 
 /// An image with how it was made.
@@ -149,34 +176,51 @@ impl Renderer {
         let gpu_scene =
             GpuScene::upload(&self.device, &mut self.recorder, scene, settings.width, settings.height)?;
         let upload_ms = t0.elapsed().as_secs_f64() * 1e3;
-        let (passes, msaa) = match technique {
-            Technique::Pinhole => {
-                (pinhole::pinhole_passes(), self.device.caps.msaa_samples(pinhole::PINHOLE_MSAA))
+        let t1;
+        let (image, timings, passes, msaa, counters) = match technique {
+            Technique::Pinhole | Technique::Accumulation => {
+                let (passes, msaa) = if technique == Technique::Pinhole {
+                    (pinhole::pinhole_passes(), self.device.caps.msaa_samples(pinhole::PINHOLE_MSAA))
+                } else {
+                    let c = &scene.camera;
+                    (accumulation::accumulation_passes(settings.spp, settings.seed, c.aperture, c.shutter), 1)
+                };
+                let forward = forward::ForwardRenderer::new(&self.device, &gpu_scene, msaa)?;
+                t1 = Instant::now();
+                let (image, timings) =
+                    forward.render(&self.device, &mut self.recorder, &gpu_scene, &passes)?;
+                (image, timings, passes.len() as u32, msaa, None)
             }
-            Technique::Accumulation => (
-                accumulation::accumulation_passes(
+            Technique::Stochastic => {
+                let c = &scene.camera;
+                let mut sr = stochastic::StochasticRenderer::new(
+                    &self.device,
+                    &gpu_scene,
                     settings.spp,
                     settings.seed,
-                    scene.camera.aperture,
-                    scene.camera.shutter,
-                ),
-                1,
-            ),
+                    c.aperture,
+                    c.shutter,
+                    settings.stochastic,
+                    Default::default(),
+                )?;
+                let (msaa, passes) = sr.msaa_and_passes();
+                t1 = Instant::now();
+                let (image, timings, counters) = sr.render(&self.device, &mut self.recorder, &gpu_scene)?;
+                (image, timings, passes, msaa, counters)
+            }
         };
-        let forward = forward::ForwardRenderer::new(&self.device, &gpu_scene, msaa)?;
-        let t1 = Instant::now();
-        let (image, timings) = forward.render(&self.device, &mut self.recorder, &gpu_scene, &passes)?;
         let cpu_frame_ms = t1.elapsed().as_secs_f64() * 1e3;
         self.device.check_validation()?;
         Ok(RenderOutput {
             image,
             timings,
             stats: RenderStats {
-                passes: passes.len() as u32,
+                passes,
                 msaa_samples: msaa,
                 triangles: scene.triangle_count(),
                 cpu_frame_ms,
                 upload_ms,
+                counters,
             },
         })
     }

@@ -58,6 +58,8 @@ pub struct Capabilities {
     pub geometry_shader: bool,
     pub sample_rate_shading: bool,
     pub fragment_stores_and_atomics: bool,
+    /// Stores from vertex/geometry stages (the bound readback test's debug output).
+    pub vertex_pipeline_stores_and_atomics: bool,
     pub conservative_rasterization: bool,
     pub max_geometry_output_vertices: u32,
     pub max_geometry_total_output_components: u32,
@@ -76,6 +78,7 @@ pub enum Feature {
     GeometryShader,
     SampleRateShading,
     FragmentStoresAndAtomics,
+    VertexPipelineStoresAndAtomics,
     ConservativeRasterization,
     TimestampQueries,
     /// MSAA with this many samples for colour and depth.
@@ -89,6 +92,7 @@ impl Feature {
             Feature::GeometryShader => "geometryShader".into(),
             Feature::SampleRateShading => "sampleRateShading".into(),
             Feature::FragmentStoresAndAtomics => "fragmentStoresAndAtomics".into(),
+            Feature::VertexPipelineStoresAndAtomics => "vertexPipelineStoresAndAtomics".into(),
             Feature::ConservativeRasterization => "VK_EXT_conservative_rasterization".into(),
             Feature::TimestampQueries => "timestampComputeAndGraphics".into(),
             Feature::Msaa(n) => {
@@ -109,6 +113,7 @@ impl Capabilities {
             Feature::GeometryShader => self.geometry_shader,
             Feature::SampleRateShading => self.sample_rate_shading,
             Feature::FragmentStoresAndAtomics => self.fragment_stores_and_atomics,
+            Feature::VertexPipelineStoresAndAtomics => self.vertex_pipeline_stores_and_atomics,
             Feature::ConservativeRasterization => self.conservative_rasterization,
             Feature::TimestampQueries => self.timestamps,
             Feature::Msaa(n) => self.framebuffer_sample_counts.contains(&n),
@@ -150,6 +155,7 @@ impl std::fmt::Display for Capabilities {
         )?;
         writeln!(f, "sample-rate shading {}", self.sample_rate_shading)?;
         writeln!(f, "fragment stores/atomics {}", self.fragment_stores_and_atomics)?;
+        writeln!(f, "vertex-pipeline stores/atomics {}", self.vertex_pipeline_stores_and_atomics)?;
         writeln!(f, "VK_EXT_conservative_rasterization {}", self.conservative_rasterization)?;
         writeln!(f, "push constants    {} bytes", self.max_push_constants_size)?;
         writeln!(f, "max image 2D      {}", self.max_image_dimension_2d)?;
@@ -415,6 +421,7 @@ impl DeviceShared {
             geometry_shader: supported.geometry_shader == vk::TRUE,
             sample_rate_shading: supported.sample_rate_shading == vk::TRUE,
             fragment_stores_and_atomics: supported.fragment_stores_and_atomics == vk::TRUE,
+            vertex_pipeline_stores_and_atomics: supported.vertex_pipeline_stores_and_atomics == vk::TRUE,
             conservative_rasterization: conservative,
             max_geometry_output_vertices: limits.max_geometry_output_vertices,
             max_geometry_total_output_components: limits.max_geometry_total_output_components,
@@ -431,6 +438,7 @@ impl DeviceShared {
             .geometry_shader(caps.geometry_shader)
             .sample_rate_shading(caps.sample_rate_shading)
             .fragment_stores_and_atomics(caps.fragment_stores_and_atomics)
+            .vertex_pipeline_stores_and_atomics(caps.vertex_pipeline_stores_and_atomics)
             .sampler_anisotropy(supported.sampler_anisotropy == vk::TRUE)
             .shader_storage_image_write_without_format(
                 supported.shader_storage_image_write_without_format == vk::TRUE,

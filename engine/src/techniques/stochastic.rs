@@ -1,0 +1,518 @@
+//! Technique `stochastic`: stochastic rasterization of motion blur and depth of field on the conventional
+//! pipeline (McGuire, Enderton, Shirley & Luebke, HPG 2010; Toth & Linder 2008).
+//!
+//! S samples per pixel are split into P = S / M passes of M MSAA samples. In every pass each triangle
+//! goes through a geometry shader that replaces it by a conservative screen-space bound of everywhere
+//! it can land over the lens and the shutter (`bounds`, selectable per draw, mirrored on the CPU in
+//! [`crate::bounds`]), dilated by a pixel box; for every pixel the bound touches, the fragment shader
+//! runs the 5D inside test of each of the pass' samples — the ray from the sample's lens point through
+//! its (x, y) against the triangle at the sample's time — writes the hits to `gl_SampleMask` and the
+//! hit depth to `gl_FragDepth`, and shades per pixel or per sample ([`ShadingRate`]). The passes are
+//! resolved and averaged by [`super::targets::PassTargets`].
+//!
+//! The (x, y, u, v, t) samples are those of the CPU reference ([`SampleTile`]: 64×64 pixels × S
+//! stratified samples, aperture shape and shutter curve applied here, never in the shaders), so at
+//! equal S and seed the two estimate the pixel integral with the very same samples.
+//! Shaders: `shaders-glsl/stochastic/`.
+
+use ash::vk;
+use gpu_allocator::MemoryLocation;
+
+use super::gpu_scene::GpuScene;
+use super::targets::{PassTargets, COLOR_FORMAT, DEPTH_FORMAT};
+use crate::bounds::BoundKind;
+use crate::error::{Error, Result};
+use crate::image::LinearImage;
+use crate::sampling::{ApertureShape, SampleTile, ShutterCurve, SAMPLE_TILE_SIZE};
+use crate::shaders;
+use crate::vk::{
+    as_bytes, write_descriptors, Buffer, CommandRecorder, DescriptorPool, DescriptorSetLayout,
+    DescriptorWrite, Device, Feature, GpuTimer, GraphicsDesc, PassTimings, Pipeline, PipelineLayout,
+    ShaderModule,
+};
+
+/// Largest S the stochastic technique accepts (the sample tile is 64·64·S·20 bytes: 84 MB at 1024).
+pub const MAX_STOCHASTIC_SPP: u32 = 1024;
+
+/// How often the fragment shader shades.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum ShadingRate {
+    /// Once per pixel and pass from the nearest covered sample (MSAA-like); every covered sample takes
+    /// that sample's colour and depth.
+    #[default]
+    PerPixel,
+    /// Once per covered sample (`sampleRateShading`), each with its own hit, time, lens and depth.
+    PerSample,
+}
+
+impl ShadingRate {
+    pub const ALL: [ShadingRate; 2] = [ShadingRate::PerPixel, ShadingRate::PerSample];
+    pub fn name(&self) -> &'static str {
+        match self {
+            ShadingRate::PerPixel => "per-pixel",
+            ShadingRate::PerSample => "per-sample",
+        }
+    }
+}
+
+impl std::str::FromStr for ShadingRate {
+    type Err = Error;
+    fn from_str(s: &str) -> Result<Self> {
+        ShadingRate::ALL.into_iter().find(|r| r.name() == s).ok_or_else(|| {
+            Error::Unsupported(format!("unknown shading rate `{s}`; available: per-pixel, per-sample"))
+        })
+    }
+}
+
+/// Settings of the `stochastic` technique.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct StochasticOptions {
+    pub bound: BoundKind,
+    pub shading: ShadingRate,
+    /// Count samples tested / hit and shading invocations with atomics (slower).
+    pub instrumented: bool,
+}
+
+impl Default for StochasticOptions {
+    fn default() -> Self {
+        StochasticOptions { bound: DEFAULT_BOUND, shading: ShadingRate::PerPixel, instrumented: false }
+    }
+}
+
+const DEFAULT_BOUND: BoundKind = BoundKind::ConvexHull;
+
+/// The id the geometry shader switches on (`BOUND_*` in `stochastic/bounds.glsl`).
+fn bound_id(kind: BoundKind) -> u32 {
+    match kind {
+        BoundKind::BoundingBox => 0,
+        BoundKind::ConvexHull => 7,
+    }
+}
+
+/// Counters of an instrumented render, summed over all passes.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct SampleCounters {
+    /// Fragment shader invocations (pixels × passes the bounds touched).
+    pub fragments: u64,
+    /// (x, y, u, v, t) samples run through the inside test.
+    pub samples_tested: u64,
+    /// Samples the inside test accepted (before the depth test).
+    pub samples_hit: u64,
+    /// Invocations that shaded (per pixel: fragments with a hit; per sample: hits).
+    pub shading_invocations: u64,
+}
+
+impl SampleCounters {
+    /// Sample test efficiency: hits / tested (McGuire et al. 2010).
+    pub fn sample_test_efficiency(&self) -> f64 {
+        if self.samples_tested == 0 {
+            0.0
+        } else {
+            self.samples_hit as f64 / self.samples_tested as f64
+        }
+    }
+}
+
+#[repr(C)]
+#[derive(Clone, Copy)]
+struct StochasticPush {
+    object: u32,
+    bound: u32,
+    pass_index: u32,
+    spp: u32,
+    msaa: u32,
+    footprint: f32,
+}
+
+/// Splits S samples per pixel into passes of M MSAA samples: the largest count the device supports
+/// (up to 8) that divides S.
+pub fn split_samples(spp: u32, supported: &[u32]) -> (u32, u32) {
+    let msaa = [8, 4, 2, 1].into_iter().find(|&m| spp % m == 0 && supported.contains(&m)).unwrap_or(1);
+    (msaa, spp / msaa)
+}
+
+/// The sample tile as the fragment shader reads it: (x, y, lens u, lens v) and time per sample.
+pub fn gpu_samples(
+    spp: u32,
+    seed: u64,
+    aperture: ApertureShape,
+    shutter: ShutterCurve,
+) -> (Vec<[f32; 4]>, Vec<f32>) {
+    let tile = SampleTile::new(spp, SAMPLE_TILE_SIZE, seed);
+    let n = (SAMPLE_TILE_SIZE * SAMPLE_TILE_SIZE * spp) as usize;
+    let (mut xy_lens, mut time) = (Vec::with_capacity(n), Vec::with_capacity(n));
+    for y in 0..SAMPLE_TILE_SIZE {
+        for x in 0..SAMPLE_TILE_SIZE {
+            for s in tile.pixel(x, y) {
+                let lens = aperture.map(s.lens);
+                xy_lens.push([s.xy.x, s.xy.y, lens.x, lens.y]);
+                time.push(shutter.warp(s.time));
+            }
+        }
+    }
+    (xy_lens, time)
+}
+
+/// Pipelines, sample buffers and per-object descriptor sets of the stochastic rasterizer.
+pub struct StochasticRenderer {
+    targets: PassTargets,
+    pipeline: Pipeline,
+    layout: PipelineLayout,
+    object_sets: Vec<vk::DescriptorSet>,
+    sample_set: vk::DescriptorSet,
+    options: StochasticOptions,
+    spp: u32,
+    passes: u32,
+    counters: Buffer,
+    _bound_debug: Buffer,
+    _samples: [Buffer; 2],
+    _pool: DescriptorPool,
+    _set_layouts: [DescriptorSetLayout; 2],
+    triangles_pipeline: Pipeline,
+    triangles_layout: PipelineLayout,
+    _triangles: Vec<Buffer>,
+    _shaders: Vec<ShaderModule>,
+}
+
+/// Bytes per camera-space triangle record (`triangles.comp`): 3 vertices × xyz at open and close.
+const TRIANGLE_RECORD_BYTES: u64 = 18 * 4;
+
+/// Extra knobs for tests: the geometry shader's debug output of every triangle's bound.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct DebugOptions {
+    /// Capacity, in triangles, of the bound debug buffer (0 = off).
+    pub bound_debug_triangles: u32,
+}
+
+/// Floats per triangle in the bound debug buffer (see `stochastic.geom`).
+pub const BOUND_DEBUG_STRIDE: usize = 8 + 2 * 48;
+
+impl StochasticRenderer {
+    #[allow(clippy::too_many_arguments)]
+    pub fn new(
+        device: &Device,
+        scene: &GpuScene,
+        spp: u32,
+        seed: u64,
+        aperture: ApertureShape,
+        shutter: ShutterCurve,
+        options: StochasticOptions,
+        debug: DebugOptions,
+    ) -> Result<Self> {
+        let caps = &device.caps;
+        caps.require(Feature::GeometryShader, "technique `stochastic` (hull expansion)")?;
+        if options.shading == ShadingRate::PerSample {
+            caps.require(Feature::SampleRateShading, "technique `stochastic --shading per-sample`")?;
+        }
+        if options.instrumented {
+            caps.require(Feature::FragmentStoresAndAtomics, "instrumented `stochastic` (sample counters)")?;
+        }
+        if debug.bound_debug_triangles > 0 {
+            caps.require(Feature::VertexPipelineStoresAndAtomics, "the bound debug output")?;
+        }
+        if spp == 0 || spp > MAX_STOCHASTIC_SPP {
+            return Err(Error::Limit {
+                what: "spp",
+                value: spp.to_string(),
+                limit: format!("1..={MAX_STOCHASTIC_SPP} for technique `stochastic`"),
+            });
+        }
+        let (msaa, passes) = split_samples(spp, &caps.framebuffer_sample_counts);
+
+        let vert = ShaderModule::new(device, shaders::STOCHASTIC_STOCHASTIC_VERT)?;
+        let geom = ShaderModule::new(
+            device,
+            if debug.bound_debug_triangles > 0 {
+                shaders::STOCHASTIC_STOCHASTIC_GEOM_BOUND_DEBUG
+            } else {
+                shaders::STOCHASTIC_STOCHASTIC_GEOM
+            },
+        )?;
+        let frag = ShaderModule::new(
+            device,
+            match (options.shading, options.instrumented) {
+                (ShadingRate::PerPixel, false) => shaders::STOCHASTIC_STOCHASTIC_FRAG,
+                (ShadingRate::PerPixel, true) => shaders::STOCHASTIC_STOCHASTIC_FRAG_INSTRUMENTED,
+                (ShadingRate::PerSample, false) => shaders::STOCHASTIC_STOCHASTIC_FRAG_PER_SAMPLE,
+                (ShadingRate::PerSample, true) => shaders::STOCHASTIC_STOCHASTIC_FRAG_PER_SAMPLE_INSTRUMENTED,
+            },
+        )?;
+        let frag_stage = vk::ShaderStageFlags::FRAGMENT;
+        let geometry_stages = vk::ShaderStageFlags::FRAGMENT | vk::ShaderStageFlags::COMPUTE;
+        let geometry_layout = DescriptorSetLayout::new(
+            device,
+            "stochastic geometry set layout",
+            &[
+                (0, vk::DescriptorType::STORAGE_BUFFER, geometry_stages),
+                (1, vk::DescriptorType::STORAGE_BUFFER, geometry_stages),
+                (2, vk::DescriptorType::STORAGE_BUFFER, geometry_stages),
+            ],
+        )?;
+        let comp = ShaderModule::new(device, shaders::STOCHASTIC_TRIANGLES_COMP)?;
+        let triangles_layout = PipelineLayout::new(
+            device,
+            &[&scene.frame_layout, &geometry_layout],
+            8,
+            vk::ShaderStageFlags::COMPUTE,
+        )?;
+        let triangles_pipeline =
+            Pipeline::compute(device, "camera-space triangles", &triangles_layout, &comp)?;
+        let sample_layout = DescriptorSetLayout::new(
+            device,
+            "stochastic sample set layout",
+            &[
+                (0, vk::DescriptorType::STORAGE_BUFFER, frag_stage),
+                (1, vk::DescriptorType::STORAGE_BUFFER, frag_stage),
+                (2, vk::DescriptorType::STORAGE_BUFFER, frag_stage),
+                (3, vk::DescriptorType::STORAGE_BUFFER, vk::ShaderStageFlags::GEOMETRY),
+            ],
+        )?;
+        let layout = PipelineLayout::new(
+            device,
+            &[&scene.frame_layout, &scene.material_layout, &geometry_layout, &sample_layout],
+            std::mem::size_of::<StochasticPush>() as u32,
+            vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::GEOMETRY | vk::ShaderStageFlags::FRAGMENT,
+        )?;
+        let (bindings, attributes) = GpuScene::vertex_input();
+        let pipeline = Pipeline::graphics(
+            device,
+            &layout,
+            &GraphicsDesc {
+                name: "stochastic",
+                stages: &[&vert, &geom, &frag],
+                vertex_bindings: &bindings,
+                vertex_attributes: &attributes[..1],
+                color_formats: &[COLOR_FORMAT],
+                depth_format: Some(DEPTH_FORMAT),
+                samples: msaa,
+                sample_shading: (options.shading == ShadingRate::PerSample).then_some(1.0),
+                cull_mode: vk::CullModeFlags::NONE,
+                front_face: vk::FrontFace::COUNTER_CLOCKWISE,
+                depth_compare: vk::CompareOp::GREATER,
+                depth_write: true,
+            },
+        )?;
+
+        let storage = vk::BufferUsageFlags::STORAGE_BUFFER;
+        let (xy_lens, time) = gpu_samples(spp, seed, aperture, shutter);
+        let samples = [
+            Buffer::with_data(device, "stochastic samples (xy, lens)", storage, &xy_lens)?,
+            Buffer::with_data(device, "stochastic samples (time)", storage, &time)?,
+        ];
+        let counters = Buffer::with_data(device, "stochastic counters", storage, &[0u32; 4])?;
+        let debug_len = (debug.bound_debug_triangles as usize * BOUND_DEBUG_STRIDE).max(1);
+        let bound_debug = Buffer::with_data(device, "bound debug", storage, &vec![0f32; debug_len])?;
+
+        let n_objects = scene.objects.len() as u32;
+        let pool = DescriptorPool::new(
+            device,
+            n_objects + 1,
+            &[(vk::DescriptorType::STORAGE_BUFFER, 3 * n_objects + 4)],
+        )?;
+        let sample_set = pool.allocate(&sample_layout)?;
+        let buffer = |binding, b: &Buffer| DescriptorWrite::Buffer {
+            binding,
+            ty: vk::DescriptorType::STORAGE_BUFFER,
+            buffer: b.raw,
+        };
+        write_descriptors(
+            device,
+            sample_set,
+            &[buffer(0, &samples[0]), buffer(1, &samples[1]), buffer(2, &counters), buffer(3, &bound_debug)],
+        );
+        let mut object_sets = Vec::with_capacity(scene.objects.len());
+        let mut triangles = Vec::with_capacity(scene.objects.len());
+        for o in &scene.objects {
+            let bytes = (o.index_count as u64 / 3).max(1) * TRIANGLE_RECORD_BYTES;
+            let t = Buffer::new(
+                device,
+                &format!("camera-space triangles:{}", o.name),
+                bytes,
+                storage,
+                MemoryLocation::GpuOnly,
+            )?;
+            let set = pool.allocate(&geometry_layout)?;
+            write_descriptors(device, set, &[buffer(0, &o.vertices), buffer(1, &o.indices), buffer(2, &t)]);
+            object_sets.push(set);
+            triangles.push(t);
+        }
+        let targets = PassTargets::new(device, scene.width, scene.height, msaa)?;
+        Ok(StochasticRenderer {
+            targets,
+            pipeline,
+            layout,
+            object_sets,
+            sample_set,
+            options,
+            spp,
+            passes,
+            counters,
+            _bound_debug: bound_debug,
+            _samples: samples,
+            _pool: pool,
+            _set_layouts: [geometry_layout, sample_layout],
+            triangles_pipeline,
+            triangles_layout,
+            _triangles: triangles,
+            _shaders: vec![vert, geom, frag, comp],
+        })
+    }
+
+    /// MSAA samples per pass and number of passes.
+    pub fn msaa_and_passes(&self) -> (u32, u32) {
+        (self.targets.samples(), self.passes)
+    }
+
+    /// Renders all passes and reads the averaged image back; with `instrumented`, also the counters.
+    pub fn render(
+        &mut self,
+        device: &Device,
+        rec: &mut CommandRecorder,
+        scene: &GpuScene,
+    ) -> Result<(LinearImage, PassTimings, Option<SampleCounters>)> {
+        self.counters.write(&[0u32; 4])?;
+        let mut timer = GpuTimer::new(device, 1)?;
+        rec.submit(|d, cmd| {
+            timer.reset(cmd);
+            let t = timer.begin(cmd, "triangles");
+            self.record_triangles(d, cmd, scene);
+            timer.end(cmd, t);
+            Ok(())
+        })?;
+        let mut pre = timer.results()?;
+        let this = &*self;
+        let mut draw =
+            |d: &Device, cmd: vk::CommandBuffer, pass: usize| this.record_draws(d, cmd, scene, pass as u32);
+        let (image, timings) = this.targets.render(
+            device,
+            rec,
+            scene.background,
+            this.passes as usize,
+            "stochastic",
+            &mut draw,
+        )?;
+        pre.passes.extend(timings.passes);
+        let timings = pre;
+        let counters = if self.options.instrumented {
+            let raw: Vec<u32> = self.counters.mapped()?[..16]
+                .chunks_exact(4)
+                .map(|c| u32::from_ne_bytes([c[0], c[1], c[2], c[3]]))
+                .collect();
+            Some(SampleCounters {
+                samples_tested: raw[0] as u64,
+                samples_hit: raw[1] as u64,
+                shading_invocations: raw[2] as u64,
+                fragments: raw[3] as u64,
+            })
+        } else {
+            None
+        };
+        Ok((image, timings, counters))
+    }
+
+    /// The geometry shader's debug output: per triangle of the first object, `BOUND_DEBUG_STRIDE` floats.
+    pub fn bound_debug(&self) -> Result<Vec<f32>> {
+        Ok(self
+            ._bound_debug
+            .mapped()?
+            .chunks_exact(4)
+            .map(|c| f32::from_ne_bytes([c[0], c[1], c[2], c[3]]))
+            .collect())
+    }
+
+    /// Camera-space triangles of every object (once per frame: they do not depend on the pass).
+    fn record_triangles(&self, d: &Device, cmd: vk::CommandBuffer, scene: &GpuScene) {
+        d.begin_label(cmd, "camera-space triangles");
+        unsafe {
+            d.raw.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, self.triangles_pipeline.raw);
+            d.raw.cmd_bind_descriptor_sets(
+                cmd,
+                vk::PipelineBindPoint::COMPUTE,
+                self.triangles_layout.raw,
+                0,
+                &[scene.frame_set],
+                &[],
+            );
+            for (i, o) in scene.objects.iter().enumerate() {
+                let count = o.index_count / 3;
+                if count == 0 {
+                    continue;
+                }
+                d.raw.cmd_bind_descriptor_sets(
+                    cmd,
+                    vk::PipelineBindPoint::COMPUTE,
+                    self.triangles_layout.raw,
+                    1,
+                    &[self.object_sets[i]],
+                    &[],
+                );
+                let push = [i as u32, count];
+                d.raw.cmd_push_constants(
+                    cmd,
+                    self.triangles_layout.raw,
+                    vk::ShaderStageFlags::COMPUTE,
+                    0,
+                    as_bytes(&push),
+                );
+                d.raw.cmd_dispatch(cmd, count.div_ceil(64), 1, 1);
+            }
+        }
+        // Later submissions' fragment shaders read the records (barrier scopes span submission order).
+        crate::vk::memory_barrier(
+            d,
+            cmd,
+            (vk::PipelineStageFlags2::COMPUTE_SHADER, vk::AccessFlags2::SHADER_STORAGE_WRITE),
+            (vk::PipelineStageFlags2::FRAGMENT_SHADER, vk::AccessFlags2::SHADER_STORAGE_READ),
+        );
+        d.end_label(cmd);
+    }
+
+    fn record_draws(&self, d: &Device, cmd: vk::CommandBuffer, scene: &GpuScene, pass: u32) {
+        let stages =
+            vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::GEOMETRY | vk::ShaderStageFlags::FRAGMENT;
+        unsafe {
+            d.raw.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, self.pipeline.raw);
+            d.raw.cmd_bind_descriptor_sets(
+                cmd,
+                vk::PipelineBindPoint::GRAPHICS,
+                self.layout.raw,
+                0,
+                &[scene.frame_set],
+                &[],
+            );
+            d.raw.cmd_bind_descriptor_sets(
+                cmd,
+                vk::PipelineBindPoint::GRAPHICS,
+                self.layout.raw,
+                3,
+                &[self.sample_set],
+                &[],
+            );
+            for (i, o) in scene.objects.iter().enumerate() {
+                if o.index_count == 0 {
+                    continue;
+                }
+                let push = StochasticPush {
+                    object: i as u32,
+                    bound: bound_id(self.options.bound),
+                    pass_index: pass,
+                    spp: self.spp,
+                    msaa: self.targets.samples(),
+                    footprint: 1.0 / (self.spp as f32).sqrt(),
+                };
+                d.raw.cmd_push_constants(cmd, self.layout.raw, stages, 0, as_bytes(&push));
+                d.raw.cmd_bind_descriptor_sets(
+                    cmd,
+                    vk::PipelineBindPoint::GRAPHICS,
+                    self.layout.raw,
+                    1,
+                    &[o.material_set, self.object_sets[i]],
+                    &[],
+                );
+                d.raw.cmd_bind_vertex_buffers(cmd, 0, &[o.vertices.raw], &[0]);
+                d.raw.cmd_bind_index_buffer(cmd, o.indices.raw, 0, vk::IndexType::UINT32);
+                d.raw.cmd_draw_indexed(cmd, o.index_count, 1, 0, 0, 0);
+            }
+        }
+    }
+}

@@ -1,0 +1,61 @@
+// The 5D inside test: the GLSL mirror of bounds::sample_hit (engine/src/bounds/inside.rs), operation for
+// operation. Does the thin-lens ray through `pixel` from lens sample `lens` hit triangle (a, b, c)
+// (camera space at the sample's time)? Möller–Trumbore, edges inclusive; hits outside [near, far],
+// degenerate triangles and rays in the triangle's plane are rejected.
+#ifndef SHUTTER_INSIDE_GLSL
+#define SHUTTER_INSIDE_GLSL
+#include "common/frame.glsl"
+
+const float PARALLEL_EPS = 1e-7;
+
+// Intrinsics::primary_ray: origin on the lens, direction through the focus-plane point of the pixel.
+void primary_ray(vec2 pixel, vec2 lens, out vec3 o, out vec3 d) {
+    float W = frame.viewport.x, H = frame.viewport.y, s = frame.viewport.z;
+    float A = frame.lens.x, F = frame.lens.y;
+    vec2 tan_xy = vec2((pixel.x - 0.5 * W) / s, -(pixel.y - 0.5 * H) / s);
+    o = vec3(A * lens, 0.0);
+    vec3 focus_point = vec3(tan_xy.x * F, tan_xy.y * F, -F);
+    d = normalize(focus_point - o);
+}
+
+// Barycentrics (w0, w1, w2) of the ray's intersection with the plane of (a, b, c), without range checks
+// (for texture footprints). `ok` is false for a degenerate triangle or a ray in its plane.
+vec3 plane_barycentrics(vec3 a, vec3 b, vec3 c, vec3 o, vec3 d, out bool ok) {
+    vec3 e1 = b - a;
+    vec3 e2 = c - a;
+    float n_len = length(cross(e1, e2));
+    vec3 p = cross(d, e2);
+    float det = dot(e1, p);
+    ok = n_len > PARALLEL_EPS * length(e1) * length(e2) && abs(det) > PARALLEL_EPS * n_len;
+    if (!ok) return vec3(1.0, 0.0, 0.0);
+    float inv = 1.0 / det;
+    vec3 s = o - a;
+    float b1 = dot(s, p) * inv;
+    float b2 = dot(d, cross(s, e1)) * inv;
+    return vec3(1.0 - b1 - b2, b1, b2);
+}
+
+bool sample_hit(vec3 a, vec3 b, vec3 c, vec3 o, vec3 d, out float depth_z, out vec3 w) {
+    depth_z = 0.0;
+    w = vec3(0.0);
+    vec3 e1 = b - a;
+    vec3 e2 = c - a;
+    vec3 n = cross(e1, e2);
+    float n_len = length(n);
+    if (isnan(n_len) || n_len <= PARALLEL_EPS * length(e1) * length(e2)) return false;
+    vec3 p = cross(d, e2);
+    float det = dot(e1, p);
+    if (isnan(det) || abs(det) <= PARALLEL_EPS * n_len) return false;
+    float inv = 1.0 / det;
+    vec3 s = o - a;
+    float b1 = dot(s, p) * inv;
+    if (!(b1 >= 0.0 && b1 <= 1.0)) return false;
+    vec3 q = cross(s, e1);
+    float b2 = dot(d, q) * inv;
+    if (!(b2 >= 0.0 && b1 + b2 <= 1.0)) return false;
+    w = vec3(1.0 - b1 - b2, b1, b2);
+    depth_z = -(w.x * a.z + w.y * b.z + w.z * c.z);
+    return depth_z >= frame.lens.z && depth_z <= frame.lens.w;
+}
+
+#endif

@@ -1,0 +1,54 @@
+#version 460
+// Stochastic rasterization, geometry stage (McGuire et al. 2010; Toth & Linder 2008): replaces each
+// triangle by a conservative screen-space bound of everywhere it can land over the lens and shutter
+// (stochastic/bounds.glsl, mirrored by engine/src/bounds), dilated by one pixel box so the rasterizer
+// generates a fragment for every pixel whose square touches the bound and covers all of its samples
+// (emit.glsl). Only positions and the primitive ID leave this stage: the fragment stage reads the
+// triangle itself from the geometry buffers by ID (thesis §9.6: keep the GS output small).
+#include "stochastic/bounds.glsl"
+#include "stochastic/push.glsl"
+
+layout(triangles) in;
+layout(triangle_strip, max_vertices = 52) out;  // BOUND_MAX_POINTS + 4 (box dilation adds <= 4)
+
+layout(location = 0) in vec3 v_open[];
+layout(location = 1) in vec3 v_close[];
+
+#ifdef BOUND_DEBUG
+// Undilated bound of every triangle, for the GLSL-vs-CPU test: per primitive 8 + 2 * BOUND_MAX_POINTS
+// floats: [0] piece count (as float), [1..5) piece lengths, [8..) points.
+layout(set = 3, binding = 3, std430) writeonly buffer BoundDebug { float bound_debug[]; };
+#endif
+
+#include "stochastic/emit.glsl"
+
+void main() {
+    vec3 v[6] = vec3[6](v_open[0], v_open[1], v_open[2], v_close[0], v_close[1], v_close[2]);
+    vec2 pts[BOUND_MAX_POINTS];
+    int piece_len[BOUND_MAX_PIECES];
+    int pieces = compute_bound(pc.bound, v, pts, piece_len);
+#ifdef BOUND_DEBUG
+    uint base = uint(gl_PrimitiveIDIn) * uint(8 + 2 * BOUND_MAX_POINTS);
+    bound_debug[base] = float(pieces);
+    for (int k = 0; k < BOUND_MAX_PIECES; k++) bound_debug[base + 1 + k] = float(k < pieces ? piece_len[k] : 0);
+    int total = 0;
+    for (int k = 0; k < pieces; k++) total += piece_len[k];
+    for (int i = 0; i < total; i++) {
+        bound_debug[base + 8 + 2 * i] = pts[i].x;
+        bound_debug[base + 9 + 2 * i] = pts[i].y;
+    }
+#endif
+    if (pieces == 0) return;
+    if (pieces < 0) {
+        emit_viewport();
+        return;
+    }
+    int first = 0;
+    for (int k = 0; k < pieces; k++) {
+        if (!emit_dilated(pts, first, piece_len[k])) {
+            emit_viewport();  // coordinates too large to rasterize exactly: the whole viewport is conservative
+            return;
+        }
+        first += piece_len[k];
+    }
+}
