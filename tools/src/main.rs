@@ -1,6 +1,8 @@
 //! `shutter`: render scenes with each technique, render the CPU ground truth, compare images, probe
 //! the device.
 
+mod bounds_table;
+
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
@@ -71,6 +73,26 @@ enum Command {
     },
     /// Convert an image between .exr (linear) and .png (sRGB).
     Convert { input: PathBuf, output: PathBuf },
+    /// Sample test efficiency and GPU ms of every stochastic bound on a scene, next to pinhole and
+    /// accumulation at the same samples per pixel (markdown table on stdout).
+    Bounds {
+        #[arg(default_value = "default")]
+        scene: String,
+        /// Samples per pixel, comma-separated.
+        #[arg(long, value_delimiter = ',', default_value = "4,16")]
+        spp: Vec<u32>,
+        /// Bounds, comma-separated (default: all).
+        #[arg(long, value_delimiter = ',')]
+        bounds: Vec<String>,
+        /// per-pixel | per-sample
+        #[arg(long, default_value = "per-pixel")]
+        shading: String,
+        /// Timed frames per configuration (after one warm-up frame); the median is reported.
+        #[arg(long, default_value_t = 3)]
+        frames: usize,
+        #[command(flatten)]
+        image: ImageArgs,
+    },
     /// Print the device, driver and capabilities.
     Probe,
     /// List the built-in scenes.
@@ -219,6 +241,31 @@ fn run() -> Result<()> {
         Command::Convert { input, output } => {
             save_image(&output, &load_image(&input)?)?;
             println!("wrote {}", output.display());
+        }
+        Command::Bounds { scene, spp, bounds, shading, frames, image: ImageArgs { size, seed, out } } => {
+            let sc = load_scene(&scene)?;
+            let (width, height) = size.unwrap_or((sc.image.width, sc.image.height));
+            let bounds = if bounds.is_empty() {
+                shutter::bounds::BoundKind::ALL.to_vec()
+            } else {
+                bounds.iter().map(|b| b.parse()).collect::<shutter::Result<Vec<_>>>()?
+            };
+            let args = bounds_table::BoundsTableArgs {
+                spp,
+                bounds,
+                shading: shading.parse()?,
+                frames: frames.max(1),
+                width,
+                height,
+                seed: seed.unwrap_or(sc.image.seed),
+            };
+            let mut renderer = Renderer::new(shutter::vk::create_device()?)?;
+            let md = bounds_table::run(&mut renderer, &sc, &args)?;
+            println!("{md}");
+            if let Some(out) = out {
+                std::fs::write(&out, &md).with_context(|| format!("writing {}", out.display()))?;
+                eprintln!("wrote {}", out.display());
+            }
         }
         Command::Probe => {
             let device = shutter::vk::create_device()?;

@@ -162,6 +162,20 @@ impl Renderer {
         technique: Technique,
         settings: &RenderSettings,
     ) -> Result<RenderOutput> {
+        let mut frames = self.render_frames(scene, technique, settings, 1)?;
+        Ok(frames.pop().expect("one frame"))
+    }
+
+    /// Renders `scene` `frames` times with one upload and one set of pipelines (for benchmarks: the
+    /// first frame pays for lazy shader compilation on some drivers, lavapipe included). Returns every
+    /// frame's output; `upload_ms` is reported on each.
+    pub fn render_frames(
+        &mut self,
+        scene: &Scene,
+        technique: Technique,
+        settings: &RenderSettings,
+        frames: usize,
+    ) -> Result<Vec<RenderOutput>> {
         self.check_settings(settings)?;
         if let Some(o) = scene.objects.iter().find(|o| o.material.alpha < 1.0) {
             return Err(Error::Unsupported(format!(
@@ -176,52 +190,64 @@ impl Renderer {
         let gpu_scene =
             GpuScene::upload(&self.device, &mut self.recorder, scene, settings.width, settings.height)?;
         let upload_ms = t0.elapsed().as_secs_f64() * 1e3;
-        let t1;
-        let (image, timings, passes, msaa, counters) = match technique {
-            Technique::Pinhole | Technique::Accumulation => {
-                let (passes, msaa) = if technique == Technique::Pinhole {
-                    (pinhole::pinhole_passes(), self.device.caps.msaa_samples(pinhole::PINHOLE_MSAA))
-                } else {
-                    let c = &scene.camera;
-                    (accumulation::accumulation_passes(settings.spp, settings.seed, c.aperture, c.shutter), 1)
-                };
-                let forward = forward::ForwardRenderer::new(&self.device, &gpu_scene, msaa)?;
-                t1 = Instant::now();
-                let (image, timings) =
-                    forward.render(&self.device, &mut self.recorder, &gpu_scene, &passes)?;
-                (image, timings, passes.len() as u32, msaa, None)
+        enum Frame {
+            Forward(forward::ForwardRenderer, Vec<PassSample>),
+            Stochastic(stochastic::StochasticRenderer),
+        }
+        let c = &scene.camera;
+        let mut frame = match technique {
+            Technique::Pinhole => {
+                let msaa = self.device.caps.msaa_samples(pinhole::PINHOLE_MSAA);
+                Frame::Forward(
+                    forward::ForwardRenderer::new(&self.device, &gpu_scene, msaa)?,
+                    pinhole::pinhole_passes(),
+                )
             }
-            Technique::Stochastic => {
-                let c = &scene.camera;
-                let mut sr = stochastic::StochasticRenderer::new(
-                    &self.device,
-                    &gpu_scene,
-                    settings.spp,
-                    settings.seed,
-                    c.aperture,
-                    c.shutter,
-                    settings.stochastic,
-                    Default::default(),
-                )?;
-                let (msaa, passes) = sr.msaa_and_passes();
-                t1 = Instant::now();
-                let (image, timings, counters) = sr.render(&self.device, &mut self.recorder, &gpu_scene)?;
-                (image, timings, passes, msaa, counters)
-            }
+            Technique::Accumulation => Frame::Forward(
+                forward::ForwardRenderer::new(&self.device, &gpu_scene, 1)?,
+                accumulation::accumulation_passes(settings.spp, settings.seed, c.aperture, c.shutter),
+            ),
+            Technique::Stochastic => Frame::Stochastic(stochastic::StochasticRenderer::new(
+                &self.device,
+                &gpu_scene,
+                settings.spp,
+                settings.seed,
+                c.aperture,
+                c.shutter,
+                settings.stochastic,
+                Default::default(),
+            )?),
         };
-        let cpu_frame_ms = t1.elapsed().as_secs_f64() * 1e3;
-        self.device.check_validation()?;
-        Ok(RenderOutput {
-            image,
-            timings,
-            stats: RenderStats {
-                passes,
-                msaa_samples: msaa,
-                triangles: scene.triangle_count(),
-                cpu_frame_ms,
-                upload_ms,
-                counters,
-            },
-        })
+        let mut out = Vec::with_capacity(frames);
+        for _ in 0..frames {
+            let t1 = Instant::now();
+            let (image, timings, passes, msaa, counters) = match &mut frame {
+                Frame::Forward(fr, passes) => {
+                    let (image, timings) = fr.render(&self.device, &mut self.recorder, &gpu_scene, passes)?;
+                    (image, timings, passes.len() as u32, fr.samples(), None)
+                }
+                Frame::Stochastic(sr) => {
+                    let (msaa, passes) = sr.msaa_and_passes();
+                    let (image, timings, counters) =
+                        sr.render(&self.device, &mut self.recorder, &gpu_scene)?;
+                    (image, timings, passes, msaa, counters)
+                }
+            };
+            let cpu_frame_ms = t1.elapsed().as_secs_f64() * 1e3;
+            self.device.check_validation()?;
+            out.push(RenderOutput {
+                image,
+                timings,
+                stats: RenderStats {
+                    passes,
+                    msaa_samples: msaa,
+                    triangles: scene.triangle_count(),
+                    cpu_frame_ms,
+                    upload_ms,
+                    counters,
+                },
+            });
+        }
+        Ok(out)
     }
 }
