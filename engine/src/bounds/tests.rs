@@ -233,18 +233,28 @@ struct Stats {
     expected_hits: usize,
 }
 
-/// Structural sanity of a bound: finite, convex CCW polygon or ordered rectangle.
+/// Structural sanity of a convex piece: finite, strictly convex and CCW (or a point / segment).
+fn check_convex_piece(poly: &[Vec2]) -> Result<(), TestCaseError> {
+    prop_assert!(!poly.is_empty());
+    prop_assert!(poly.iter().all(|p| p.is_finite()), "non-finite hull {poly:?}");
+    if poly.len() >= 3 {
+        prop_assert!(signed_area(poly) > 0.0, "inverted hull {poly:?}");
+        for i in 0..poly.len() {
+            let (a, c, d) = (poly[i], poly[(i + 1) % poly.len()], poly[(i + 2) % poly.len()]);
+            prop_assert!(orient(a, c, d) > 0.0, "non-convex hull {poly:?}");
+        }
+    }
+    Ok(())
+}
+
+/// Structural sanity of a bound: finite, convex CCW polygon(s) or ordered rectangle.
 fn check_well_formed(b: &ScreenBound) -> Result<(), TestCaseError> {
     match b {
-        ScreenBound::Polygon(poly) => {
-            prop_assert!(!poly.is_empty());
-            prop_assert!(poly.iter().all(|p| p.is_finite()), "non-finite hull {poly:?}");
-            if poly.len() >= 3 {
-                prop_assert!(signed_area(poly) > 0.0, "inverted hull {poly:?}");
-                for i in 0..poly.len() {
-                    let (a, c, d) = (poly[i], poly[(i + 1) % poly.len()], poly[(i + 2) % poly.len()]);
-                    prop_assert!(orient(a, c, d) > 0.0, "non-convex hull {poly:?}");
-                }
+        ScreenBound::Polygon(poly) => check_convex_piece(poly)?,
+        ScreenBound::Union(pieces) => {
+            prop_assert!(!pieces.is_empty() && pieces.len() <= 4, "{pieces:?}");
+            for poly in pieces {
+                check_convex_piece(poly)?;
             }
         }
         ScreenBound::Rect { min, max } => {
