@@ -178,11 +178,14 @@ struct Line {
     h: f32,
 }
 
-/// Intersection of two lines by Cramer's rule; `det = cross(a.n, b.n)` is positive for the CCW pairs
-/// used here.
+/// Intersection of two lines, walking along line `a` from its foot point `a.n·a.h`: the result lies on
+/// both lines up to `ε·|x|` even when they are nearly parallel (Cramer's rule would be off by
+/// `ε·|h| / sin(angle)` across them). `cross(a.n, b.n)` is positive for the CCW pairs used here.
 fn intersect(a: Line, b: Line) -> Vec2 {
-    let det = a.n.x * b.n.y - a.n.y * b.n.x;
-    Vec2::new((a.h * b.n.y - b.h * a.n.y) / det, (a.n.x * b.h - b.n.x * a.h) / det)
+    let foot = a.n * a.h;
+    let along = Vec2::new(-a.n.y, a.n.x);
+    let t = (b.h - b.n.dot(foot)) / b.n.dot(along);
+    foot + along * t
 }
 
 /// Triangle of three lines given CCW by normal: corner `i` is where line `i − 1` meets line `i`.
@@ -234,9 +237,8 @@ pub fn hexagon_2d(d: &EndDiscs) -> Option<Vec<Vec2>> {
 /// edge normal for nested circles (`|β| ≥ 1`).
 pub fn variable_radius_normals(d: &EndDiscs, m: &MidTriangle) -> [Vec2; 3] {
     // R for original vertex i: one disc around p_i enclosing both of its end discs.
-    let big_r = [0, 1, 2].map(|i| {
-        d.radius[i].max(d.radius[i + 3]) + 0.5 * (d.centre[i + 3] - d.centre[i]).length()
-    });
+    let big_r =
+        [0, 1, 2].map(|i| d.radius[i].max(d.radius[i + 3]) + 0.5 * (d.centre[i + 3] - d.centre[i]).length());
     [0, 1, 2].map(|i| {
         let (a, b) = (m.vertex[i], m.vertex[(i + 1) % 3]);
         let beta = (big_r[a] - big_r[b]) / m.len[i];
