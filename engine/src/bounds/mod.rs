@@ -39,24 +39,44 @@
 //!   (see the `degenerate_at_both_ends_but_not_between` test);
 //! * non-finite input → `Culled`; a non-finite projected point → the viewport.
 //!
-//! # Implemented / not implemented
-//! Implemented: [`BoundKind::ConvexHull`] (McGuire's space-time hull, extended to defocus with
-//! circumscribed discs) and [`BoundKind::BoundingBox`] (its axis-aligned box); the 5D inside test
-//! [`sample_hit`]; a Monte Carlo [`sample_test_efficiency_estimate`].
-//! Not implemented (future [`BoundKind`] variants): the thesis' defocus-only shapes (2D hexagon,
-//! parallel-edge triangle, …), the tighter near-plane-clipped polytope bound above, per-time-interval
-//! bounds (interleaved/tiled time slices), and viewport clipping/culling of off-screen bounds.
+//! # Shapes ([`BoundKind`])
+//! Every shape bounds `conv(⋃ D_m)` for the six end-vertex discs `D_m = disc(c_m, r_m)` (pinhole
+//! projection, circle of confusion), which by the argument above holds the image for every lens sample
+//! and time — so each is conservative by construction:
+//! * [`BoundKind::ConvexHull`] (McGuire's space-time hull, extended to defocus with circumscribed
+//!   octagons) and [`BoundKind::BoundingBox`] (its axis-aligned box);
+//! * the thesis' shapes (Toth & Linder 2008, §4; **our reconstruction**, see [`shapes`]):
+//!   parallel-edge triangle, 2D hexagon, variable-radius triangle, 3D hexagon, wedge, reduced wedge,
+//!   and an adaptive choice among them ([`adaptive_kind`]). Their directions come from the mid-shutter
+//!   triangle; when it is degenerate, and for wedges of moving triangles, they fall back to the
+//!   convex hull. The wedges are a [`ScreenBound::Union`] of convex pieces.
+//!
+//! The hard cases above are handled first, identically for every kind.
+//! `shaders-glsl/stochastic/bounds.glsl` (`compute_bound`) mirrors [`bound`] operation for operation
+//! in `float` (the degenerate tests use documented `float` thresholds there).
+//!
+//! Also here: the 5D inside test [`sample_hit`]; a Monte Carlo [`sample_test_efficiency_estimate`].
+//! Not implemented: the tighter near-plane-clipped polytope bound above, per-time-interval bounds
+//! (interleaved/tiled time slices), and viewport clipping/culling of off-screen bounds.
 
 mod hull;
 mod inside;
+pub mod shapes;
 #[cfg(test)]
 mod tests;
 
 pub use hull::{convex_contains, convex_hull, orient, signed_area};
 pub use inside::{sample_hit, sample_test_efficiency_estimate, Hit};
+pub use shapes::{
+    adaptive_kind_of, hexagon_2d, parallel_edge_triangle, reduced_wedge, variable_radius_triangle, wedge,
+    EndDiscs, MidTriangle, RADIUS_ROUND_UP,
+};
+
+use std::str::FromStr;
 
 use glam::{DVec3, Vec2, Vec3};
 
+use crate::error::{Error, Result};
 use crate::scene::camera::Intrinsics;
 
 /// Sides of the regular polygon circumscribing each circle of confusion in [`BoundKind::ConvexHull`].
@@ -100,20 +120,91 @@ impl MovingTriangle {
     }
 }
 
-/// Which screen-space bound to build. More kinds (the thesis' defocus shapes, clipped hulls,
-/// time-sliced hulls) are added as variants; [`bound`] dispatches on them.
+/// Which screen-space bound to build; [`bound`] dispatches on it. The order is the order of
+/// [`BoundKind::ALL`] and of [`BoundKind::id`] (the GLSL `kind` argument, `BOUND_*` in
+/// `shaders-glsl/stochastic/bounds.glsl`). Shapes 2–7 are described in [`shapes`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 #[non_exhaustive]
 pub enum BoundKind {
     /// Axis-aligned box of the [`BoundKind::ConvexHull`] points.
     BoundingBox,
+    /// The parallel-edge triangle with its corners cut by support lines ([`shapes::hexagon_2d`]).
+    Hexagon2d,
+    /// Support half-planes of the mid triangle's edge normals ([`shapes::parallel_edge_triangle`]).
+    ParallelEdgeTriangle,
+    /// Outer common tangents of per-vertex discs ([`shapes::variable_radius_triangle`]).
+    VariableRadiusTriangle,
+    /// Hull of the circumscribed hexagons of the discs of confusion ([`shapes::disc_polygon_points`]).
+    Hexagon3d,
+    /// Core triangle plus slab rectangles, still triangles only ([`shapes::wedge`]).
+    Wedge,
+    /// Core triangle plus one triangle per slab, still triangles only ([`shapes::reduced_wedge`]).
+    ReducedWedge,
     /// McGuire'10 space-time convex hull of the six projected end vertices, each widened to a
     /// circumscribed [`DISC_SIDES`]-gon of its circle of confusion when the aperture is open.
     ConvexHull,
+    /// Chosen per triangle from the blur radius, the motion and the triangle size ([`adaptive_kind`]).
+    Adaptive,
 }
 
 impl BoundKind {
-    pub const ALL: [BoundKind; 2] = [BoundKind::BoundingBox, BoundKind::ConvexHull];
+    pub const ALL: [BoundKind; 9] = [
+        BoundKind::BoundingBox,
+        BoundKind::Hexagon2d,
+        BoundKind::ParallelEdgeTriangle,
+        BoundKind::VariableRadiusTriangle,
+        BoundKind::Hexagon3d,
+        BoundKind::Wedge,
+        BoundKind::ReducedWedge,
+        BoundKind::ConvexHull,
+        BoundKind::Adaptive,
+    ];
+    /// Command-line name.
+    pub fn name(&self) -> &'static str {
+        match self {
+            BoundKind::BoundingBox => "bbox",
+            BoundKind::Hexagon2d => "2d-hexagon",
+            BoundKind::ParallelEdgeTriangle => "parallel-edge-triangle",
+            BoundKind::VariableRadiusTriangle => "variable-radius-triangle",
+            BoundKind::Hexagon3d => "3d-hexagon",
+            BoundKind::Wedge => "wedge",
+            BoundKind::ReducedWedge => "reduced-wedge",
+            BoundKind::ConvexHull => "convex-hull",
+            BoundKind::Adaptive => "adaptive",
+        }
+    }
+    /// The GLSL `kind` argument of `compute_bound` (`BOUND_BBOX` = 0 … `BOUND_ADAPTIVE` = 8).
+    pub fn id(&self) -> u32 {
+        match self {
+            BoundKind::BoundingBox => 0,
+            BoundKind::Hexagon2d => 1,
+            BoundKind::ParallelEdgeTriangle => 2,
+            BoundKind::VariableRadiusTriangle => 3,
+            BoundKind::Hexagon3d => 4,
+            BoundKind::Wedge => 5,
+            BoundKind::ReducedWedge => 6,
+            BoundKind::ConvexHull => 7,
+            BoundKind::Adaptive => 8,
+        }
+    }
+}
+
+impl std::fmt::Display for BoundKind {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl FromStr for BoundKind {
+    type Err = Error;
+    fn from_str(s: &str) -> Result<Self> {
+        BoundKind::ALL.iter().copied().find(|b| b.name() == s).ok_or_else(|| {
+            Error::Unsupported(format!(
+                "unknown bound `{s}`; available: {}",
+                BoundKind::ALL.iter().map(|b| b.name()).collect::<Vec<_>>().join(", ")
+            ))
+        })
+    }
 }
 
 /// A screen-space region (pixel coordinates, x right, y down) that contains the triangle's image for
@@ -126,6 +217,9 @@ pub enum ScreenBound {
     Polygon(Vec<Vec2>),
     /// Axis-aligned rectangle: a bounding box, or the whole viewport for the hard cases.
     Rect { min: Vec2, max: Vec2 },
+    /// Union of convex pieces, each like a [`ScreenBound::Polygon`] (the wedge shapes). Pieces may
+    /// overlap.
+    Union(Vec<Vec<Vec2>>),
     /// Nothing to rasterize.
     Culled,
 }
@@ -145,14 +239,18 @@ impl ScreenBound {
             ScreenBound::Rect { min, max } => {
                 p.x >= min.x - tol && p.y >= min.y - tol && p.x <= max.x + tol && p.y <= max.y + tol
             }
+            ScreenBound::Union(pieces) => pieces.iter().any(|poly| convex_contains(poly, p, tol)),
             ScreenBound::Culled => false,
         }
     }
-    /// Area in square pixels (0 for `Culled` and for point/segment polygons).
+    /// Area in square pixels (0 for `Culled` and for point/segment polygons). For a
+    /// [`ScreenBound::Union`] it is the sum of the pieces' areas: an upper bound of the union's area
+    /// (and what a rasterizer drawing each piece pays).
     pub fn area(&self) -> f64 {
         match self {
             ScreenBound::Polygon(poly) => signed_area(poly),
             ScreenBound::Rect { min, max } => ((max.x - min.x) as f64) * ((max.y - min.y) as f64),
+            ScreenBound::Union(pieces) => pieces.iter().map(|poly| signed_area(poly)).sum(),
             ScreenBound::Culled => 0.0,
         }
     }
@@ -161,7 +259,30 @@ impl ScreenBound {
         match self {
             ScreenBound::Polygon(poly) => aabb(poly),
             ScreenBound::Rect { min, max } => Some((*min, *max)),
+            ScreenBound::Union(pieces) => aabb(&pieces.concat()),
             ScreenBound::Culled => None,
+        }
+    }
+    /// Total number of vertices (a rectangle has 4).
+    pub fn vertex_count(&self) -> usize {
+        match self {
+            ScreenBound::Polygon(poly) => poly.len(),
+            ScreenBound::Rect { .. } => 4,
+            ScreenBound::Union(pieces) => pieces.iter().map(Vec::len).sum(),
+            ScreenBound::Culled => 0,
+        }
+    }
+    /// The convex CCW pieces as GLSL `compute_bound` writes them: none when culled, one per polygon or
+    /// union piece, and for a rectangle the 4 corners `min, (max.x, min.y), max, (min.x, max.y)`.
+    /// (`compute_bound` returns −1 instead of the pieces where [`ScreenBound::is_viewport`].)
+    pub fn pieces(&self) -> Vec<Vec<Vec2>> {
+        match self {
+            ScreenBound::Polygon(poly) => vec![poly.clone()],
+            ScreenBound::Rect { min, max } => {
+                vec![vec![*min, Vec2::new(max.x, min.y), *max, Vec2::new(min.x, max.y)]]
+            }
+            ScreenBound::Union(pieces) => pieces.clone(),
+            ScreenBound::Culled => Vec::new(),
         }
     }
 }
@@ -172,7 +293,8 @@ fn aabb(points: &[Vec2]) -> Option<(Vec2, Vec2)> {
 }
 
 /// The screen-space bound of `tri` over the whole shutter and aperture (see the module docs for the
-/// conservativeness argument and the hard cases).
+/// conservativeness argument and the hard cases). This is the specification of GLSL `compute_bound`
+/// (`shaders-glsl/stochastic/bounds.glsl`).
 pub fn bound(tri: &MovingTriangle, k: &Intrinsics, kind: BoundKind) -> ScreenBound {
     let verts = tri.end_vertices();
     if verts.iter().any(|v| !v.is_finite()) {
@@ -188,16 +310,45 @@ pub fn bound(tri: &MovingTriangle, k: &Intrinsics, kind: BoundKind) -> ScreenBou
     if z.iter().any(|&z| z <= k.near) {
         return ScreenBound::viewport(k);
     }
-    let points = hull_points(&verts, k);
+    let discs = EndDiscs::new(&verts, k);
+    if !discs.is_finite() {
+        return ScreenBound::viewport(k);
+    }
+    let kind = if kind == BoundKind::Adaptive { adaptive_kind_of(&discs) } else { kind };
+    let shape = match kind {
+        BoundKind::Hexagon2d => hexagon_2d(&discs).map(ScreenBound::Polygon),
+        BoundKind::ParallelEdgeTriangle => parallel_edge_triangle(&discs).map(ScreenBound::Polygon),
+        BoundKind::VariableRadiusTriangle => variable_radius_triangle(&discs).map(ScreenBound::Polygon),
+        BoundKind::Wedge => wedge(&discs),
+        BoundKind::ReducedWedge => reduced_wedge(&discs),
+        _ => None,
+    };
+    if let Some(shape) = shape {
+        return shape;
+    }
+    // Hull-based kinds, and the fallback of the thesis shapes.
+    let sides = if kind == BoundKind::Hexagon3d { 6 } else { DISC_SIDES };
+    let points = disc_polygon_points(&verts, k, sides);
     if points.iter().any(|p| !p.is_finite()) {
         return ScreenBound::viewport(k);
     }
     match kind {
-        BoundKind::ConvexHull => ScreenBound::Polygon(convex_hull(&points)),
         BoundKind::BoundingBox => match aabb(&points) {
             Some((min, max)) => ScreenBound::Rect { min, max },
             None => ScreenBound::Culled,
         },
+        _ => ScreenBound::Polygon(convex_hull(&points)),
+    }
+}
+
+/// The concrete kind [`BoundKind::Adaptive`] resolves to for `tri` (see [`shapes::adaptive_kind_of`]
+/// for the policy). Meaningful where [`bound`] reaches the shapes (not culled, every `z > near`).
+pub fn adaptive_kind(tri: &MovingTriangle, k: &Intrinsics) -> BoundKind {
+    let discs = EndDiscs::new(&tri.end_vertices(), k);
+    if discs.is_finite() {
+        adaptive_kind_of(&discs)
+    } else {
+        BoundKind::ConvexHull
     }
 }
 
@@ -205,21 +356,34 @@ pub fn bound(tri: &MovingTriangle, k: &Intrinsics, kind: BoundKind) -> ScreenBou
 /// projection, or, when the aperture is open, the [`DISC_SIDES`] corners of the regular polygon
 /// circumscribing its circle of confusion. Requires every `z > 0`.
 pub fn hull_points(verts: &[Vec3], k: &Intrinsics) -> Vec<Vec2> {
-    let n = DISC_SIDES;
+    disc_polygon_points(verts, k, DISC_SIDES)
+}
+
+/// Corners of the regular `sides`-gon circumscribing the unit circle, the first at angle π/`sides`.
+pub fn circumscribed_corners(sides: usize) -> Vec<Vec2> {
+    let n = sides;
     let circumscribe = 1.0 / (std::f32::consts::PI / n as f32).cos();
-    let corners: Vec<Vec2> = (0..n)
+    (0..n)
         .map(|j| {
             let a = (j as f32 + 0.5) * std::f32::consts::TAU / n as f32;
             Vec2::new(a.cos(), a.sin()) * circumscribe
         })
-        .collect();
-    let mut out = Vec::with_capacity(verts.len() * n);
+        .collect()
+}
+
+/// Each end vertex's pinhole projection, or, when its circle of confusion is not a point, the corners
+/// of the regular `sides`-gon circumscribing it ([`hull_points`] with 8 sides; the
+/// [`BoundKind::Hexagon3d`] with 6: the triangle seen from the corners of a hexagon around the lens).
+/// Requires every `z > 0`.
+pub fn disc_polygon_points(verts: &[Vec3], k: &Intrinsics, sides: usize) -> Vec<Vec2> {
+    let corners = circumscribed_corners(sides);
+    let mut out = Vec::with_capacity(verts.len() * sides);
     for &v in verts {
         let c = k.project(v, Vec2::ZERO);
         let r = k.circle_of_confusion_px(-v.z).abs();
         if r > 0.0 {
             // Round the corner radius up a little so f32 rounding of the corners cannot cut the disc.
-            let r = r * (1.0 + 4.0 * f32::EPSILON);
+            let r = r * RADIUS_ROUND_UP;
             out.extend(corners.iter().map(|&d| c + d * r));
         } else {
             out.push(c);

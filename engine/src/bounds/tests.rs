@@ -160,6 +160,14 @@ fn any_case() -> impl Strategy<Value = Case> {
     (camera(), tri_params()).prop_map(|(k, p)| Case { tri: make_triangle(&k, &p), k })
 }
 
+/// Still triangles only (the wedges' domain; the other shapes' tightest case).
+fn still_case() -> impl Strategy<Value = Case> {
+    (camera(), tri_params()).prop_map(|(k, mut p)| {
+        p.motion_mode = 0;
+        Case { tri: make_triangle(&k, &p), k }
+    })
+}
+
 /// A lens sample: mostly uniform on the aperture, sometimes on its rim (the extreme displacement).
 fn lens_sample(k: &Intrinsics, rng: &mut Pcg32) -> Vec2 {
     let sq = Vec2::new(rng.next_f32(), rng.next_f32());
@@ -231,20 +239,34 @@ struct Stats {
     hits: usize,
     round_trips: usize,
     expected_hits: usize,
+    /// Per [`BoundKind::id`]: tight bounds that are the kind's own shape, not the convex-hull fallback.
+    own_shape: [usize; 9],
+    /// Per [`BoundKind::id`]: what [`BoundKind::Adaptive`] chose for tight cases.
+    adaptive: [usize; 9],
 }
 
-/// Structural sanity of a bound: finite, convex CCW polygon or ordered rectangle.
+/// Structural sanity of a convex piece: finite, strictly convex and CCW (or a point / segment).
+fn check_convex_piece(poly: &[Vec2]) -> Result<(), TestCaseError> {
+    prop_assert!(!poly.is_empty());
+    prop_assert!(poly.iter().all(|p| p.is_finite()), "non-finite hull {poly:?}");
+    if poly.len() >= 3 {
+        prop_assert!(signed_area(poly) > 0.0, "inverted hull {poly:?}");
+        for i in 0..poly.len() {
+            let (a, c, d) = (poly[i], poly[(i + 1) % poly.len()], poly[(i + 2) % poly.len()]);
+            prop_assert!(orient(a, c, d) > 0.0, "non-convex hull {poly:?}");
+        }
+    }
+    Ok(())
+}
+
+/// Structural sanity of a bound: finite, convex CCW polygon(s) or ordered rectangle.
 fn check_well_formed(b: &ScreenBound) -> Result<(), TestCaseError> {
     match b {
-        ScreenBound::Polygon(poly) => {
-            prop_assert!(!poly.is_empty());
-            prop_assert!(poly.iter().all(|p| p.is_finite()), "non-finite hull {poly:?}");
-            if poly.len() >= 3 {
-                prop_assert!(signed_area(poly) > 0.0, "inverted hull {poly:?}");
-                for i in 0..poly.len() {
-                    let (a, c, d) = (poly[i], poly[(i + 1) % poly.len()], poly[(i + 2) % poly.len()]);
-                    prop_assert!(orient(a, c, d) > 0.0, "non-convex hull {poly:?}");
-                }
+        ScreenBound::Polygon(poly) => check_convex_piece(poly)?,
+        ScreenBound::Union(pieces) => {
+            prop_assert!(!pieces.is_empty() && pieces.len() <= 4, "{pieces:?}");
+            for poly in pieces {
+                check_convex_piece(poly)?;
             }
         }
         ScreenBound::Rect { min, max } => {
@@ -261,13 +283,20 @@ fn check_well_formed(b: &ScreenBound) -> Result<(), TestCaseError> {
 fn check_conservative(case: &Case, seed: u64, samples: usize, st: &mut Stats) -> Result<(), TestCaseError> {
     let Case { k, tri } = case;
     let mut rng = Pcg32::new(seed, 1);
+    let hull = bound(tri, k, BoundKind::ConvexHull);
     for kind in BoundKind::ALL {
         let b = bound(tri, k, kind);
         check_well_formed(&b)?;
         match &b {
             ScreenBound::Culled => st.culled += 1,
             _ if b.is_viewport(k) => st.viewport += 1,
-            _ => st.tight += 1,
+            _ => {
+                st.tight += 1;
+                st.own_shape[kind.id() as usize] += usize::from(b != hull);
+                if kind == BoundKind::Adaptive {
+                    st.adaptive[adaptive_kind(tri, k).id() as usize] += 1;
+                }
+            }
         }
         let hard = b.is_viewport(k);
         for _ in 0..samples {
@@ -461,23 +490,147 @@ proptest! {
     }
 }
 
-/// The full-size run: ≥ 100,000 random triangles through both properties. Run explicitly with
+/// Every tight bound of every kind contains the six true end discs (sampled on their rims): the set
+/// all shapes are built to bound, without the projection's own rounding.
+fn check_contains_end_discs(case: &Case) -> Result<(), TestCaseError> {
+    let Case { k, tri } = case;
+    let verts = tri.end_vertices();
+    for kind in BoundKind::ALL {
+        let b = bound(tri, k, kind);
+        if b == ScreenBound::Culled || b.is_viewport(k) {
+            continue;
+        }
+        for v in verts {
+            let c = k.project(v, Vec2::ZERO);
+            let r = k.circle_of_confusion_px(-v.z).abs();
+            for j in 0..32 {
+                let a = j as f32 * std::f32::consts::TAU / 32.0;
+                let q = c + Vec2::new(a.cos(), a.sin()) * r;
+                let tol = tolerance(&b, q);
+                prop_assert!(b.contains(q, tol), "{kind:?}: rim point {q} of disc ({c}, {r}) outside {b:?}");
+            }
+        }
+    }
+    Ok(())
+}
+
+fn polygon(b: &ScreenBound) -> &[Vec2] {
+    match b {
+        ScreenBound::Polygon(p) => p,
+        _ => panic!("not a polygon: {b:?}"),
+    }
+}
+
+fn union_pieces(b: &ScreenBound) -> &[Vec<Vec2>] {
+    match b {
+        ScreenBound::Union(p) => p,
+        _ => panic!("not a union: {b:?}"),
+    }
+}
+
+/// Vertex counts and inclusions that hold by construction for a still triangle whose mid triangle is
+/// not degenerate: 2D hexagon ⊆ parallel-edge triangle, wedge ⊆ reduced wedge, hull ⊆ box, each
+/// convex shape within its own box.
+fn check_still_shapes(case: &Case) -> Result<(), TestCaseError> {
+    let Case { k, tri } = case;
+    let hull = bound(tri, k, BoundKind::ConvexHull);
+    if !matches!(hull, ScreenBound::Polygon(_)) {
+        return Ok(()); // a hard case: every kind gives the same (tested elsewhere)
+    }
+    let discs = EndDiscs::new(&tri.end_vertices(), k);
+    prop_assert!(discs.is_still());
+    if MidTriangle::new(&discs).is_none() {
+        for kind in BoundKind::ALL {
+            if !matches!(kind, BoundKind::BoundingBox | BoundKind::Hexagon3d) {
+                prop_assert_eq!(&bound(tri, k, kind), &hull, "{:?} must fall back to the hull", kind);
+            }
+        }
+        return Ok(());
+    }
+    let b = BoundKind::ALL.map(|kind| bound(tri, k, kind));
+    let [bbox, hex2, pet, vrt, hex3, wedge, rwedge, _hull, _adaptive] = &b;
+    prop_assert_eq!(polygon(pet).len(), 3);
+    prop_assert_eq!(polygon(vrt).len(), 3);
+    prop_assert!((3..=6).contains(&polygon(hex2).len()), "{hex2:?}");
+    prop_assert!(polygon(hex3).len() <= 12, "{hex3:?}");
+    let (w, rw) = (union_pieces(wedge), union_pieces(rwedge));
+    prop_assert!(w.len() == rw.len() && (1..=4).contains(&w.len()));
+    prop_assert_eq!(w[0].len(), 3, "core triangle");
+    prop_assert!(w.iter().skip(1).all(|p| p.len() <= 4) && rw.iter().all(|p| p.len() <= 3));
+    let rel = |a: &ScreenBound, p: Vec2| tolerance(a, p);
+    for &p in polygon(hex2) {
+        prop_assert!(pet.contains(p, rel(pet, p)), "2D hexagon corner {p} outside {pet:?}");
+    }
+    // Areas agree up to the vertex rounding along the boundary.
+    let area_tol = |b: &ScreenBound| {
+        let (lo, hi) = b.aabb().unwrap();
+        (tolerance(b, lo) * 2.0 * (hi - lo).element_sum()) as f64 * b.pieces().len() as f64
+    };
+    prop_assert!(hex2.area() <= pet.area() + area_tol(pet), "{hex2:?} vs {pet:?}");
+    for (slab, tri) in w.iter().zip(rw) {
+        for &p in slab {
+            prop_assert!(convex_contains(tri, p, rel(rwedge, p)), "wedge corner {p} outside {tri:?}");
+        }
+    }
+    prop_assert!(wedge.area() <= rwedge.area() + area_tol(rwedge), "{wedge:?} vs {rwedge:?}");
+    for &p in polygon(&hull) {
+        prop_assert!(bbox.contains(p, 0.0));
+    }
+    for x in &b {
+        let (lo, hi) = x.aabb().unwrap();
+        let box_area = ((hi.x - lo.x) as f64) * ((hi.y - lo.y) as f64);
+        if !matches!(x, ScreenBound::Union(_)) {
+            prop_assert!(x.area() <= box_area * (1.0 + 1e-6), "{x:?}");
+        }
+    }
+    Ok(())
+}
+
+proptest! {
+    #![proptest_config(config(2000))]
+
+    #[test]
+    fn still_bounds_are_conservative(case in still_case(), seed in any::<u64>()) {
+        check_conservative(&case, seed, 24, &mut Stats::default())?;
+    }
+
+    #[test]
+    fn bounds_contain_the_end_discs(case in any_case()) {
+        check_contains_end_discs(&case)?;
+    }
+
+    #[test]
+    fn still_shapes_counts_and_inclusions(case in still_case()) {
+        check_contains_end_discs(&case)?;
+        check_still_shapes(&case)?;
+    }
+}
+
+/// The full-size run: ≥ 100,000 random triangles through both properties (every [`BoundKind`]), plus
+/// 100,000 still triangles through the conservativeness, disc and shape checks. Run explicitly with
 /// `cargo test -p shutter --lib bounds -- --ignored`.
 #[test]
 #[ignore]
 fn heavy_100k_triangles() {
-    let stats = run_random_cases(100_000, 32);
-    eprintln!("{stats:?}");
+    let stats = run_random_cases(any_case(), 100_000, 32);
+    eprintln!("any: {stats:?}");
+    let stats = run_random_cases(still_case(), 100_000, 32);
+    eprintln!("still: {stats:?}");
 }
 
-/// Runs both properties over `cases` random triangles and returns what they exercised.
-fn run_random_cases(cases: u32, samples: usize) -> Stats {
+/// Runs both properties and the disc/shape checks over `cases` random triangles and returns what they
+/// exercised.
+fn run_random_cases(strategy: impl Strategy<Value = Case>, cases: u32, samples: usize) -> Stats {
     let stats = std::cell::RefCell::new(Stats::default());
     let mut runner = proptest::test_runner::TestRunner::new(config(cases));
     runner
-        .run(&(any_case(), any::<u64>()), |(case, seed)| {
+        .run(&(strategy, any::<u64>()), |(case, seed)| {
             let st = &mut stats.borrow_mut();
             check_conservative(&case, seed, samples, st)?;
+            check_contains_end_discs(&case)?;
+            if case.tri.v0 == case.tri.v1 {
+                check_still_shapes(&case)?;
+            }
             check_sample_hit(&case, seed, samples, st)
         })
         .unwrap();
@@ -488,13 +641,34 @@ fn run_random_cases(cases: u32, samples: usize) -> Stats {
 /// well-conditioned hits that are checked against their barycentrics.
 #[test]
 fn random_cases_are_not_vacuous() {
-    let st = run_random_cases(1000, 16);
+    let st = run_random_cases(any_case(), 1000, 16);
     eprintln!("{st:?}");
     let bounds = (st.tight + st.viewport + st.culled) as f64;
     assert!(st.tight as f64 > 0.5 * bounds, "{st:?}");
     assert!(st.viewport as f64 > 0.05 * bounds && st.culled as f64 > 0.02 * bounds, "{st:?}");
     assert!(st.points_tight > 10_000 && st.points_viewport > 100, "{st:?}");
     assert!(st.hits > 2000 && st.round_trips > 1000 && st.expected_hits > 500, "{st:?}");
+    // Each shape is really built (not the hull fallback) in a good share of the tight cases; the
+    // wedges only for still triangles (a sixth of the cases); adaptive mostly picks the hull for moving
+    // ones.
+    let tight_per_kind = st.tight / BoundKind::ALL.len();
+    for kind in BoundKind::ALL {
+        let own = st.own_shape[kind.id() as usize];
+        match kind {
+            BoundKind::ConvexHull => assert_eq!(own, 0),
+            BoundKind::Wedge | BoundKind::ReducedWedge | BoundKind::Adaptive => {
+                assert!(own * 20 > tight_per_kind, "{kind:?} {st:?}")
+            }
+            _ => assert!(own * 2 > tight_per_kind, "{kind:?} {st:?}"),
+        }
+    }
+    // The adaptive policy picks each of its four outcomes.
+    for kind in
+        [BoundKind::ConvexHull, BoundKind::ParallelEdgeTriangle, BoundKind::Hexagon2d, BoundKind::Hexagon3d]
+    {
+        assert!(st.adaptive[kind.id() as usize] > 10, "{kind:?} {st:?}");
+    }
+    assert_eq!(st.adaptive.iter().sum::<usize>(), tight_per_kind, "{st:?}");
 }
 
 // ---------------------------------------------------------------------------------------------------
