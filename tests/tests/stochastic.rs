@@ -83,7 +83,7 @@ fn glsl_bounds_match_cpu_mirror() {
     let n = 600;
     let mesh = random_triangles(n, 5);
     let motion = Mat4::from_rotation_translation(Quat::from_rotation_y(0.2), Vec3::new(0.4, -0.1, 0.3));
-    let mut r = renderer();
+    let r = renderer();
     for (label, close, aperture) in
         [("still", None, 0.1), ("moving", Some(motion), 0.1), ("moving-pinhole", Some(motion), 0.0)]
     {
@@ -338,7 +338,9 @@ fn check_hard_case(name: &str, scene: &Scene) {
     assert!(m.rmse < HARD_RMSE_MAX, "{name} per-sample: RMSE {}", m.rmse);
 }
 
-const HARD_RMSE_MAX: f64 = 0.03;
+// Single-object scenes shade every hit alike, so only coverage can differ from the same-sample
+// reference: measured RMSE < 0.00001 on every case (lavapipe); a hole or a spurious hit shows at once.
+const HARD_RMSE_MAX: f64 = 0.005;
 
 fn hard_scene(aperture: f32, focus: f32, mesh: Arc<Mesh>, open: Mat4, close: Option<Mat4>) -> Scene {
     let mut s = single_object_scene(camera(50.0, aperture, focus), mesh, open, close, 96, 72);

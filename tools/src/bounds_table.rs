@@ -6,7 +6,9 @@
 use anyhow::Result;
 use shutter::bounds::BoundKind;
 use shutter::scene::Scene;
-use shutter::techniques::{RenderOutput, RenderSettings, Renderer, ShadingRate, StochasticOptions, Technique};
+use shutter::techniques::{
+    RenderOutput, RenderSettings, Renderer, ShadingRate, StochasticOptions, Technique,
+};
 
 pub struct BoundsTableArgs {
     pub spp: Vec<u32>,

@@ -188,7 +188,7 @@ fn run() -> Result<()> {
                 println!("  {name:<12} {ms:>10.2} ms");
             }
             if technique == Technique::Stochastic {
-                println!("  bound {:?}, shading {}", stochastic.bound, stochastic.shading.name());
+                println!("  bound {}, shading {}", stochastic.bound.name(), stochastic.shading.name());
             }
             if let Some(c) = output.stats.counters {
                 println!(

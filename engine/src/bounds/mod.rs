@@ -59,12 +59,14 @@
 //! Not implemented: the tighter near-plane-clipped polytope bound above, per-time-interval bounds
 //! (interleaved/tiled time slices), and viewport clipping/culling of off-screen bounds.
 
+mod dilate;
 mod hull;
 mod inside;
 pub mod shapes;
 #[cfg(test)]
 mod tests;
 
+pub use dilate::{dilate_box, DILATE_PX};
 pub use hull::{convex_contains, convex_hull, orient, signed_area};
 pub use inside::{sample_hit, sample_test_efficiency_estimate, Hit};
 pub use shapes::{

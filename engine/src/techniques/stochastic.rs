@@ -79,15 +79,7 @@ impl Default for StochasticOptions {
     }
 }
 
-const DEFAULT_BOUND: BoundKind = BoundKind::ConvexHull;
-
-/// The id the geometry shader switches on (`BOUND_*` in `stochastic/bounds.glsl`).
-fn bound_id(kind: BoundKind) -> u32 {
-    match kind {
-        BoundKind::BoundingBox => 0,
-        BoundKind::ConvexHull => 7,
-    }
-}
+const DEFAULT_BOUND: BoundKind = BoundKind::Adaptive;
 
 /// Counters of an instrumented render, summed over all passes.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -494,7 +486,7 @@ impl StochasticRenderer {
                 }
                 let push = StochasticPush {
                     object: i as u32,
-                    bound: bound_id(self.options.bound),
+                    bound: self.options.bound.id(),
                     pass_index: pass,
                     spp: self.spp,
                     msaa: self.targets.samples(),
