@@ -198,9 +198,10 @@ fn effect_scene(effect: &str) -> Scene {
     scene
 }
 
-/// For motion only, defocus only and both: the error against a 256-spp reference falls as S grows
-/// (4, 16, 64); against the reference at the *same* samples the image is nearly identical; per-sample
-/// shading converges too; and the bounds give the same image.
+/// For motion only, defocus only and both, against a 256-spp reference as S grows (4, 16, 64):
+/// per-sample shading (unbiased) converges with RMSE roughly halving per 4× samples; per-pixel shading
+/// falls too but towards the floor of its occlusion artefact. Against the reference at the *same*
+/// samples, per-sample shading is nearly identical.
 #[test]
 fn stochastic_converges_to_reference_for_each_effect() {
     let (w, h) = (160, 90);
@@ -208,63 +209,56 @@ fn stochastic_converges_to_reference_for_each_effect() {
     for effect in ["motion", "defocus", "both"] {
         let scene = effect_scene(effect);
         let truth = reference(&scene, w, h, 256, 1);
-        let mut rmse = vec![];
-        for spp in [4u32, 16, 64] {
-            let seed = 2;
-            let out = render(&mut r, &scene, w, h, spp, seed, StochasticOptions::default());
-            assert_finite(effect, &out.image);
-            let m = compare(&truth, &out.image).unwrap();
-            println!(
-                "{effect} S={spp}: RMSE {:.5} FLIP {:.5} ({} passes × {} MSAA, GPU {:.0} ms)",
-                m.rmse,
-                m.flip,
-                out.stats.passes,
-                out.stats.msaa_samples,
-                out.timings.total_ms()
-            );
-            save_comparison(&format!("stochastic-{effect}-{spp}"), &truth, &out.image);
-            rmse.push(m.rmse);
-            if spp == 16 {
-                let same = reference(&scene, w, h, spp, seed);
-                let m = compare(&same, &out.image).unwrap();
+        for shading in ShadingRate::ALL {
+            let mut rmse = vec![];
+            for spp in [4u32, 16, 64] {
+                let seed = 2;
+                let out = render(&mut r, &scene, w, h, spp, seed, options(BoundKind::Adaptive, shading));
+                assert_finite(effect, &out.image);
+                let m = compare(&truth, &out.image).unwrap();
                 println!(
-                    "{effect} S=16 vs reference with the same samples: RMSE {:.5} FLIP {:.5}",
-                    m.rmse, m.flip
+                    "{effect} {} S={spp}: RMSE {:.5} FLIP {:.5} ({} passes × {} MSAA, GPU {:.0} ms)",
+                    shading.name(),
+                    m.rmse,
+                    m.flip,
+                    out.stats.passes,
+                    out.stats.msaa_samples,
+                    out.timings.total_ms()
                 );
-                save_comparison(&format!("stochastic-{effect}-16-same-samples"), &same, &out.image);
-                assert!(
-                    m.rmse < PER_PIXEL_SAME_SAMPLES_RMSE_MAX,
-                    "{effect}: RMSE {} vs the same samples",
-                    m.rmse
-                );
-                let ps = render(
-                    &mut r,
-                    &scene,
-                    w,
-                    h,
-                    spp,
-                    seed,
-                    options(StochasticOptions::default().bound, ShadingRate::PerSample),
-                );
-                let m = compare(&same, &ps.image).unwrap();
-                println!(
-                    "{effect} S=16 per-sample vs the same samples: RMSE {:.5} FLIP {:.5}",
-                    m.rmse, m.flip
-                );
-                assert!(m.rmse < PER_SAMPLE_SAME_SAMPLES_RMSE_MAX, "{effect} per-sample: RMSE {}", m.rmse);
+                save_comparison(&format!("stochastic-{effect}-{}-{spp}", shading.name()), &truth, &out.image);
+                rmse.push(m.rmse);
+                if spp == 16 {
+                    let same = reference(&scene, w, h, spp, seed);
+                    let m = compare(&same, &out.image).unwrap();
+                    println!("  vs the reference with the same samples: RMSE {:.5} FLIP {:.5}", m.rmse, m.flip);
+                    let max = match shading {
+                        ShadingRate::PerSample => PER_SAMPLE_SAME_SAMPLES_RMSE_MAX,
+                        ShadingRate::PerPixel => PER_PIXEL_SAME_SAMPLES_RMSE_MAX,
+                    };
+                    assert!(m.rmse < max, "{effect} {}: RMSE {} vs the same samples", shading.name(), m.rmse);
+                }
             }
-        }
-        for pair in rmse.windows(2) {
-            assert!(pair[1] < 0.8 * pair[0], "{effect}: RMSE did not fall enough with 4x samples: {rmse:?}");
+            let factor = match shading {
+                ShadingRate::PerSample => 0.7,
+                ShadingRate::PerPixel => 1.0,
+            };
+            for pair in rmse.windows(2) {
+                assert!(
+                    pair[1] < factor * pair[0],
+                    "{effect} {}: RMSE must fall below {factor}× per 4× samples: {rmse:?}",
+                    shading.name()
+                );
+            }
         }
     }
 }
 
 // Against the reference with the same samples. Per-sample shading leaves only f32 differences at
-// edges and texture filtering (measured RMSE 0.0030 on `default` at 160×90, S = 16). Per-pixel shading
-// also shares one colour and one depth among a pixel's covered samples — the occlusion artefact of
-// shading once per pixel (measured RMSE 0.018 on `default`, concentrated where blurred objects overlap).
-const PER_SAMPLE_SAME_SAMPLES_RMSE_MAX: f64 = 0.008;
+// edges and texture filtering (measured RMSE 0.0029–0.0032 on the three effects at 160×90, S = 16).
+// Per-pixel shading also shares one colour and one depth among a pixel's covered samples — the
+// occlusion artefact of shading once per pixel (measured RMSE 0.006 motion, 0.018 defocus), largest
+// where blurred objects overlap.
+const PER_SAMPLE_SAME_SAMPLES_RMSE_MAX: f64 = 0.006;
 const PER_PIXEL_SAME_SAMPLES_RMSE_MAX: f64 = 0.03;
 
 /// Bounds change the cost, never the result: every bound gives the same image for the same samples.
