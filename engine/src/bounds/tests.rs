@@ -549,13 +549,17 @@ fn check_still_shapes(case: &Case) -> Result<(), TestCaseError> {
     }
     let b = BoundKind::ALL.map(|kind| bound(tri, k, kind));
     let [bbox, hex2, pet, vrt, hex3, wedge, rwedge, _hull, _adaptive] = &b;
-    prop_assert_eq!(polygon(pet).len(), 3);
-    prop_assert_eq!(polygon(vrt).len(), 3);
-    prop_assert!((3..=6).contains(&polygon(hex2).len()), "{hex2:?}");
+    // Exactly 3 corners unless the triangle is so small that f32 rounding collapses it.
+    let m = MidTriangle::new(&discs).unwrap();
+    let scale = discs.centre.iter().fold(1.0f32, |a, c| a.max(c.abs().max_element()));
+    let min_corners = if m.inradius() > 1e-4 * scale { 3 } else { 2 };
+    prop_assert!((min_corners..=3).contains(&polygon(pet).len()), "{pet:?}");
+    prop_assert!((min_corners..=3).contains(&polygon(vrt).len()), "{vrt:?}");
+    prop_assert!((min_corners..=6).contains(&polygon(hex2).len()), "{hex2:?}");
     prop_assert!(polygon(hex3).len() <= 12, "{hex3:?}");
     let (w, rw) = (union_pieces(wedge), union_pieces(rwedge));
     prop_assert!(w.len() == rw.len() && (1..=4).contains(&w.len()));
-    prop_assert_eq!(w[0].len(), 3, "core triangle");
+    prop_assert!((min_corners..=3).contains(&w[0].len()), "core triangle {w:?}");
     prop_assert!(w.iter().skip(1).all(|p| p.len() <= 4) && rw.iter().all(|p| p.len() <= 3));
     let rel = |a: &ScreenBound, p: Vec2| tolerance(a, p);
     for &p in polygon(hex2) {
