@@ -139,8 +139,8 @@ impl MidTriangle {
             .map(|(i, j)| (p[j] - p[i]).as_dvec2().length_squared())
             .into_iter()
             .fold(0.0, f64::max);
-        // `!(a > b)` also rejects NaN.
-        if !(area2.abs() > MID_DEGENERATE_EPS * l2) {
+        // Also rejects NaN.
+        if area2.abs().partial_cmp(&(MID_DEGENERATE_EPS * l2)) != Some(std::cmp::Ordering::Greater) {
             return None;
         }
         let mut vertex = [0, 1, 2];

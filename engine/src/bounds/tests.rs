@@ -2,6 +2,7 @@
 
 use glam::{Vec2, Vec3};
 use proptest::prelude::*;
+use proptest::strategy::ValueTree;
 use proptest::test_runner::TestCaseError;
 
 use super::*;
@@ -549,13 +550,17 @@ fn check_still_shapes(case: &Case) -> Result<(), TestCaseError> {
     }
     let b = BoundKind::ALL.map(|kind| bound(tri, k, kind));
     let [bbox, hex2, pet, vrt, hex3, wedge, rwedge, _hull, _adaptive] = &b;
-    prop_assert_eq!(polygon(pet).len(), 3);
-    prop_assert_eq!(polygon(vrt).len(), 3);
-    prop_assert!((3..=6).contains(&polygon(hex2).len()), "{hex2:?}");
+    // Exactly 3 corners unless the triangle is so small that f32 rounding collapses it.
+    let m = MidTriangle::new(&discs).unwrap();
+    let scale = discs.centre.iter().fold(1.0f32, |a, c| a.max(c.abs().max_element()));
+    let min_corners = if m.inradius() > 1e-4 * scale { 3 } else { 2 };
+    prop_assert!((min_corners..=3).contains(&polygon(pet).len()), "{pet:?}");
+    prop_assert!((min_corners..=3).contains(&polygon(vrt).len()), "{vrt:?}");
+    prop_assert!((min_corners..=6).contains(&polygon(hex2).len()), "{hex2:?}");
     prop_assert!(polygon(hex3).len() <= 12, "{hex3:?}");
     let (w, rw) = (union_pieces(wedge), union_pieces(rwedge));
     prop_assert!(w.len() == rw.len() && (1..=4).contains(&w.len()));
-    prop_assert_eq!(w[0].len(), 3, "core triangle");
+    prop_assert!((min_corners..=3).contains(&w[0].len()), "core triangle {w:?}");
     prop_assert!(w.iter().skip(1).all(|p| p.len() <= 4) && rw.iter().all(|p| p.len() <= 3));
     let rel = |a: &ScreenBound, p: Vec2| tolerance(a, p);
     for &p in polygon(hex2) {
@@ -942,4 +947,303 @@ fn regression_needle_rounded_to_degenerate_is_culled() {
     assert!(tri.is_degenerate());
     assert_eq!(bound(&tri, &k, BoundKind::ConvexHull), ScreenBound::Culled);
     check_case(k, tri);
+}
+
+// ---------------------------------------------------------------------------------------------------
+// The thesis' shapes: names, the GLSL mirror's constants, special cases, adaptive choices.
+
+#[test]
+fn kind_names_ids_and_parsing() {
+    for (i, kind) in BoundKind::ALL.into_iter().enumerate() {
+        assert_eq!(kind.id() as usize, i);
+        assert_eq!(kind.name().parse::<BoundKind>().unwrap(), kind);
+        assert_eq!(kind.to_string(), kind.name());
+    }
+    assert_eq!("bbox".parse::<BoundKind>().unwrap(), BoundKind::BoundingBox);
+    assert_eq!("convex-hull".parse::<BoundKind>().unwrap(), BoundKind::ConvexHull);
+    let err = "hexagon".parse::<BoundKind>().unwrap_err().to_string();
+    assert!(err.contains("2d-hexagon") && err.contains("adaptive"), "{err}");
+}
+
+/// The GLSL mirror's `BOUND_*` ids and constants are the CPU's (whitespace-insensitive text match).
+#[test]
+fn glsl_mirror_uses_the_cpu_constants() {
+    let src: String = include_str!("../../../shaders-glsl/stochastic/bounds.glsl")
+        .chars()
+        .filter(|c| !c.is_whitespace())
+        .collect();
+    let has = |line: String| {
+        let line: String = line.chars().filter(|c| !c.is_whitespace()).collect();
+        assert!(src.contains(&line), "bounds.glsl lacks `{line}`");
+    };
+    for kind in BoundKind::ALL {
+        has(format!("#define BOUND_{} {}\n", kind.name().to_uppercase().replace('-', "_"), kind.id()));
+    }
+    has(format!("const float BOUND_FLT_EPSILON = {:?};", f32::EPSILON));
+    has(format!("const float BOUND_RADIUS_ROUND_UP = {:?};", RADIUS_ROUND_UP));
+    has(format!("const float BOUND_MID_DEGENERATE_EPS = {:?};", shapes::MID_DEGENERATE_EPS as f32));
+    has(format!("const float BOUND_STILL_EPS_PX = {:?};", shapes::STILL_EPS_PX));
+    has(format!("const float BOUND_ADAPTIVE_MOTION_MIN_PX = {:?};", shapes::ADAPTIVE_MOTION_MIN_PX));
+    has(format!("const float BOUND_ADAPTIVE_SMALL_BLUR = {:?};", shapes::ADAPTIVE_SMALL_BLUR));
+    has(format!("const float BOUND_ADAPTIVE_LARGE_BLUR = {:?};", shapes::ADAPTIVE_LARGE_BLUR));
+    for (name, sides) in [("OCTAGON", DISC_SIDES), ("HEXAGON", 6)] {
+        let corners: Vec<String> =
+            circumscribed_corners(sides).iter().map(|c| format!("vec2({:?}, {:?})", c.x, c.y)).collect();
+        has(format!("const vec2 BOUND_{name}[{sides}] = vec2[{sides}]({});", corners.join(",")));
+    }
+}
+
+/// A still, defocused triangle given by pixel positions and depths.
+fn still_at(k: &Intrinsics, px: [Vec2; 3], z: [f32; 3]) -> MovingTriangle {
+    MovingTriangle::fixed([0, 1, 2].map(|i| at_pixel(k, px[i], z[i])))
+}
+
+/// Depth whose circle of confusion is `r` pixels (behind the focus plane).
+fn depth_for_coc(k: &Intrinsics, r: f32) -> f32 {
+    1.0 / (1.0 / k.focus_distance - r / (k.aperture_radius * k.pixel_scale))
+}
+
+#[test]
+fn still_defocused_shapes_in_detail() {
+    let k = hd(0.1, 5.0);
+    let px = [Vec2::new(500.0, 300.0), Vec2::new(700.0, 320.0), Vec2::new(560.0, 450.0)];
+    let z = depth_for_coc(&k, 10.0);
+    let tri = still_at(&k, px, [z; 3]);
+    assert!((k.circle_of_confusion_px(z) - 10.0).abs() < 1e-3);
+    let b = BoundKind::ALL.map(|kind| bound(&tri, &k, kind));
+    let [bbox, hex2, pet, vrt, hex3, wedge, rwedge, hull, adaptive] = &b;
+    // Equal radii: the variable-radius triangle is the parallel-edge triangle (β = 0).
+    assert_eq!(polygon(pet).len(), 3);
+    for (p, q) in polygon(pet).iter().zip(polygon(vrt)) {
+        assert!((*p - *q).length() < 1e-3, "{pet:?} vs {vrt:?}");
+    }
+    // The parallel-edge triangle is the triangle pushed out by r along each normal.
+    let tri_area = signed_area(&convex_hull(&px)).abs();
+    let perimeter: f32 = (0..3).map(|i| (px[(i + 1) % 3] - px[i]).length()).sum();
+    let inr = 2.0 * tri_area / perimeter as f64;
+    let expect = tri_area * ((inr + 10.0) / inr).powi(2);
+    assert!((pet.area() - expect).abs() < 1e-3 * expect, "{} vs {expect}", pet.area());
+    assert_eq!(polygon(hex2).len(), 6);
+    assert!(hex2.area() < pet.area() && hex2.area() > tri_area);
+    // Three hexagons of one size: 6 edges + 3 bridges at most, here all of them.
+    assert!((9..=12).contains(&polygon(hex3).len()), "{hex3:?}");
+    // Wedge: the core and three slabs of height r (+ rounding) spanning the edge ± r.
+    let w = union_pieces(wedge);
+    assert_eq!(w.len(), 4);
+    for slab in &w[1..] {
+        assert_eq!(slab.len(), 4);
+        let (a, c) = ((slab[1] - slab[0]).length(), (slab[2] - slab[1]).length());
+        assert!((a.min(c) - 10.0).abs() < 1e-2, "{slab:?}");
+    }
+    assert!(rwedge.area() > wedge.area() && wedge.area() > hull.area());
+    assert!(hull.area() < bbox.area());
+    // The adaptive choice: r = 10 px is under a quarter of the inradius (≈ 52 px).
+    assert_eq!(adaptive_kind(&tri, &k), BoundKind::ParallelEdgeTriangle);
+    assert_eq!(adaptive, pet);
+    check_case(k, tri);
+}
+
+#[test]
+fn static_pinhole_shapes_are_the_triangle() {
+    let k = hd(0.0, 5.0);
+    let px = [Vec2::new(300.0, 200.0), Vec2::new(700.0, 250.0), Vec2::new(400.0, 600.0)];
+    let tri = still_at(&k, px, [3.0, 6.0, 9.0]);
+    let area = signed_area(&convex_hull(&px));
+    for kind in BoundKind::ALL {
+        let b = bound(&tri, &k, kind);
+        if kind != BoundKind::BoundingBox {
+            assert!((b.area() - area).abs() < 1e-3 * area, "{kind:?}: {b:?}");
+        }
+        for p in px {
+            assert!(b.contains(p, 1e-3), "{kind:?}: {p} outside {b:?}");
+        }
+    }
+    assert_eq!(adaptive_kind(&tri, &k), BoundKind::ParallelEdgeTriangle);
+    check_case(k, tri);
+}
+
+#[test]
+fn degenerate_mid_triangle_falls_back_to_the_hull() {
+    // Edge-on (in the plane y = 0 through the pinhole): the pinhole images are collinear.
+    let tri = MovingTriangle::fixed([
+        Vec3::new(-1.0, 0.0, -3.0),
+        Vec3::new(1.0, 0.0, -3.0),
+        Vec3::new(0.0, 0.0, -6.0),
+    ]);
+    for k in [hd(0.0, 4.0), hd(0.2, 4.0)] {
+        let discs = EndDiscs::new(&tri.end_vertices(), &k);
+        assert!(MidTriangle::new(&discs).is_none());
+        assert!(parallel_edge_triangle(&discs).is_none() && wedge(&discs).is_none());
+        let hull = bound(&tri, &k, BoundKind::ConvexHull);
+        for kind in BoundKind::ALL {
+            if !matches!(kind, BoundKind::BoundingBox | BoundKind::Hexagon3d) {
+                assert_eq!(bound(&tri, &k, kind), hull, "{kind:?}");
+            }
+        }
+        assert_eq!(adaptive_kind(&tri, &k), BoundKind::ConvexHull);
+        check_case(k, tri);
+    }
+}
+
+#[test]
+fn moving_wedges_fall_back_to_the_space_time_hull() {
+    let k = hd(0.1, 5.0);
+    let px = [Vec2::new(500.0, 300.0), Vec2::new(700.0, 320.0), Vec2::new(560.0, 450.0)];
+    let z = depth_for_coc(&k, 10.0);
+    let v0 = px.map(|p| at_pixel(&k, p, z));
+    for motion in [Vec2::new(0.01, 0.0), Vec2::new(40.0, 5.0)] {
+        let tri = MovingTriangle { v0, v1: px.map(|p| at_pixel(&k, p + motion, z)) };
+        let discs = EndDiscs::new(&tri.end_vertices(), &k);
+        assert!(!discs.is_still());
+        let hull = bound(&tri, &k, BoundKind::ConvexHull);
+        assert_eq!(bound(&tri, &k, BoundKind::Wedge), hull);
+        assert_eq!(bound(&tri, &k, BoundKind::ReducedWedge), hull);
+        // The other shapes extend over the shutter.
+        assert!(
+            matches!(bound(&tri, &k, BoundKind::ParallelEdgeTriangle), ScreenBound::Polygon(p) if p.len() == 3)
+        );
+        check_case(k, tri);
+    }
+    // Within rounding of still: still.
+    let tri = MovingTriangle { v0, v1: px.map(|p| at_pixel(&k, p + Vec2::new(1e-4, 0.0), z)) };
+    assert!(matches!(bound(&tri, &k, BoundKind::Wedge), ScreenBound::Union(_)));
+}
+
+#[test]
+fn nested_circles_use_the_edge_normal() {
+    // Vertex 0 blurred by 60 px, the others sharp, edges ≤ 45 px: disc 0 swallows discs 1 and 2.
+    let k = hd(0.1, 5.0);
+    let px = [Vec2::new(600.0, 300.0), Vec2::new(640.0, 310.0), Vec2::new(610.0, 340.0)];
+    let tri = still_at(&k, px, [depth_for_coc(&k, 60.0), 5.0, 5.0]);
+    let discs = EndDiscs::new(&tri.end_vertices(), &k);
+    let m = MidTriangle::new(&discs).unwrap();
+    let normals = shapes::variable_radius_normals(&discs, &m);
+    let mut nested = 0;
+    for (i, n) in normals.iter().enumerate() {
+        let (a, b) = (m.vertex[i], m.vertex[(i + 1) % 3]);
+        if a == 0 || b == 0 {
+            assert_eq!(*n, m.normal[i], "edge {i}");
+            nested += 1;
+        }
+    }
+    assert_eq!(nested, 2);
+    check_case(k, tri);
+}
+
+#[test]
+fn diverging_edges_fall_back_to_the_parallel_edge_triangle() {
+    // A flat triangle (obtuse at vertex 2, normals of the short edges 11° apart) whose vertex 1 is
+    // blurred by 20 px: the tangent of edge 1→2 tilts by 24° past the normal of edge 2→0.
+    let k = hd(0.1, 5.0);
+    let px = [Vec2::new(500.0, 300.0), Vec2::new(600.0, 300.0), Vec2::new(550.0, 305.0)];
+    let tri = still_at(&k, px, [5.0, depth_for_coc(&k, 20.0), 5.0]);
+    let discs = EndDiscs::new(&tri.end_vertices(), &k);
+    let m = MidTriangle::new(&discs).unwrap();
+    assert!(!shapes::positively_span(&shapes::variable_radius_normals(&discs, &m)));
+    assert!(shapes::positively_span(&m.normal));
+    assert_eq!(variable_radius_triangle(&discs), parallel_edge_triangle(&discs));
+    check_case(k, tri);
+    // With the blur on the long edge's far vertex only a little, the tangents still span.
+    let tri = still_at(&k, px, [5.0, depth_for_coc(&k, 2.0), 5.0]);
+    let discs = EndDiscs::new(&tri.end_vertices(), &k);
+    let m = MidTriangle::new(&discs).unwrap();
+    assert!(shapes::positively_span(&shapes::variable_radius_normals(&discs, &m)));
+    assert_ne!(variable_radius_triangle(&discs), parallel_edge_triangle(&discs));
+    check_case(k, tri);
+}
+
+#[test]
+fn adaptive_choices() {
+    let k = hd(0.1, 5.0);
+    let px = [Vec2::new(500.0, 300.0), Vec2::new(700.0, 320.0), Vec2::new(560.0, 450.0)];
+    let at = |r: f32| depth_for_coc(&k, r);
+    // Blur small against the inradius (≈ 52 px) → parallel-edge triangle.
+    assert_eq!(adaptive_kind(&still_at(&k, px, [at(2.0); 3]), &k), BoundKind::ParallelEdgeTriangle);
+    // In between → 2D hexagon; blur ≥ twice the longest edge (≈ 210 px) → 3D hexagon.
+    assert_eq!(adaptive_kind(&still_at(&k, px, [at(30.0); 3]), &k), BoundKind::Hexagon2d);
+    let wide = hd(1.0, 2.0);
+    let small = px.map(|p| px[0] + (p - px[0]) * 0.1);
+    let far = MovingTriangle::fixed(small.map(|p| at_pixel(&wide, p, 50.0)));
+    assert!(wide.circle_of_confusion_px(50.0) > 2.0 * 21.1);
+    assert_eq!(adaptive_kind(&far, &wide), BoundKind::Hexagon3d);
+    assert_eq!(bound(&far, &wide, BoundKind::Adaptive), bound(&far, &wide, BoundKind::Hexagon3d));
+    // Motion beyond the blur → convex hull; motion within the blur → still a thesis shape.
+    let z = at(2.0);
+    let moving = |d: Vec2| MovingTriangle {
+        v0: px.map(|p| at_pixel(&k, p, z)),
+        v1: px.map(|p| at_pixel(&k, p + d, z)),
+    };
+    assert_eq!(adaptive_kind(&moving(Vec2::new(3.0, 0.0)), &k), BoundKind::ConvexHull);
+    assert_eq!(adaptive_kind(&moving(Vec2::new(1.0, 0.0)), &k), BoundKind::ParallelEdgeTriangle);
+    // Pinhole: motion over half a pixel → convex hull.
+    let k0 = hd(0.0, 5.0);
+    let tri = MovingTriangle {
+        v0: px.map(|p| at_pixel(&k0, p, 5.0)),
+        v1: px.map(|p| at_pixel(&k0, p + Vec2::new(0.6, 0.0), 5.0)),
+    };
+    assert_eq!(adaptive_kind(&tri, &k0), BoundKind::ConvexHull);
+    assert_eq!(bound(&tri, &k0, BoundKind::Adaptive), bound(&tri, &k0, BoundKind::ConvexHull));
+}
+
+#[test]
+fn hard_cases_are_the_same_for_every_kind() {
+    let k = hd(0.05, 4.0);
+    let v0 = [Vec3::new(-1.0, 0.0, -2.0), Vec3::new(1.0, 0.0, -2.0), Vec3::new(0.0, 1.0, -2.5)];
+    let crossing = MovingTriangle { v0, v1: v0.map(|v| v + Vec3::new(0.2, 0.0, 3.0)) };
+    let behind = MovingTriangle::fixed(v0.map(|v| v * Vec3::new(1.0, 1.0, -1.0)));
+    let nan = MovingTriangle::fixed([Vec3::NAN, v0[1], v0[2]]);
+    for kind in BoundKind::ALL {
+        assert!(bound(&crossing, &k, kind).is_viewport(&k), "{kind:?}");
+        assert_eq!(bound(&behind, &k, kind), ScreenBound::Culled, "{kind:?}");
+        assert_eq!(bound(&nan, &k, kind), ScreenBound::Culled, "{kind:?}");
+    }
+}
+
+#[test]
+fn screen_bound_union_and_pieces() {
+    let sq =
+        |o: f32| vec![Vec2::new(o, 0.0), Vec2::new(o + 1.0, 0.0), Vec2::new(o + 1.0, 1.0), Vec2::new(o, 1.0)];
+    let u = ScreenBound::Union(vec![sq(0.0), sq(0.5)]);
+    assert_eq!(u.area(), 2.0, "sum of the pieces: an upper bound of the union's 1.5");
+    assert_eq!(u.aabb(), Some((Vec2::ZERO, Vec2::new(1.5, 1.0))));
+    assert!(u.contains(Vec2::new(1.2, 0.5), 0.0) && !u.contains(Vec2::new(1.6, 0.5), 0.0));
+    assert_eq!(u.vertex_count(), 8);
+    assert_eq!(u.pieces().len(), 2);
+    let r = ScreenBound::Rect { min: Vec2::new(1.0, 2.0), max: Vec2::new(4.0, 6.0) };
+    let p = &r.pieces()[0];
+    assert_eq!(signed_area(p), r.area(), "CCW like the GLSL's box piece");
+    assert_eq!(r.vertex_count(), 4);
+    assert!(ScreenBound::Culled.pieces().is_empty());
+}
+
+#[test]
+fn sample_test_efficiency_of_every_kind() {
+    // A defocused still triangle: every kind tests some samples and hits some.
+    let k = hd(0.1, 5.0);
+    let px = [Vec2::new(500.0, 300.0), Vec2::new(700.0, 320.0), Vec2::new(560.0, 450.0)];
+    let tri = still_at(&k, px, [depth_for_coc(&k, 10.0); 3]);
+    let ste = BoundKind::ALL.map(|kind| sample_test_efficiency_estimate(&tri, &k, kind, 4000));
+    eprintln!("{ste:?}");
+    for (kind, s) in BoundKind::ALL.iter().zip(ste) {
+        assert!(s > 0.2 && s <= 1.0, "{kind:?}: {s}");
+    }
+    let id = |k: BoundKind| k.id() as usize;
+    assert!(ste[id(BoundKind::ConvexHull)] > ste[id(BoundKind::BoundingBox)]);
+    assert!(ste[id(BoundKind::Hexagon2d)] > ste[id(BoundKind::BoundingBox)]);
+    // On average over random triangles the hull's STE is at least the box's.
+    let mut runner = proptest::test_runner::TestRunner::new(config(300));
+    let (mut hull, mut bbox, mut n) = (0.0, 0.0, 0);
+    for _ in 0..300 {
+        let case = any_case().new_tree(&mut runner).unwrap().current();
+        let h = sample_test_efficiency_estimate(&case.tri, &case.k, BoundKind::ConvexHull, 200);
+        let b = sample_test_efficiency_estimate(&case.tri, &case.k, BoundKind::BoundingBox, 200);
+        for kind in BoundKind::ALL {
+            let s = sample_test_efficiency_estimate(&case.tri, &case.k, kind, 50);
+            assert!((0.0..=1.0).contains(&s));
+        }
+        hull += h;
+        bbox += b;
+        n += 1;
+    }
+    assert!(hull >= bbox && hull > 0.0, "hull {} bbox {}", hull / n as f64, bbox / n as f64);
 }
