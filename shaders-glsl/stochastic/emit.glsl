@@ -3,10 +3,8 @@
 #ifndef SHUTTER_EMIT_GLSL
 #define SHUTTER_EMIT_GLSL
 
-// A sample can lie anywhere in its pixel square and the rasterizer's sample points too: a point of the
-// bound and any sample point of the same pixel differ by less than one pixel per axis. The margin
-// keeps samples exactly on an edge (top-left rule) inside.
-const float DILATE_PX = 1.0 + 1.0 / 64.0;
+// A sample can lie anywhere in its pixel square; the rasterizer's sample points sit at fixed offsets.
+// pc.dilate (bounds::dilation_px) covers every sample point of every pixel whose square meets the bound.
 // Beyond this many viewports from the image the bound is replaced by the viewport (rasterizer precision).
 const float MAX_EXTENT_VIEWPORTS = 4.0;
 
@@ -36,7 +34,7 @@ int quadrant(vec2 n) {
 
 vec2 box_corner(int q) {
     const vec2 c[4] = vec2[4](vec2(1.0, 1.0), vec2(-1.0, 1.0), vec2(-1.0, -1.0), vec2(1.0, -1.0));
-    return c[q] * DILATE_PX;
+    return c[q] * pc.dilate;
 }
 
 // Outward normal (unnormalised) of edge a -> b of a positive-area polygon.

@@ -10,6 +10,7 @@ layout(push_constant) uniform Push {
     uint spp;         // S: samples per pixel over all passes (the sample tile's depth)
     uint msaa;        // MSAA samples per pass
     float footprint;  // texture footprint of one sample, in pixels (1 / sqrt(S))
+    float dilate;     // box half-size the bound is dilated by, pixels (bounds::dilation_px)
 } pc;
 
 #endif

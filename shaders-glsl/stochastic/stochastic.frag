@@ -3,7 +3,7 @@
 // test of its (x, y, u, v, t) against the moving, defocused triangle; coverage goes out through
 // gl_SampleMask and the hit's depth through gl_FragDepth (reversed Z), so occlusion is resolved per
 // sample by the ordinary depth test.
-//   default:    per-pixel shading (MSAA-like): all samples tested in one invocation, the nearest hit is
+//   default:    per-pixel shading (MSAA-like): the covered samples tested in one invocation, the nearest hit is
 //               shaded once and its depth is written for every covered sample (the artefact of the
 //               ATSS paper's Figure 9: farther covered samples take the nearest one's depth).
 //   PER_SAMPLE: sample-rate shading: one invocation per sample (gl_SampleID), each shaded with its own
@@ -59,17 +59,21 @@ void main() {
     uint base = ((pix.y % SAMPLE_TILE_SIZE) * SAMPLE_TILE_SIZE + pix.x % SAMPLE_TILE_SIZE) * pc.spp
               + pc.pass_index * pc.msaa;
 
+    // The samples this fragment covers: one (sample-rate shading) or those of the pixel inside this
+    // primitive of the bound's strip. A pixel split by a strip diagonal gets one fragment per side, and
+    // testing only covered samples keeps every sample tested once per convex piece of the bound.
 #ifdef PER_SAMPLE
-    int first = gl_SampleID, last = gl_SampleID + 1;
+    uint covered = 1u << uint(gl_SampleID);
 #else
-    int first = 0, last = int(pc.msaa);
+    uint covered = uint(gl_SampleMaskIn[0]) & ((1u << pc.msaa) - 1u);
 #endif
     uint mask = 0u;
     float best_z = 1.0 / 0.0;
     vec3 best_w = vec3(0.0), best_o = vec3(0.0), best_d = vec3(0.0);
     float best_t = 0.0;
     vec2 best_pixel = vec2(0.0), best_lens = vec2(0.0);
-    for (int i = first; i < last; i++) {
+    for (int i = 0; i < int(pc.msaa); i++) {
+        if ((covered & (1u << uint(i))) == 0u) continue;
         vec4 xl = sample_xy_lens[base + uint(i)];
         float t = sample_time[base + uint(i)];
         vec2 pixel = vec2(pix) + xl.xy;
@@ -95,7 +99,7 @@ void main() {
     }
 #ifdef INSTRUMENTED
     atomicAdd(counters.fragments, 1u);
-    atomicAdd(counters.samples_tested, uint(last - first));
+    atomicAdd(counters.samples_tested, uint(bitCount(covered)));
     atomicAdd(counters.samples_hit, uint(bitCount(mask)));
 #endif
     if (mask == 0u) discard;

@@ -147,9 +147,7 @@ fn run() -> Result<()> {
             image: ImageArgs { size, seed, out },
         } => {
             let technique: Technique = technique.parse()?;
-            let stochastic =
-                StochasticOptions { shading: shading.parse()?, instrumented, ..Default::default() };
-            let _ = bound;
+            let stochastic = StochasticOptions { bound: bound.parse()?, shading: shading.parse()?, instrumented };
             let sc = load_scene(&scene)?;
             let mut settings = RenderSettings::from_scene(&sc).with_stochastic(stochastic);
             if let Some((w, h)) = size {

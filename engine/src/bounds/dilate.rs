@@ -1,13 +1,28 @@
 //! The dilation the geometry shader applies to every convex piece of a bound before rasterizing it
 //! (`shaders-glsl/stochastic/emit.glsl`, mirrored here operation for operation): the Minkowski sum with
 //! the box `[−h, h]²`. A sample may lie anywhere in its pixel's square and so may the rasterizer's own
-//! sample points; with `h` ≥ 1 px every sample point of every pixel whose square meets the bound is
+//! sample points; with `h` = [`dilation_px`] every sample point of every pixel whose square meets the bound is
 //! covered, so the fragment shader runs wherever a sample can hit.
 
 use glam::Vec2;
 
-/// The GPU's dilation in pixels (`DILATE_PX` in emit.glsl): one pixel plus a margin for edge ties.
-pub const DILATE_PX: f32 = 1.0 + 1.0 / 64.0;
+/// Margin added to every dilation so samples exactly on an edge (top-left rule) stay inside.
+pub const DILATE_MARGIN_PX: f32 = 1.0 / 64.0;
+
+/// The box half-size the geometry shader dilates by for `msaa` samples per pixel. A bound point `q` in
+/// pixel square `[c, c + 1]²` and a rasterizer sample point `c + o` of the same pixel differ by
+/// `o − (q − c) ∈ [o − 1, o]²` per axis, so `max_i max(o_i, 1 − o_i)` suffices: with the Vulkan
+/// standard sample locations 0.5 (1×), 0.75 (2×), 0.875 (4×), 0.9375 (8×); 1 for anything else.
+pub fn dilation_px(msaa: u32, standard_sample_locations: bool) -> f32 {
+    let h = match (standard_sample_locations, msaa) {
+        (_, 1) => 0.5, // a single sample is always at the pixel centre
+        (true, 2) => 0.75,
+        (true, 4) => 0.875,
+        (true, 8) => 0.9375,
+        _ => 1.0,
+    };
+    h + DILATE_MARGIN_PX
+}
 
 /// Quadrant of direction `n`, counter-clockwise from +x; the box corner `(sign x, sign y)` supports
 /// every direction in it.
@@ -77,7 +92,7 @@ mod tests {
             off in (-1.0f32..=1.0, -1.0f32..=1.0),
         ) {
             let poly = convex_hull(&pts);
-            let d = dilate_box(&poly, DILATE_PX);
+            let d = dilate_box(&poly, 1.0 + DILATE_MARGIN_PX);
             prop_assert!(d.len() <= poly.len() + 4);
             let hull = convex_hull(&d);
             prop_assert!(signed_area(&hull) > 0.0);

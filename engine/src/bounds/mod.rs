@@ -66,7 +66,7 @@ pub mod shapes;
 #[cfg(test)]
 mod tests;
 
-pub use dilate::{dilate_box, DILATE_PX};
+pub use dilate::{dilate_box, dilation_px, DILATE_MARGIN_PX};
 pub use hull::{convex_contains, convex_hull, orient, signed_area};
 pub use inside::{sample_hit, sample_test_efficiency_estimate, Hit};
 pub use shapes::{

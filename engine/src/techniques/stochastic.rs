@@ -114,6 +114,7 @@ struct StochasticPush {
     spp: u32,
     msaa: u32,
     footprint: f32,
+    dilate: f32,
 }
 
 /// Splits S samples per pixel into passes of M MSAA samples: the largest count the device supports
@@ -155,6 +156,8 @@ pub struct StochasticRenderer {
     options: StochasticOptions,
     spp: u32,
     passes: u32,
+    /// Box half-size of the bound dilation ([`crate::bounds::dilation_px`]).
+    dilate: f32,
     counters: Buffer,
     _bound_debug: Buffer,
     _samples: [Buffer; 2],
@@ -338,6 +341,7 @@ impl StochasticRenderer {
             options,
             spp,
             passes,
+            dilate: crate::bounds::dilation_px(msaa, caps.standard_sample_locations),
             counters,
             _bound_debug: bound_debug,
             _samples: samples,
@@ -491,6 +495,7 @@ impl StochasticRenderer {
                     spp: self.spp,
                     msaa: self.targets.samples(),
                     footprint: 1.0 / (self.spp as f32).sqrt(),
+                    dilate: self.dilate,
                 };
                 d.raw.cmd_push_constants(cmd, self.layout.raw, stages, 0, as_bytes(&push));
                 d.raw.cmd_bind_descriptor_sets(

@@ -64,6 +64,8 @@ pub struct Capabilities {
     pub max_geometry_output_vertices: u32,
     pub max_geometry_total_output_components: u32,
     pub max_push_constants_size: u32,
+    /// MSAA samples sit at the standard sample locations of the Vulkan spec.
+    pub standard_sample_locations: bool,
     pub max_image_dimension_2d: u32,
     /// Timestamps usable on the graphics queue.
     pub timestamps: bool,
@@ -426,6 +428,7 @@ impl DeviceShared {
             max_geometry_output_vertices: limits.max_geometry_output_vertices,
             max_geometry_total_output_components: limits.max_geometry_total_output_components,
             max_push_constants_size: limits.max_push_constants_size,
+            standard_sample_locations: limits.standard_sample_locations == vk::TRUE,
             max_image_dimension_2d: limits.max_image_dimension2_d,
             timestamps: limits.timestamp_compute_and_graphics == vk::TRUE
                 && families[queue_family as usize].timestamp_valid_bits > 0,
