@@ -139,7 +139,7 @@ pub enum BoundKind {
     ParallelEdgeTriangle,
     /// Outer common tangents of per-vertex discs ([`shapes::variable_radius_triangle`]).
     VariableRadiusTriangle,
-    /// Hull of the circumscribed hexagons of the discs of confusion ([`shapes::disc_polygon_points`]).
+    /// Hull of the circumscribed hexagons of the discs of confusion ([`disc_polygon_points`]).
     Hexagon3d,
     /// Core triangle plus slab rectangles, still triangles only ([`shapes::wedge`]).
     Wedge,
