@@ -2,10 +2,13 @@
 // engine/src/bounds/ (mod.rs: hard cases, convex hull, box; shapes.rs: the thesis' shapes, our
 // reconstruction; hull.rs: monotone chain). The CPU code is the specification: read its docs for the
 // shapes and why each is conservative. Same formulas in the same order, in float; differences:
-// * MovingTriangle::is_degenerate uses f64 and 1e-12 there, float and BOUND_DEGENERATE_EPS = 1e-6 here
-//   (float rounding of the area vector is ~4e-7 L^2): slivers thinner than ~1e-6 of their length may be
-//   culled here and not on the CPU;
-// * the mid triangle's degenerate test and the hull's orientation test are f64 on the CPU;
+// * MovingTriangle::is_degenerate runs in f64 on the CPU, in float here with the same relative
+//   threshold DEGENERATE_EPS = 1e-12: float rounding of an exactly degenerate triangle's area vector is
+//   ~4e-7 L^2, so here such triangles usually get a (conservative, useless) bound where the CPU culls
+//   them. A higher threshold would cull visible slivers (a needle reaching towards the near plane can be
+//   far wider on screen than its relative area suggests), so this errs on the conservative side;
+// * the mid triangle's degenerate test and the hull's orientation test are f64 on the CPU (the latter
+//   with an exact sign); see bound_orient_ for the float version;
 // * GLSL division, normalize and dot may round differently (FMA contraction, reciprocals).
 // So compare with the CPU up to ~1e-3 px + 1e-5 relative, and expect borderline branch decisions
 // (degenerate, still, adaptive thresholds, wedge slab H > 0, nearly collinear hull vertices) to differ
@@ -32,7 +35,7 @@
 // Constants of engine/src/bounds/ (checked against the CPU values by a test in bounds/tests.rs).
 const float BOUND_FLT_EPSILON = 1.1920929e-7;
 const float BOUND_RADIUS_ROUND_UP = 1.0000005;  // RADIUS_ROUND_UP = 1 + 4 eps
-const float BOUND_DEGENERATE_EPS = 1e-6;        // float stand-in for is_degenerate's f64 1e-12
+const float BOUND_DEGENERATE_EPS = 1e-12;       // DEGENERATE_EPS (is_degenerate)
 const float BOUND_MID_DEGENERATE_EPS = 1e-5;    // MID_DEGENERATE_EPS
 const float BOUND_STILL_EPS_PX = 0.001;         // STILL_EPS_PX
 const float BOUND_ADAPTIVE_MOTION_MIN_PX = 0.5; // ADAPTIVE_MOTION_MIN_PX
@@ -65,11 +68,26 @@ vec2 bound_mn_[3];
 float bound_ml_[3];
 float bound_ma_;  // twice the area
 
-// orient(): cross(b - a, c - a), > 0 for a counter-clockwise turn.
+// orient(): cross(b - a, c - a), > 0 for a counter-clockwise turn. The CPU evaluates it in f64 (an
+// exact sign for f32 inputs); in float the cross product is taken at the vertex opposite the longest
+// edge, so that for two nearly coincident points (exact Sterbenz differences) and a far one the sign
+// stays reliable. Taking it at `a` regardless lets the monotone chain keep a reflex vertex next to a
+// tiny edge, whose half-plane then cuts the polygon far away.
 float bound_orient_(vec2 a, vec2 b, vec2 c) {
-    float bx = b.x - a.x, by = b.y - a.y;
-    float cx = c.x - a.x, cy = c.y - a.y;
-    return bx * cy - by * cx;
+    vec2 ab = b - a, bc = c - b, ca = a - c;
+    float lab = dot(ab, ab), lbc = dot(bc, bc), lca = dot(ca, ca);
+    vec2 u, v;
+    if (lab >= lbc && lab >= lca) {
+        u = a - c;  // pivot c
+        v = b - c;
+    } else if (lbc >= lca) {
+        u = ab;  // pivot a
+        v = c - a;
+    } else {
+        u = bc;  // pivot b
+        v = a - b;
+    }
+    return u.x * v.y - u.y * v.x;
 }
 
 bool bound_finite_(vec2 p) {

@@ -84,6 +84,11 @@ use crate::scene::camera::Intrinsics;
 /// Sides of the regular polygon circumscribing each circle of confusion in [`BoundKind::ConvexHull`].
 pub const DISC_SIDES: usize = 8;
 
+/// Relative threshold of [`MovingTriangle::is_degenerate`] (times the longest edge², `f64`). The GLSL
+/// mirror uses the same value in `float`, where rounding usually keeps an exactly degenerate triangle
+/// above it: the GPU then builds a (conservative) bound where the CPU culls.
+pub const DEGENERATE_EPS: f64 = 1e-12;
+
 /// A triangle whose camera-space vertices move linearly from `v0` (shutter open) to `v1` (close).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct MovingTriangle {
@@ -106,7 +111,7 @@ impl MovingTriangle {
     }
     /// Does the triangle have zero area at every time in [0, 1]? The area vector
     /// `cross(e₁(t), e₂(t)) = (1−t)²·X₀ + t(1−t)·Xₘ + t²·X₁` is checked coefficient by coefficient in
-    /// `f64`, relative to the triangle's extent (threshold 1e-12·L²).
+    /// `f64`, relative to the triangle's extent (threshold [`DEGENERATE_EPS`]·L²).
     pub fn is_degenerate(&self) -> bool {
         let d = |v: Vec3| v.as_dvec3();
         let e = |v: &[Vec3; 3]| (d(v[1]) - d(v[0]), d(v[2]) - d(v[0]));
@@ -116,7 +121,7 @@ impl MovingTriangle {
         let x1 = a1.cross(b1);
         let xm = a0.cross(b1) + a1.cross(b0);
         let l2 = [a0, b0, a1, b1].iter().map(|v| v.length_squared()).fold(0.0, f64::max);
-        let eps = 1e-12 * l2;
+        let eps = DEGENERATE_EPS * l2;
         let small = |x: DVec3| x.length() <= eps;
         small(x0) && small(x1) && small(xm)
     }
@@ -136,7 +141,7 @@ pub enum BoundKind {
     ParallelEdgeTriangle,
     /// Outer common tangents of per-vertex discs ([`shapes::variable_radius_triangle`]).
     VariableRadiusTriangle,
-    /// Hull of the circumscribed hexagons of the discs of confusion ([`shapes::disc_polygon_points`]).
+    /// Hull of the circumscribed hexagons of the discs of confusion ([`disc_polygon_points`]).
     Hexagon3d,
     /// Core triangle plus slab rectangles, still triangles only ([`shapes::wedge`]).
     Wedge,

@@ -981,6 +981,7 @@ fn glsl_mirror_uses_the_cpu_constants() {
     }
     has(format!("const float BOUND_FLT_EPSILON = {:?};", f32::EPSILON));
     has(format!("const float BOUND_RADIUS_ROUND_UP = {:?};", RADIUS_ROUND_UP));
+    has(format!("const float BOUND_DEGENERATE_EPS = {:?};", DEGENERATE_EPS as f32));
     has(format!("const float BOUND_MID_DEGENERATE_EPS = {:?};", shapes::MID_DEGENERATE_EPS as f32));
     has(format!("const float BOUND_STILL_EPS_PX = {:?};", shapes::STILL_EPS_PX));
     has(format!("const float BOUND_ADAPTIVE_MOTION_MIN_PX = {:?};", shapes::ADAPTIVE_MOTION_MIN_PX));
