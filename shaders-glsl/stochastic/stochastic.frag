@@ -59,21 +59,24 @@ void main() {
     uint base = ((pix.y % SAMPLE_TILE_SIZE) * SAMPLE_TILE_SIZE + pix.x % SAMPLE_TILE_SIZE) * pc.spp
               + pc.pass_index * pc.msaa;
 
-    // The samples this fragment covers: one (sample-rate shading) or those of the pixel inside this
-    // primitive of the bound's strip. A pixel split by a strip diagonal gets one fragment per side, and
-    // testing only covered samples keeps every sample tested once per convex piece of the bound.
+    // `covered`: the samples this fragment owns — one (sample-rate shading) or the pixel's samples inside
+    // this primitive of the bound's strip (a pixel split by a strip diagonal gets one fragment per side,
+    // each owning its samples). Hits among owned samples go out through gl_SampleMask and are counted
+    // once. Per-pixel shading still tests the pixel's other samples too, so that every fragment of a
+    // split pixel picks the same nearest hit: the image never depends on how a bound is triangulated.
 #ifdef PER_SAMPLE
     uint covered = 1u << uint(gl_SampleID);
+    int first = gl_SampleID, last = gl_SampleID + 1;
 #else
     uint covered = uint(gl_SampleMaskIn[0]) & ((1u << pc.msaa) - 1u);
+    int first = 0, last = int(pc.msaa);
 #endif
     uint mask = 0u;
     float best_z = 1.0 / 0.0;
     vec3 best_w = vec3(0.0), best_o = vec3(0.0), best_d = vec3(0.0);
     float best_t = 0.0;
     vec2 best_pixel = vec2(0.0), best_lens = vec2(0.0);
-    for (int i = 0; i < int(pc.msaa); i++) {
-        if ((covered & (1u << uint(i))) == 0u) continue;
+    for (int i = first; i < last; i++) {
         vec4 xl = sample_xy_lens[base + uint(i)];
         float t = sample_time[base + uint(i)];
         vec2 pixel = vec2(pix) + xl.xy;
@@ -85,7 +88,7 @@ void main() {
         float z;
         vec3 w;
         if (sample_hit(a, b, c, ro, rd, z, w)) {
-            mask |= 1u << uint(i);
+            mask |= covered & (1u << uint(i));
             if (z < best_z) {
                 best_z = z;
                 best_w = w;
