@@ -38,6 +38,7 @@ const float BOUND_RADIUS_ROUND_UP = 1.0000005;  // RADIUS_ROUND_UP = 1 + 4 eps
 const float BOUND_DEGENERATE_EPS = 1e-12;       // DEGENERATE_EPS (is_degenerate)
 const float BOUND_MID_DEGENERATE_EPS = 1e-5;    // MID_DEGENERATE_EPS
 const float BOUND_STILL_EPS_PX = 0.001;         // STILL_EPS_PX
+const float BOUND_CLIP_PAD_EPS = 7.6293945e-6;  // CLIP_PAD_EPS = 64 eps
 const float BOUND_ADAPTIVE_MOTION_MIN_PX = 0.5; // ADAPTIVE_MOTION_MIN_PX
 const float BOUND_ADAPTIVE_SMALL_BLUR = 0.25;   // ADAPTIVE_SMALL_BLUR
 const float BOUND_ADAPTIVE_LARGE_BLUR = 2.0;    // ADAPTIVE_LARGE_BLUR
@@ -327,6 +328,51 @@ bool bound_wedge_shape_(bool reduced) {
     return true;
 }
 
+// clip_and_box (engine/src/bounds/mod.rs): the end vertices' hull clipped to z >= z_clip, each point
+// widened by its circle of confusion, boxed and clamped to the viewport. -1 when that is the viewport.
+int bound_clip_and_box_(vec3 v[6], float z_clip) {
+    float W = frame.viewport.x, H = frame.viewport.y, s = frame.viewport.z;
+    float A = frame.lens.x, F = frame.lens.y;
+    if (!(z_clip > 0.0)) return -1;
+    vec2 lo = vec2(1.0 / 0.0), hi = vec2(-1.0 / 0.0);
+    for (int a = 0; a < 6; ++a) {
+        for (int b = a; b < 6; ++b) {
+            float za = -v[a].z, zb = -v[b].z;
+            vec3 p;
+            if (b == a) {
+                if (!(za >= z_clip)) continue;
+                p = v[a];
+            } else {
+                if (!((za - z_clip) * (zb - z_clip) < 0.0)) continue;
+                float t = (z_clip - za) / (zb - za);
+                p = v[a] + (v[b] - v[a]) * t;
+                p.z = -z_clip;
+            }
+            float z = -p.z;
+            vec2 q = p.xy / z;
+            vec2 c = vec2(0.5 * W + s * q.x, 0.5 * H - s * q.y);
+            float r = abs(A * s * (1.0 / F - 1.0 / z)) * BOUND_RADIUS_ROUND_UP;
+            lo = min(lo, c - vec2(r));
+            hi = max(hi, c + vec2(r));
+        }
+    }
+    if (!bound_finite_(lo) || !bound_finite_(hi)) return -1;
+    vec2 m = max(abs(lo), abs(hi));
+    float pad = BOUND_CLIP_PAD_EPS * max(m.x, m.y);
+    lo = max(lo - vec2(pad), vec2(0.0));
+    hi = min(hi + vec2(pad), vec2(W, H));
+    if (lo.x > hi.x || lo.y > hi.y) return 0;
+    if (lo == vec2(0.0) && hi == vec2(W, H)) return -1;
+    bound_out_[0] = lo;
+    bound_out_[1] = vec2(hi.x, lo.y);
+    bound_out_[2] = hi;
+    bound_out_[3] = vec2(lo.x, hi.y);
+    bound_out_n_ = 4;
+    bound_piece_len_[0] = 4;
+    bound_pieces_ = 1;
+    return 1;
+}
+
 int bound_compute_(int kind, vec3 v[6]) {
     bound_out_n_ = 0;
     bound_pieces_ = 0;
@@ -348,7 +394,7 @@ int bound_compute_(int kind, vec3 v[6]) {
         any_near = any_near || z <= near_z;
     }
     if (all_near || all_far || bound_is_degenerate_(v)) return 0;
-    if (any_near) return -1;
+    if (any_near) return bound_clip_and_box_(v, near_z - margin);
     // EndDiscs::new: Intrinsics::project(v, 0) and |circle_of_confusion_px| rounded up.
     for (int m = 0; m < 6; ++m) {
         float z = -v[m].z;

@@ -230,7 +230,10 @@ fn stochastic_converges_to_reference_for_each_effect() {
                 if spp == 16 {
                     let same = reference(&scene, w, h, spp, seed);
                     let m = compare(&same, &out.image).unwrap();
-                    println!("  vs the reference with the same samples: RMSE {:.5} FLIP {:.5}", m.rmse, m.flip);
+                    println!(
+                        "  vs the reference with the same samples: RMSE {:.5} FLIP {:.5}",
+                        m.rmse, m.flip
+                    );
                     let max = match shading {
                         ShadingRate::PerSample => PER_SAMPLE_SAME_SAMPLES_RMSE_MAX,
                         ShadingRate::PerPixel => PER_PIXEL_SAME_SAMPLES_RMSE_MAX,

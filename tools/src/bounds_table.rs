@@ -15,6 +15,7 @@ pub struct BoundsTableArgs {
     pub bounds: Vec<BoundKind>,
     pub shading: ShadingRate,
     pub frames: usize,
+    pub warmup: usize,
     pub width: u32,
     pub height: u32,
     pub seed: u64,
@@ -29,32 +30,39 @@ fn median(mut v: Vec<f64>) -> f64 {
     }
 }
 
-/// Median GPU ms per frame over `frames` frames after one warm-up frame.
-fn timed(r: &mut Renderer, scene: &Scene, t: Technique, s: &RenderSettings, frames: usize) -> Result<f64> {
-    let out: Vec<RenderOutput> = r.render_frames(scene, t, s, frames + 1)?;
-    Ok(median(out.iter().skip(1).map(|o| o.timings.total_ms()).collect()))
+/// Median GPU ms per frame over `frames` frames after `warmup` frames.
+fn timed(
+    r: &mut Renderer,
+    scene: &Scene,
+    t: Technique,
+    s: &RenderSettings,
+    a: &BoundsTableArgs,
+) -> Result<f64> {
+    let out: Vec<RenderOutput> = r.render_frames(scene, t, s, a.warmup + a.frames)?;
+    Ok(median(out.iter().skip(a.warmup).map(|o| o.timings.total_ms()).collect()))
 }
 
 pub fn run(renderer: &mut Renderer, scene: &Scene, a: &BoundsTableArgs) -> Result<String> {
     let caps = &renderer.device().caps;
     let mut md = format!(
-        "Scene `{}`, {}×{}, shading {}, device {} ({}), median of {} frame(s) after 1 warm-up.\n\n",
+        "Scene `{}`, {}×{}, shading {}, device {} ({}), median of {} frame(s) after {} warm-up frame(s).\n\n",
         scene.name,
         a.width,
         a.height,
         a.shading.name(),
         caps.device_name,
         caps.driver_info,
-        a.frames
+        a.frames,
+        a.warmup
     );
     md.push_str("| S | technique | bound | GPU ms/frame | fragments | samples tested | samples hit | STE | STE ÷ bbox STE |\n");
     md.push_str("|---:|---|---|---:|---:|---:|---:|---:|---:|\n");
     for &spp in &a.spp {
         let base = RenderSettings::new(a.width, a.height, spp, a.seed);
-        let ms = timed(renderer, scene, Technique::Pinhole, &base, a.frames)?;
+        let ms = timed(renderer, scene, Technique::Pinhole, &base, a)?;
         md.push_str(&format!("| {spp} | pinhole (MSAA 4×, no blur) | – | {ms:.1} | | | | | |\n"));
         eprintln!("S={spp} pinhole {ms:.1} ms");
-        let ms = timed(renderer, scene, Technique::Accumulation, &base, a.frames)?;
+        let ms = timed(renderer, scene, Technique::Accumulation, &base, a)?;
         md.push_str(&format!("| {spp} | accumulation ({spp} passes) | – | {ms:.1} | | | | | |\n"));
         eprintln!("S={spp} accumulation {ms:.1} ms");
         let mut bbox_ste = None;
@@ -67,7 +75,7 @@ pub fn run(renderer: &mut Renderer, scene: &Scene, a: &BoundsTableArgs) -> Resul
                 bbox_ste = Some(ste);
             }
             let settings = base.with_stochastic(StochasticOptions { instrumented: false, ..opts });
-            let ms = timed(renderer, scene, Technique::Stochastic, &settings, a.frames)?;
+            let ms = timed(renderer, scene, Technique::Stochastic, &settings, a)?;
             let rel = bbox_ste.map(|b| format!("{:.2}", ste / b)).unwrap_or_default();
             md.push_str(&format!(
                 "| {spp} | stochastic ({} × {} MSAA) | {} | {ms:.1} | {} | {} | {} | {ste:.4} | {rel} |\n",

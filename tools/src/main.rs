@@ -87,9 +87,12 @@ enum Command {
         /// per-pixel | per-sample
         #[arg(long, default_value = "per-pixel")]
         shading: String,
-        /// Timed frames per configuration (after one warm-up frame); the median is reported.
+        /// Timed frames per configuration; the median is reported.
         #[arg(long, default_value_t = 3)]
         frames: usize,
+        /// Untimed frames first (lavapipe compiles shaders lazily, on the first frame: about 1 s).
+        #[arg(long, default_value_t = 1)]
+        warmup: usize,
         #[command(flatten)]
         image: ImageArgs,
     },
@@ -147,7 +150,8 @@ fn run() -> Result<()> {
             image: ImageArgs { size, seed, out },
         } => {
             let technique: Technique = technique.parse()?;
-            let stochastic = StochasticOptions { bound: bound.parse()?, shading: shading.parse()?, instrumented };
+            let stochastic =
+                StochasticOptions { bound: bound.parse()?, shading: shading.parse()?, instrumented };
             let sc = load_scene(&scene)?;
             let mut settings = RenderSettings::from_scene(&sc).with_stochastic(stochastic);
             if let Some((w, h)) = size {
@@ -240,7 +244,15 @@ fn run() -> Result<()> {
             save_image(&output, &load_image(&input)?)?;
             println!("wrote {}", output.display());
         }
-        Command::Bounds { scene, spp, bounds, shading, frames, image: ImageArgs { size, seed, out } } => {
+        Command::Bounds {
+            scene,
+            spp,
+            bounds,
+            shading,
+            frames,
+            warmup,
+            image: ImageArgs { size, seed, out },
+        } => {
             let sc = load_scene(&scene)?;
             let (width, height) = size.unwrap_or((sc.image.width, sc.image.height));
             let bounds = if bounds.is_empty() {
@@ -253,6 +265,7 @@ fn run() -> Result<()> {
                 bounds,
                 shading: shading.parse()?,
                 frames: frames.max(1),
+                warmup,
                 width,
                 height,
                 seed: seed.unwrap_or(sc.image.seed),

@@ -31,9 +31,10 @@
 //! Let z range over the six end vertices (their convex hull contains every point at every time):
 //! * all `z < near` or all `z > far` → [`ScreenBound::Culled`] (no point is ever in the depth range);
 //! * otherwise some `z ≤ near` (behind the camera, or crossing the near plane during the shutter) →
-//!   the projection is invalid or unbounded, return the whole viewport as [`ScreenBound::Rect`]
-//!   ("clip and box"). **Future work:** clip `K` against `z ≥ near` (its vertices are the end vertices
-//!   in front plus the intersections of the 15 vertex pairs with the plane) and bound that instead;
+//!   "clip and box" ([`clip_and_box`]): `K` clipped against `z ≥ near` (its vertices are among the end
+//!   vertices in front and the intersections of the 15 vertex pairs with the plane), every point
+//!   widened by its circle of confusion, boxed, and clamped to the viewport — a [`ScreenBound::Rect`]
+//!   (the whole viewport when the box covers it, `Culled` when it misses it), the same for every kind;
 //! * degenerate at **every** time → `Culled`. Being degenerate at both shutter ends is *not* enough:
 //!   the area vector `cross(e₁(t), e₂(t))` is quadratic in t and its middle coefficient can be non-zero
 //!   (see the `degenerate_at_both_ends_but_not_between` test);
@@ -56,7 +57,7 @@
 //! in `float` (the degenerate tests use documented `float` thresholds there).
 //!
 //! Also here: the 5D inside test [`sample_hit`]; a Monte Carlo [`sample_test_efficiency_estimate`].
-//! Not implemented: the tighter near-plane-clipped polytope bound above, per-time-interval bounds
+//! Not implemented: a tighter hull (instead of a box) of the clipped polytope, per-time-interval bounds
 //! (interleaved/tiled time slices), and viewport clipping/culling of off-screen bounds.
 
 mod dilate;
@@ -315,7 +316,7 @@ pub fn bound(tri: &MovingTriangle, k: &Intrinsics, kind: BoundKind) -> ScreenBou
         return ScreenBound::Culled;
     }
     if z.iter().any(|&z| z <= k.near) {
-        return ScreenBound::viewport(k);
+        return clip_and_box(&verts, k, k.near - m);
     }
     let discs = EndDiscs::new(&verts, k);
     if !discs.is_finite() {
@@ -357,6 +358,51 @@ pub fn adaptive_kind(tri: &MovingTriangle, k: &Intrinsics) -> BoundKind {
     } else {
         BoundKind::ConvexHull
     }
+}
+
+/// Relative padding of the clip-and-box rectangle (64 ε of its largest coordinate before clamping).
+pub const CLIP_PAD_EPS: f32 = 64.0 * f32::EPSILON;
+
+/// "Clip and box" (thesis §4.8) for a triangle that reaches the near plane at some time: the end
+/// vertices' hull `K` clipped to `z ≥ z_clip` (its vertices are among the end vertices in front and the
+/// plane's intersections with the 15 segments between end vertices), each point widened by its circle
+/// of confusion, boxed, and the box clamped to the viewport. Every visible point has view depth
+/// ≥ near ≥ `z_clip`, so it lies in the clipped `K`, and the projective argument of the module docs
+/// applies there (all depths positive). `Culled` when the box misses the viewport; the whole viewport
+/// when `z_clip ≤ 0` or a projection is not finite. Mirrored by `bound_clip_and_box_` in bounds.glsl.
+pub fn clip_and_box(verts: &[Vec3; 6], k: &Intrinsics, z_clip: f32) -> ScreenBound {
+    if z_clip.is_nan() || z_clip <= 0.0 {
+        return ScreenBound::viewport(k);
+    }
+    let mut points: Vec<Vec3> = verts.iter().copied().filter(|v| -v.z >= z_clip).collect();
+    for a in 0..6 {
+        for b in a + 1..6 {
+            let (za, zb) = (-verts[a].z, -verts[b].z);
+            if (za - z_clip) * (zb - z_clip) < 0.0 {
+                let t = (z_clip - za) / (zb - za);
+                let p = verts[a] + (verts[b] - verts[a]) * t;
+                points.push(Vec3::new(p.x, p.y, -z_clip));
+            }
+        }
+    }
+    let (mut lo, mut hi) = (Vec2::splat(f32::INFINITY), Vec2::splat(f32::NEG_INFINITY));
+    for p in &points {
+        let c = k.project(*p, Vec2::ZERO);
+        let r = k.circle_of_confusion_px(-p.z).abs() * shapes::RADIUS_ROUND_UP;
+        lo = lo.min(c - Vec2::splat(r));
+        hi = hi.max(c + Vec2::splat(r));
+    }
+    if !(lo.is_finite() && hi.is_finite()) {
+        return ScreenBound::viewport(k);
+    }
+    // The plane intersections are rounded, and magnified by s/z_clip: pad relative to the magnitude.
+    let pad = CLIP_PAD_EPS * lo.abs().max(hi.abs()).max_element();
+    let lo = (lo - Vec2::splat(pad)).max(Vec2::ZERO);
+    let hi = (hi + Vec2::splat(pad)).min(Vec2::new(k.width, k.height));
+    if lo.x > hi.x || lo.y > hi.y {
+        return ScreenBound::Culled;
+    }
+    ScreenBound::Rect { min: lo, max: hi }
 }
 
 /// The points whose convex hull is the [`BoundKind::ConvexHull`] bound: each end vertex's pinhole

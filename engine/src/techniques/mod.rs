@@ -191,23 +191,23 @@ impl Renderer {
             GpuScene::upload(&self.device, &mut self.recorder, scene, settings.width, settings.height)?;
         let upload_ms = t0.elapsed().as_secs_f64() * 1e3;
         enum Frame {
-            Forward(forward::ForwardRenderer, Vec<PassSample>),
-            Stochastic(stochastic::StochasticRenderer),
+            Forward(Box<forward::ForwardRenderer>, Vec<PassSample>),
+            Stochastic(Box<stochastic::StochasticRenderer>),
         }
         let c = &scene.camera;
         let mut frame = match technique {
             Technique::Pinhole => {
                 let msaa = self.device.caps.msaa_samples(pinhole::PINHOLE_MSAA);
                 Frame::Forward(
-                    forward::ForwardRenderer::new(&self.device, &gpu_scene, msaa)?,
+                    Box::new(forward::ForwardRenderer::new(&self.device, &gpu_scene, msaa)?),
                     pinhole::pinhole_passes(),
                 )
             }
             Technique::Accumulation => Frame::Forward(
-                forward::ForwardRenderer::new(&self.device, &gpu_scene, 1)?,
+                Box::new(forward::ForwardRenderer::new(&self.device, &gpu_scene, 1)?),
                 accumulation::accumulation_passes(settings.spp, settings.seed, c.aperture, c.shutter),
             ),
-            Technique::Stochastic => Frame::Stochastic(stochastic::StochasticRenderer::new(
+            Technique::Stochastic => Frame::Stochastic(Box::new(stochastic::StochasticRenderer::new(
                 &self.device,
                 &gpu_scene,
                 settings.spp,
@@ -216,7 +216,7 @@ impl Renderer {
                 c.shutter,
                 settings.stochastic,
                 Default::default(),
-            )?),
+            )?)),
         };
         let mut out = Vec::with_capacity(frames);
         for _ in 0..frames {

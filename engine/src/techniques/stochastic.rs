@@ -120,7 +120,8 @@ struct StochasticPush {
 /// Splits S samples per pixel into passes of M MSAA samples: the largest count the device supports
 /// (up to 8) that divides S.
 pub fn split_samples(spp: u32, supported: &[u32]) -> (u32, u32) {
-    let msaa = [8, 4, 2, 1].into_iter().find(|&m| spp % m == 0 && supported.contains(&m)).unwrap_or(1);
+    let msaa =
+        [8, 4, 2, 1].into_iter().find(|&m| spp.is_multiple_of(m) && supported.contains(&m)).unwrap_or(1);
     (msaa, spp / msaa)
 }
 
