@@ -328,6 +328,18 @@ bool bound_wedge_shape_(bool reduced) {
     return true;
 }
 
+// A rectangle as the single piece (ScreenBound::pieces order: min, (max.x, min.y), max, (min.x, max.y)).
+int bound_box_(vec2 lo, vec2 hi) {
+    bound_out_[0] = lo;
+    bound_out_[1] = vec2(hi.x, lo.y);
+    bound_out_[2] = hi;
+    bound_out_[3] = vec2(lo.x, hi.y);
+    bound_out_n_ = 4;
+    bound_piece_len_[0] = 4;
+    bound_pieces_ = 1;
+    return 1;
+}
+
 // clip_and_box (engine/src/bounds/mod.rs): the end vertices' hull clipped to z >= z_clip, each point
 // widened by its circle of confusion, boxed and clamped to the viewport. -1 when that is the viewport.
 int bound_clip_and_box_(vec3 v[6], float z_clip) {
@@ -363,14 +375,7 @@ int bound_clip_and_box_(vec3 v[6], float z_clip) {
     hi = min(hi + vec2(pad), vec2(W, H));
     if (lo.x > hi.x || lo.y > hi.y) return 0;
     if (lo == vec2(0.0) && hi == vec2(W, H)) return -1;
-    bound_out_[0] = lo;
-    bound_out_[1] = vec2(hi.x, lo.y);
-    bound_out_[2] = hi;
-    bound_out_[3] = vec2(lo.x, hi.y);
-    bound_out_n_ = 4;
-    bound_piece_len_[0] = 4;
-    bound_pieces_ = 1;
-    return 1;
+    return bound_box_(lo, hi);
 }
 
 int bound_compute_(int kind, vec3 v[6]) {
@@ -445,13 +450,7 @@ int bound_compute_(int kind, vec3 v[6]) {
             lo = min(lo, bound_in_[i]);
             hi = max(hi, bound_in_[i]);
         }
-        bound_out_[0] = lo;
-        bound_out_[1] = vec2(hi.x, lo.y);
-        bound_out_[2] = hi;
-        bound_out_[3] = vec2(lo.x, hi.y);
-        bound_out_n_ = 4;
-        bound_piece_len_[0] = 4;
-        return 1;
+        return bound_box_(lo, hi);
     }
     bound_emit_hull_(n);
     return 1;

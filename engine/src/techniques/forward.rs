@@ -10,9 +10,7 @@ use super::targets::{PassTargets, COLOR_FORMAT, DEPTH_FORMAT};
 use crate::error::Result;
 use crate::image::LinearImage;
 use crate::shaders;
-use crate::vk::{
-    as_bytes, CommandRecorder, Device, GraphicsDesc, PassTimings, Pipeline, PipelineLayout, ShaderModule,
-};
+use crate::vk::{CommandRecorder, Device, GraphicsDesc, PassTimings, Pipeline, PipelineLayout, ShaderModule};
 
 /// One pass' sample of the lens and shutter.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -94,45 +92,14 @@ impl ForwardRenderer {
     }
 
     fn record_draws(&self, d: &Device, cmd: vk::CommandBuffer, scene: &GpuScene, pass: &PassSample) {
-        unsafe {
-            d.raw.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, self.pipeline.raw);
-            d.raw.cmd_bind_descriptor_sets(
-                cmd,
-                vk::PipelineBindPoint::GRAPHICS,
-                self.layout.raw,
-                0,
-                &[scene.frame_set],
-                &[],
-            );
-            for (i, o) in scene.objects.iter().enumerate() {
-                if o.index_count == 0 {
-                    continue;
-                }
-                let push = ForwardPush {
-                    object: i as u32,
-                    time: pass.time,
-                    lens: pass.lens.to_array(),
-                    jitter: pass.jitter.to_array(),
-                };
-                d.raw.cmd_push_constants(
-                    cmd,
-                    self.layout.raw,
-                    vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT,
-                    0,
-                    as_bytes(&push),
-                );
-                d.raw.cmd_bind_descriptor_sets(
-                    cmd,
-                    vk::PipelineBindPoint::GRAPHICS,
-                    self.layout.raw,
-                    1,
-                    &[o.material_set],
-                    &[],
-                );
-                d.raw.cmd_bind_vertex_buffers(cmd, 0, &[o.vertices.raw], &[0]);
-                d.raw.cmd_bind_index_buffer(cmd, o.indices.raw, 0, vk::IndexType::UINT32);
-                d.raw.cmd_draw_indexed(cmd, o.index_count, 1, 0, 0, 0);
-            }
-        }
+        unsafe { d.raw.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, self.pipeline.raw) };
+        let push = |i: usize| ForwardPush {
+            object: i as u32,
+            time: pass.time,
+            lens: pass.lens.to_array(),
+            jitter: pass.jitter.to_array(),
+        };
+        let stages = vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT;
+        scene.record_object_draws(d, cmd, &self.layout, stages, push, |_| None);
     }
 }

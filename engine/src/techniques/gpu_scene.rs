@@ -8,8 +8,8 @@ use glam::{Mat3, Mat4};
 use crate::error::{Error, Result};
 use crate::scene::{CameraSpaceLight, CameraSpaceScene, Scene};
 use crate::vk::{
-    upload_texture, write_descriptors, Buffer, CommandRecorder, DescriptorPool, DescriptorSetLayout,
-    DescriptorWrite, Device, Image, Sampler,
+    as_bytes, upload_texture, write_descriptors, Buffer, CommandRecorder, DescriptorPool,
+    DescriptorSetLayout, DescriptorWrite, Device, Image, PipelineLayout, Sampler,
 };
 
 /// `MAX_LIGHTS` in `common/frame.glsl`.
@@ -271,6 +271,36 @@ impl GpuScene {
             _sampler: sampler,
             _pool: pool,
         })
+    }
+
+    /// Records one indexed draw per non-empty object with a graphics pipeline whose layout has set 0 =
+    /// frame (bound here), set 1 = material, then `object_sets(i)` from set 2 on, and push constants
+    /// `push(i)` for `stages`. The pipeline and any other sets are the caller's.
+    pub fn record_object_draws<P: Copy>(
+        &self,
+        d: &Device,
+        cmd: vk::CommandBuffer,
+        layout: &PipelineLayout,
+        stages: vk::ShaderStageFlags,
+        push: impl Fn(usize) -> P,
+        object_sets: impl Fn(usize) -> Option<vk::DescriptorSet>,
+    ) {
+        let bind = vk::PipelineBindPoint::GRAPHICS;
+        unsafe {
+            d.raw.cmd_bind_descriptor_sets(cmd, bind, layout.raw, 0, &[self.frame_set], &[]);
+            for (i, o) in self.objects.iter().enumerate() {
+                if o.index_count == 0 {
+                    continue;
+                }
+                d.raw.cmd_push_constants(cmd, layout.raw, stages, 0, as_bytes(&push(i)));
+                let mut sets = vec![o.material_set];
+                sets.extend(object_sets(i));
+                d.raw.cmd_bind_descriptor_sets(cmd, bind, layout.raw, 1, &sets, &[]);
+                d.raw.cmd_bind_vertex_buffers(cmd, 0, &[o.vertices.raw], &[0]);
+                d.raw.cmd_bind_index_buffer(cmd, o.indices.raw, 0, vk::IndexType::UINT32);
+                d.raw.cmd_draw_indexed(cmd, o.index_count, 1, 0, 0, 0);
+            }
+        }
     }
 
     /// Vertex input of [`Vertex`] for pipelines that draw the scene's meshes.

@@ -467,50 +467,20 @@ impl StochasticRenderer {
     fn record_draws(&self, d: &Device, cmd: vk::CommandBuffer, scene: &GpuScene, pass: u32) {
         let stages =
             vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::GEOMETRY | vk::ShaderStageFlags::FRAGMENT;
+        let bind = vk::PipelineBindPoint::GRAPHICS;
         unsafe {
-            d.raw.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, self.pipeline.raw);
-            d.raw.cmd_bind_descriptor_sets(
-                cmd,
-                vk::PipelineBindPoint::GRAPHICS,
-                self.layout.raw,
-                0,
-                &[scene.frame_set],
-                &[],
-            );
-            d.raw.cmd_bind_descriptor_sets(
-                cmd,
-                vk::PipelineBindPoint::GRAPHICS,
-                self.layout.raw,
-                3,
-                &[self.sample_set],
-                &[],
-            );
-            for (i, o) in scene.objects.iter().enumerate() {
-                if o.index_count == 0 {
-                    continue;
-                }
-                let push = StochasticPush {
-                    object: i as u32,
-                    bound: self.options.bound.id(),
-                    pass_index: pass,
-                    spp: self.spp,
-                    msaa: self.targets.samples(),
-                    footprint: 1.0 / (self.spp as f32).sqrt(),
-                    dilate: self.dilate,
-                };
-                d.raw.cmd_push_constants(cmd, self.layout.raw, stages, 0, as_bytes(&push));
-                d.raw.cmd_bind_descriptor_sets(
-                    cmd,
-                    vk::PipelineBindPoint::GRAPHICS,
-                    self.layout.raw,
-                    1,
-                    &[o.material_set, self.object_sets[i]],
-                    &[],
-                );
-                d.raw.cmd_bind_vertex_buffers(cmd, 0, &[o.vertices.raw], &[0]);
-                d.raw.cmd_bind_index_buffer(cmd, o.indices.raw, 0, vk::IndexType::UINT32);
-                d.raw.cmd_draw_indexed(cmd, o.index_count, 1, 0, 0, 0);
-            }
+            d.raw.cmd_bind_pipeline(cmd, bind, self.pipeline.raw);
+            d.raw.cmd_bind_descriptor_sets(cmd, bind, self.layout.raw, 3, &[self.sample_set], &[]);
         }
+        let push = |i: usize| StochasticPush {
+            object: i as u32,
+            bound: self.options.bound.id(),
+            pass_index: pass,
+            spp: self.spp,
+            msaa: self.targets.samples(),
+            footprint: 1.0 / (self.spp as f32).sqrt(),
+            dilate: self.dilate,
+        };
+        scene.record_object_draws(d, cmd, &self.layout, stages, push, |i| Some(self.object_sets[i]));
     }
 }
