@@ -748,6 +748,53 @@ fn camera_plane_straddling_static_triangle_is_clipped_and_boxed() {
 }
 
 #[test]
+fn camera_moves_through_a_still_triangle() {
+    // In camera space a still world triangle sweeps from in front of the camera to behind it.
+    let k = hd(0.02, 2.0);
+    let v0 = [Vec3::new(-0.7, -0.5, -1.5), Vec3::new(0.8, -0.5, -1.5), Vec3::new(0.0, 0.7, -1.5)];
+    let tri = MovingTriangle { v0, v1: v0.map(|v| v + Vec3::new(-0.1, 0.0, 3.0)) };
+    let b = bound(&tri, &k, BoundKind::Adaptive);
+    assert!(matches!(b, ScreenBound::Rect { .. }), "{b:?}");
+    check_case(k, tri);
+}
+
+#[test]
+fn triangle_straddling_the_focus_plane() {
+    // The waist: one vertex in front of the focus plane, two behind (CoC signs differ).
+    let k = hd(0.15, 3.0);
+    let tri = MovingTriangle::fixed([
+        at_pixel(&k, Vec2::new(500.0, 300.0), 1.5),
+        at_pixel(&k, Vec2::new(800.0, 320.0), 4.0),
+        at_pixel(&k, Vec2::new(650.0, 500.0), 6.0),
+    ]);
+    let signs: Vec<bool> = [1.5f32, 4.0, 6.0].iter().map(|&z| k.circle_of_confusion_px(z) > 0.0).collect();
+    assert!(signs.contains(&true) && signs.contains(&false));
+    for kind in BoundKind::ALL {
+        let b = bound(&tri, &k, kind);
+        assert!(b != ScreenBound::Culled && !b.is_viewport(&k), "{kind:?}: {b:?}");
+    }
+    check_case(k, tri);
+}
+
+#[test]
+fn zero_motion_with_defocus() {
+    let k = hd(0.2, 4.0);
+    let tri = MovingTriangle::fixed([
+        at_pixel(&k, Vec2::new(600.0, 300.0), 2.0),
+        at_pixel(&k, Vec2::new(700.0, 310.0), 2.0),
+        at_pixel(&k, Vec2::new(640.0, 400.0), 2.0),
+    ]);
+    // Every thesis shape is built (the triangle is still), none falls back to the hull.
+    let hull = bound(&tri, &k, BoundKind::ConvexHull);
+    for kind in
+        [BoundKind::ParallelEdgeTriangle, BoundKind::Hexagon2d, BoundKind::Wedge, BoundKind::ReducedWedge]
+    {
+        assert_ne!(bound(&tri, &k, kind), hull, "{kind:?}");
+    }
+    check_case(k, tri);
+}
+
+#[test]
 fn near_plane_crosser_off_screen_is_culled() {
     let k = hd(0.0, 4.0);
     // Crosses the near plane far to the right: its clipped part projects beyond the viewport.
