@@ -41,7 +41,6 @@ const float BOUND_STILL_EPS_PX = 0.001;         // STILL_EPS_PX
 const float BOUND_CLIP_PAD_EPS = 7.6293945e-6;  // CLIP_PAD_EPS = 64 eps
 const float BOUND_ADAPTIVE_MOTION_MIN_PX = 0.5; // ADAPTIVE_MOTION_MIN_PX
 const float BOUND_ADAPTIVE_SMALL_BLUR = 0.25;   // ADAPTIVE_SMALL_BLUR
-const float BOUND_ADAPTIVE_LARGE_BLUR = 2.0;    // ADAPTIVE_LARGE_BLUR
 // circumscribed_corners(8) and circumscribed_corners(6), as the CPU's f32 cos/sin computed them.
 const vec2 BOUND_OCTAGON[8] = vec2[8](
     vec2(1.0, 0.4142136), vec2(0.41421357, 1.0), vec2(-0.41421366, 1.0), vec2(-1.0000001, 0.4142134),
@@ -226,9 +225,7 @@ int bound_adaptive_kind_(bool mid_ok) {
     if (motion > max(rmax, BOUND_ADAPTIVE_MOTION_MIN_PX)) return BOUND_CONVEX_HULL;
     float inradius = bound_ma_ / (bound_ml_[0] + bound_ml_[1] + bound_ml_[2]);
     if (rmax <= BOUND_ADAPTIVE_SMALL_BLUR * inradius) return BOUND_PARALLEL_EDGE_TRIANGLE;
-    float longest = max(max(bound_ml_[0], bound_ml_[1]), bound_ml_[2]);
-    if (rmax >= BOUND_ADAPTIVE_LARGE_BLUR * longest) return BOUND_3D_HEXAGON;
-    return BOUND_2D_HEXAGON;
+    return BOUND_CONVEX_HULL;
 }
 
 // Corners of the triangle of three CCW lines (triangle_of): corner i = line i-1 meets line i.

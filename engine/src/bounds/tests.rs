@@ -693,10 +693,8 @@ fn random_cases_are_not_vacuous() {
             _ => assert!(own * 2 > tight_per_kind, "{kind:?} {st:?}"),
         }
     }
-    // The adaptive policy picks each of its four outcomes.
-    for kind in
-        [BoundKind::ConvexHull, BoundKind::ParallelEdgeTriangle, BoundKind::Hexagon2d, BoundKind::Hexagon3d]
-    {
+    // The adaptive policy picks each of its two outcomes, and nothing else.
+    for kind in [BoundKind::ConvexHull, BoundKind::ParallelEdgeTriangle] {
         assert!(st.adaptive[kind.id() as usize] > 10, "{kind:?} {st:?}");
     }
     assert_eq!(st.adaptive.iter().sum::<usize>(), tight_per_kind, "{st:?}");
@@ -1080,7 +1078,6 @@ fn glsl_mirror_uses_the_cpu_constants() {
     has(format!("const float BOUND_STILL_EPS_PX = {:?};", shapes::STILL_EPS_PX));
     has(format!("const float BOUND_ADAPTIVE_MOTION_MIN_PX = {:?};", shapes::ADAPTIVE_MOTION_MIN_PX));
     has(format!("const float BOUND_ADAPTIVE_SMALL_BLUR = {:?};", shapes::ADAPTIVE_SMALL_BLUR));
-    has(format!("const float BOUND_ADAPTIVE_LARGE_BLUR = {:?};", shapes::ADAPTIVE_LARGE_BLUR));
     for (name, sides) in [("OCTAGON", DISC_SIDES), ("HEXAGON", 6)] {
         let corners: Vec<String> =
             circumscribed_corners(sides).iter().map(|c| format!("vec2({:?}, {:?})", c.x, c.y)).collect();
@@ -1254,14 +1251,14 @@ fn adaptive_choices() {
     let at = |r: f32| depth_for_coc(&k, r);
     // Blur small against the inradius (≈ 52 px) → parallel-edge triangle.
     assert_eq!(adaptive_kind(&still_at(&k, px, [at(2.0); 3]), &k), BoundKind::ParallelEdgeTriangle);
-    // In between → 2D hexagon; blur ≥ twice the longest edge (≈ 210 px) → 3D hexagon.
-    assert_eq!(adaptive_kind(&still_at(&k, px, [at(30.0); 3]), &k), BoundKind::Hexagon2d);
+    // Blur comparable to the triangle, or much larger → convex hull.
+    assert_eq!(adaptive_kind(&still_at(&k, px, [at(30.0); 3]), &k), BoundKind::ConvexHull);
     let wide = hd(1.0, 2.0);
     let small = px.map(|p| px[0] + (p - px[0]) * 0.1);
     let far = MovingTriangle::fixed(small.map(|p| at_pixel(&wide, p, 50.0)));
     assert!(wide.circle_of_confusion_px(50.0) > 2.0 * 21.1);
-    assert_eq!(adaptive_kind(&far, &wide), BoundKind::Hexagon3d);
-    assert_eq!(bound(&far, &wide, BoundKind::Adaptive), bound(&far, &wide, BoundKind::Hexagon3d));
+    assert_eq!(adaptive_kind(&far, &wide), BoundKind::ConvexHull);
+    assert_eq!(bound(&far, &wide, BoundKind::Adaptive), bound(&far, &wide, BoundKind::ConvexHull));
     // Motion beyond the blur → convex hull; motion within the blur → still a thesis shape.
     let z = at(2.0);
     let moving = |d: Vec2| MovingTriangle {
