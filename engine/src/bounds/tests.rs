@@ -680,16 +680,18 @@ fn random_cases_are_not_vacuous() {
     assert!(st.points_tight > 10_000 && st.points_viewport > 100, "{st:?}");
     assert!(st.hits > 2000 && st.round_trips > 1000 && st.expected_hits > 500, "{st:?}");
     // Each shape is really built (not the hull fallback) in a good share of the tight cases; the
-    // wedges only for still triangles (a sixth of the cases); adaptive mostly picks the hull for moving
-    // ones.
+    // wedges only for still triangles (a sixth of the cases); adaptive picks the hull for most.
     let tight_per_kind = st.tight / BoundKind::ALL.len();
     for kind in BoundKind::ALL {
         let own = st.own_shape[kind.id() as usize];
         match kind {
             BoundKind::ConvexHull => assert_eq!(own, 0),
-            BoundKind::Wedge | BoundKind::ReducedWedge | BoundKind::Adaptive => {
+            BoundKind::Wedge | BoundKind::ReducedWedge => {
                 assert!(own * 20 > tight_per_kind, "{kind:?} {st:?}")
             }
+            // Adaptive differs from the hull only where the blur is small against a still triangle
+            // (≈ 5 % of the random cases).
+            BoundKind::Adaptive => assert!(own * 50 > tight_per_kind, "{kind:?} {st:?}"),
             _ => assert!(own * 2 > tight_per_kind, "{kind:?} {st:?}"),
         }
     }
