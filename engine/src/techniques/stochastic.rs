@@ -160,7 +160,7 @@ pub struct StochasticRenderer {
     /// Box half-size of the bound dilation ([`crate::bounds::dilation_px`]).
     dilate: f32,
     counters: Buffer,
-    _bound_debug: Buffer,
+    bound_debug: Buffer,
     _samples: [Buffer; 2],
     _pool: DescriptorPool,
     _set_layouts: [DescriptorSetLayout; 2],
@@ -344,7 +344,7 @@ impl StochasticRenderer {
             passes,
             dilate: crate::bounds::dilation_px(msaa, caps.standard_sample_locations),
             counters,
-            _bound_debug: bound_debug,
+            bound_debug,
             _samples: samples,
             _pool: pool,
             _set_layouts: [geometry_layout, sample_layout],
@@ -410,7 +410,7 @@ impl StochasticRenderer {
     /// The geometry shader's debug output: per triangle of the first object, `BOUND_DEBUG_STRIDE` floats.
     pub fn bound_debug(&self) -> Result<Vec<f32>> {
         Ok(self
-            ._bound_debug
+            .bound_debug
             .mapped()?
             .chunks_exact(4)
             .map(|c| f32::from_ne_bytes([c[0], c[1], c[2], c[3]]))
