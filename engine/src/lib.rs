@@ -11,6 +11,7 @@ pub mod error;
 pub mod image;
 pub mod image_io;
 pub mod metrics;
+pub mod plan;
 pub mod reference;
 pub mod sampling;
 pub mod scene;

@@ -73,6 +73,16 @@ float bound_ma_;  // twice the area
 // edge, so that for two nearly coincident points (exact Sterbenz differences) and a far one the sign
 // stays reliable. Taking it at `a` regardless lets the monotone chain keep a reflex vertex next to a
 // tiny edge, whose half-plane then cuts the polygon far away.
+// Aperture radius the bound assumes: 0 in the motion-only permutation (NO_DEFOCUS), whose inside test
+// traces every sample from the lens centre.
+float bound_aperture_() {
+#ifdef NO_DEFOCUS
+    return 0.0;
+#else
+    return frame.lens.x;
+#endif
+}
+
 float bound_orient_(vec2 a, vec2 b, vec2 c) {
     vec2 ab = b - a, bc = c - b, ca = a - c;
     float lab = dot(ab, ab), lbc = dot(bc, bc), lca = dot(ca, ca);
@@ -341,7 +351,7 @@ int bound_box_(vec2 lo, vec2 hi) {
 // widened by its circle of confusion, boxed and clamped to the viewport. -1 when that is the viewport.
 int bound_clip_and_box_(vec3 v[6], float z_clip) {
     float W = frame.viewport.x, H = frame.viewport.y, s = frame.viewport.z;
-    float A = frame.lens.x, F = frame.lens.y;
+    float A = bound_aperture_(), F = frame.lens.y;
     if (!(z_clip > 0.0)) return -1;
     vec2 lo = vec2(1.0 / 0.0), hi = vec2(-1.0 / 0.0);
     for (int a = 0; a < 6; ++a) {
@@ -386,7 +396,7 @@ int bound_compute_(int kind, vec3 v[6]) {
         amax = max(amax, max(max(a.x, a.y), a.z));
     }
     float W = frame.viewport.x, H = frame.viewport.y, s = frame.viewport.z;
-    float A = frame.lens.x, F = frame.lens.y, near_z = frame.lens.z, far_z = frame.lens.w;
+    float A = bound_aperture_(), F = frame.lens.y, near_z = frame.lens.z, far_z = frame.lens.w;
     float margin = 8.0 * BOUND_FLT_EPSILON * amax;
     bool all_near = true, all_far = true, any_near = false;
     for (int m = 0; m < 6; ++m) {

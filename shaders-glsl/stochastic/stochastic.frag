@@ -9,6 +9,9 @@
 //   PER_SAMPLE: sample-rate shading: one invocation per sample (gl_SampleID), each shaded with its own
 //               hit, time and lens point and writing its own depth.
 //   INSTRUMENTED: atomic counters of samples tested, samples hit, shading invocations, fragments.
+//   NO_MOTION:  defocus-only objects (engine/src/plan.rs): the triangle at mid-shutter, no time
+//               interpolation, every sample shaded at t = 0.5.
+//   NO_DEFOCUS: motion-only objects: every sample's ray from the lens centre, no lens sampling.
 // Attributes are interpolated with the sample's barycentrics; textures use analytic derivatives from
 // the triangle's plane over one sample's footprint; the view vector points to the sample's lens point.
 #include "common/shading.glsl"
@@ -55,6 +58,9 @@ void main() {
         p_open[k] = vec3(triangles[at], triangles[at + 1u], triangles[at + 2u]);
         p_close[k] = vec3(triangles[at + 9u], triangles[at + 10u], triangles[at + 11u]);
     }
+#ifdef NO_MOTION
+    for (uint k = 0u; k < 3u; k++) p_open[k] = mix(p_open[k], p_close[k], 0.5);
+#endif
     uvec2 pix = uvec2(gl_FragCoord.xy);
     uint base = ((pix.y % SAMPLE_TILE_SIZE) * SAMPLE_TILE_SIZE + pix.x % SAMPLE_TILE_SIZE) * pc.spp
               + pc.pass_index * pc.msaa;
@@ -78,13 +84,21 @@ void main() {
     vec2 best_pixel = vec2(0.0), best_lens = vec2(0.0);
     for (int i = first; i < last; i++) {
         vec4 xl = sample_xy_lens[base + uint(i)];
-        float t = sample_time[base + uint(i)];
+#ifdef NO_DEFOCUS
+        xl.zw = vec2(0.0);
+#endif
         vec2 pixel = vec2(pix) + xl.xy;
         vec3 ro, rd;
         primary_ray(pixel, xl.zw, ro, rd);
+#ifdef NO_MOTION
+        float t = 0.5;
+        vec3 a = p_open[0], b = p_open[1], c = p_open[2];
+#else
+        float t = sample_time[base + uint(i)];
         vec3 a = mix(p_open[0], p_close[0], t);
         vec3 b = mix(p_open[1], p_close[1], t);
         vec3 c = mix(p_open[2], p_close[2], t);
+#endif
         float z;
         vec3 w;
         if (sample_hit(a, b, c, ro, rd, z, w)) {
@@ -116,9 +130,13 @@ void main() {
     Vertex tv[3];
     for (uint k = 0u; k < 3u; k++) tv[k] = vertices[indices[3u * prim + k]];
     float t = best_t;
+#ifdef NO_MOTION
+    vec3 a = p_open[0], b = p_open[1], c = p_open[2];
+#else
     vec3 a = mix(p_open[0], p_close[0], t);
     vec3 b = mix(p_open[1], p_close[1], t);
     vec3 c = mix(p_open[2], p_close[2], t);
+#endif
     vec3 geometric = cross(b - a, c - a);
     vec3 n = vec3(0.0);
     for (int k = 0; k < 3; k++) {

@@ -5,6 +5,8 @@
 // generates a fragment for every pixel whose square touches the bound and covers all of its samples
 // (emit.glsl). Only positions and the primitive ID leave this stage: the fragment stage reads the
 // triangle itself from the geometry buffers by ID (thesis §9.6: keep the GS output small).
+// Effect permutations (engine/src/plan.rs): NO_MOTION bounds the triangle at mid-shutter only,
+// NO_DEFOCUS bounds it through the lens centre only (bound_aperture_ = 0).
 #include "stochastic/bounds.glsl"
 #include "stochastic/push.glsl"
 
@@ -23,7 +25,14 @@ layout(set = 3, binding = 3, std430) writeonly buffer BoundDebug { float bound_d
 #include "stochastic/emit.glsl"
 
 void main() {
+#ifdef NO_MOTION
+    // Defocus-only permutation: the triangle at mid-shutter, still (the fragment stage tests it there).
+    vec3 mid[3] = vec3[3](mix(v_open[0], v_close[0], 0.5), mix(v_open[1], v_close[1], 0.5),
+                          mix(v_open[2], v_close[2], 0.5));
+    vec3 v[6] = vec3[6](mid[0], mid[1], mid[2], mid[0], mid[1], mid[2]);
+#else
     vec3 v[6] = vec3[6](v_open[0], v_open[1], v_open[2], v_close[0], v_close[1], v_close[2]);
+#endif
     vec2 pts[BOUND_MAX_POINTS];
     int piece_len[BOUND_MAX_PIECES];
     int pieces = compute_bound(pc.bound, v, pts, piece_len);

@@ -105,6 +105,7 @@ fn glsl_bounds_match_cpu_mirror() {
                 scene.camera.shutter,
                 options(kind, ShadingRate::PerPixel),
                 DebugOptions { bound_debug_triangles: n as u32 },
+                &vec![shutter::plan::Effects::Both; scene.objects.len()],
             )
             .unwrap();
             sr.render(&device, &mut rec, &gpu_scene).unwrap();

@@ -33,8 +33,9 @@ enum Command {
         /// A built-in scene name or a path to a .toml scene file.
         #[arg(default_value = "default")]
         scene: String,
-        /// pinhole | accumulation | stochastic
-        #[arg(long, default_value = "accumulation")]
+        /// auto | pinhole | accumulation | stochastic. `auto` simulates per object only the effects
+        /// the scene calls for (see `shutter plan`).
+        #[arg(long, default_value = "auto")]
         technique: String,
         /// Samples per pixel S (accumulation: passes; stochastic: MSAA samples × passes). Default: the
         /// scene's [image] spp.
@@ -95,6 +96,17 @@ enum Command {
         warmup: usize,
         #[command(flatten)]
         image: ImageArgs,
+    },
+    /// Print the effect planner's decision per object (technique `auto`) with the numbers behind it.
+    Plan {
+        #[arg(default_value = "default")]
+        scene: String,
+        /// Image size WxH. Default: the scene's [image] size.
+        #[arg(long, value_parser = parse_size)]
+        size: Option<(u32, u32)>,
+        /// Blur (pixels) below which an effect is not simulated.
+        #[arg(long, default_value_t = shutter::plan::DEFAULT_THRESHOLD_PX)]
+        threshold: f32,
     },
     /// Print the device, driver and capabilities.
     Probe,
@@ -189,7 +201,14 @@ fn run() -> Result<()> {
             for (name, ms) in &output.timings.passes {
                 println!("  {name:<12} {ms:>10.2} ms");
             }
-            if technique == Technique::Stochastic {
+            if let Some(plan) = &output.stats.plan {
+                let paths: Vec<String> =
+                    plan.objects.iter().map(|o| format!("{} {}", o.name, o.effects.name())).collect();
+                println!("  plan: {}", paths.join(", "));
+            }
+            if technique == Technique::Stochastic
+                || output.stats.plan.as_ref().is_some_and(|p| p.needs_stochastic())
+            {
                 println!("  bound {}, shading {}", stochastic.bound.name(), stochastic.shading.name());
             }
             if let Some(c) = output.stats.counters {
@@ -277,6 +296,12 @@ fn run() -> Result<()> {
                 std::fs::write(&out, &md).with_context(|| format!("writing {}", out.display()))?;
                 eprintln!("wrote {}", out.display());
             }
+        }
+        Command::Plan { scene, size, threshold } => {
+            let sc = load_scene(&scene)?;
+            let (w, h) = size.unwrap_or((sc.image.width, sc.image.height));
+            println!("# plan of `{}`\n", sc.name);
+            println!("{}", shutter::plan::Plan::with_threshold(&sc, w, h, threshold));
         }
         Command::Probe => {
             let device = shutter::vk::create_device()?;

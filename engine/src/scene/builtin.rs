@@ -29,7 +29,7 @@ use crate::error::{Error, Result};
 /// Names accepted by [`builtin_mesh`].
 pub const BUILTIN_MESHES: &[&str] = &["plane", "box", "sphere", "displaced-sphere", "spot"];
 /// Names accepted by [`builtin_scene`].
-pub const BUILTIN_SCENES: &[&str] = &["default", "static", "focus-sweep"];
+pub const BUILTIN_SCENES: &[&str] = &["default", "static", "focus-sweep", "one-mover"];
 
 pub const MAX_PLANE_DETAIL: u32 = 1024;
 pub const MAX_SPHERE_DETAIL: u32 = 4096;
@@ -46,6 +46,7 @@ pub const SPOT_README: &str = include_str!("../../../assets/spot/README.txt");
 const SCENE_DEFAULT: &str = include_str!("../../../scenes/default.toml");
 const SCENE_STATIC: &str = include_str!("../../../scenes/static.toml");
 const SCENE_FOCUS_SWEEP: &str = include_str!("../../../scenes/focus-sweep.toml");
+const SCENE_ONE_MOVER: &str = include_str!("../../../scenes/one-mover.toml");
 
 /// A procedural or embedded mesh by name; `None` when `name` is not a built-in mesh. `detail` is the
 /// tessellation level (ignored by `box` and `spot`).
@@ -79,6 +80,7 @@ pub fn builtin_scene(name: &str) -> Option<Result<Scene>> {
         "default" => SCENE_DEFAULT,
         "static" => SCENE_STATIC,
         "focus-sweep" => SCENE_FOCUS_SWEEP,
+        "one-mover" => SCENE_ONE_MOVER,
         _ => return None,
     };
     Some(super::file::parse_scene(text, Path::new("."), name))

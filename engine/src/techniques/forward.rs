@@ -32,15 +32,15 @@ struct ForwardPush {
     jitter: [f32; 2],
 }
 
-/// The forward pipeline and its targets for one image size and MSAA count.
-pub struct ForwardRenderer {
-    targets: PassTargets,
+/// The forward pipeline for one MSAA count, without targets: drawn by [`ForwardRenderer`] and, for the
+/// objects the planner leaves on the pinhole path, into the stochastic frame's targets.
+pub struct ForwardPipeline {
     pipeline: Pipeline,
     layout: PipelineLayout,
     _shaders: Vec<ShaderModule>,
 }
 
-impl ForwardRenderer {
+impl ForwardPipeline {
     pub fn new(device: &Device, scene: &GpuScene, samples: u32) -> Result<Self> {
         let vert = ShaderModule::new(device, shaders::FORWARD_FORWARD_VERT)?;
         let frag = ShaderModule::new(device, shaders::FORWARD_FORWARD_FRAG)?;
@@ -70,8 +70,41 @@ impl ForwardRenderer {
                 depth_write: true,
             },
         )?;
+        Ok(ForwardPipeline { pipeline, layout, _shaders: vec![vert, frag] })
+    }
+
+    /// Draws the objects `i` with `include(i)` with one pass' (t, lens, jitter).
+    pub fn record_draws(
+        &self,
+        d: &Device,
+        cmd: vk::CommandBuffer,
+        scene: &GpuScene,
+        pass: &PassSample,
+        include: impl Fn(usize) -> bool,
+    ) {
+        unsafe { d.raw.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, self.pipeline.raw) };
+        let push = |i: usize| ForwardPush {
+            object: i as u32,
+            time: pass.time,
+            lens: pass.lens.to_array(),
+            jitter: pass.jitter.to_array(),
+        };
+        let stages = vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT;
+        scene.record_object_draws(d, cmd, &self.layout, stages, include, push, |_| None);
+    }
+}
+
+/// The forward pipeline and its targets for one image size and MSAA count.
+pub struct ForwardRenderer {
+    targets: PassTargets,
+    pipeline: ForwardPipeline,
+}
+
+impl ForwardRenderer {
+    pub fn new(device: &Device, scene: &GpuScene, samples: u32) -> Result<Self> {
+        let pipeline = ForwardPipeline::new(device, scene, samples)?;
         let targets = PassTargets::new(device, scene.width, scene.height, samples)?;
-        Ok(ForwardRenderer { targets, pipeline, layout, _shaders: vec![vert, frag] })
+        Ok(ForwardRenderer { targets, pipeline })
     }
 
     pub fn samples(&self) -> u32 {
@@ -87,19 +120,7 @@ impl ForwardRenderer {
         passes: &[PassSample],
     ) -> Result<(LinearImage, PassTimings)> {
         self.targets.render(device, rec, scene.background, passes.len(), "forward", &mut |d, cmd, i| {
-            self.record_draws(d, cmd, scene, &passes[i])
+            self.pipeline.record_draws(d, cmd, scene, &passes[i], |_| true)
         })
-    }
-
-    fn record_draws(&self, d: &Device, cmd: vk::CommandBuffer, scene: &GpuScene, pass: &PassSample) {
-        unsafe { d.raw.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, self.pipeline.raw) };
-        let push = |i: usize| ForwardPush {
-            object: i as u32,
-            time: pass.time,
-            lens: pass.lens.to_array(),
-            jitter: pass.jitter.to_array(),
-        };
-        let stages = vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT;
-        scene.record_object_draws(d, cmd, &self.layout, stages, push, |_| None);
     }
 }

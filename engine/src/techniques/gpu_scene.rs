@@ -273,15 +273,17 @@ impl GpuScene {
         })
     }
 
-    /// Records one indexed draw per non-empty object with a graphics pipeline whose layout has set 0 =
-    /// frame (bound here), set 1 = material, then `object_sets(i)` from set 2 on, and push constants
-    /// `push(i)` for `stages`. The pipeline and any other sets are the caller's.
+    /// Records one indexed draw per non-empty object `i` with `include(i)`, with a graphics pipeline
+    /// whose layout has set 0 = frame (bound here), set 1 = material, then `object_sets(i)` from set 2
+    /// on, and push constants `push(i)` for `stages`. The pipeline and any other sets are the caller's.
+    #[allow(clippy::too_many_arguments)]
     pub fn record_object_draws<P: Copy>(
         &self,
         d: &Device,
         cmd: vk::CommandBuffer,
         layout: &PipelineLayout,
         stages: vk::ShaderStageFlags,
+        include: impl Fn(usize) -> bool,
         push: impl Fn(usize) -> P,
         object_sets: impl Fn(usize) -> Option<vk::DescriptorSet>,
     ) {
@@ -289,7 +291,7 @@ impl GpuScene {
         unsafe {
             d.raw.cmd_bind_descriptor_sets(cmd, bind, layout.raw, 0, &[self.frame_set], &[]);
             for (i, o) in self.objects.iter().enumerate() {
-                if o.index_count == 0 {
+                if o.index_count == 0 || !include(i) {
                     continue;
                 }
                 d.raw.cmd_push_constants(cmd, layout.raw, stages, 0, as_bytes(&push(i)));

@@ -1,5 +1,8 @@
 //! Techniques: each estimates the pixel integral its own way from the same [`GpuScene`].
 //!
+//! - `auto` (the default): the effect planner ([`crate::plan`]) decides per object; with nothing to
+//!   simulate it is `pinhole`, otherwise `stochastic` with each object on the shader permutation of
+//!   its effects and the still, sharp objects on the plain pipeline in the same targets
 //! - `pinhole`: one pass at mid-shutter through the lens centre (no effect), MSAA 4×
 //! - `accumulation`: P full-scene passes, one (x,y,u,v,t) each, averaged
 //! - `stochastic`: stochastic rasterization, S = M MSAA samples × P passes per pixel, each sample its
@@ -24,6 +27,7 @@ pub use stochastic::{SampleCounters, ShadingRate, StochasticOptions};
 
 use crate::error::{Error, Result};
 use crate::image::LinearImage;
+use crate::plan::{Effects, Plan};
 use crate::scene::file::{MAX_IMAGE_DIMENSION, MAX_SPP};
 use crate::scene::Scene;
 use crate::vk::{CommandRecorder, Device, PassTimings};
@@ -31,6 +35,7 @@ use crate::vk::{CommandRecorder, Device, PassTimings};
 /// A way of estimating the pixel integral on the GPU.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Technique {
+    Auto,
     Pinhole,
     Accumulation,
     Stochastic,
@@ -38,9 +43,10 @@ pub enum Technique {
 
 impl Technique {
     pub const ALL: &'static [Technique] =
-        &[Technique::Pinhole, Technique::Accumulation, Technique::Stochastic];
+        &[Technique::Auto, Technique::Pinhole, Technique::Accumulation, Technique::Stochastic];
     pub fn name(&self) -> &'static str {
         match self {
+            Technique::Auto => "auto",
             Technique::Pinhole => "pinhole",
             Technique::Accumulation => "accumulation",
             Technique::Stochastic => "stochastic",
@@ -104,8 +110,10 @@ pub struct RenderStats {
     pub cpu_frame_ms: f64,
     /// CPU time to upload the scene (ms).
     pub upload_ms: f64,
-    /// Sample counters of an instrumented `stochastic` render.
+    /// Sample counters of an instrumented `stochastic` (or stochastic `auto`) render.
     pub counters: Option<SampleCounters>,
+    /// The effect plan of an `auto` render.
+    pub plan: Option<Plan>,
 }
 
 /// An image with how it was made.
@@ -195,19 +203,9 @@ impl Renderer {
             Stochastic(Box<stochastic::StochasticRenderer>),
         }
         let c = &scene.camera;
-        let mut frame = match technique {
-            Technique::Pinhole => {
-                let msaa = self.device.caps.msaa_samples(pinhole::PINHOLE_MSAA);
-                Frame::Forward(
-                    Box::new(forward::ForwardRenderer::new(&self.device, &gpu_scene, msaa)?),
-                    pinhole::pinhole_passes(),
-                )
-            }
-            Technique::Accumulation => Frame::Forward(
-                Box::new(forward::ForwardRenderer::new(&self.device, &gpu_scene, 1)?),
-                accumulation::accumulation_passes(settings.spp, settings.seed, c.aperture, c.shutter),
-            ),
-            Technique::Stochastic => Frame::Stochastic(Box::new(stochastic::StochasticRenderer::new(
+        let plan = (technique == Technique::Auto).then(|| Plan::new(scene, settings.width, settings.height));
+        let stochastic = |effects: &[Effects]| -> Result<Frame> {
+            Ok(Frame::Stochastic(Box::new(stochastic::StochasticRenderer::new(
                 &self.device,
                 &gpu_scene,
                 settings.spp,
@@ -216,7 +214,27 @@ impl Renderer {
                 c.shutter,
                 settings.stochastic,
                 Default::default(),
-            )?)),
+                effects,
+            )?)))
+        };
+        let pinhole = || -> Result<Frame> {
+            let msaa = self.device.caps.msaa_samples(pinhole::PINHOLE_MSAA);
+            Ok(Frame::Forward(
+                Box::new(forward::ForwardRenderer::new(&self.device, &gpu_scene, msaa)?),
+                pinhole::pinhole_passes(),
+            ))
+        };
+        let mut frame = match technique {
+            Technique::Auto => match &plan {
+                Some(p) if p.needs_stochastic() => stochastic(&p.effects())?,
+                _ => pinhole()?,
+            },
+            Technique::Pinhole => pinhole()?,
+            Technique::Stochastic => stochastic(&vec![Effects::Both; scene.objects.len()])?,
+            Technique::Accumulation => Frame::Forward(
+                Box::new(forward::ForwardRenderer::new(&self.device, &gpu_scene, 1)?),
+                accumulation::accumulation_passes(settings.spp, settings.seed, c.aperture, c.shutter),
+            ),
         };
         let mut out = Vec::with_capacity(frames);
         for _ in 0..frames {
@@ -245,6 +263,7 @@ impl Renderer {
                     cpu_frame_ms,
                     upload_ms,
                     counters,
+                    plan: plan.clone(),
                 },
             });
         }

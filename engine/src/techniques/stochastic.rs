@@ -18,13 +18,15 @@
 use ash::vk;
 use gpu_allocator::MemoryLocation;
 
+use super::forward::{ForwardPipeline, PassSample};
 use super::gpu_scene::GpuScene;
 use super::targets::{PassTargets, COLOR_FORMAT, DEPTH_FORMAT};
 use crate::bounds::BoundKind;
 use crate::error::{Error, Result};
 use crate::image::LinearImage;
+use crate::plan::Effects;
 use crate::sampling::{ApertureShape, SampleTile, ShutterCurve, SAMPLE_TILE_SIZE};
-use crate::shaders;
+use crate::shaders::{self, ShaderSource};
 use crate::vk::{
     as_bytes, write_descriptors, Buffer, CommandRecorder, DescriptorPool, DescriptorSetLayout,
     DescriptorWrite, Device, Feature, GpuTimer, GraphicsDesc, PassTimings, Pipeline, PipelineLayout,
@@ -147,10 +149,48 @@ pub fn gpu_samples(
     (xy_lens, time)
 }
 
+/// The fragment shader permutation for a shading rate, instrumentation and effect path.
+fn fragment_shader(shading: ShadingRate, instrumented: bool, effects: Effects) -> ShaderSource {
+    use shaders::*;
+    use Effects::*;
+    use ShadingRate::*;
+    match (shading, instrumented, effects) {
+        (PerPixel, false, Both | Pinhole) => STOCHASTIC_STOCHASTIC_FRAG,
+        (PerPixel, false, Defocus) => STOCHASTIC_STOCHASTIC_FRAG_DEFOCUS,
+        (PerPixel, false, Motion) => STOCHASTIC_STOCHASTIC_FRAG_MOTION,
+        (PerPixel, true, Both | Pinhole) => STOCHASTIC_STOCHASTIC_FRAG_INSTRUMENTED,
+        (PerPixel, true, Defocus) => STOCHASTIC_STOCHASTIC_FRAG_INSTRUMENTED_DEFOCUS,
+        (PerPixel, true, Motion) => STOCHASTIC_STOCHASTIC_FRAG_INSTRUMENTED_MOTION,
+        (PerSample, false, Both | Pinhole) => STOCHASTIC_STOCHASTIC_FRAG_PER_SAMPLE,
+        (PerSample, false, Defocus) => STOCHASTIC_STOCHASTIC_FRAG_PER_SAMPLE_DEFOCUS,
+        (PerSample, false, Motion) => STOCHASTIC_STOCHASTIC_FRAG_PER_SAMPLE_MOTION,
+        (PerSample, true, Both | Pinhole) => STOCHASTIC_STOCHASTIC_FRAG_PER_SAMPLE_INSTRUMENTED,
+        (PerSample, true, Defocus) => STOCHASTIC_STOCHASTIC_FRAG_PER_SAMPLE_INSTRUMENTED_DEFOCUS,
+        (PerSample, true, Motion) => STOCHASTIC_STOCHASTIC_FRAG_PER_SAMPLE_INSTRUMENTED_MOTION,
+    }
+}
+
+/// The geometry shader permutation for an effect path (the bound debug output exists for `Both`).
+fn geometry_shader(effects: Effects, bound_debug: bool) -> ShaderSource {
+    match (effects, bound_debug) {
+        (_, true) => shaders::STOCHASTIC_STOCHASTIC_GEOM_BOUND_DEBUG,
+        (Effects::Defocus, false) => shaders::STOCHASTIC_STOCHASTIC_GEOM_DEFOCUS,
+        (Effects::Motion, false) => shaders::STOCHASTIC_STOCHASTIC_GEOM_MOTION,
+        (Effects::Both | Effects::Pinhole, false) => shaders::STOCHASTIC_STOCHASTIC_GEOM,
+    }
+}
+
 /// Pipelines, sample buffers and per-object descriptor sets of the stochastic rasterizer.
+///
+/// Every object takes one path ([`Effects`], from [`crate::plan`] for technique `auto`, `Both` for
+/// technique `stochastic`): one stochastic pipeline per effect permutation in use, and the plain
+/// forward pipeline (mid-shutter, lens centre) for `Pinhole` objects, drawn into the same
+/// multisampled targets with the same reversed-Z depth in every pass.
 pub struct StochasticRenderer {
     targets: PassTargets,
-    pipeline: Pipeline,
+    pipelines: Vec<(Effects, Pipeline)>,
+    plain: Option<ForwardPipeline>,
+    object_effects: Vec<Effects>,
     layout: PipelineLayout,
     object_sets: Vec<vk::DescriptorSet>,
     sample_set: vk::DescriptorSet,
@@ -184,6 +224,7 @@ pub struct DebugOptions {
 pub const BOUND_DEBUG_STRIDE: usize = 8 + 2 * 48;
 
 impl StochasticRenderer {
+    /// `object_effects[i]` is object i's path (one per object of `scene`).
     #[allow(clippy::too_many_arguments)]
     pub fn new(
         device: &Device,
@@ -194,8 +235,19 @@ impl StochasticRenderer {
         shutter: ShutterCurve,
         options: StochasticOptions,
         debug: DebugOptions,
+        object_effects: &[Effects],
     ) -> Result<Self> {
         let caps = &device.caps;
+        if object_effects.len() != scene.objects.len() {
+            return Err(Error::Unsupported(format!(
+                "{} object paths for {} objects",
+                object_effects.len(),
+                scene.objects.len()
+            )));
+        }
+        let mut paths: Vec<Effects> = object_effects.iter().copied().filter(|e| e.is_stochastic()).collect();
+        paths.sort();
+        paths.dedup();
         caps.require(Feature::GeometryShader, "technique `stochastic` (hull expansion)")?;
         if options.shading == ShadingRate::PerSample {
             caps.require(Feature::SampleRateShading, "technique `stochastic --shading per-sample`")?;
@@ -215,24 +267,12 @@ impl StochasticRenderer {
         }
         let (msaa, passes) = split_samples(spp, &caps.framebuffer_sample_counts);
 
+        if debug.bound_debug_triangles > 0 && paths.iter().any(|&e| e != Effects::Both) {
+            return Err(Error::Unsupported(
+                "the bound debug output exists for the defocus+motion path only".into(),
+            ));
+        }
         let vert = ShaderModule::new(device, shaders::STOCHASTIC_STOCHASTIC_VERT)?;
-        let geom = ShaderModule::new(
-            device,
-            if debug.bound_debug_triangles > 0 {
-                shaders::STOCHASTIC_STOCHASTIC_GEOM_BOUND_DEBUG
-            } else {
-                shaders::STOCHASTIC_STOCHASTIC_GEOM
-            },
-        )?;
-        let frag = ShaderModule::new(
-            device,
-            match (options.shading, options.instrumented) {
-                (ShadingRate::PerPixel, false) => shaders::STOCHASTIC_STOCHASTIC_FRAG,
-                (ShadingRate::PerPixel, true) => shaders::STOCHASTIC_STOCHASTIC_FRAG_INSTRUMENTED,
-                (ShadingRate::PerSample, false) => shaders::STOCHASTIC_STOCHASTIC_FRAG_PER_SAMPLE,
-                (ShadingRate::PerSample, true) => shaders::STOCHASTIC_STOCHASTIC_FRAG_PER_SAMPLE_INSTRUMENTED,
-            },
-        )?;
         let frag_stage = vk::ShaderStageFlags::FRAGMENT;
         let geometry_stages = vk::ShaderStageFlags::FRAGMENT | vk::ShaderStageFlags::COMPUTE;
         let geometry_layout = DescriptorSetLayout::new(
@@ -270,24 +310,38 @@ impl StochasticRenderer {
             vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::GEOMETRY | vk::ShaderStageFlags::FRAGMENT,
         )?;
         let (bindings, attributes) = GpuScene::vertex_input();
-        let pipeline = Pipeline::graphics(
-            device,
-            &layout,
-            &GraphicsDesc {
-                name: "stochastic",
-                stages: &[&vert, &geom, &frag],
-                vertex_bindings: &bindings,
-                vertex_attributes: &attributes[..1],
-                color_formats: &[COLOR_FORMAT],
-                depth_format: Some(DEPTH_FORMAT),
-                samples: msaa,
-                sample_shading: (options.shading == ShadingRate::PerSample).then_some(1.0),
-                cull_mode: vk::CullModeFlags::NONE,
-                front_face: vk::FrontFace::COUNTER_CLOCKWISE,
-                depth_compare: vk::CompareOp::GREATER,
-                depth_write: true,
-            },
-        )?;
+        let mut shader_modules = vec![vert];
+        let mut pipelines = Vec::with_capacity(paths.len());
+        for &effects in &paths {
+            let geom = ShaderModule::new(device, geometry_shader(effects, debug.bound_debug_triangles > 0))?;
+            let frag =
+                ShaderModule::new(device, fragment_shader(options.shading, options.instrumented, effects))?;
+            let pipeline = Pipeline::graphics(
+                device,
+                &layout,
+                &GraphicsDesc {
+                    name: &format!("stochastic ({})", effects.name()),
+                    stages: &[&shader_modules[0], &geom, &frag],
+                    vertex_bindings: &bindings,
+                    vertex_attributes: &attributes[..1],
+                    color_formats: &[COLOR_FORMAT],
+                    depth_format: Some(DEPTH_FORMAT),
+                    samples: msaa,
+                    sample_shading: (options.shading == ShadingRate::PerSample).then_some(1.0),
+                    cull_mode: vk::CullModeFlags::NONE,
+                    front_face: vk::FrontFace::COUNTER_CLOCKWISE,
+                    depth_compare: vk::CompareOp::GREATER,
+                    depth_write: true,
+                },
+            )?;
+            pipelines.push((effects, pipeline));
+            shader_modules.extend([geom, frag]);
+        }
+        let plain = if object_effects.contains(&Effects::Pinhole) {
+            Some(ForwardPipeline::new(device, scene, msaa)?)
+        } else {
+            None
+        };
 
         let storage = vk::BufferUsageFlags::STORAGE_BUFFER;
         let (xy_lens, time) = gpu_samples(spp, seed, aperture, shutter);
@@ -333,9 +387,12 @@ impl StochasticRenderer {
             triangles.push(t);
         }
         let targets = PassTargets::new(device, scene.width, scene.height, msaa)?;
+        shader_modules.push(comp);
         Ok(StochasticRenderer {
             targets,
-            pipeline,
+            pipelines,
+            plain,
+            object_effects: object_effects.to_vec(),
             layout,
             object_sets,
             sample_set,
@@ -351,7 +408,7 @@ impl StochasticRenderer {
             triangles_pipeline,
             triangles_layout,
             _triangles: triangles,
-            _shaders: vec![vert, geom, frag, comp],
+            _shaders: shader_modules,
         })
     }
 
@@ -432,7 +489,7 @@ impl StochasticRenderer {
             );
             for (i, o) in scene.objects.iter().enumerate() {
                 let count = o.index_count / 3;
-                if count == 0 {
+                if count == 0 || !self.object_effects[i].is_stochastic() {
                     continue;
                 }
                 d.raw.cmd_bind_descriptor_sets(
@@ -468,9 +525,12 @@ impl StochasticRenderer {
         let stages =
             vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::GEOMETRY | vk::ShaderStageFlags::FRAGMENT;
         let bind = vk::PipelineBindPoint::GRAPHICS;
-        unsafe {
-            d.raw.cmd_bind_pipeline(cmd, bind, self.pipeline.raw);
-            d.raw.cmd_bind_descriptor_sets(cmd, bind, self.layout.raw, 3, &[self.sample_set], &[]);
+        if let Some(plain) = &self.plain {
+            let pinhole = PassSample {
+                jitter: super::pinhole::pinhole_pass_jitter(pass, self.passes, self.targets.samples()),
+                ..super::pinhole::pinhole_passes()[0]
+            };
+            plain.record_draws(d, cmd, scene, &pinhole, |i| self.object_effects[i] == Effects::Pinhole);
         }
         let push = |i: usize| StochasticPush {
             object: i as u32,
@@ -481,6 +541,15 @@ impl StochasticRenderer {
             footprint: 1.0 / (self.spp as f32).sqrt(),
             dilate: self.dilate,
         };
-        scene.record_object_draws(d, cmd, &self.layout, stages, push, |i| Some(self.object_sets[i]));
+        for (effects, pipeline) in &self.pipelines {
+            unsafe {
+                d.raw.cmd_bind_pipeline(cmd, bind, pipeline.raw);
+                d.raw.cmd_bind_descriptor_sets(cmd, bind, self.layout.raw, 3, &[self.sample_set], &[]);
+            }
+            let include = |i: usize| self.object_effects[i] == *effects;
+            scene.record_object_draws(d, cmd, &self.layout, stages, include, push, |i| {
+                Some(self.object_sets[i])
+            });
+        }
     }
 }
