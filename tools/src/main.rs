@@ -1,6 +1,7 @@
 //! `shutter`: render scenes with each technique, render the CPU ground truth, compare images, probe
 //! the device.
 
+mod bench;
 mod bounds_table;
 
 use std::path::{Path, PathBuf};
@@ -96,6 +97,40 @@ enum Command {
         warmup: usize,
         #[command(flatten)]
         image: ImageArgs,
+    },
+    /// Time techniques and settings on one scene: interleaved frames after warm-up, medians and
+    /// min/max of GPU ms per frame and per pass, CPU frame ms, sample counters; markdown on stdout.
+    Bench {
+        #[arg(default_value = "default")]
+        scene: String,
+        /// A configuration `technique[:spp=N][:bound=B][:shading=per-pixel|per-sample]`; repeat for
+        /// more. The first is the baseline of the ratios.
+        #[arg(short = 'c', long = "config", default_values_t = ["auto".to_string(), "pinhole".to_string()])]
+        configs: Vec<String>,
+        /// Default samples per pixel. Default: the scene's [image] spp.
+        #[arg(long)]
+        spp: Option<u32>,
+        /// Timed frames per configuration.
+        #[arg(long, default_value_t = 10)]
+        frames: usize,
+        /// Untimed frames per configuration first (lavapipe compiles shaders on the first frame).
+        #[arg(long, default_value_t = 2)]
+        warmup: usize,
+        /// Skip the extra instrumented frame that collects sample counters.
+        #[arg(long)]
+        no_counters: bool,
+        /// Fail (exit 1) when a configuration's median GPU ms exceeds this multiple of the first's.
+        #[arg(long)]
+        max_ratio: Option<f64>,
+        #[arg(long)]
+        json: Option<PathBuf>,
+        #[arg(long)]
+        csv: Option<PathBuf>,
+        /// Image size WxH. Default: the scene's [image] size.
+        #[arg(long, value_parser = parse_size)]
+        size: Option<(u32, u32)>,
+        #[arg(long)]
+        seed: Option<u64>,
     },
     /// Print the effect planner's decision per object (technique `auto`) with the numbers behind it.
     Plan {
@@ -297,11 +332,57 @@ fn run() -> Result<()> {
                 eprintln!("wrote {}", out.display());
             }
         }
+        Command::Bench {
+            scene,
+            configs,
+            spp,
+            frames,
+            warmup,
+            no_counters,
+            max_ratio,
+            json,
+            csv,
+            size,
+            seed,
+        } => {
+            let sc = load_scene(&scene)?;
+            let mut defaults = RenderSettings::from_scene(&sc);
+            if let Some((w, h)) = size {
+                (defaults.width, defaults.height) = (w, h);
+            }
+            defaults.spp = spp.unwrap_or(defaults.spp);
+            defaults.seed = seed.unwrap_or(defaults.seed);
+            let configs =
+                configs.iter().map(|c| bench::Config::parse(c, &defaults)).collect::<Result<Vec<_>>>()?;
+            let mut renderer = Renderer::new(shutter::vk::create_device()?)?;
+            let args = bench::BenchArgs { configs, frames: frames.max(1), warmup, counters: !no_counters };
+            let report = bench::run(&mut renderer, &sc, &args)?;
+            println!("{}", report.markdown());
+            report.write(json.as_ref(), csv.as_ref())?;
+            if let Some(max) = max_ratio {
+                let over: Vec<String> = report
+                    .results
+                    .iter()
+                    .filter(|r| r.ratio_to_first > max)
+                    .map(|r| format!("`{}` {:.3}×", r.label, r.ratio_to_first))
+                    .collect();
+                if !over.is_empty() {
+                    anyhow::bail!("over {max}× the first configuration's median GPU ms: {}", over.join(", "));
+                }
+                println!("every configuration within {max}× of `{}`", report.results[0].label);
+            }
+        }
         Command::Plan { scene, size, threshold } => {
             let sc = load_scene(&scene)?;
             let (w, h) = size.unwrap_or((sc.image.width, sc.image.height));
             println!("# plan of `{}`\n", sc.name);
-            println!("{}", shutter::plan::Plan::with_threshold(&sc, w, h, threshold));
+            let t0 = std::time::Instant::now();
+            let plan = shutter::plan::Plan::with_threshold(&sc, w, h, threshold);
+            let ms = t0.elapsed().as_secs_f64() * 1e3;
+            println!(
+                "{plan}\n\nplanned in {ms:.3} ms on the CPU ({} vertices)",
+                sc.objects.iter().map(|o| o.mesh.positions.len()).sum::<usize>()
+            );
         }
         Command::Probe => {
             let device = shutter::vk::create_device()?;

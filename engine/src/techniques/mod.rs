@@ -184,6 +184,19 @@ impl Renderer {
         settings: &RenderSettings,
         frames: usize,
     ) -> Result<Vec<RenderOutput>> {
+        let mut prepared = self.prepare(scene, technique, settings)?;
+        (0..frames).map(|_| self.render_prepared(&mut prepared)).collect()
+    }
+
+    /// Uploads `scene` and builds `technique`'s pipelines and targets (and, for `auto`, its plan):
+    /// everything a frame needs, so several configurations can be rendered interleaved frame by frame
+    /// ([`Renderer::render_prepared`]) — how `shutter bench` measures ratios in one run.
+    pub fn prepare(
+        &mut self,
+        scene: &Scene,
+        technique: Technique,
+        settings: &RenderSettings,
+    ) -> Result<PreparedFrame> {
         self.check_settings(settings)?;
         if let Some(o) = scene.objects.iter().find(|o| o.material.alpha < 1.0) {
             return Err(Error::Unsupported(format!(
@@ -198,10 +211,6 @@ impl Renderer {
         let gpu_scene =
             GpuScene::upload(&self.device, &mut self.recorder, scene, settings.width, settings.height)?;
         let upload_ms = t0.elapsed().as_secs_f64() * 1e3;
-        enum Frame {
-            Forward(Box<forward::ForwardRenderer>, Vec<PassSample>),
-            Stochastic(Box<stochastic::StochasticRenderer>),
-        }
         let c = &scene.camera;
         let plan = (technique == Technique::Auto).then(|| Plan::new(scene, settings.width, settings.height));
         let stochastic = |effects: &[Effects]| -> Result<Frame> {
@@ -224,7 +233,7 @@ impl Renderer {
                 pinhole::pinhole_passes(),
             ))
         };
-        let mut frame = match technique {
+        let frame = match technique {
             Technique::Auto => match &plan {
                 Some(p) if p.needs_stochastic() => stochastic(&p.effects())?,
                 _ => pinhole()?,
@@ -236,37 +245,53 @@ impl Renderer {
                 accumulation::accumulation_passes(settings.spp, settings.seed, c.aperture, c.shutter),
             ),
         };
-        let mut out = Vec::with_capacity(frames);
-        for _ in 0..frames {
-            let t1 = Instant::now();
-            let (image, timings, passes, msaa, counters) = match &mut frame {
-                Frame::Forward(fr, passes) => {
-                    let (image, timings) = fr.render(&self.device, &mut self.recorder, &gpu_scene, passes)?;
-                    (image, timings, passes.len() as u32, fr.samples(), None)
-                }
-                Frame::Stochastic(sr) => {
-                    let (msaa, passes) = sr.msaa_and_passes();
-                    let (image, timings, counters) =
-                        sr.render(&self.device, &mut self.recorder, &gpu_scene)?;
-                    (image, timings, passes, msaa, counters)
-                }
-            };
-            let cpu_frame_ms = t1.elapsed().as_secs_f64() * 1e3;
-            self.device.check_validation()?;
-            out.push(RenderOutput {
-                image,
-                timings,
-                stats: RenderStats {
-                    passes,
-                    msaa_samples: msaa,
-                    triangles: scene.triangle_count(),
-                    cpu_frame_ms,
-                    upload_ms,
-                    counters,
-                    plan: plan.clone(),
-                },
-            });
-        }
-        Ok(out)
+        Ok(PreparedFrame { frame, gpu_scene, triangles: scene.triangle_count(), upload_ms, plan })
     }
+
+    /// Renders one frame of a prepared scene and technique.
+    pub fn render_prepared(&mut self, prepared: &mut PreparedFrame) -> Result<RenderOutput> {
+        let t1 = Instant::now();
+        let gpu_scene = &prepared.gpu_scene;
+        let (image, timings, passes, msaa, counters) = match &mut prepared.frame {
+            Frame::Forward(fr, passes) => {
+                let (image, timings) = fr.render(&self.device, &mut self.recorder, gpu_scene, passes)?;
+                (image, timings, passes.len() as u32, fr.samples(), None)
+            }
+            Frame::Stochastic(sr) => {
+                let (msaa, passes) = sr.msaa_and_passes();
+                let (image, timings, counters) = sr.render(&self.device, &mut self.recorder, gpu_scene)?;
+                (image, timings, passes, msaa, counters)
+            }
+        };
+        let cpu_frame_ms = t1.elapsed().as_secs_f64() * 1e3;
+        self.device.check_validation()?;
+        Ok(RenderOutput {
+            image,
+            timings,
+            stats: RenderStats {
+                passes,
+                msaa_samples: msaa,
+                triangles: prepared.triangles,
+                cpu_frame_ms,
+                upload_ms: prepared.upload_ms,
+                counters,
+                plan: prepared.plan.clone(),
+            },
+        })
+    }
+}
+
+enum Frame {
+    Forward(Box<forward::ForwardRenderer>, Vec<PassSample>),
+    Stochastic(Box<stochastic::StochasticRenderer>),
+}
+
+/// A scene on the device with one technique's pipelines and targets ([`Renderer::prepare`]).
+pub struct PreparedFrame {
+    // Declared before the scene: the renderers' descriptor sets refer to its buffers.
+    frame: Frame,
+    gpu_scene: GpuScene,
+    triangles: usize,
+    upload_ms: f64,
+    plan: Option<Plan>,
 }

@@ -1,0 +1,345 @@
+//! `shutter bench`: what each technique and setting costs on one scene, measured honestly.
+//!
+//! Every configuration is prepared once (upload, pipelines, targets), warmed up (lavapipe compiles
+//! shaders lazily on the first frame), then the timed frames run **interleaved** — frame k of every
+//! configuration before frame k + 1 of any — so drift on a shared machine hits all of them alike and
+//! the ratios to the first configuration are measured in one run. Per configuration: median, min and
+//! max GPU ms per frame (timestamp queries) and per named pass, median CPU ms to record, submit and wait
+//! for a frame, and — from one extra, separately prepared instrumented frame so the atomics never
+//! disturb the timings — the sample counters (fragments, samples tested, hits, STE, shading
+//! invocations). Prints a markdown table; writes JSON and CSV on request.
+
+use std::fmt::Write as _;
+use std::path::PathBuf;
+
+use anyhow::{bail, Context, Result};
+use serde::Serialize;
+use shutter::scene::Scene;
+use shutter::techniques::{RenderSettings, Renderer, SampleCounters, StochasticOptions, Technique};
+
+/// One configuration: `technique[:key=value...]` with keys spp, bound, shading (and those the
+/// stochastic options grow); unset keys take the command's defaults.
+#[derive(Clone, Debug)]
+pub struct Config {
+    pub label: String,
+    pub technique: Technique,
+    pub settings: RenderSettings,
+}
+
+impl Config {
+    pub fn parse(spec: &str, defaults: &RenderSettings) -> Result<Config> {
+        let mut parts = spec.split(':');
+        let technique: Technique = parts.next().unwrap_or_default().trim().parse()?;
+        let mut settings = *defaults;
+        for kv in parts {
+            let (k, v) =
+                kv.split_once('=').with_context(|| format!("`{kv}` in `{spec}` is not key=value"))?;
+            apply_option(&mut settings, k.trim(), v.trim()).with_context(|| format!("in `{spec}`"))?;
+        }
+        Ok(Config { label: spec.to_string(), technique, settings })
+    }
+}
+
+/// Sets one `key=value` of a configuration.
+pub fn apply_option(s: &mut RenderSettings, key: &str, value: &str) -> Result<()> {
+    let o: &mut StochasticOptions = &mut s.stochastic;
+    match key {
+        "spp" => s.spp = value.parse().with_context(|| format!("spp `{value}`"))?,
+        "bound" => o.bound = value.parse()?,
+        "shading" => o.shading = value.parse()?,
+        _ => bail!("unknown setting `{key}` (spp, bound, shading)"),
+    }
+    Ok(())
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct Stat {
+    pub median: f64,
+    pub min: f64,
+    pub max: f64,
+}
+
+impl Stat {
+    pub fn of(mut v: Vec<f64>) -> Stat {
+        v.sort_by(|a, b| a.total_cmp(b));
+        if v.is_empty() {
+            return Stat { median: f64::NAN, min: f64::NAN, max: f64::NAN };
+        }
+        let n = v.len();
+        let median = if n % 2 == 1 { v[n / 2] } else { 0.5 * (v[n / 2 - 1] + v[n / 2]) };
+        Stat { median, min: v[0], max: v[n - 1] }
+    }
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct Counters {
+    pub fragments: u64,
+    pub samples_tested: u64,
+    pub samples_hit: u64,
+    pub sample_test_efficiency: f64,
+    pub shading_invocations: u64,
+}
+
+impl From<SampleCounters> for Counters {
+    fn from(c: SampleCounters) -> Self {
+        Counters {
+            fragments: c.fragments,
+            samples_tested: c.samples_tested,
+            samples_hit: c.samples_hit,
+            sample_test_efficiency: c.sample_test_efficiency(),
+            shading_invocations: c.shading_invocations,
+        }
+    }
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct ConfigResult {
+    pub label: String,
+    pub technique: String,
+    pub spp: u32,
+    pub bound: String,
+    pub shading: String,
+    pub passes: u32,
+    pub msaa: u32,
+    /// Per-object paths of an `auto` frame ("pinhole" when the plan has nothing to simulate).
+    pub plan: Option<String>,
+    pub gpu_ms: Stat,
+    /// GPU ms per named pass (triangles, stochastic, forward, accumulate, ...).
+    pub passes_ms: Vec<(String, Stat)>,
+    pub cpu_frame_ms: Stat,
+    /// Median GPU ms ÷ the first configuration's.
+    pub ratio_to_first: f64,
+    pub counters: Option<Counters>,
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct BenchReport {
+    pub scene: String,
+    pub width: u32,
+    pub height: u32,
+    pub device: String,
+    pub driver: String,
+    pub api_version: String,
+    pub frames: usize,
+    pub warmup: usize,
+    pub results: Vec<ConfigResult>,
+}
+
+pub struct BenchArgs {
+    pub configs: Vec<Config>,
+    pub frames: usize,
+    pub warmup: usize,
+    pub counters: bool,
+}
+
+fn uses_stochastic(r: &ConfigResult, c: &Config) -> bool {
+    c.technique == Technique::Stochastic
+        || (c.technique == Technique::Auto && r.plan.as_deref().is_some_and(|p| p != "pinhole"))
+}
+
+pub fn run(renderer: &mut Renderer, scene: &Scene, a: &BenchArgs) -> Result<BenchReport> {
+    if a.configs.is_empty() {
+        bail!("no configurations to benchmark");
+    }
+    let progress = indicatif::ProgressBar::new(((a.warmup + a.frames) * a.configs.len()) as u64);
+    progress.set_style(
+        indicatif::ProgressStyle::with_template("{msg} [{bar:30}] {pos}/{len} frames, {elapsed}")
+            .expect("progress template"),
+    );
+    progress.set_message("preparing");
+    let mut prepared = Vec::with_capacity(a.configs.len());
+    for c in &a.configs {
+        prepared.push(
+            renderer
+                .prepare(scene, c.technique, &c.settings)
+                .with_context(|| format!("preparing `{}`", c.label))?,
+        );
+    }
+    let mut outputs: Vec<Vec<shutter::techniques::RenderOutput>> = vec![Vec::new(); a.configs.len()];
+    for round in 0..a.warmup + a.frames {
+        progress.set_message(if round < a.warmup { "warm-up" } else { "timed" });
+        for (i, p) in prepared.iter_mut().enumerate() {
+            let out =
+                renderer.render_prepared(p).with_context(|| format!("rendering `{}`", a.configs[i].label))?;
+            if round >= a.warmup {
+                outputs[i].push(out);
+            }
+            progress.inc(1);
+        }
+    }
+    drop(prepared);
+    progress.finish_and_clear();
+
+    let mut results = Vec::with_capacity(a.configs.len());
+    for (c, outs) in a.configs.iter().zip(&outputs) {
+        let first = &outs[0];
+        let mut names: Vec<String> = Vec::new();
+        for o in outs {
+            for (n, _) in &o.timings.passes {
+                if !names.contains(n) {
+                    names.push(n.clone());
+                }
+            }
+        }
+        let passes_ms = names
+            .iter()
+            .map(|n| (n.clone(), Stat::of(outs.iter().map(|o| o.timings.get(n).unwrap_or(0.0)).collect())))
+            .collect();
+        let plan = first.stats.plan.as_ref().map(|p| {
+            if p.needs_stochastic() {
+                p.objects
+                    .iter()
+                    .map(|o| format!("{}={}", o.name, o.effects.name()))
+                    .collect::<Vec<_>>()
+                    .join(" ")
+            } else {
+                "pinhole".to_string()
+            }
+        });
+        let stochastic_options = matches!(c.technique, Technique::Stochastic | Technique::Auto);
+        let mut r = ConfigResult {
+            label: c.label.clone(),
+            technique: c.technique.name().into(),
+            spp: c.settings.spp,
+            bound: if stochastic_options { c.settings.stochastic.bound.name().into() } else { "-".into() },
+            shading: if stochastic_options {
+                c.settings.stochastic.shading.name().into()
+            } else {
+                "-".into()
+            },
+            passes: first.stats.passes,
+            msaa: first.stats.msaa_samples,
+            plan,
+            gpu_ms: Stat::of(outs.iter().map(|o| o.timings.total_ms()).collect()),
+            passes_ms,
+            cpu_frame_ms: Stat::of(outs.iter().map(|o| o.stats.cpu_frame_ms).collect()),
+            ratio_to_first: f64::NAN,
+            counters: None,
+        };
+        if a.counters && uses_stochastic(&r, c) {
+            let mut s = c.settings;
+            s.stochastic.instrumented = true;
+            let out =
+                renderer.render(scene, c.technique, &s).with_context(|| format!("counting `{}`", c.label))?;
+            r.counters = out.stats.counters.map(Counters::from);
+        }
+        results.push(r);
+    }
+    let base = results[0].gpu_ms.median;
+    for r in &mut results {
+        r.ratio_to_first = r.gpu_ms.median / base;
+    }
+    let caps = &renderer.device().caps;
+    let s0 = &a.configs[0].settings;
+    Ok(BenchReport {
+        scene: scene.name.clone(),
+        width: s0.width,
+        height: s0.height,
+        device: caps.device_name.clone(),
+        driver: format!("{} ({})", caps.driver_name, caps.driver_info),
+        api_version: caps.api_version.clone(),
+        frames: a.frames,
+        warmup: a.warmup,
+        results,
+    })
+}
+
+impl BenchReport {
+    pub fn markdown(&self) -> String {
+        let mut md = format!(
+            "Scene `{}`, {}×{}; {} / {}, Vulkan {}; {} timed frame(s) per configuration after {} warm-up, \
+             interleaved; GPU ms = sum of timestamped passes per frame.\n\n",
+            self.scene,
+            self.width,
+            self.height,
+            self.device,
+            self.driver,
+            self.api_version,
+            self.frames,
+            self.warmup
+        );
+        md.push_str("| configuration | passes × MSAA | GPU ms median (min–max) | × first | CPU frame ms | per pass (median ms) | fragments | samples tested | hits | STE | shading inv. |\n");
+        md.push_str("|---|---:|---:|---:|---:|---|---:|---:|---:|---:|---:|\n");
+        for r in &self.results {
+            let per_pass: Vec<String> =
+                r.passes_ms.iter().map(|(n, s)| format!("{n} {:.2}", s.median)).collect();
+            let (f, t, h, ste, inv) = match &r.counters {
+                Some(c) => (
+                    c.fragments.to_string(),
+                    c.samples_tested.to_string(),
+                    c.samples_hit.to_string(),
+                    format!("{:.4}", c.sample_test_efficiency),
+                    c.shading_invocations.to_string(),
+                ),
+                None => ("-".into(), "-".into(), "-".into(), "-".into(), "-".into()),
+            };
+            let _ = writeln!(
+                md,
+                "| {} | {} × {} | {:.2} ({:.2}–{:.2}) | {:.3} | {:.2} | {} | {f} | {t} | {h} | {ste} | {inv} |",
+                r.label,
+                r.passes,
+                r.msaa,
+                r.gpu_ms.median,
+                r.gpu_ms.min,
+                r.gpu_ms.max,
+                r.ratio_to_first,
+                r.cpu_frame_ms.median,
+                per_pass.join(", ")
+            );
+        }
+        for r in self.results.iter().filter(|r| r.plan.is_some()) {
+            let _ = writeln!(md, "\n`{}` plan: {}", r.label, r.plan.as_deref().unwrap_or(""));
+        }
+        md
+    }
+
+    pub fn csv(&self) -> String {
+        let mut s = String::from(
+            "scene,width,height,device,driver,label,technique,spp,bound,shading,passes,msaa,gpu_ms_median,gpu_ms_min,\
+             gpu_ms_max,ratio_to_first,cpu_frame_ms_median,fragments,samples_tested,samples_hit,ste,shading_invocations\n",
+        );
+        for r in &self.results {
+            let c = r.counters.as_ref();
+            let _ = writeln!(
+                s,
+                "{},{},{},\"{}\",\"{}\",\"{}\",{},{},{},{},{},{},{:.4},{:.4},{:.4},{:.4},{:.4},{},{},{},{},{}",
+                self.scene,
+                self.width,
+                self.height,
+                self.device,
+                self.driver.replace('"', "'"),
+                r.label,
+                r.technique,
+                r.spp,
+                r.bound,
+                r.shading,
+                r.passes,
+                r.msaa,
+                r.gpu_ms.median,
+                r.gpu_ms.min,
+                r.gpu_ms.max,
+                r.ratio_to_first,
+                r.cpu_frame_ms.median,
+                c.map(|c| c.fragments.to_string()).unwrap_or_default(),
+                c.map(|c| c.samples_tested.to_string()).unwrap_or_default(),
+                c.map(|c| c.samples_hit.to_string()).unwrap_or_default(),
+                c.map(|c| format!("{:.6}", c.sample_test_efficiency)).unwrap_or_default(),
+                c.map(|c| c.shading_invocations.to_string()).unwrap_or_default(),
+            );
+        }
+        s
+    }
+
+    pub fn write(&self, json: Option<&PathBuf>, csv: Option<&PathBuf>) -> Result<()> {
+        if let Some(p) = json {
+            std::fs::write(p, serde_json::to_string_pretty(self)?)
+                .with_context(|| format!("writing {}", p.display()))?;
+            eprintln!("wrote {}", p.display());
+        }
+        if let Some(p) = csv {
+            std::fs::write(p, self.csv()).with_context(|| format!("writing {}", p.display()))?;
+            eprintln!("wrote {}", p.display());
+        }
+        Ok(())
+    }
+}
