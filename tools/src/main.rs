@@ -3,6 +3,7 @@
 
 mod bench;
 mod bounds_table;
+mod quality;
 
 use std::path::{Path, PathBuf};
 
@@ -131,6 +132,45 @@ enum Command {
         size: Option<(u32, u32)>,
         #[arg(long)]
         seed: Option<u64>,
+    },
+    /// What accuracy costs in time: sweep series of techniques × sample counts against the cached CPU
+    /// reference; CSV (resumable), log-log plot of FLIP vs GPU ms with the Pareto front (PNG, SVG),
+    /// markdown table with the ms ratio at equal FLIP.
+    Quality {
+        #[arg(default_value = "default")]
+        scene: String,
+        /// A series `technique[:key=value...]@S1,S2,...` (keys: spp, bound, shading); repeat for more.
+        #[arg(short = 's', long = "series", default_values_t = [
+            "accumulation@4,16,64,256".to_string(),
+            "stochastic@4,16,64".to_string(),
+            "stochastic:shading=per-sample@4,16,64".to_string(),
+            "auto@4,16,64".to_string(),
+        ])]
+        series: Vec<String>,
+        /// Reference rays per pixel.
+        #[arg(long, default_value_t = 1024)]
+        reference_spp: u32,
+        #[arg(long, default_value_t = 3)]
+        frames: usize,
+        #[arg(long, default_value_t = 1)]
+        warmup: usize,
+        /// Image size WxH.
+        #[arg(long, value_parser = parse_size, default_value = "160x90")]
+        size: (u32, u32),
+        #[arg(long)]
+        seed: Option<u64>,
+        /// Where cached references live.
+        #[arg(long, default_value = "out/cache")]
+        cache: PathBuf,
+        /// Output stem: <out>.csv, .png, .svg, .md. Default: out/quality-<scene>.
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Also save every point's image as <out>-<series>-S<n>.png.
+        #[arg(long)]
+        images: bool,
+        /// Two series `SLOW,FAST` whose ms are compared at equal FLIP.
+        #[arg(long, value_delimiter = ',', default_values_t = ["accumulation".to_string(), "stochastic".to_string()])]
+        compare: Vec<String>,
     },
     /// Print the effect planner's decision per object (technique `auto`) with the numbers behind it.
     Plan {
@@ -371,6 +411,60 @@ fn run() -> Result<()> {
                 }
                 println!("every configuration within {max}× of `{}`", report.results[0].label);
             }
+        }
+        Command::Quality {
+            scene,
+            series,
+            reference_spp,
+            frames,
+            warmup,
+            size,
+            seed,
+            cache,
+            out,
+            images,
+            compare,
+        } => {
+            let sc = load_scene(&scene)?;
+            let mut defaults = RenderSettings::from_scene(&sc);
+            (defaults.width, defaults.height) = size;
+            defaults.seed = seed.unwrap_or(defaults.seed);
+            let series =
+                series.iter().map(|s| quality::Series::parse(s, &defaults)).collect::<Result<Vec<_>>>()?;
+            let out = match out {
+                Some(o) => o,
+                None => {
+                    std::fs::create_dir_all("out").context("creating out/")?;
+                    PathBuf::from(format!("out/quality-{}", sc.name))
+                }
+            };
+            let compare = match compare.as_slice() {
+                [] => None,
+                [slow, fast] => Some((slow.clone(), fast.clone())),
+                _ => anyhow::bail!("--compare takes two series names: SLOW,FAST"),
+            };
+            let args = quality::QualityArgs {
+                series,
+                reference_spp,
+                frames: frames.max(1),
+                warmup,
+                width: size.0,
+                height: size.1,
+                seed: defaults.seed,
+                cache,
+                out: out.clone(),
+                images,
+                compare,
+            };
+            let mut renderer = Renderer::new(shutter::vk::create_device()?)?;
+            let device = renderer.device().caps.device_name.clone();
+            let points = quality::run(&mut renderer, &sc, &args)?;
+            let md = quality::markdown(&sc, &args, &points, &device);
+            println!("{md}");
+            let md_path = out.with_extension("md");
+            std::fs::write(&md_path, &md).with_context(|| format!("writing {}", md_path.display()))?;
+            quality::plot(&sc, &args, &points)?;
+            eprintln!("wrote {} and {}", md_path.display(), out.with_extension("csv").display());
         }
         Command::Plan { scene, size, threshold } => {
             let sc = load_scene(&scene)?;

@@ -105,8 +105,57 @@ impl Scene {
     pub fn triangle_count(&self) -> usize {
         self.objects.iter().map(|o| o.mesh.triangle_count()).sum()
     }
+    /// A 64-bit FNV-1a fingerprint of everything that affects a rendered image — camera, lights,
+    /// environment, and per object its transforms, material, mesh data and texture texels (not the
+    /// scene's name or `[image]` settings): the key of cached references (`shutter quality`). Stable
+    /// across runs and builds (floats are hashed by their bits).
+    pub fn content_hash(&self) -> u64 {
+        let mut h = Fnv1a::default();
+        h.text(&format!("{:?}|{:?}|{:?}", self.camera, self.lights, self.environment));
+        for o in &self.objects {
+            let m = &o.material;
+            h.text(&format!(
+                "{:?}|{:?}|{:?}|{}|{}|{}",
+                o.transform_open, o.transform_close, m.albedo, m.specular, m.roughness, m.alpha
+            ));
+            let mesh = &o.mesh;
+            h.floats(mesh.positions.iter().flat_map(|p| p.to_array()));
+            h.floats(mesh.normals.iter().flat_map(|p| p.to_array()));
+            h.floats(mesh.uvs.iter().flat_map(|p| p.to_array()));
+            h.bytes(mesh.indices.iter().flat_map(|i| i.to_le_bytes()));
+            if let Some(t) = &m.texture {
+                h.text(&format!("{}x{}", t.width, t.height));
+                h.bytes(t.srgb_rgba8.iter().copied());
+            }
+        }
+        h.0
+    }
     /// Triangles skipped while cleaning meshes (zero-area, duplicate-vertex), summed over objects.
     pub fn skipped_triangles(&self) -> usize {
         self.objects.iter().map(|o| o.mesh.stats.skipped_degenerate).sum()
+    }
+}
+
+/// 64-bit FNV-1a.
+struct Fnv1a(u64);
+
+impl Default for Fnv1a {
+    fn default() -> Self {
+        Fnv1a(0xcbf2_9ce4_8422_2325)
+    }
+}
+
+impl Fnv1a {
+    fn bytes(&mut self, bytes: impl IntoIterator<Item = u8>) {
+        for b in bytes {
+            self.0 = (self.0 ^ b as u64).wrapping_mul(0x0100_0000_01b3);
+        }
+    }
+    fn floats(&mut self, v: impl IntoIterator<Item = f32>) {
+        self.bytes(v.into_iter().flat_map(|f| f.to_bits().to_le_bytes()));
+    }
+    fn text(&mut self, s: &str) {
+        self.bytes(s.bytes());
+        self.bytes([0xff]);
     }
 }
