@@ -1,11 +1,12 @@
 #!/usr/bin/env bash
 # Installs what Shutter needs on Debian 12 (idempotent): Mesa lavapipe (software Vulkan), the Vulkan
-# loader and validation layers, and shaderc/glslang/SPIRV-Tools static libraries for build.rs.
+# loader and validation layers, shaderc/glslang/SPIRV-Tools static libraries for build.rs, and a font
+# for the plots of `shutter quality`.
 # Also checks for a Rust toolchain. Run as root or with sudo available.
 set -euo pipefail
 
 PACKAGES=(mesa-vulkan-drivers libvulkan1 vulkan-validationlayers libshaderc-dev glslang-dev spirv-tools
-          build-essential pkg-config)
+          build-essential pkg-config fonts-dejavu-core)
 
 missing=()
 for p in "${PACKAGES[@]}"; do

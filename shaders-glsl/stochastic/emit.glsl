@@ -1,5 +1,9 @@
 // Emission of a convex screen-space bound as a triangle strip, dilated by the box [-h, h]^2 (Minkowski
-// sum). Included by stochastic.geom after its in/out declarations. Mirrors bounds::dilate_box.
+// sum). Mirrors bounds::dilate_box. The including stage defines where strips go, before including this:
+//   void emit_ndc(vec2 ndc)  -- one strip vertex in normalized device coordinates
+//   void end_strip()         -- the strip is complete
+// (stochastic.geom emits them as geometry-shader output; expand.comp, the compute-expanded hull,
+// writes them to a buffer as triangles.)
 #ifndef SHUTTER_EMIT_GLSL
 #define SHUTTER_EMIT_GLSL
 
@@ -9,9 +13,7 @@
 const float MAX_EXTENT_VIEWPORTS = 4.0;
 
 void emit_pixel(vec2 p) {
-    gl_Position = vec4(2.0 * p.x / frame.viewport.x - 1.0, 2.0 * p.y / frame.viewport.y - 1.0, 0.5, 1.0);
-    gl_PrimitiveID = gl_PrimitiveIDIn;
-    EmitVertex();
+    emit_ndc(vec2(2.0 * p.x / frame.viewport.x - 1.0, 2.0 * p.y / frame.viewport.y - 1.0));
 }
 
 void emit_viewport() {
@@ -20,7 +22,7 @@ void emit_viewport() {
     emit_pixel(vec2(size.x, 0.0));
     emit_pixel(vec2(0.0, size.y));
     emit_pixel(size);
-    EndPrimitive();
+    end_strip();
 }
 
 // Quadrant of a direction, counter-clockwise (positive-area orientation) from +x: the box corner
@@ -75,8 +77,37 @@ bool emit_dilated(vec2 pts[BOUND_MAX_POINTS], int first, int n) {
         int idx = (k & 1) == 1 ? (k + 1) / 2 : (m - k / 2) % m;
         emit_pixel(q[idx]);
     }
-    EndPrimitive();
+    end_strip();
     return true;
+}
+
+// The end vertices the bound covers: open 0..2, close 3..5 — in the defocus-only permutation
+// (NO_MOTION) the triangle at mid-shutter at both ends (the fragment stage tests it there).
+vec3[6] bound_vertices(vec3 open[3], vec3 close[3]) {
+#ifdef NO_MOTION
+    vec3 m0 = mix(open[0], close[0], 0.5), m1 = mix(open[1], close[1], 0.5), m2 = mix(open[2], close[2], 0.5);
+    return vec3[6](m0, m1, m2, m0, m1, m2);
+#else
+    return vec3[6](open[0], open[1], open[2], close[0], close[1], close[2]);
+#endif
+}
+
+// Emits compute_bound's result: nothing when culled, each piece dilated, or the whole viewport (the
+// bound said so, or a piece reaches too far out to rasterize exactly).
+void emit_bound(int pieces, vec2 pts[BOUND_MAX_POINTS], int piece_len[BOUND_MAX_PIECES]) {
+    if (pieces == 0) return;
+    if (pieces < 0) {
+        emit_viewport();
+        return;
+    }
+    int first = 0;
+    for (int k = 0; k < pieces; k++) {
+        if (!emit_dilated(pts, first, piece_len[k])) {
+            emit_viewport();
+            return;
+        }
+        first += piece_len[k];
+    }
 }
 
 #endif

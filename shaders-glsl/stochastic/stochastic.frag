@@ -12,6 +12,7 @@
 //   NO_MOTION:  defocus-only objects (engine/src/plan.rs): the triangle at mid-shutter, no time
 //               interpolation, every sample shaded at t = 0.5.
 //   NO_DEFOCUS: motion-only objects: every sample's ray from the lens centre, no lens sampling.
+//   COMPUTE_HULL: behind the compute-expanded hull (hull.vert) rather than the geometry shader.
 // Attributes are interpolated with the sample's barycentrics; textures use analytic derivatives from
 // the triangle's plane over one sample's footprint; the view vector points to the sample's lens point.
 #include "common/shading.glsl"
@@ -40,6 +41,10 @@ layout(set = 3, binding = 2, std430) buffer Counters {
 } counters;
 
 layout(location = 0) out vec4 out_color;
+#ifdef COMPUTE_HULL
+// The compute-expanded hull (expand.comp, hull.vert) passes the triangle's index instead of a primitive ID.
+layout(location = 0) flat in uint v_triangle;
+#endif
 
 const uint SAMPLE_TILE_SIZE = 64u;
 
@@ -51,7 +56,11 @@ float depth_value(float z) {
 
 void main() {
     ObjectData o = objects[pc.object];
+#ifdef COMPUTE_HULL
+    uint prim = v_triangle;
+#else
     uint prim = uint(gl_PrimitiveID);
+#endif
     vec3 p_open[3], p_close[3];
     for (uint k = 0u; k < 3u; k++) {
         uint at = 18u * prim + 3u * k;

@@ -22,17 +22,20 @@ layout(location = 1) in vec3 v_close[];
 layout(set = 3, binding = 3, std430) writeonly buffer BoundDebug { float bound_debug[]; };
 #endif
 
+void emit_ndc(vec2 ndc) {
+    gl_Position = vec4(ndc, 0.5, 1.0);
+    gl_PrimitiveID = gl_PrimitiveIDIn;
+    EmitVertex();
+}
+
+void end_strip() {
+    EndPrimitive();
+}
+
 #include "stochastic/emit.glsl"
 
 void main() {
-#ifdef NO_MOTION
-    // Defocus-only permutation: the triangle at mid-shutter, still (the fragment stage tests it there).
-    vec3 mid[3] = vec3[3](mix(v_open[0], v_close[0], 0.5), mix(v_open[1], v_close[1], 0.5),
-                          mix(v_open[2], v_close[2], 0.5));
-    vec3 v[6] = vec3[6](mid[0], mid[1], mid[2], mid[0], mid[1], mid[2]);
-#else
-    vec3 v[6] = vec3[6](v_open[0], v_open[1], v_open[2], v_close[0], v_close[1], v_close[2]);
-#endif
+    vec3 v[6] = bound_vertices(vec3[3](v_open[0], v_open[1], v_open[2]), vec3[3](v_close[0], v_close[1], v_close[2]));
     vec2 pts[BOUND_MAX_POINTS];
     int piece_len[BOUND_MAX_PIECES];
     int pieces = compute_bound(pc.bound, v, pts, piece_len);
@@ -47,17 +50,5 @@ void main() {
         bound_debug[base + 9 + 2 * i] = pts[i].y;
     }
 #endif
-    if (pieces == 0) return;
-    if (pieces < 0) {
-        emit_viewport();
-        return;
-    }
-    int first = 0;
-    for (int k = 0; k < pieces; k++) {
-        if (!emit_dilated(pts, first, piece_len[k])) {
-            emit_viewport();  // coordinates too large to rasterize exactly: the whole viewport is conservative
-            return;
-        }
-        first += piece_len[k];
-    }
+    emit_bound(pieces, pts, piece_len);
 }

@@ -16,13 +16,14 @@ use shutter::scene::camera_space::CameraSpaceScene;
 use shutter::scene::{CameraPose, Mesh, Scene};
 use shutter::techniques::stochastic::{DebugOptions, StochasticRenderer, BOUND_DEBUG_STRIDE};
 use shutter::techniques::{
-    GpuScene, RenderOutput, RenderSettings, Renderer, ShadingRate, StochasticOptions, Technique,
+    GpuScene, HullExpansion, RenderOutput, RenderSettings, Renderer, ShadingRate, StochasticOptions,
+    Technique,
 };
 use shutter::vk::CommandRecorder;
 use shutter_tests::{camera, renderer, save_comparison, single_object_scene, square};
 
 fn options(bound: BoundKind, shading: ShadingRate) -> StochasticOptions {
-    StochasticOptions { bound, shading, instrumented: false }
+    StochasticOptions { bound, shading, instrumented: false, ..Default::default() }
 }
 
 fn render(
@@ -104,7 +105,7 @@ fn glsl_bounds_match_cpu_mirror() {
                 scene.camera.aperture,
                 scene.camera.shutter,
                 options(kind, ShadingRate::PerPixel),
-                DebugOptions { bound_debug_triangles: n as u32 },
+                DebugOptions { bound_debug_triangles: n as u32, ..Default::default() },
                 &vec![shutter::plan::Effects::Both; scene.objects.len()],
             )
             .unwrap();
@@ -466,4 +467,83 @@ fn hard_beyond_far_plane_at_one_end_of_shutter() {
     );
     scene.camera.far = 20.0;
     check_hard_case("beyond-far", &scene);
+}
+
+// ---------------------------------------------------------------------------------------------------
+// The compute-expanded hull (HullExpansion::Compute)
+
+fn with_hull(o: StochasticOptions, expansion: HullExpansion) -> StochasticOptions {
+    StochasticOptions { expansion, ..o }
+}
+
+/// The compute pass bounds and dilates exactly as the geometry shader does, so the images are the
+/// same and — instrumented — so are the hits (samples tested may differ: the fragments split along
+/// other triangle edges). On `default` for three bounds, and on `one-mover` through `auto` (the
+/// motion-only permutation next to the plain pipeline).
+#[test]
+fn compute_hull_matches_the_geometry_shader_hull() {
+    let (w, h, spp) = (160, 90, 4);
+    let mut r = renderer();
+    let scene = builtin_scene("default").unwrap().unwrap();
+    for kind in [BoundKind::BoundingBox, BoundKind::ConvexHull, BoundKind::Adaptive] {
+        let o = StochasticOptions { instrumented: true, ..options(kind, ShadingRate::PerPixel) };
+        let gs = render(&mut r, &scene, w, h, spp, 3, with_hull(o, HullExpansion::GeometryShader));
+        let cs = render(&mut r, &scene, w, h, spp, 3, with_hull(o, HullExpansion::Compute));
+        let (a, b) = (gs.stats.counters.unwrap(), cs.stats.counters.unwrap());
+        println!("{}: gs {a:?}\n  compute {b:?} (expand {:?} ms)", kind.name(), cs.timings.get("expand"));
+        assert!(cs.timings.get("expand").is_some());
+        assert_eq!(a.samples_hit, b.samples_hit, "{}: hits differ", kind.name());
+        let d = max_abs_diff(&gs.image, &cs.image);
+        assert!(d <= 1e-6, "{}: compute hull changes the image by {d}", kind.name());
+    }
+    let scene = builtin_scene("one-mover").unwrap().unwrap();
+    let s = |e| {
+        RenderSettings::new(w, h, 16, 3)
+            .with_stochastic(with_hull(options(BoundKind::Adaptive, ShadingRate::PerSample), e))
+    };
+    let gs = r.render(&scene, Technique::Auto, &s(HullExpansion::GeometryShader)).unwrap();
+    let cs = r.render(&scene, Technique::Auto, &s(HullExpansion::Compute)).unwrap();
+    let d = max_abs_diff(&gs.image, &cs.image);
+    assert!(d <= 1e-6, "auto on one-mover: compute hull changes the image by {d}");
+}
+
+/// A hull buffer far too small overflows; the renderer grows it and expands again: the image is the
+/// one the default capacity gives, and the buffer ends at least as large as the vertices needed.
+#[test]
+fn compute_hull_overflow_grows_the_buffer_and_loses_nothing() {
+    let (w, h) = (160, 90);
+    let r = renderer();
+    let scene = builtin_scene("default").unwrap().unwrap();
+    let device = r.device().clone();
+    let mut rec = CommandRecorder::new(&device, "hull overflow test").unwrap();
+    let gpu_scene = GpuScene::upload(&device, &mut rec, &scene, w, h).unwrap();
+    let o = with_hull(options(BoundKind::Adaptive, ShadingRate::PerPixel), HullExpansion::Compute);
+    let mut images = vec![];
+    for per_triangle in [Some(3), None] {
+        let mut sr = StochasticRenderer::new(
+            &device,
+            &gpu_scene,
+            4,
+            1,
+            scene.camera.aperture,
+            scene.camera.shutter,
+            o,
+            DebugOptions { hull_vertices_per_triangle: per_triangle, ..Default::default() },
+            &vec![shutter::plan::Effects::Both; scene.objects.len()],
+        )
+        .unwrap();
+        let (image, _, _) = sr.render(&device, &mut rec, &gpu_scene).unwrap();
+        device.check_validation().unwrap();
+        let (capacity, used) = sr.hull_usage().unwrap();
+        println!("vertices per triangle {per_triangle:?}: capacity {capacity:?}, used {used:?}");
+        for (c, u) in capacity.iter().zip(&used) {
+            assert!(u <= c, "{used:?} over {capacity:?}");
+        }
+        if per_triangle == Some(3) {
+            let tris: Vec<u32> = gpu_scene.objects.iter().map(|o| (o.index_count / 3).max(1) * 3).collect();
+            assert!(capacity.iter().zip(&tris).any(|(c, t)| c > t), "nothing grew: {capacity:?}");
+        }
+        images.push(image);
+    }
+    assert!(max_abs_diff(&images[0], &images[1]) <= 1e-6, "the overflowed expansion lost coverage");
 }

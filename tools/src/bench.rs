@@ -17,8 +17,8 @@ use serde::Serialize;
 use shutter::scene::Scene;
 use shutter::techniques::{RenderSettings, Renderer, SampleCounters, StochasticOptions, Technique};
 
-/// One configuration: `technique[:key=value...]` with keys spp, bound, shading (and those the
-/// stochastic options grow); unset keys take the command's defaults.
+/// One configuration: `technique[:key=value...]` with keys spp, bound, shading, msaa, hull; unset keys
+/// take the command's defaults.
 #[derive(Clone, Debug)]
 pub struct Config {
     pub label: String,
@@ -47,7 +47,9 @@ pub fn apply_option(s: &mut RenderSettings, key: &str, value: &str) -> Result<()
         "spp" => s.spp = value.parse().with_context(|| format!("spp `{value}`"))?,
         "bound" => o.bound = value.parse()?,
         "shading" => o.shading = value.parse()?,
-        _ => bail!("unknown setting `{key}` (spp, bound, shading)"),
+        "msaa" => o.msaa = Some(value.parse().with_context(|| format!("msaa `{value}`"))?),
+        "hull" => o.expansion = value.parse()?,
+        _ => bail!("unknown setting `{key}` (spp, bound, shading, msaa, hull)"),
     }
     Ok(())
 }

@@ -53,6 +53,13 @@ enum Command {
         /// Stochastic: count samples tested / hit and shading invocations (atomics; slower).
         #[arg(long)]
         instrumented: bool,
+        /// Stochastic: force M MSAA samples per pass (S = M × passes). Default: the largest the device
+        /// supports that divides S.
+        #[arg(long)]
+        msaa: Option<u32>,
+        /// Stochastic: expand the bounds in a geometry shader (gs) or a compute pass (compute).
+        #[arg(long, default_value = "gs")]
+        hull: String,
         #[command(flatten)]
         image: ImageArgs,
     },
@@ -104,7 +111,7 @@ enum Command {
     Bench {
         #[arg(default_value = "default")]
         scene: String,
-        /// A configuration `technique[:spp=N][:bound=B][:shading=per-pixel|per-sample]`; repeat for
+        /// A configuration `technique[:spp=N][:bound=B][:shading=per-pixel|per-sample][:msaa=M][:hull=gs|compute]`; repeat for
         /// more. The first is the baseline of the ratios.
         #[arg(short = 'c', long = "config", default_values_t = ["auto".to_string(), "pinhole".to_string()])]
         configs: Vec<String>,
@@ -139,7 +146,7 @@ enum Command {
     Quality {
         #[arg(default_value = "default")]
         scene: String,
-        /// A series `technique[:key=value...]@S1,S2,...` (keys: spp, bound, shading); repeat for more.
+        /// A series `technique[:key=value...]@S1,S2,...` (keys: bound, shading, msaa, hull); repeat for more.
         #[arg(short = 's', long = "series", default_values_t = [
             "accumulation@4,16,64,256".to_string(),
             "stochastic@4,16,64".to_string(),
@@ -168,8 +175,9 @@ enum Command {
         /// Also save every point's image as <out>-<series>-S<n>.png.
         #[arg(long)]
         images: bool,
-        /// Two series `SLOW,FAST` whose ms are compared at equal FLIP.
-        #[arg(long, value_delimiter = ',', default_values_t = ["accumulation".to_string(), "stochastic".to_string()])]
+        /// Two series `A,B` whose ms are compared at equal FLIP (A ÷ B); repeat for more pairs.
+        /// Default: `accumulation` against every other series, when there is an `accumulation` series.
+        #[arg(long)]
         compare: Vec<String>,
     },
     /// Print the effect planner's decision per object (technique `auto`) with the numbers behind it.
@@ -234,11 +242,18 @@ fn run() -> Result<()> {
             bound,
             shading,
             instrumented,
+            msaa,
+            hull,
             image: ImageArgs { size, seed, out },
         } => {
             let technique: Technique = technique.parse()?;
-            let stochastic =
-                StochasticOptions { bound: bound.parse()?, shading: shading.parse()?, instrumented };
+            let stochastic = StochasticOptions {
+                bound: bound.parse()?,
+                shading: shading.parse()?,
+                instrumented,
+                msaa,
+                expansion: hull.parse()?,
+            };
             let sc = load_scene(&scene)?;
             let mut settings = RenderSettings::from_scene(&sc).with_stochastic(stochastic);
             if let Some((w, h)) = size {
@@ -284,7 +299,12 @@ fn run() -> Result<()> {
             if technique == Technique::Stochastic
                 || output.stats.plan.as_ref().is_some_and(|p| p.needs_stochastic())
             {
-                println!("  bound {}, shading {}", stochastic.bound.name(), stochastic.shading.name());
+                println!(
+                    "  bound {}, shading {}, {} hull",
+                    stochastic.bound.name(),
+                    stochastic.shading.name(),
+                    stochastic.expansion.name()
+                );
             }
             if let Some(c) = output.stats.counters {
                 println!(
@@ -438,10 +458,23 @@ fn run() -> Result<()> {
                     PathBuf::from(format!("out/quality-{}", sc.name))
                 }
             };
-            let compare = match compare.as_slice() {
-                [] => None,
-                [slow, fast] => Some((slow.clone(), fast.clone())),
-                _ => anyhow::bail!("--compare takes two series names: SLOW,FAST"),
+            let compare = if compare.is_empty() {
+                let names: Vec<&str> = series.iter().map(|s| s.name.as_str()).collect();
+                match names.iter().find(|n| **n == "accumulation") {
+                    Some(acc) => {
+                        names.iter().filter(|n| *n != acc).map(|n| (acc.to_string(), n.to_string())).collect()
+                    }
+                    None => vec![],
+                }
+            } else {
+                compare
+                    .iter()
+                    .map(|c| {
+                        c.split_once(',')
+                            .map(|(a, b)| (a.trim().to_string(), b.trim().to_string()))
+                            .with_context(|| format!("--compare `{c}` is not A,B"))
+                    })
+                    .collect::<Result<Vec<_>>>()?
             };
             let args = quality::QualityArgs {
                 series,
@@ -482,6 +515,10 @@ fn run() -> Result<()> {
             let device = shutter::vk::create_device()?;
             println!("{}", device.caps);
             println!("validation        {}", if device.validation_enabled { "on" } else { "off" });
+            println!("\npaths Shutter takes on this device:");
+            for p in shutter::techniques::feature_paths(&device.caps) {
+                println!("  {:<34} {:<5} {}", p.feature, if p.available { "yes" } else { "no" }, p.path);
+            }
         }
         Command::Scenes => {
             for s in BUILTIN_SCENES {

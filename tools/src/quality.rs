@@ -67,8 +67,8 @@ pub struct QualityArgs {
     pub out: PathBuf,
     /// Also save each point's image as `<out>-<series>-S<n>.png`.
     pub images: bool,
-    /// The two series whose milliseconds are compared at equal FLIP (slow ÷ fast).
-    pub compare: Option<(String, String)>,
+    /// Pairs of series whose milliseconds are compared at equal FLIP (first ÷ second).
+    pub compare: Vec<(String, String)>,
 }
 
 /// One measured point.
@@ -344,7 +344,7 @@ pub fn markdown(scene: &Scene, a: &QualityArgs, points: &[Point], device: &str) 
             if front.contains(&i) { "●" } else { "" }
         );
     }
-    if let Some((slow, fast)) = &a.compare {
+    for (slow, fast) in &a.compare {
         let r = ratios_at_equal_flip(points, slow, fast);
         let _ = writeln!(
             md,

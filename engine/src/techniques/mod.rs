@@ -12,6 +12,7 @@
 //! [`Scene`] with a [`Technique`] into a [`RenderOutput`].
 
 pub mod accumulation;
+pub mod compute_hull;
 pub mod forward;
 pub mod gpu_scene;
 pub mod pinhole;
@@ -21,6 +22,7 @@ pub mod targets;
 use std::str::FromStr;
 use std::time::Instant;
 
+pub use compute_hull::HullExpansion;
 pub use forward::PassSample;
 pub use gpu_scene::GpuScene;
 pub use stochastic::{SampleCounters, ShadingRate, StochasticOptions};
@@ -213,6 +215,11 @@ impl Renderer {
         let upload_ms = t0.elapsed().as_secs_f64() * 1e3;
         let c = &scene.camera;
         let plan = (technique == Technique::Auto).then(|| Plan::new(scene, settings.width, settings.height));
+        // `auto` takes the compute-expanded hull where there is no geometry shader.
+        let mut options = settings.stochastic;
+        if technique == Technique::Auto && !self.device.caps.geometry_shader {
+            options.expansion = HullExpansion::Compute;
+        }
         let stochastic = |effects: &[Effects]| -> Result<Frame> {
             Ok(Frame::Stochastic(Box::new(stochastic::StochasticRenderer::new(
                 &self.device,
@@ -221,7 +228,7 @@ impl Renderer {
                 settings.seed,
                 c.aperture,
                 c.shutter,
-                settings.stochastic,
+                options,
                 Default::default(),
                 effects,
             )?)))
@@ -294,4 +301,99 @@ pub struct PreparedFrame {
     triangles: usize,
     upload_ms: f64,
     plan: Option<Plan>,
+}
+
+/// Which path Shutter takes on a device for one hardware feature (`shutter probe`).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct FeaturePath {
+    pub feature: String,
+    pub available: bool,
+    pub path: String,
+}
+
+/// The path taken for each feature the techniques can use, and what forces the alternative.
+pub fn feature_paths(caps: &crate::vk::Capabilities) -> Vec<FeaturePath> {
+    let counts = &caps.framebuffer_sample_counts;
+    let f = |feature: &str, available: bool, path: String| FeaturePath {
+        feature: feature.into(),
+        available,
+        path,
+    };
+    let split = |s: u32| {
+        let (m, p) = stochastic::split_samples(s, counts);
+        format!("S={s} → {p} pass(es) × {m}x")
+    };
+    vec![
+        f(
+            "geometryShader",
+            caps.geometry_shader,
+            if caps.geometry_shader {
+                "stochastic/auto expand each triangle's bound in a geometry shader (default; --hull compute: \
+                 a compute pass expands them once per frame)"
+                    .into()
+            } else {
+                "no geometry shader: auto takes the compute-expanded hull; stochastic needs --hull compute".into()
+            },
+        ),
+        f(
+            "MSAA",
+            counts.len() > 1,
+            format!(
+                "counts {counts:?}; stochastic splits S into passes of the largest count dividing S ({}, {}); \
+                 force with --msaa M; pinhole uses {}x",
+                split(16),
+                split(64),
+                caps.msaa_samples(pinhole::PINHOLE_MSAA)
+            ),
+        ),
+        f(
+            "sampleRateShading",
+            caps.sample_rate_shading,
+            if caps.sample_rate_shading {
+                "default per-pixel shading (one invocation loops over the pass' samples and writes the mask); \
+                 --shading per-sample runs one invocation per sample"
+                    .into()
+            } else {
+                "per-pixel shading only (mask loop); --shading per-sample is refused".into()
+            },
+        ),
+        f(
+            "fragmentStoresAndAtomics",
+            caps.fragment_stores_and_atomics,
+            if caps.fragment_stores_and_atomics {
+                "sample counters available (--instrumented)".into()
+            } else {
+                "no sample counters".into()
+            },
+        ),
+        f(
+            "standard sample locations",
+            caps.standard_sample_locations,
+            format!(
+                "bound dilation {:.4} px at 4x ({})",
+                crate::bounds::dilation_px(4, caps.standard_sample_locations),
+                if caps.standard_sample_locations { "from the standard locations" } else { "half-pixel box: locations unknown" }
+            ),
+        ),
+        f(
+            "VK_EXT_conservative_rasterization",
+            caps.conservative_rasterization,
+            if caps.conservative_rasterization {
+                "present but unused: the bounds are dilated by the exact pixel box in the shader (an \
+                 extension path is not implemented: no device with the extension was available to test it)"
+                    .into()
+            } else {
+                "absent: bounds are dilated by the exact pixel box in the shader".into()
+            },
+        ),
+        f(
+            "timestamps",
+            caps.timestamps,
+            if caps.timestamps {
+                format!("GPU pass times from timestamp queries ({} ns/tick)", caps.timestamp_period_ns)
+            } else {
+                "no GPU timings (reported as 0)".into()
+            },
+        ),
+    ]
 }

@@ -18,6 +18,7 @@
 use ash::vk;
 use gpu_allocator::MemoryLocation;
 
+use super::compute_hull::{ComputeHull, HullExpansion, INITIAL_VERTICES_PER_TRIANGLE};
 use super::forward::{ForwardPipeline, PassSample};
 use super::gpu_scene::GpuScene;
 use super::targets::{PassTargets, COLOR_FORMAT, DEPTH_FORMAT};
@@ -73,11 +74,23 @@ pub struct StochasticOptions {
     pub shading: ShadingRate,
     /// Count samples tested / hit and shading invocations with atomics (slower).
     pub instrumented: bool,
+    /// MSAA samples per pass M (S = M × passes): `None` takes the largest the device supports that
+    /// divides S ([`split_samples`]); `Some(m)` forces m (a hardware experiment: fewer, cheaper MSAA
+    /// passes against more passes).
+    pub msaa: Option<u32>,
+    /// Geometry shader or compute-expanded hull ([`HullExpansion`]).
+    pub expansion: HullExpansion,
 }
 
 impl Default for StochasticOptions {
     fn default() -> Self {
-        StochasticOptions { bound: DEFAULT_BOUND, shading: ShadingRate::PerPixel, instrumented: false }
+        StochasticOptions {
+            bound: DEFAULT_BOUND,
+            shading: ShadingRate::PerPixel,
+            instrumented: false,
+            msaa: None,
+            expansion: HullExpansion::GeometryShader,
+        }
     }
 }
 
@@ -201,6 +214,10 @@ pub struct StochasticRenderer {
     dilate: f32,
     counters: Buffer,
     bound_debug: Buffer,
+    /// The compute-expanded hull's buffers and pipelines ([`HullExpansion::Compute`]).
+    hull: Option<ComputeHull>,
+    /// Vertices of each object's expanded hull this frame (compute expansion).
+    hull_counts: Vec<u32>,
     _samples: [Buffer; 2],
     _pool: DescriptorPool,
     _set_layouts: [DescriptorSetLayout; 2],
@@ -218,6 +235,9 @@ const TRIANGLE_RECORD_BYTES: u64 = 18 * 4;
 pub struct DebugOptions {
     /// Capacity, in triangles, of the bound debug buffer (0 = off).
     pub bound_debug_triangles: u32,
+    /// Initial hull buffer capacity per triangle of the compute expansion (None: the default; a tiny
+    /// value exercises the overflow path).
+    pub hull_vertices_per_triangle: Option<u32>,
 }
 
 /// Floats per triangle in the bound debug buffer (see `stochastic.geom`).
@@ -248,12 +268,23 @@ impl StochasticRenderer {
         let mut paths: Vec<Effects> = object_effects.iter().copied().filter(|e| e.is_stochastic()).collect();
         paths.sort();
         paths.dedup();
-        caps.require(Feature::GeometryShader, "technique `stochastic` (hull expansion)")?;
+        if options.expansion == HullExpansion::GeometryShader {
+            caps.require(
+                Feature::GeometryShader,
+                "technique `stochastic` with the geometry-shader hull (--hull compute needs none)",
+            )?;
+        }
         if options.shading == ShadingRate::PerSample {
             caps.require(Feature::SampleRateShading, "technique `stochastic --shading per-sample`")?;
         }
         if options.instrumented {
             caps.require(Feature::FragmentStoresAndAtomics, "instrumented `stochastic` (sample counters)")?;
+        }
+        let compute = options.expansion == HullExpansion::Compute;
+        if compute && debug.bound_debug_triangles > 0 {
+            return Err(Error::Unsupported(
+                "the bound debug output exists for the geometry-shader hull only".into(),
+            ));
         }
         if debug.bound_debug_triangles > 0 {
             caps.require(Feature::VertexPipelineStoresAndAtomics, "the bound debug output")?;
@@ -265,7 +296,16 @@ impl StochasticRenderer {
                 limit: format!("1..={MAX_STOCHASTIC_SPP} for technique `stochastic`"),
             });
         }
-        let (msaa, passes) = split_samples(spp, &caps.framebuffer_sample_counts);
+        let (msaa, passes) = match options.msaa {
+            None => split_samples(spp, &caps.framebuffer_sample_counts),
+            Some(m) if caps.framebuffer_sample_counts.contains(&m) && spp.is_multiple_of(m) => (m, spp / m),
+            Some(m) => {
+                return Err(Error::Unsupported(format!(
+                "{m}x MSAA per pass for S = {spp}: it must divide S and be one of the device's counts {:?}",
+                caps.framebuffer_sample_counts
+            )))
+            }
+        };
 
         if debug.bound_debug_triangles > 0 && paths.iter().any(|&e| e != Effects::Both) {
             return Err(Error::Unsupported(
@@ -282,6 +322,13 @@ impl StochasticRenderer {
                 (0, vk::DescriptorType::STORAGE_BUFFER, geometry_stages),
                 (1, vk::DescriptorType::STORAGE_BUFFER, geometry_stages),
                 (2, vk::DescriptorType::STORAGE_BUFFER, geometry_stages),
+                // The compute-expanded hull: its triangle list and the per-object vertex counts.
+                (
+                    3,
+                    vk::DescriptorType::STORAGE_BUFFER,
+                    vk::ShaderStageFlags::COMPUTE | vk::ShaderStageFlags::VERTEX,
+                ),
+                (4, vk::DescriptorType::STORAGE_BUFFER, vk::ShaderStageFlags::COMPUTE),
             ],
         )?;
         let comp = ShaderModule::new(device, shaders::STOCHASTIC_TRIANGLES_COMP)?;
@@ -312,18 +359,34 @@ impl StochasticRenderer {
         let (bindings, attributes) = GpuScene::vertex_input();
         let mut shader_modules = vec![vert];
         let mut pipelines = Vec::with_capacity(paths.len());
+        let hull_vert = ShaderModule::new(device, shaders::STOCHASTIC_HULL_VERT)?;
         for &effects in &paths {
-            let geom = ShaderModule::new(device, geometry_shader(effects, debug.bound_debug_triangles > 0))?;
-            let frag =
-                ShaderModule::new(device, fragment_shader(options.shading, options.instrumented, effects))?;
+            let per_sample = options.shading == ShadingRate::PerSample;
+            let (first, geom, frag) = if compute {
+                let frag = ShaderModule::new(
+                    device,
+                    super::compute_hull::fragment_shader(per_sample, options.instrumented, effects),
+                )?;
+                (&hull_vert, None, frag)
+            } else {
+                let geom =
+                    ShaderModule::new(device, geometry_shader(effects, debug.bound_debug_triangles > 0))?;
+                let frag = ShaderModule::new(
+                    device,
+                    fragment_shader(options.shading, options.instrumented, effects),
+                )?;
+                (&shader_modules[0], Some(geom), frag)
+            };
+            let stages: Vec<&ShaderModule> =
+                [Some(first), geom.as_ref(), Some(&frag)].into_iter().flatten().collect();
             let pipeline = Pipeline::graphics(
                 device,
                 &layout,
                 &GraphicsDesc {
-                    name: &format!("stochastic ({})", effects.name()),
-                    stages: &[&shader_modules[0], &geom, &frag],
-                    vertex_bindings: &bindings,
-                    vertex_attributes: &attributes[..1],
+                    name: &format!("stochastic ({}, {} hull)", effects.name(), options.expansion.name()),
+                    stages: &stages,
+                    vertex_bindings: if compute { &[] } else { &bindings },
+                    vertex_attributes: if compute { &[] } else { &attributes[..1] },
                     color_formats: &[COLOR_FORMAT],
                     depth_format: Some(DEPTH_FORMAT),
                     samples: msaa,
@@ -335,8 +398,10 @@ impl StochasticRenderer {
                 },
             )?;
             pipelines.push((effects, pipeline));
-            shader_modules.extend([geom, frag]);
+            shader_modules.extend(geom);
+            shader_modules.push(frag);
         }
+        shader_modules.push(hull_vert);
         let plain = if object_effects.contains(&Effects::Pinhole) {
             Some(ForwardPipeline::new(device, scene, msaa)?)
         } else {
@@ -357,7 +422,7 @@ impl StochasticRenderer {
         let pool = DescriptorPool::new(
             device,
             n_objects + 1,
-            &[(vk::DescriptorType::STORAGE_BUFFER, 3 * n_objects + 4)],
+            &[(vk::DescriptorType::STORAGE_BUFFER, 5 * n_objects + 4)],
         )?;
         let sample_set = pool.allocate(&sample_layout)?;
         let buffer = |binding, b: &Buffer| DescriptorWrite::Buffer {
@@ -386,6 +451,18 @@ impl StochasticRenderer {
             object_sets.push(set);
             triangles.push(t);
         }
+        let hull = if compute {
+            Some(ComputeHull::new(
+                device,
+                scene,
+                &paths,
+                &geometry_layout,
+                &object_sets,
+                debug.hull_vertices_per_triangle.unwrap_or(INITIAL_VERTICES_PER_TRIANGLE),
+            )?)
+        } else {
+            None
+        };
         let targets = PassTargets::new(device, scene.width, scene.height, msaa)?;
         shader_modules.push(comp);
         Ok(StochasticRenderer {
@@ -402,6 +479,8 @@ impl StochasticRenderer {
             dilate: crate::bounds::dilation_px(msaa, caps.standard_sample_locations),
             counters,
             bound_debug,
+            hull,
+            hull_counts: vec![0; scene.objects.len()],
             _samples: samples,
             _pool: pool,
             _set_layouts: [geometry_layout, sample_layout],
@@ -425,15 +504,52 @@ impl StochasticRenderer {
         scene: &GpuScene,
     ) -> Result<(LinearImage, PassTimings, Option<SampleCounters>)> {
         self.counters.write(&[0u32; 4])?;
-        let mut timer = GpuTimer::new(device, 1)?;
-        rec.submit(|d, cmd| {
-            timer.reset(cmd);
-            let t = timer.begin(cmd, "triangles");
-            self.record_triangles(d, cmd, scene);
-            timer.end(cmd, t);
-            Ok(())
-        })?;
-        let mut pre = timer.results()?;
+        let mut timer = GpuTimer::new(device, 2)?;
+        let mut pre = loop {
+            if let Some(h) = &mut self.hull {
+                h.reset_counts()?;
+            }
+            let this = &*self;
+            rec.submit(|d, cmd| {
+                timer.reset(cmd);
+                let t = timer.begin(cmd, "triangles");
+                this.record_triangles(d, cmd, scene);
+                timer.end(cmd, t);
+                if let Some(h) = &this.hull {
+                    let t = timer.begin(cmd, "expand");
+                    h.record_expand(
+                        d,
+                        cmd,
+                        scene,
+                        &this.object_sets,
+                        &this.object_effects,
+                        this.options.bound.id(),
+                        this.dilate,
+                    );
+                    // The passes' vertex shaders read the hulls (in later submissions). Inside the timed
+                    // scope: a driver may defer the dispatches' work to the barrier (lavapipe does).
+                    crate::vk::memory_barrier(
+                        d,
+                        cmd,
+                        (vk::PipelineStageFlags2::COMPUTE_SHADER, vk::AccessFlags2::SHADER_STORAGE_WRITE),
+                        (vk::PipelineStageFlags2::VERTEX_SHADER, vk::AccessFlags2::SHADER_STORAGE_READ),
+                    );
+                    timer.end(cmd, t);
+                }
+                Ok(())
+            })?;
+            let timings = timer.results()?;
+            match &mut self.hull {
+                None => break timings,
+                Some(h) => {
+                    // An overflowed buffer grows and the expansion runs again: no bound is dropped.
+                    if !h.grow_overflowed(device, scene, &self.object_sets)? {
+                        self.hull_counts = h.counts()?;
+                        break timings;
+                    }
+                }
+            }
+        };
         let this = &*self;
         let mut draw =
             |d: &Device, cmd: vk::CommandBuffer, pass: usize| this.record_draws(d, cmd, scene, pass as u32);
@@ -462,6 +578,12 @@ impl StochasticRenderer {
             None
         };
         Ok((image, timings, counters))
+    }
+
+    /// The compute-expanded hull's buffer capacity and this frame's vertex count per object (None
+    /// behind the geometry shader).
+    pub fn hull_usage(&self) -> Option<(Vec<u32>, Vec<u32>)> {
+        self.hull.as_ref().map(|h| (h.capacity().to_vec(), self.hull_counts.clone()))
     }
 
     /// The geometry shader's debug output: per triangle of the first object, `BOUND_DEBUG_STRIDE` floats.
@@ -511,12 +633,16 @@ impl StochasticRenderer {
                 d.raw.cmd_dispatch(cmd, count.div_ceil(64), 1, 1);
             }
         }
-        // Later submissions' fragment shaders read the records (barrier scopes span submission order).
+        // The expansion (same submission) and later submissions' fragment shaders read the records
+        // (barrier scopes span submission order).
         crate::vk::memory_barrier(
             d,
             cmd,
             (vk::PipelineStageFlags2::COMPUTE_SHADER, vk::AccessFlags2::SHADER_STORAGE_WRITE),
-            (vk::PipelineStageFlags2::FRAGMENT_SHADER, vk::AccessFlags2::SHADER_STORAGE_READ),
+            (
+                vk::PipelineStageFlags2::COMPUTE_SHADER | vk::PipelineStageFlags2::FRAGMENT_SHADER,
+                vk::AccessFlags2::SHADER_STORAGE_READ,
+            ),
         );
         d.end_label(cmd);
     }
@@ -547,9 +673,31 @@ impl StochasticRenderer {
                 d.raw.cmd_bind_descriptor_sets(cmd, bind, self.layout.raw, 3, &[self.sample_set], &[]);
             }
             let include = |i: usize| self.object_effects[i] == *effects;
-            scene.record_object_draws(d, cmd, &self.layout, stages, include, push, |i| {
-                Some(self.object_sets[i])
-            });
+            if self.hull.is_none() {
+                scene.record_object_draws(d, cmd, &self.layout, stages, include, push, |i| {
+                    Some(self.object_sets[i])
+                });
+                continue;
+            }
+            // Compute-expanded hull: each object's triangle list, no vertex input.
+            unsafe {
+                d.raw.cmd_bind_descriptor_sets(cmd, bind, self.layout.raw, 0, &[scene.frame_set], &[]);
+                for (i, o) in scene.objects.iter().enumerate() {
+                    if !include(i) || self.hull_counts[i] == 0 {
+                        continue;
+                    }
+                    d.raw.cmd_push_constants(cmd, self.layout.raw, stages, 0, as_bytes(&push(i)));
+                    d.raw.cmd_bind_descriptor_sets(
+                        cmd,
+                        bind,
+                        self.layout.raw,
+                        1,
+                        &[o.material_set, self.object_sets[i]],
+                        &[],
+                    );
+                    d.raw.cmd_draw(cmd, self.hull_counts[i], 1, 0, 0);
+                }
+            }
         }
     }
 }

@@ -1,0 +1,80 @@
+#version 460
+// The compute-expanded hull (a hardware-feature experiment: lavapipe runs compute on every core but its
+// geometry stage on one): once per frame and object, each invocation bounds one triangle exactly as
+// stochastic.geom does (compute_bound, emit.glsl's dilation) and appends the strips as a triangle list
+// to the object's hull buffer — 3 floats per vertex: NDC x, y and the triangle index (as uint bits) —
+// reserving its vertices with one atomicAdd. A plain draw of that buffer (hull.vert) then feeds the
+// same fragment shader (COMPUTE_HULL). Past the buffer's capacity nothing is written but the count
+// still grows: the renderer reads it back, grows the buffer and expands again, so no bound is lost.
+#include "stochastic/bounds.glsl"
+
+layout(local_size_x = 64) in;
+
+// Camera-space triangles at shutter open and close, 18 floats each (triangles.comp).
+layout(set = 1, binding = 2, std430) readonly buffer Triangles { float triangles[]; };
+layout(set = 1, binding = 3, std430) writeonly buffer Hull { float hull[]; };
+layout(set = 1, binding = 4, std430) buffer HullCounts { uint hull_vertices[]; };
+
+layout(push_constant) uniform Push {
+    uint object;          // index into hull_vertices
+    uint triangle_count;
+    uint bound;           // bound kind id
+    uint capacity;        // vertices the hull buffer holds
+    float dilate;         // box half-size, pixels (emit.glsl reads pc.dilate)
+} pc;
+
+// The strips of this invocation's bound, gathered before they are written as triangles.
+const int MAX_STRIP_POINTS = BOUND_MAX_POINTS + 4 * BOUND_MAX_PIECES + 4;
+vec2 strip_pts[MAX_STRIP_POINTS];
+int strip_end[BOUND_MAX_PIECES + 1];
+int strip_n = 0, strips = 0;
+
+void emit_ndc(vec2 ndc) {
+    if (strip_n < MAX_STRIP_POINTS) strip_pts[strip_n++] = ndc;
+}
+
+void end_strip() {
+    strip_end[strips++] = strip_n;
+}
+
+#include "stochastic/emit.glsl"
+
+void main() {
+    uint t = gl_GlobalInvocationID.x;
+    if (t >= pc.triangle_count) return;
+    vec3 open[3], close[3];
+    for (uint k = 0u; k < 3u; k++) {
+        uint at = 18u * t + 3u * k;
+        open[k] = vec3(triangles[at], triangles[at + 1u], triangles[at + 2u]);
+        close[k] = vec3(triangles[at + 9u], triangles[at + 10u], triangles[at + 11u]);
+    }
+    vec2 pts[BOUND_MAX_POINTS];
+    int piece_len[BOUND_MAX_PIECES];
+    int pieces = compute_bound(pc.bound, bound_vertices(open, close), pts, piece_len);
+    emit_bound(pieces, pts, piece_len);
+    uint n = 0u;
+    int begin = 0;
+    for (int s = 0; s < strips; s++) {
+        n += uint(3 * max(strip_end[s] - begin - 2, 0));
+        begin = strip_end[s];
+    }
+    if (n == 0u) return;
+    uint base = atomicAdd(hull_vertices[pc.object], n);
+    if (base + n > pc.capacity) return;  // counted, not written: the renderer grows the buffer and reruns
+    float id = uintBitsToFloat(t);
+    uint w = 3u * base;
+    begin = 0;
+    for (int s = 0; s < strips; s++) {
+        // Strip triangle k is (k, k + 1, k + 2); winding does not matter (nothing is culled).
+        for (int k = begin; k + 2 < strip_end[s]; k++) {
+            for (int j = 0; j < 3; j++) {
+                vec2 p = strip_pts[k + j];
+                hull[w] = p.x;
+                hull[w + 1u] = p.y;
+                hull[w + 2u] = id;
+                w += 3u;
+            }
+        }
+        begin = strip_end[s];
+    }
+}
