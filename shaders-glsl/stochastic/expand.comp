@@ -2,8 +2,8 @@
 // The compute-expanded hull (a hardware-feature experiment: lavapipe runs compute on every core but its
 // geometry stage on one): once per frame and object, each invocation bounds one triangle exactly as
 // stochastic.geom does (compute_bound, emit.glsl's dilation) and appends the strips as a triangle list
-// to the object's hull buffer — 3 floats per vertex: NDC x, y and the triangle index (as uint bits) —
-// reserving its vertices with one atomicAdd. A plain draw of that buffer (hull.vert) then feeds the
+// to the object's hull buffer — NDC x, y per vertex, and the source triangle's index per hull triangle
+// in a second buffer (8 + 4/3 bytes per vertex) — reserving its vertices with one atomicAdd. A plain draw of that buffer (hull.vert) then feeds the
 // same fragment shader (COMPUTE_HULL). Past the buffer's capacity nothing is written but the count
 // still grows: the renderer reads it back, grows the buffer and expands again, so no bound is lost.
 #include "stochastic/bounds.glsl"
@@ -12,8 +12,9 @@ layout(local_size_x = 64) in;
 
 // Camera-space triangles at shutter open and close, 18 floats each (triangles.comp).
 layout(set = 1, binding = 2, std430) readonly buffer Triangles { float triangles[]; };
-layout(set = 1, binding = 3, std430) writeonly buffer Hull { float hull[]; };
+layout(set = 1, binding = 3, std430) writeonly buffer Hull { vec2 hull[]; };
 layout(set = 1, binding = 4, std430) buffer HullCounts { uint hull_vertices[]; };
+layout(set = 1, binding = 5, std430) writeonly buffer HullTriangles { uint hull_triangle[]; };
 
 layout(push_constant) uniform Push {
     uint object;          // index into hull_vertices
@@ -61,19 +62,14 @@ void main() {
     if (n == 0u) return;
     uint base = atomicAdd(hull_vertices[pc.object], n);
     if (base + n > pc.capacity) return;  // counted, not written: the renderer grows the buffer and reruns
-    float id = uintBitsToFloat(t);
-    uint w = 3u * base;
+    uint w = base;
     begin = 0;
     for (int s = 0; s < strips; s++) {
         // Strip triangle k is (k, k + 1, k + 2); winding does not matter (nothing is culled).
         for (int k = begin; k + 2 < strip_end[s]; k++) {
-            for (int j = 0; j < 3; j++) {
-                vec2 p = strip_pts[k + j];
-                hull[w] = p.x;
-                hull[w + 1u] = p.y;
-                hull[w + 2u] = id;
-                w += 3u;
-            }
+            hull_triangle[w / 3u] = t;
+            for (int j = 0; j < 3; j++) hull[w + uint(j)] = strip_pts[k + j];
+            w += 3u;
         }
         begin = strip_end[s];
     }

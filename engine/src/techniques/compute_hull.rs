@@ -4,8 +4,9 @@
 //! The geometry-shader path bounds every triangle again in every pass, in a stage lavapipe runs on one
 //! thread. Here a compute pass (`shaders-glsl/stochastic/expand.comp`, multi-threaded on lavapipe)
 //! bounds each triangle once per frame — the same `compute_bound` and pixel-box dilation as the
-//! geometry shader (`emit.glsl`) — and appends the strips as a triangle list to a buffer per object,
-//! 3 floats per vertex (NDC x, y, triangle index); every pass then draws those buffers with a plain
+//! geometry shader (`emit.glsl`) — and appends the strips as a triangle list to a buffer per object
+//! (NDC x, y per vertex; the source triangle's index per hull triangle in a second buffer: 8 + 4/3
+//! bytes per vertex); every pass then draws those buffers with a plain
 //! vertex shader (`hull.vert`) in front of the same fragment shader (permutation `COMPUTE_HULL`,
 //! which takes the triangle index from a flat varying instead of `gl_PrimitiveID`).
 //!
@@ -13,6 +14,10 @@
 //! counts every vertex it needs but writes only within capacity; after the expansion the counts are
 //! read back and any object that overflowed gets a buffer 25 % above its count and is expanded again,
 //! so no bound is ever dropped (`StochasticRenderer::render`). The counts also size the draws.
+//! One object's hull must fit one storage-buffer descriptor (`maxStorageBufferRange`: 128 MiB, about
+//! 16.7 M vertices, on lavapipe); an object that needs more is refused with [`Error::Limit`] naming it
+//! (splitting objects into several hull buffers is not implemented; `focus-sweep`'s 327,680-triangle
+//! sphere needs 12.8 M).
 
 use ash::vk;
 use gpu_allocator::MemoryLocation;
@@ -58,8 +63,10 @@ impl std::str::FromStr for HullExpansion {
 /// about 8–12 triangles; 48 vertices = 16 triangles). Overflow grows the buffer; see the module docs.
 pub const INITIAL_VERTICES_PER_TRIANGLE: u32 = 48;
 
-/// Bytes per hull vertex: NDC x, y and the triangle index.
-const HULL_VERTEX_BYTES: u64 = 12;
+/// Bytes per hull vertex: NDC x, y.
+const HULL_VERTEX_BYTES: u64 = 8;
+/// Bytes per hull triangle in the second buffer: the source triangle's index.
+const HULL_TRIANGLE_BYTES: u64 = 4;
 
 #[repr(C)]
 #[derive(Clone, Copy)]
@@ -103,16 +110,19 @@ pub fn fragment_shader(per_sample: bool, instrumented: bool, effects: Effects) -
 pub struct ComputeHull {
     expand: Vec<(Effects, Pipeline)>,
     expand_layout: PipelineLayout,
-    hulls: Vec<Buffer>,
+    /// Per object: the vertices and the per-hull-triangle source indices.
+    hulls: Vec<[Buffer; 2]>,
     /// Vertices each object's hull buffer holds.
     capacity: Vec<u32>,
     /// Vertices each object's expansion needed (host-visible, one u32 per object).
     counts: Buffer,
+    /// Vertices one hull buffer may hold (`maxStorageBufferRange`).
+    max_vertices: u32,
     _shaders: Vec<ShaderModule>,
 }
 
 impl ComputeHull {
-    /// Pipelines for `paths`, buffers for every object; the geometry sets' bindings 3 (hull) and 4
+    /// Pipelines for `paths`, buffers for every object; the geometry sets' bindings 3 (hull), 5 (its source triangles) and 4
     /// (counts) are written here. `geometry_layout` is the stochastic renderer's set 1 of the expansion.
     pub fn new(
         device: &Device,
@@ -144,10 +154,22 @@ impl ComputeHull {
             vk::BufferUsageFlags::STORAGE_BUFFER,
             &vec![0u32; scene.objects.len().max(1)],
         )?;
-        let mut hull =
-            ComputeHull { expand, expand_layout, hulls: vec![], capacity: vec![], counts, _shaders: shaders };
+        let range = device.caps.max_storage_buffer_range as u64;
+        let max_vertices = (range / HULL_VERTEX_BYTES).min(3 * (range / HULL_TRIANGLE_BYTES)) as u32 / 3 * 3;
+        let mut hull = ComputeHull {
+            expand,
+            expand_layout,
+            hulls: vec![],
+            capacity: vec![],
+            counts,
+            max_vertices,
+            _shaders: shaders,
+        };
         for (i, o) in scene.objects.iter().enumerate() {
-            let cap = (o.index_count / 3).max(1).saturating_mul(initial_vertices_per_triangle.max(3));
+            let cap = (o.index_count / 3)
+                .max(1)
+                .saturating_mul(initial_vertices_per_triangle.max(3))
+                .min(max_vertices);
             let b = hull_buffer(device, &o.name, cap)?;
             hull.hulls.push(b);
             hull.capacity.push(cap);
@@ -162,8 +184,9 @@ impl ComputeHull {
             device,
             set,
             &[
-                DescriptorWrite::Buffer { binding: 3, ty, buffer: self.hulls[i].raw },
+                DescriptorWrite::Buffer { binding: 3, ty, buffer: self.hulls[i][0].raw },
                 DescriptorWrite::Buffer { binding: 4, ty, buffer: self.counts.raw },
+                DescriptorWrite::Buffer { binding: 5, ty, buffer: self.hulls[i][1].raw },
             ],
         );
     }
@@ -239,7 +262,18 @@ impl ComputeHull {
         let mut grew = false;
         for (i, &n) in counts.iter().enumerate() {
             if n > self.capacity[i] {
-                let cap = n.saturating_add(n / 4);
+                if n > self.max_vertices {
+                    return Err(Error::Limit {
+                        what: "compute-expanded hull",
+                        value: format!("{n} vertices for object `{}`", scene.objects[i].name),
+                        limit: format!(
+                            "{} vertices ({} bytes, maxStorageBufferRange); use the geometry-shader hull (--hull gs)",
+                            self.max_vertices,
+                            self.max_vertices as u64 * HULL_VERTEX_BYTES
+                        ),
+                    });
+                }
+                let cap = n.saturating_add(n / 4).min(self.max_vertices);
                 self.hulls[i] = hull_buffer(device, &scene.objects[i].name, cap)?;
                 self.capacity[i] = cap;
                 self.write_set(device, object_sets[i], i);
@@ -263,12 +297,22 @@ impl ComputeHull {
     }
 }
 
-fn hull_buffer(device: &Device, object: &str, vertices: u32) -> Result<Buffer> {
-    Buffer::new(
-        device,
-        &format!("hull:{object}"),
-        vertices as u64 * HULL_VERTEX_BYTES,
-        vk::BufferUsageFlags::STORAGE_BUFFER,
-        MemoryLocation::GpuOnly,
-    )
+fn hull_buffer(device: &Device, object: &str, vertices: u32) -> Result<[Buffer; 2]> {
+    let storage = vk::BufferUsageFlags::STORAGE_BUFFER;
+    Ok([
+        Buffer::new(
+            device,
+            &format!("hull:{object}"),
+            vertices as u64 * HULL_VERTEX_BYTES,
+            storage,
+            MemoryLocation::GpuOnly,
+        )?,
+        Buffer::new(
+            device,
+            &format!("hull triangles:{object}"),
+            (vertices as u64).div_ceil(3) * HULL_TRIANGLE_BYTES,
+            storage,
+            MemoryLocation::GpuOnly,
+        )?,
+    ])
 }

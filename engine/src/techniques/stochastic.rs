@@ -329,6 +329,11 @@ impl StochasticRenderer {
                     vk::ShaderStageFlags::COMPUTE | vk::ShaderStageFlags::VERTEX,
                 ),
                 (4, vk::DescriptorType::STORAGE_BUFFER, vk::ShaderStageFlags::COMPUTE),
+                (
+                    5,
+                    vk::DescriptorType::STORAGE_BUFFER,
+                    vk::ShaderStageFlags::COMPUTE | vk::ShaderStageFlags::VERTEX,
+                ),
             ],
         )?;
         let comp = ShaderModule::new(device, shaders::STOCHASTIC_TRIANGLES_COMP)?;
@@ -422,7 +427,7 @@ impl StochasticRenderer {
         let pool = DescriptorPool::new(
             device,
             n_objects + 1,
-            &[(vk::DescriptorType::STORAGE_BUFFER, 5 * n_objects + 4)],
+            &[(vk::DescriptorType::STORAGE_BUFFER, 6 * n_objects + 4)],
         )?;
         let sample_set = pool.allocate(&sample_layout)?;
         let buffer = |binding, b: &Buffer| DescriptorWrite::Buffer {

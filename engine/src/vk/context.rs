@@ -64,6 +64,8 @@ pub struct Capabilities {
     pub max_geometry_output_vertices: u32,
     pub max_geometry_total_output_components: u32,
     pub max_push_constants_size: u32,
+    /// Largest range one storage-buffer descriptor may cover, bytes.
+    pub max_storage_buffer_range: u32,
     /// MSAA samples sit at the standard sample locations of the Vulkan spec.
     pub standard_sample_locations: bool,
     pub max_image_dimension_2d: u32,
@@ -160,6 +162,7 @@ impl std::fmt::Display for Capabilities {
         writeln!(f, "vertex-pipeline stores/atomics {}", self.vertex_pipeline_stores_and_atomics)?;
         writeln!(f, "VK_EXT_conservative_rasterization {}", self.conservative_rasterization)?;
         writeln!(f, "push constants    {} bytes", self.max_push_constants_size)?;
+        writeln!(f, "storage buffer range {} bytes", self.max_storage_buffer_range)?;
         writeln!(f, "max image 2D      {}", self.max_image_dimension_2d)?;
         writeln!(f, "timestamps        {} ({} ns/tick)", self.timestamps, self.timestamp_period_ns)?;
         write!(f, "debug utils       {}", self.debug_utils)
@@ -428,6 +431,7 @@ impl DeviceShared {
             max_geometry_output_vertices: limits.max_geometry_output_vertices,
             max_geometry_total_output_components: limits.max_geometry_total_output_components,
             max_push_constants_size: limits.max_push_constants_size,
+            max_storage_buffer_range: limits.max_storage_buffer_range,
             standard_sample_locations: limits.standard_sample_locations == vk::TRUE,
             max_image_dimension_2d: limits.max_image_dimension2_d,
             timestamps: limits.timestamp_compute_and_graphics == vk::TRUE
