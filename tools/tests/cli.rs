@@ -53,3 +53,82 @@ fn probe_and_scenes_work() {
         assert!(out.lines().any(|l| l == s), "{out}");
     }
 }
+
+#[test]
+fn plan_bench_and_quality_work_and_quality_resumes() {
+    let (code, out, err) = shutter(&["plan", "one-mover", "--size", "320x180"]);
+    assert_eq!(code, 0, "{err}");
+    assert!(
+        out.contains("| blue-sphere |") && out.contains("| motion |") && out.contains("| pinhole |"),
+        "{out}"
+    );
+
+    let dir = std::env::temp_dir().join(format!("shutter-cli-{}-quality", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let json = dir.join("bench.json");
+    let (code, out, err) = shutter(&[
+        "bench",
+        "static",
+        "--size",
+        "64x36",
+        "-c",
+        "pinhole",
+        "-c",
+        "auto",
+        "--frames",
+        "2",
+        "--warmup",
+        "0",
+        "--json",
+        json.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    assert!(
+        out.contains("| pinhole |") && out.contains("| auto |") && out.contains("plan: pinhole"),
+        "{out}"
+    );
+    let j = std::fs::read_to_string(&json).unwrap();
+    assert!(j.contains("\"ratio_to_first\"") && j.contains("\"device\""), "{j}");
+    let (code, _, err) = shutter(&["bench", "static", "--size", "32x18", "-c", "stochastic:msaa=3"]);
+    assert!(code == 1 && err.contains("3x MSAA per pass"), "{err}");
+
+    let stem = dir.join("q");
+    let cache = dir.join("cache");
+    let args = [
+        "quality",
+        "static",
+        "--size",
+        "32x18",
+        "--reference-spp",
+        "16",
+        "-s",
+        "accumulation@1,4",
+        "-s",
+        "pinhole@1",
+        "--frames",
+        "1",
+        "--warmup",
+        "0",
+        "--cache",
+        cache.to_str().unwrap(),
+        "--out",
+        stem.to_str().unwrap(),
+    ];
+    let (code, out, err) = shutter(&args);
+    assert_eq!(code, 0, "{err}");
+    assert!(
+        out.contains("| accumulation | 4 |") && out.contains("ms of `accumulation` ÷ ms of `pinhole`"),
+        "{out}"
+    );
+    for ext in ["csv", "png", "svg", "md"] {
+        assert!(stem.with_extension(ext).exists(), "{ext} missing");
+    }
+    assert!(err.contains("reference: rendering"), "{err}");
+    // Again: the reference comes from the cache and every point from the CSV.
+    let (code, _, err) = shutter(&args);
+    assert_eq!(code, 0, "{err}");
+    assert!(err.contains("reference: cached") && err.contains("3 point(s) done, 0 to go"), "{err}");
+    let csv = std::fs::read_to_string(stem.with_extension("csv")).unwrap();
+    assert_eq!(csv.lines().count(), 4, "{csv}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
