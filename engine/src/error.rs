@@ -40,6 +40,10 @@ pub enum Error {
     /// The validation layer reported errors while validation was on.
     #[error("Vulkan validation reported {errors} error(s) and {warnings} warning(s); first: {first}")]
     Validation { errors: u32, warnings: u32, first: String },
+    /// A frame graph was declared inconsistently (a pass' accesses contradict each other); names the
+    /// pass and the resource.
+    #[error("frame graph: {0}")]
+    Graph(String),
     /// A request that the chosen technique does not support.
     #[error("{0}")]
     Unsupported(String),

@@ -4,10 +4,14 @@
 //! over pixel area (x,y), lens (u,v) and shutter time (t) with several techniques on raw Vulkan, and
 //! measures each against a CPU distribution ray tracer of the same scene model (DESIGN.md).
 //!
-//! Data flows one way: [`scene`] → [`scene::CameraSpaceScene`] → technique passes → image → metrics.
+//! Data flows one way: [`scene`] → world and views ([`gpu`]) → plan ([`plan`]) → a frame graph of
+//! passes ([`graph`], built by a technique: [`techniques`]) → image → metrics. `docs/ARCHITECTURE.md`
+//! draws it.
 
 pub mod bounds;
 pub mod error;
+pub mod gpu;
+pub mod graph;
 pub mod image;
 pub mod image_io;
 pub mod metrics;

@@ -1,7 +1,8 @@
 //! The effect planner: simulate only what the scene calls for.
 //!
 //! Per object and frame, from its geometry at both shutter ends in camera space
-//! ([`CameraSpaceScene`]): the largest circle of confusion in pixels over the object's visible depth
+//! ([`crate::scene::CameraSpaceScene`], carried by the camera [`View`]): the largest circle of
+//! confusion in pixels over the object's visible depth
 //! range, the largest screen motion of any vertex over the shutter, and whether the object crosses the
 //! near plane or the plane of focus. From those the object takes one of four paths ([`Effects`]):
 //! the plain pinhole pipeline, or a stochastic-rasterization shader permutation that simulates only
@@ -20,7 +21,7 @@ use std::fmt;
 
 use glam::Vec2;
 
-use crate::scene::{CameraSpaceScene, Intrinsics, Scene};
+use crate::scene::{Intrinsics, Scene, View};
 
 /// Blur below which an effect is not simulated, in pixels (circle-of-confusion radius; screen-motion
 /// length). Ignoring a blur of b px moves edges by at most b px, so the error grows about linearly in
@@ -110,12 +111,18 @@ impl Plan {
 
     /// The plan with blur below `threshold_px` (circle-of-confusion radius, motion length) ignored.
     pub fn with_threshold(scene: &Scene, width: u32, height: u32, threshold_px: f32) -> Self {
+        Plan::for_view(scene, &View::camera(scene, width, height), threshold_px)
+    }
+
+    /// The plan from an already built camera view (the scene in camera space at both shutter ends),
+    /// so a frame builds camera space once.
+    pub fn for_view(scene: &Scene, camera: &View, threshold_px: f32) -> Self {
+        let (width, height) = camera.size();
         let k = scene.camera.intrinsics(width, height);
-        let cs = CameraSpaceScene::new(scene);
         let objects = scene
             .objects
             .iter()
-            .zip(&cs.objects)
+            .zip(&camera.space.objects)
             .map(|(o, motion)| {
                 let ends: Vec<[glam::Vec3; 2]> =
                     o.mesh.positions.iter().map(|&p| motion.positions(p)).collect();

@@ -38,7 +38,7 @@ mod tests {
     fn render_to_png_writes_a_lit_image() {
         std::env::set_var("SHUTTER_VALIDATION", "1");
         let out = std::env::temp_dir().join(format!("shutter-sample-{}.png", std::process::id()));
-        render_to_png("default", Technique::Accumulation, 64, 36, 4, &out).expect("sample runs");
+        render_to_png("default", Technique::ACCUMULATION, 64, 36, 4, &out).expect("sample runs");
         let img = shutter::image_io::load_image(&out).expect("readable");
         let mean: f32 = img.pixels.iter().map(|p| p[0] + p[1] + p[2]).sum::<f32>() / img.pixels.len() as f32;
         assert!(mean > 0.05, "image is black (mean {mean})");

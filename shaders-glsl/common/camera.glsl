@@ -1,4 +1,5 @@
-// Thin-lens projection, the GLSL mirror of Intrinsics::project (engine/src/scene/camera.rs).
+// Projections of a view: the thin lens, the GLSL mirror of Intrinsics::project
+// (engine/src/scene/camera.rs), and the orthographic projection of a light's view.
 #ifndef SHUTTER_CAMERA_GLSL
 #define SHUTTER_CAMERA_GLSL
 #include "common/frame.glsl"
@@ -9,8 +10,8 @@
 // Depth is reversed Z between near (1) and far (0); everything stays linear in p, so attributes
 // interpolate perspective-correctly and motion (linear in camera space) stays linear in clip space.
 vec4 thin_lens_clip(vec3 p, vec2 lens_unit, vec2 jitter_px) {
-    float W = frame.viewport.x, H = frame.viewport.y, s = frame.viewport.z;
-    float A = frame.lens.x, F = frame.lens.y, near_z = frame.lens.z, far_z = frame.lens.w;
+    float W = view.viewport.x, H = view.viewport.y, s = view.viewport.z;
+    float A = view.lens.x, F = view.lens.y, near_z = view.lens.z, far_z = view.lens.w;
     float z = -p.z;
     vec2 L = A * lens_unit;
     vec2 qz = (p.xy - L) + L * (z / F);  // focus-plane point (tan space) times z
@@ -20,6 +21,20 @@ vec4 thin_lens_clip(vec3 p, vec2 lens_unit, vec2 jitter_px) {
     clip.z = near_z * (far_z - z) / (far_z - near_z);
     clip.w = z;
     return clip;
+}
+
+// Clip-space position of view-space point p in an orthographic view (a directional light's shadow
+// map; engine/src/scene/view.rs): x, y over the half extents, reversed-Z depth linear from near (1)
+// to far (0).
+vec4 orthographic_clip(vec3 p) {
+    float near_z = view.lens.z, far_z = view.lens.w;
+    return vec4(p.x / view.projection.y, -p.y / view.projection.z, (far_z + p.z) / (far_z - near_z), 1.0);
+}
+
+// Any view: its thin lens or its orthographic projection, as the view's block says.
+vec4 view_clip(vec3 p, vec2 lens_unit, vec2 jitter_px) {
+    if (view.projection.x == PROJECTION_ORTHOGRAPHIC) return orthographic_clip(p);
+    return thin_lens_clip(p, lens_unit, jitter_px);
 }
 
 #endif

@@ -8,16 +8,16 @@ float specular_exponent(float roughness) {
     return clamp(2.0 / (r * r) - 2.0, 1.0, 1.0e4);
 }
 
-// Radiance at camera-space `pos` with unit normal `n` facing the viewer and unit `view` towards the
+// Radiance at camera-space `pos` with unit normal `n` facing the viewer and unit `to_eye` towards the
 // lens sample, lights interpolated to shutter time t.
-vec3 shade(vec3 pos, vec3 n, vec3 view, vec3 albedo, float specular, float roughness, float t) {
+vec3 shade(vec3 pos, vec3 n, vec3 to_eye, vec3 albedo, float specular, float roughness, float t) {
     float n_exp = specular_exponent(roughness);
     float norm = (n_exp + 8.0) / (8.0 * 3.14159265358979);
-    vec3 diffuse = frame.ambient.rgb;
+    vec3 diffuse = world.ambient.rgb;
     vec3 spec = vec3(0.0);
-    int count = int(frame.viewport.w);
+    int count = int(view.viewport.w);
     for (int i = 0; i < count; ++i) {
-        Light light = frame.lights[i];
+        Light light = view.lights[i];
         vec3 a = mix(light.at_open.xyz, light.at_close.xyz, t);
         vec3 l;
         vec3 e = light.color.rgb;
@@ -34,7 +34,7 @@ vec3 shade(vec3 pos, vec3 n, vec3 view, vec3 albedo, float specular, float rough
         if (ndl <= 0.0) continue;
         diffuse += e * ndl;
         if (specular > 0.0) {
-            vec3 h = l + view;
+            vec3 h = l + to_eye;
             float hl = length(h);
             h = hl > 0.0 ? h / hl : vec3(0.0);
             spec += e * (norm * pow(max(dot(n, h), 0.0), n_exp) * ndl);

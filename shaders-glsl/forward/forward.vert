@@ -19,7 +19,7 @@ layout(location = 1) out vec3 v_normal;
 layout(location = 2) out vec2 v_uv;
 
 void main() {
-    ObjectData o = objects[pc.object];
+    ObjectView o = object_views[pc.object];
     vec3 p0 = (o.model_view[0] * vec4(in_position, 1.0)).xyz;
     vec3 p1 = (o.model_view[1] * vec4(in_position, 1.0)).xyz;
     vec3 p = mix(p0, p1, pc.time);

@@ -79,7 +79,7 @@ float bound_aperture_() {
 #ifdef NO_DEFOCUS
     return 0.0;
 #else
-    return frame.lens.x;
+    return view.lens.x;
 #endif
 }
 
@@ -350,8 +350,8 @@ int bound_box_(vec2 lo, vec2 hi) {
 // clip_and_box (engine/src/bounds/mod.rs): the end vertices' hull clipped to z >= z_clip, each point
 // widened by its circle of confusion, boxed and clamped to the viewport. -1 when that is the viewport.
 int bound_clip_and_box_(vec3 v[6], float z_clip) {
-    float W = frame.viewport.x, H = frame.viewport.y, s = frame.viewport.z;
-    float A = bound_aperture_(), F = frame.lens.y;
+    float W = view.viewport.x, H = view.viewport.y, s = view.viewport.z;
+    float A = bound_aperture_(), F = view.lens.y;
     if (!(z_clip > 0.0)) return -1;
     vec2 lo = vec2(1.0 / 0.0), hi = vec2(-1.0 / 0.0);
     for (int a = 0; a < 6; ++a) {
@@ -395,8 +395,8 @@ int bound_compute_(int kind, vec3 v[6]) {
         vec3 a = abs(v[m]);
         amax = max(amax, max(max(a.x, a.y), a.z));
     }
-    float W = frame.viewport.x, H = frame.viewport.y, s = frame.viewport.z;
-    float A = bound_aperture_(), F = frame.lens.y, near_z = frame.lens.z, far_z = frame.lens.w;
+    float W = view.viewport.x, H = view.viewport.y, s = view.viewport.z;
+    float A = bound_aperture_(), F = view.lens.y, near_z = view.lens.z, far_z = view.lens.w;
     float margin = 8.0 * BOUND_FLT_EPSILON * amax;
     bool all_near = true, all_far = true, any_near = false;
     for (int m = 0; m < 6; ++m) {

@@ -13,11 +13,11 @@
 const float MAX_EXTENT_VIEWPORTS = 4.0;
 
 void emit_pixel(vec2 p) {
-    emit_ndc(vec2(2.0 * p.x / frame.viewport.x - 1.0, 2.0 * p.y / frame.viewport.y - 1.0));
+    emit_ndc(vec2(2.0 * p.x / view.viewport.x - 1.0, 2.0 * p.y / view.viewport.y - 1.0));
 }
 
 void emit_viewport() {
-    vec2 size = frame.viewport.xy;
+    vec2 size = view.viewport.xy;
     emit_pixel(vec2(0.0, 0.0));
     emit_pixel(vec2(size.x, 0.0));
     emit_pixel(vec2(0.0, size.y));
@@ -67,7 +67,7 @@ bool emit_dilated(vec2 pts[BOUND_MAX_POINTS], int first, int n) {
             }
         }
     }
-    vec2 size = frame.viewport.xy;
+    vec2 size = view.viewport.xy;
     float lim = MAX_EXTENT_VIEWPORTS * max(size.x, size.y);
     for (int i = 0; i < m; i++) {
         vec2 c = q[i] - 0.5 * size;

@@ -11,10 +11,10 @@
 layout(local_size_x = 64) in;
 
 // Camera-space triangles at shutter open and close, 18 floats each (triangles.comp).
-layout(set = 1, binding = 2, std430) readonly buffer Triangles { float triangles[]; };
-layout(set = 1, binding = 3, std430) writeonly buffer Hull { vec2 hull[]; };
-layout(set = 1, binding = 4, std430) buffer HullCounts { uint hull_vertices[]; };
-layout(set = 1, binding = 5, std430) writeonly buffer HullTriangles { uint hull_triangle[]; };
+layout(set = 2, binding = 0, std430) readonly buffer Triangles { float triangles[]; };
+layout(set = 2, binding = 1, std430) writeonly buffer Hull { vec2 hull[]; };
+layout(set = 2, binding = 2, std430) writeonly buffer HullTriangles { uint hull_triangle[]; };
+layout(set = 3, binding = 4, std430) buffer HullCounts { uint hull_vertices[]; };
 
 layout(push_constant) uniform Push {
     uint object;          // index into hull_vertices

@@ -10,8 +10,8 @@ const float PARALLEL_EPS = 1e-7;
 
 // Intrinsics::primary_ray: origin on the lens, direction through the focus-plane point of the pixel.
 void primary_ray(vec2 pixel, vec2 lens, out vec3 o, out vec3 d) {
-    float W = frame.viewport.x, H = frame.viewport.y, s = frame.viewport.z;
-    float A = frame.lens.x, F = frame.lens.y;
+    float W = view.viewport.x, H = view.viewport.y, s = view.viewport.z;
+    float A = view.lens.x, F = view.lens.y;
     vec2 tan_xy = vec2((pixel.x - 0.5 * W) / s, -(pixel.y - 0.5 * H) / s);
     o = vec3(A * lens, 0.0);
     vec3 focus_point = vec3(tan_xy.x * F, tan_xy.y * F, -F);
@@ -55,7 +55,7 @@ bool sample_hit(vec3 a, vec3 b, vec3 c, vec3 o, vec3 d, out float depth_z, out v
     if (!(b2 >= 0.0 && b1 + b2 <= 1.0)) return false;
     w = vec3(1.0 - b1 - b2, b1, b2);
     depth_z = -(w.x * a.z + w.y * b.z + w.z * c.z);
-    return depth_z >= frame.lens.z && depth_z <= frame.lens.w;
+    return depth_z >= view.lens.z && depth_z <= view.lens.w;
 }
 
 #endif

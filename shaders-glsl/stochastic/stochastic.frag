@@ -15,19 +15,13 @@
 //   COMPUTE_HULL: behind the compute-expanded hull (hull.vert) rather than the geometry shader.
 // Attributes are interpolated with the sample's barycentrics; textures use analytic derivatives from
 // the triangle's plane over one sample's footprint; the view vector points to the sample's lens point.
+#include "common/object.glsl"
 #include "common/shading.glsl"
 #include "stochastic/inside.glsl"
 #include "stochastic/push.glsl"
 
-layout(set = 1, binding = 0) uniform sampler2D albedo_texture;
-
-struct Vertex {
-    float px, py, pz, nx, ny, nz, u, v;  // 32 bytes, as GpuScene uploads them
-};
-layout(set = 2, binding = 0, std430) readonly buffer Vertices { Vertex vertices[]; };
-layout(set = 2, binding = 1, std430) readonly buffer Indices { uint indices[]; };
 // Camera-space triangles at shutter open and close, 18 floats each (written by triangles.comp).
-layout(set = 2, binding = 2, std430) readonly buffer Triangles { float triangles[]; };
+layout(set = 2, binding = 0, std430) readonly buffer Triangles { float triangles[]; };
 
 // The sample tile (sampling::SampleTile): 64 x 64 pixels x S samples; xy in [0,1) within the pixel,
 // lens already mapped to the aperture shape, time already warped by the shutter curve.
@@ -50,12 +44,13 @@ const uint SAMPLE_TILE_SIZE = 64u;
 
 // Reversed-Z depth of view depth z (the same value thin_lens_clip produces).
 float depth_value(float z) {
-    float near_z = frame.lens.z, far_z = frame.lens.w;
+    float near_z = view.lens.z, far_z = view.lens.w;
     return clamp(near_z * (far_z - z) / ((far_z - near_z) * z), 0.0, 1.0);
 }
 
 void main() {
-    ObjectData o = objects[pc.object];
+    ObjectView o = object_views[pc.object];
+    Material m = materials[pc.object];
 #ifdef COMPUTE_HULL
     uint prim = v_triangle;
 #else
@@ -149,7 +144,7 @@ void main() {
     vec3 geometric = cross(b - a, c - a);
     vec3 n = vec3(0.0);
     for (int k = 0; k < 3; k++) {
-        vec3 nk = vec3(tv[k].nx, tv[k].ny, tv[k].nz);
+        vec3 nk = vec3(tv[k].normal[0], tv[k].normal[1], tv[k].normal[2]);
         n += best_w[k] * mix(mat3(o.normal_matrix[0]) * nk, mat3(o.normal_matrix[1]) * nk, t);
     }
     if (dot(n, n) > 0.0) n = normalize(n);
@@ -157,9 +152,10 @@ void main() {
     else n = -best_d;
     if (dot(geometric, best_d) > 0.0) n = -n;
     vec3 position = best_w.x * a + best_w.y * b + best_w.z * c;
-    vec3 albedo = o.albedo_specular.rgb;
-    if (o.material.y > 0.5) {
-        vec2 uv0 = vec2(tv[0].u, tv[0].v), uv1 = vec2(tv[1].u, tv[1].v), uv2 = vec2(tv[2].u, tv[2].v);
+    vec3 albedo = m.albedo_specular.rgb;
+    if (m.params.y > 0.5) {
+        vec2 uv0 = vec2(tv[0].uv[0], tv[0].uv[1]), uv1 = vec2(tv[1].uv[0], tv[1].uv[1]);
+        vec2 uv2 = vec2(tv[2].uv[0], tv[2].uv[1]);
         vec2 uv = best_w.x * uv0 + best_w.y * uv1 + best_w.z * uv2;
         // Analytic footprint: the same lens point and time, rays one sample spacing to the right and down.
         vec3 ro, rdx, rdy;
@@ -172,5 +168,5 @@ void main() {
         vec2 dy = oky ? wy.x * uv0 + wy.y * uv1 + wy.z * uv2 - uv : vec2(0.0);
         albedo *= textureGrad(albedo_texture, uv, dx, dy).rgb;
     }
-    out_color = vec4(shade(position, n, -best_d, albedo, o.albedo_specular.w, o.material.x, t), 1.0);
+    out_color = vec4(shade(position, n, -best_d, albedo, m.albedo_specular.w, m.params.x, t), 1.0);
 }

@@ -10,7 +10,7 @@ layout(location = 0) out vec3 v_open;
 layout(location = 1) out vec3 v_close;
 
 void main() {
-    ObjectData o = objects[pc.object];
+    ObjectView o = object_views[pc.object];
     v_open = (o.model_view[0] * vec4(in_position, 1.0)).xyz;
     v_close = (o.model_view[1] * vec4(in_position, 1.0)).xyz;
     gl_Position = vec4(v_open, 1.0);  // unused: the geometry stage writes the hull's positions

@@ -3,15 +3,11 @@
 // and close (18 floats: open vertices 0..2, then close vertices 0..2), so the fragment stage reads one
 // record per fragment instead of fetching and transforming three vertices twice (thesis §9.6).
 #include "common/frame.glsl"
+#include "common/object.glsl"
 
 layout(local_size_x = 64) in;
 
-struct Vertex {
-    float px, py, pz, nx, ny, nz, u, v;
-};
-layout(set = 1, binding = 0, std430) readonly buffer Vertices { Vertex vertices[]; };
-layout(set = 1, binding = 1, std430) readonly buffer Indices { uint indices[]; };
-layout(set = 1, binding = 2, std430) writeonly buffer Triangles { float triangles[]; };
+layout(set = 2, binding = 0, std430) writeonly buffer Triangles { float triangles[]; };
 
 layout(push_constant) uniform Push {
     uint object;
@@ -21,10 +17,10 @@ layout(push_constant) uniform Push {
 void main() {
     uint t = gl_GlobalInvocationID.x;
     if (t >= pc.triangle_count) return;
-    ObjectData o = objects[pc.object];
+    ObjectView o = object_views[pc.object];
     for (uint k = 0u; k < 3u; k++) {
         Vertex v = vertices[indices[3u * t + k]];
-        vec4 p = vec4(v.px, v.py, v.pz, 1.0);
+        vec4 p = vec4(v.position[0], v.position[1], v.position[2], 1.0);
         vec3 p0 = (o.model_view[0] * p).xyz;
         vec3 p1 = (o.model_view[1] * p).xyz;
         for (uint c = 0u; c < 3u; c++) {

@@ -31,7 +31,7 @@ fn defocus_blur_radius_matches_circle_of_confusion() {
     let phi = k.circle_of_confusion_px(z).abs();
     assert!(phi > 15.0, "test wants a large blur, got {phi}");
     let mut r = renderer();
-    let out = r.render(&scene, Technique::Accumulation, &RenderSettings::new(W, H, 1024, 7)).expect("render");
+    let out = r.render(&scene, Technique::ACCUMULATION, &RenderSettings::new(W, H, 1024, 7)).expect("render");
     let _ = shutter::image_io::save_image(shutter_tests::output_dir().join("coc-disc.png"), &out.image);
     let (_, (cx, cy), (vxx, vyy)) = moments(&out.image);
     let a2 = (a * a) as f64;
@@ -53,7 +53,7 @@ fn motion_streak_length_matches_screen_motion() {
     let close = Mat4::from_translation(Vec3::new(0.5 * motion_px * px_world, 0.0, -z));
     let scene = single_object_scene(cam, square(a * px_world), open, Some(close), W, H);
     let mut r = renderer();
-    let out = r.render(&scene, Technique::Accumulation, &RenderSettings::new(W, H, 512, 3)).expect("render");
+    let out = r.render(&scene, Technique::ACCUMULATION, &RenderSettings::new(W, H, 512, 3)).expect("render");
     let _ = shutter::image_io::save_image(shutter_tests::output_dir().join("motion-streak.png"), &out.image);
     let (_, (cx, _), (vxx, vyy)) = moments(&out.image);
     let length = (12.0 * vxx - a as f64 * a as f64 - 1.0).sqrt();
@@ -73,12 +73,12 @@ fn same_seed_gives_bit_identical_images() {
     let close = Mat4::from_translation(Vec3::new(0.3, 0.1, -4.0));
     let scene = single_object_scene(cam, square(1.0), open, Some(close), 64, 48);
     let mut r = renderer();
-    for t in [Technique::Pinhole, Technique::Accumulation] {
+    for t in [Technique::PINHOLE, Technique::ACCUMULATION] {
         let s = RenderSettings::new(64, 48, 16, 11);
         let a = r.render(&scene, t, &s).expect("render");
         let b = r.render(&scene, t, &s).expect("render");
         assert!(a.image == b.image, "{t:?} not deterministic");
-        if t == Technique::Accumulation {
+        if t == Technique::ACCUMULATION {
             let c = r.render(&scene, t, &RenderSettings { seed: 12, ..s }).expect("render");
             assert!(a.image != c.image, "seed has no effect");
         }

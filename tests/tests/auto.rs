@@ -59,8 +59,8 @@ fn auto_is_the_pinhole_technique_when_nothing_needs_simulating() {
     let s = scene("static");
     for (w, h, spp) in [(320, 180, 16), (160, 90, 4)] {
         let o = options(ShadingRate::PerPixel, false);
-        let auto = render(&mut r, &s, Technique::Auto, w, h, spp, o);
-        let pinhole = render(&mut r, &s, Technique::Pinhole, w, h, spp, o);
+        let auto = render(&mut r, &s, Technique::AUTO, w, h, spp, o);
+        let pinhole = render(&mut r, &s, Technique::PINHOLE, w, h, spp, o);
         let plan = auto.stats.plan.as_ref().expect("auto reports its plan");
         assert!(!plan.needs_stochastic(), "{plan}");
         assert_eq!(
@@ -89,11 +89,11 @@ fn objects_on_the_pinhole_path_spend_no_sample_tests() {
         assert_eq!(o.effects, want, "{plan}");
     }
     let o = options(ShadingRate::PerPixel, true);
-    let auto = render(&mut r, &s, Technique::Auto, w, h, spp, o);
+    let auto = render(&mut r, &s, Technique::AUTO, w, h, spp, o);
     let mut alone = s.clone();
     alone.objects.retain(|o| o.name == "blue-sphere");
-    let alone = render(&mut r, &alone, Technique::Stochastic, w, h, spp, o);
-    let all = render(&mut r, &s, Technique::Stochastic, w, h, spp, o);
+    let alone = render(&mut r, &alone, Technique::STOCHASTIC, w, h, spp, o);
+    let all = render(&mut r, &s, Technique::STOCHASTIC, w, h, spp, o);
     let (a, m, e) =
         (auto.stats.counters.unwrap(), alone.stats.counters.unwrap(), all.stats.counters.unwrap());
     println!("auto {a:?}\nsphere alone {m:?}\nstochastic {e:?}");
@@ -139,7 +139,7 @@ fn effect_permutations_match_the_same_sample_reference() {
         let spp = 16;
         let same = reference(&s, 96, 72, spp, 2);
         for shading in ShadingRate::ALL {
-            let out = render(&mut r, &s, Technique::Auto, 96, 72, spp, options(shading, false));
+            let out = render(&mut r, &s, Technique::AUTO, 96, 72, spp, options(shading, false));
             let m = compare(&same, &out.image).unwrap();
             println!("{name} {}: RMSE {:.6} vs the same-sample reference", shading.name(), m.rmse);
             save_comparison(&format!("auto-{name}-{}", shading.name()), &same, &out.image);
@@ -179,13 +179,13 @@ fn auto_matches_the_reference_like_its_parts() {
         let o = options(ShadingRate::PerSample, false);
         let floor = compare(
             &reference(&s0, w, h, 256, 1),
-            &render(&mut r, &s0, Technique::Pinhole, w, h, 4, o).image,
+            &render(&mut r, &s0, Technique::PINHOLE, w, h, 4, o).image,
         )
         .unwrap()
         .rmse;
         for spp in [16u32, 64] {
-            let auto = render(&mut r, &s, Technique::Auto, w, h, spp, o);
-            let sto = render(&mut r, &s, Technique::Stochastic, w, h, spp, o);
+            let auto = render(&mut r, &s, Technique::AUTO, w, h, spp, o);
+            let sto = render(&mut r, &s, Technique::STOCHASTIC, w, h, spp, o);
             let (ma, ms) = (compare(&truth, &auto.image).unwrap(), compare(&truth, &sto.image).unwrap());
             println!(
                 "{} S={spp}: auto RMSE {:.5} FLIP {:.5} ({:.0} ms); stochastic RMSE {:.5} FLIP {:.5} ({:.0} ms); \

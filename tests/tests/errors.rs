@@ -34,7 +34,7 @@ fn absurd_sizes_and_sample_counts_are_rejected_with_the_limit() {
         (RenderSettings::new(8, 8, 0, 0), "spp"),
         (RenderSettings::new(8, 8, 10_000_000, 0), "spp"),
     ] {
-        let err = r.render(&scene, Technique::Accumulation, &s).expect_err("must fail");
+        let err = r.render(&scene, Technique::ACCUMULATION, &s).expect_err("must fail");
         let msg = err.to_string();
         assert!(matches!(err, Error::Limit { .. }) && msg.contains(what) && msg.contains("..="), "{msg}");
     }
@@ -67,7 +67,7 @@ fn translucent_material_is_refused_by_opaque_techniques() {
     );
     scene.objects[0].material.alpha = 0.5;
     let mut r = renderer();
-    let err = r.render(&scene, Technique::Pinhole, &RenderSettings::new(8, 8, 1, 0)).unwrap_err();
+    let err = r.render(&scene, Technique::PINHOLE, &RenderSettings::new(8, 8, 1, 0)).unwrap_err();
     assert!(err.to_string().contains("alpha"), "{err}");
 }
 

@@ -14,12 +14,11 @@ use shutter::sampling::Pcg32;
 use shutter::scene::builtin::{builtin_mesh, builtin_scene};
 use shutter::scene::camera_space::CameraSpaceScene;
 use shutter::scene::{CameraPose, Mesh, Scene};
-use shutter::techniques::stochastic::{DebugOptions, StochasticRenderer, BOUND_DEBUG_STRIDE};
+use shutter::techniques::stochastic::{DebugOptions, StochasticTechnique, BOUND_DEBUG_STRIDE};
 use shutter::techniques::{
-    GpuScene, HullExpansion, RenderOutput, RenderSettings, Renderer, ShadingRate, StochasticOptions,
-    Technique,
+    FrameTechnique, HullExpansion, PreparedFrame, RenderOutput, RenderSettings, Renderer, ShadingRate,
+    StochasticOptions, Technique,
 };
-use shutter::vk::CommandRecorder;
 use shutter_tests::{camera, renderer, save_comparison, single_object_scene, square};
 
 fn options(bound: BoundKind, shading: ShadingRate) -> StochasticOptions {
@@ -35,7 +34,7 @@ fn render(
     seed: u64,
     o: StochasticOptions,
 ) -> RenderOutput {
-    r.render(scene, Technique::Stochastic, &RenderSettings::new(w, h, spp, seed).with_stochastic(o))
+    r.render(scene, Technique::STOCHASTIC, &RenderSettings::new(w, h, spp, seed).with_stochastic(o))
         .unwrap_or_else(|e| panic!("stochastic render ({} / {}): {e}", o.bound.name(), o.shading.name()))
 }
 
@@ -84,7 +83,7 @@ fn glsl_bounds_match_cpu_mirror() {
     let n = 600;
     let mesh = random_triangles(n, 5);
     let motion = Mat4::from_rotation_translation(Quat::from_rotation_y(0.2), Vec3::new(0.4, -0.1, 0.3));
-    let r = renderer();
+    let mut r = renderer();
     for (label, close, aperture) in
         [("still", None, 0.1), ("moving", Some(motion), 0.1), ("moving-pinhole", Some(motion), 0.0)]
     {
@@ -93,23 +92,11 @@ fn glsl_bounds_match_cpu_mirror() {
         let k = scene.camera.intrinsics(w, h);
         let cs = CameraSpaceScene::new(&scene);
         let mv = cs.objects[0].model_view;
-        let device = r.device().clone();
-        let mut rec = CommandRecorder::new(&device, "bound test").unwrap();
-        let gpu_scene = GpuScene::upload(&device, &mut rec, &scene, w, h).unwrap();
         for kind in BoundKind::ALL {
-            let mut sr = StochasticRenderer::new(
-                &device,
-                &gpu_scene,
-                4,
-                1,
-                scene.camera.aperture,
-                scene.camera.shutter,
-                options(kind, ShadingRate::PerPixel),
-                DebugOptions { bound_debug_triangles: n as u32, ..Default::default() },
-                &vec![shutter::plan::Effects::Both; scene.objects.len()],
-            )
-            .unwrap();
-            sr.render(&device, &mut rec, &gpu_scene).unwrap();
+            let debug = DebugOptions { bound_debug_triangles: n as u32, ..Default::default() };
+            let (_, prepared) =
+                render_stochastic(&mut r, &scene, 4, options(kind, ShadingRate::PerPixel), debug);
+            let sr = prepared.technique_as::<StochasticTechnique>().expect("a stochastic technique").draws();
             let debug = sr.bound_debug().unwrap();
             let mut mismatches = vec![];
             for t in 0..n {
@@ -131,8 +118,29 @@ fn glsl_bounds_match_cpu_mirror() {
                 mismatches.iter().take(5).cloned().collect::<Vec<_>>().join("\n")
             );
         }
-        device.check_validation().unwrap();
+        r.device().check_validation().unwrap();
     }
+}
+
+/// Renders one frame of technique `stochastic` with `debug` knobs (every object on the
+/// defocus+motion path) and returns it with the prepared frame (for the technique's diagnostics).
+fn render_stochastic(
+    r: &mut Renderer,
+    scene: &Scene,
+    spp: u32,
+    o: StochasticOptions,
+    debug: DebugOptions,
+) -> (RenderOutput, PreparedFrame) {
+    let settings = RenderSettings::new(scene.image.width, scene.image.height, spp, 1).with_stochastic(o);
+    let effects = vec![shutter::plan::Effects::Both; scene.objects.len()];
+    let mut prepared = r
+        .prepare_with(scene, &settings, |ctx| {
+            let t: Box<dyn FrameTechnique> = Box::new(StochasticTechnique::new(ctx, o, debug, &effects)?);
+            Ok(t)
+        })
+        .expect("prepare");
+    let out = r.render_prepared(&mut prepared).expect("render");
+    (out, prepared)
 }
 
 /// The GPU record (count, lengths, points) describes the same region as `cpu` within rounding.
@@ -501,8 +509,8 @@ fn compute_hull_matches_the_geometry_shader_hull() {
         RenderSettings::new(w, h, 16, 3)
             .with_stochastic(with_hull(options(BoundKind::Adaptive, ShadingRate::PerSample), e))
     };
-    let gs = r.render(&scene, Technique::Auto, &s(HullExpansion::GeometryShader)).unwrap();
-    let cs = r.render(&scene, Technique::Auto, &s(HullExpansion::Compute)).unwrap();
+    let gs = r.render(&scene, Technique::AUTO, &s(HullExpansion::GeometryShader)).unwrap();
+    let cs = r.render(&scene, Technique::AUTO, &s(HullExpansion::Compute)).unwrap();
     let d = max_abs_diff(&gs.image, &cs.image);
     assert!(d <= 1e-6, "auto on one-mover: compute hull changes the image by {d}");
 }
@@ -512,35 +520,24 @@ fn compute_hull_matches_the_geometry_shader_hull() {
 #[test]
 fn compute_hull_overflow_grows_the_buffer_and_loses_nothing() {
     let (w, h) = (160, 90);
-    let r = renderer();
-    let scene = builtin_scene("default").unwrap().unwrap();
-    let device = r.device().clone();
-    let mut rec = CommandRecorder::new(&device, "hull overflow test").unwrap();
-    let gpu_scene = GpuScene::upload(&device, &mut rec, &scene, w, h).unwrap();
+    let mut r = renderer();
+    let mut scene = builtin_scene("default").unwrap().unwrap();
+    (scene.image.width, scene.image.height) = (w, h);
     let o = with_hull(options(BoundKind::Adaptive, ShadingRate::PerPixel), HullExpansion::Compute);
     let mut images = vec![];
     for per_triangle in [Some(3), None] {
-        let mut sr = StochasticRenderer::new(
-            &device,
-            &gpu_scene,
-            4,
-            1,
-            scene.camera.aperture,
-            scene.camera.shutter,
-            o,
-            DebugOptions { hull_vertices_per_triangle: per_triangle, ..Default::default() },
-            &vec![shutter::plan::Effects::Both; scene.objects.len()],
-        )
-        .unwrap();
-        let (image, _, _) = sr.render(&device, &mut rec, &gpu_scene).unwrap();
-        device.check_validation().unwrap();
+        let debug = DebugOptions { hull_vertices_per_triangle: per_triangle, ..Default::default() };
+        let (out, prepared) = render_stochastic(&mut r, &scene, 4, o, debug);
+        let sr = prepared.technique_as::<StochasticTechnique>().expect("a stochastic technique").draws();
+        let image = out.image;
         let (capacity, used) = sr.hull_usage().unwrap();
         println!("vertices per triangle {per_triangle:?}: capacity {capacity:?}, used {used:?}");
         for (c, u) in capacity.iter().zip(&used) {
             assert!(u <= c, "{used:?} over {capacity:?}");
         }
         if per_triangle == Some(3) {
-            let tris: Vec<u32> = gpu_scene.objects.iter().map(|o| (o.index_count / 3).max(1) * 3).collect();
+            let tris: Vec<u32> =
+                scene.objects.iter().map(|o| (o.mesh.triangle_count() as u32).max(1) * 3).collect();
             assert!(capacity.iter().zip(&tris).any(|(c, t)| c > t), "nothing grew: {capacity:?}");
         }
         images.push(image);

@@ -22,7 +22,7 @@ fn pinhole_matches_reference_on_static() {
     let scene = builtin_scene("static").unwrap().unwrap();
     let reference = reference("static", w, h, 64);
     let mut r = renderer();
-    let out = r.render(&scene, Technique::Pinhole, &RenderSettings::new(w, h, 1, 1)).unwrap();
+    let out = r.render(&scene, Technique::PINHOLE, &RenderSettings::new(w, h, 1, 1)).unwrap();
     let m = compare(&reference, &out.image).unwrap();
     println!("static pinhole vs reference: RMSE {:.5} PSNR {:.2} FLIP {:.5}", m.rmse, m.psnr, m.flip);
     save_comparison("static-pinhole", &reference, &out.image);
@@ -38,7 +38,7 @@ fn accumulation_converges_to_reference_on_default() {
     let mut r = renderer();
     let mut errors = vec![];
     for passes in [4u32, 16, 64] {
-        let out = r.render(&scene, Technique::Accumulation, &RenderSettings::new(w, h, passes, 2)).unwrap();
+        let out = r.render(&scene, Technique::ACCUMULATION, &RenderSettings::new(w, h, passes, 2)).unwrap();
         let m = compare(&reference, &out.image).unwrap();
         println!("default accumulation P={passes}: RMSE {:.5} PSNR {:.2} FLIP {:.5}", m.rmse, m.psnr, m.flip);
         save_comparison(&format!("default-accumulation-{passes}"), &reference, &out.image);

@@ -135,8 +135,8 @@ pub struct BenchArgs {
 }
 
 fn uses_stochastic(r: &ConfigResult, c: &Config) -> bool {
-    c.technique == Technique::Stochastic
-        || (c.technique == Technique::Auto && r.plan.as_deref().is_some_and(|p| p != "pinhole"))
+    c.technique == Technique::STOCHASTIC
+        || (c.technique == Technique::AUTO && r.plan.as_deref().is_some_and(|p| p != "pinhole"))
 }
 
 pub fn run(renderer: &mut Renderer, scene: &Scene, a: &BenchArgs) -> Result<BenchReport> {
@@ -198,7 +198,7 @@ pub fn run(renderer: &mut Renderer, scene: &Scene, a: &BenchArgs) -> Result<Benc
                 "pinhole".to_string()
             }
         });
-        let stochastic_options = matches!(c.technique, Technique::Stochastic | Technique::Auto);
+        let stochastic_options = c.technique == Technique::STOCHASTIC || c.technique == Technique::AUTO;
         let mut r = ConfigResult {
             label: c.label.clone(),
             technique: c.technique.name().into(),

@@ -59,24 +59,24 @@ pub fn run(renderer: &mut Renderer, scene: &Scene, a: &BoundsTableArgs) -> Resul
     md.push_str("|---:|---|---|---:|---:|---:|---:|---:|---:|\n");
     for &spp in &a.spp {
         let base = RenderSettings::new(a.width, a.height, spp, a.seed);
-        let ms = timed(renderer, scene, Technique::Pinhole, &base, a)?;
+        let ms = timed(renderer, scene, Technique::PINHOLE, &base, a)?;
         md.push_str(&format!("| {spp} | pinhole (MSAA 4×, no blur) | – | {ms:.1} | | | | | |\n"));
         eprintln!("S={spp} pinhole {ms:.1} ms");
-        let ms = timed(renderer, scene, Technique::Accumulation, &base, a)?;
+        let ms = timed(renderer, scene, Technique::ACCUMULATION, &base, a)?;
         md.push_str(&format!("| {spp} | accumulation ({spp} passes) | – | {ms:.1} | | | | | |\n"));
         eprintln!("S={spp} accumulation {ms:.1} ms");
         let mut bbox_ste = None;
         for &bound in &a.bounds {
             let opts =
                 StochasticOptions { bound, shading: a.shading, instrumented: true, ..Default::default() };
-            let counted = renderer.render(scene, Technique::Stochastic, &base.with_stochastic(opts))?;
+            let counted = renderer.render(scene, Technique::STOCHASTIC, &base.with_stochastic(opts))?;
             let c = counted.stats.counters.expect("instrumented render has counters");
             let ste = c.sample_test_efficiency();
             if bound == BoundKind::BoundingBox {
                 bbox_ste = Some(ste);
             }
             let settings = base.with_stochastic(StochasticOptions { instrumented: false, ..opts });
-            let ms = timed(renderer, scene, Technique::Stochastic, &settings, a)?;
+            let ms = timed(renderer, scene, Technique::STOCHASTIC, &settings, a)?;
             let rel = bbox_ste.map(|b| format!("{:.2}", ste / b)).unwrap_or_default();
             md.push_str(&format!(
                 "| {spp} | stochastic ({} × {} MSAA) | {} | {ms:.1} | {} | {} | {} | {ste:.4} | {rel} |\n",

@@ -296,7 +296,7 @@ fn run() -> Result<()> {
                     plan.objects.iter().map(|o| format!("{} {}", o.name, o.effects.name())).collect();
                 println!("  plan: {}", paths.join(", "));
             }
-            if technique == Technique::Stochastic
+            if technique == Technique::STOCHASTIC
                 || output.stats.plan.as_ref().is_some_and(|p| p.needs_stochastic())
             {
                 println!(

@@ -71,8 +71,17 @@ pub struct CameraSpaceScene {
 }
 
 impl CameraSpaceScene {
+    /// The scene seen from its camera.
     pub fn new(scene: &Scene) -> Self {
-        let views = [scene.camera.open.view_matrix(), scene.camera.pose_at_close().view_matrix()];
+        CameraSpaceScene::seen_from(
+            scene,
+            [scene.camera.open.view_matrix(), scene.camera.pose_at_close().view_matrix()],
+        )
+    }
+
+    /// The scene in the space of any view whose world → view transform is `views[0]` at shutter
+    /// open and `views[1]` at close (a light's view for a shadow map; [`super::View`]).
+    pub fn seen_from(scene: &Scene, views: [Mat4; 2]) -> Self {
         let objects = scene
             .objects
             .iter()

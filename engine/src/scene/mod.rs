@@ -11,6 +11,7 @@ pub mod camera_space;
 pub mod file;
 pub mod mesh;
 pub mod texture;
+pub mod view;
 
 use std::sync::Arc;
 
@@ -20,6 +21,7 @@ pub use camera::{Camera, CameraPose, Intrinsics};
 pub use camera_space::{CameraSpaceLight, CameraSpaceScene, ObjectMotion};
 pub use mesh::{Mesh, MeshStats};
 pub use texture::Texture;
+pub use view::{Projection, View};
 
 /// Output image settings.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

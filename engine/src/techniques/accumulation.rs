@@ -7,8 +7,25 @@
 
 use glam::Vec2;
 
-use super::forward::PassSample;
+use super::forward::{ForwardTechnique, PassSample};
+use super::registry::TechniqueInfo;
+use super::{FrameTechnique, PrepareContext};
+use crate::error::Result;
 use crate::sampling::{stratified_samples, ApertureShape, Pcg32, ShutterCurve};
+
+/// The registry entry.
+pub const INFO: TechniqueInfo = TechniqueInfo {
+    name: "accumulation",
+    summary: "P full-scene passes, one stratified (x, y, u, v, t) each, averaged (Haeberli & Akeley)",
+    prepare,
+};
+
+fn prepare(ctx: &PrepareContext<'_>) -> Result<Box<dyn FrameTechnique>> {
+    let c = &ctx.scene.camera;
+    let s = ctx.settings;
+    let passes = accumulation_passes(s.spp, s.seed, c.aperture, c.shutter);
+    Ok(Box::new(ForwardTechnique::new(ctx, 1, passes)?))
+}
 
 /// The passes for `passes` samples with `seed`, the aperture shape and the shutter curve applied.
 pub fn accumulation_passes(

@@ -13,21 +13,28 @@
 //! Capacity: a buffer starts at [`INITIAL_VERTICES_PER_TRIANGLE`] vertices per triangle. The shader
 //! counts every vertex it needs but writes only within capacity; after the expansion the counts are
 //! read back and any object that overflowed gets a buffer 25 % above its count and is expanded again,
-//! so no bound is ever dropped (`StochasticRenderer::render`). The counts also size the draws.
+//! so no bound is ever dropped (`StochasticDraws::before_frame`). The counts also size the draws.
 //! One object's hull must fit one storage-buffer descriptor (`maxStorageBufferRange`: 128 MiB, about
 //! 16.7 M vertices, on lavapipe); an object that needs more is refused with [`Error::Limit`] naming it
 //! (splitting objects into several hull buffers is not implemented; `focus-sweep`'s 327,680-triangle
 //! sphere needs 12.8 M).
 
 use ash::vk;
+use bytemuck::{Pod, Zeroable};
 use gpu_allocator::MemoryLocation;
 
-use super::gpu_scene::GpuScene;
+use super::FrameInputs;
 use crate::error::{Error, Result};
+use crate::gpu::layout::{
+    shared_struct, SharedStruct, FRAME_SET_INDEX, OBJECT_SET_INDEX, TECHNIQUE_SET_INDEX,
+};
+use crate::gpu::GpuWorld;
+use crate::graph::{Access, BufferHandle, FrameGraph, Tracked};
 use crate::plan::Effects;
 use crate::shaders::{self, ShaderSource};
 use crate::vk::{
-    as_bytes, write_descriptors, Buffer, DescriptorWrite, Device, Pipeline, PipelineLayout, ShaderModule,
+    write_descriptors, Buffer, DescriptorSetLayout, DescriptorWrite, Device, Pipeline, PipelineLayout,
+    ShaderModule,
 };
 
 /// How each triangle's bound reaches the rasterizer.
@@ -68,15 +75,20 @@ const HULL_VERTEX_BYTES: u64 = 8;
 /// Bytes per hull triangle in the second buffer: the source triangle's index.
 const HULL_TRIANGLE_BYTES: u64 = 4;
 
+/// Push constants of `expand.comp`.
 #[repr(C)]
-#[derive(Clone, Copy)]
-struct ExpandPush {
-    object: u32,
-    triangle_count: u32,
-    bound: u32,
-    capacity: u32,
-    dilate: f32,
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct ExpandPush {
+    pub object: u32,
+    pub triangle_count: u32,
+    pub bound: u32,
+    pub capacity: u32,
+    pub dilate: f32,
 }
+
+/// For the reflection test.
+pub const EXPAND_STRUCTS: &[SharedStruct] =
+    &[shared_struct!("Push", ExpandPush, [object, triangle_count, bound, capacity, dilate])];
 
 fn expand_shader(effects: Effects) -> ShaderSource {
     match effects {
@@ -110,31 +122,33 @@ pub fn fragment_shader(per_sample: bool, instrumented: bool, effects: Effects) -
 pub struct ComputeHull {
     expand: Vec<(Effects, Pipeline)>,
     expand_layout: PipelineLayout,
-    /// Per object: the vertices and the per-hull-triangle source indices.
-    hulls: Vec<[Buffer; 2]>,
+    /// Per object: the vertices and the per-hull-triangle source indices (set 2, bindings 1 and 2).
+    hulls: Vec<[Tracked<Buffer>; 2]>,
     /// Vertices each object's hull buffer holds.
     capacity: Vec<u32>,
-    /// Vertices each object's expansion needed (host-visible, one u32 per object).
-    counts: Buffer,
+    /// Vertices each object's expansion needed (host-visible, one u32 per object; set 3, binding 4).
+    counts: Tracked<Buffer>,
     /// Vertices one hull buffer may hold (`maxStorageBufferRange`).
     max_vertices: u32,
     _shaders: Vec<ShaderModule>,
 }
 
 impl ComputeHull {
-    /// Pipelines for `paths`, buffers for every object; the geometry sets' bindings 3 (hull), 5 (its source triangles) and 4
-    /// (counts) are written here. `geometry_layout` is the stochastic renderer's set 1 of the expansion.
+    /// Pipelines for `paths`, buffers for every object of `world`. `sets` are the stochastic
+    /// rasterizer's set 2 and 3 layouts; the hull bindings of `object_sets` (set 2) and the counts'
+    /// binding of `technique_set` (set 3) are written here.
     pub fn new(
         device: &Device,
-        scene: &GpuScene,
+        world: &GpuWorld,
         paths: &[Effects],
-        geometry_layout: &crate::vk::DescriptorSetLayout,
+        sets: &[&DescriptorSetLayout; 2],
         object_sets: &[vk::DescriptorSet],
+        technique_set: vk::DescriptorSet,
         initial_vertices_per_triangle: u32,
     ) -> Result<Self> {
-        let expand_layout = PipelineLayout::new(
+        let expand_layout = world.pipeline_layout(
             device,
-            &[&scene.frame_layout, geometry_layout],
+            sets,
             std::mem::size_of::<ExpandPush>() as u32,
             vk::ShaderStageFlags::COMPUTE,
         )?;
@@ -148,12 +162,13 @@ impl ComputeHull {
             ));
             shaders.push(m);
         }
-        let counts = Buffer::with_data(
+        let counts = Tracked::new(Buffer::with_data(
             device,
             "hull vertex counts",
             vk::BufferUsageFlags::STORAGE_BUFFER,
-            &vec![0u32; scene.objects.len().max(1)],
-        )?;
+            &vec![0u32; world.objects.len().max(1)],
+        )?);
+        write_descriptors(device, technique_set, &[DescriptorWrite::storage_buffer(4, &counts)]);
         let range = device.caps.max_storage_buffer_range as u64;
         let max_vertices = (range / HULL_VERTEX_BYTES).min(3 * (range / HULL_TRIANGLE_BYTES)) as u32 / 3 * 3;
         let mut hull = ComputeHull {
@@ -165,13 +180,13 @@ impl ComputeHull {
             max_vertices,
             _shaders: shaders,
         };
-        for (i, o) in scene.objects.iter().enumerate() {
-            let cap = (o.index_count / 3)
+        for (i, o) in world.objects.iter().enumerate() {
+            let cap = o
+                .triangle_count()
                 .max(1)
                 .saturating_mul(initial_vertices_per_triangle.max(3))
                 .min(max_vertices);
-            let b = hull_buffer(device, &o.name, cap)?;
-            hull.hulls.push(b);
+            hull.hulls.push(hull_buffers(device, &o.name, cap)?);
             hull.capacity.push(cap);
             hull.write_set(device, object_sets[i], i);
         }
@@ -179,75 +194,98 @@ impl ComputeHull {
     }
 
     fn write_set(&self, device: &Device, set: vk::DescriptorSet, i: usize) {
-        let ty = vk::DescriptorType::STORAGE_BUFFER;
         write_descriptors(
             device,
             set,
             &[
-                DescriptorWrite::Buffer { binding: 3, ty, buffer: self.hulls[i][0].raw },
-                DescriptorWrite::Buffer { binding: 4, ty, buffer: self.counts.raw },
-                DescriptorWrite::Buffer { binding: 5, ty, buffer: self.hulls[i][1].raw },
+                DescriptorWrite::storage_buffer(1, &self.hulls[i][0]),
+                DescriptorWrite::storage_buffer(2, &self.hulls[i][1]),
             ],
         );
     }
 
-    /// Zeroes the counts (before recording an expansion).
-    pub fn reset_counts(&mut self) -> Result<()> {
-        let n = self.capacity.len().max(1);
-        self.counts.write(&vec![0u32; n])
+    /// Each object's hull buffers (vertices, source triangles).
+    pub fn buffers(&self) -> &[[Tracked<Buffer>; 2]] {
+        &self.hulls
     }
 
-    /// Records the expansion of every object on a stochastic path (after the camera-space triangles
-    /// are written; the caller places the barriers).
-    #[allow(clippy::too_many_arguments)]
-    pub fn record_expand(
-        &self,
-        d: &Device,
-        cmd: vk::CommandBuffer,
-        scene: &GpuScene,
-        object_sets: &[vk::DescriptorSet],
-        object_effects: &[Effects],
+    /// Zeroes the counts (a host write before the graph that expands).
+    pub fn reset_counts(&mut self) -> Result<()> {
+        let n = self.capacity.len().max(1);
+        self.counts.get_mut().write(&vec![0u32; n])
+    }
+
+    /// Adds the expansion of every object on a stochastic path (after the triangles pass that writes
+    /// `triangles`) and the host read of the counts. `sets`: each object's set 2 and the set 3.
+    pub fn add_expand_pass<'a>(
+        &'a self,
+        g: &mut FrameGraph<'a>,
+        inputs: &FrameInputs<'a>,
+        (triangles, object_sets, technique_set): (
+            &'a [Tracked<Buffer>],
+            &'a [vk::DescriptorSet],
+            vk::DescriptorSet,
+        ),
+        object_effects: &'a [Effects],
         bound: u32,
         dilate: f32,
     ) {
-        let bind = vk::PipelineBindPoint::COMPUTE;
-        d.begin_label(cmd, "expand hulls");
-        unsafe {
-            d.raw.cmd_bind_descriptor_sets(cmd, bind, self.expand_layout.raw, 0, &[scene.frame_set], &[]);
-            for (effects, pipeline) in &self.expand {
-                d.raw.cmd_bind_pipeline(cmd, bind, pipeline.raw);
-                for (i, o) in scene.objects.iter().enumerate() {
-                    let count = o.index_count / 3;
-                    if count == 0 || object_effects[i] != *effects {
-                        continue;
+        let world = inputs.world;
+        let view_set = inputs.camera.frame_set;
+        let drawn = |i: usize| object_effects[i].is_stochastic() && world.objects[i].triangle_count() > 0;
+        let mut reads: Vec<BufferHandle> = vec![];
+        let mut writes: Vec<BufferHandle> = vec![];
+        for i in (0..world.objects.len()).filter(|&i| drawn(i)) {
+            reads.push(g.import_buffer("camera-space triangles", &triangles[i]));
+            writes.push(g.import_buffer("hull", &self.hulls[i][0]));
+            writes.push(g.import_buffer("hull triangles", &self.hulls[i][1]));
+        }
+        let counts = g.import_buffer("hull vertex counts", &self.counts);
+        let mut pass = g.pass("expand");
+        for h in reads {
+            pass = pass.access(h, Access::ComputeShaderReadOther);
+        }
+        for h in writes {
+            pass = pass.overwrite(h, Access::ComputeShaderWrite);
+        }
+        // Atomics read and write the counts.
+        pass = pass.access(counts, Access::ComputeShaderReadOther).access(counts, Access::ComputeShaderWrite);
+        pass.record(move |ctx| {
+            let (d, cmd) = (ctx.device, ctx.cmd);
+            let bind = vk::PipelineBindPoint::COMPUTE;
+            let layout = self.expand_layout.raw;
+            unsafe {
+                d.raw.cmd_bind_descriptor_sets(cmd, bind, layout, FRAME_SET_INDEX, &[view_set], &[]);
+                d.raw.cmd_bind_descriptor_sets(cmd, bind, layout, TECHNIQUE_SET_INDEX, &[technique_set], &[]);
+                for (effects, pipeline) in &self.expand {
+                    d.raw.cmd_bind_pipeline(cmd, bind, pipeline.raw);
+                    for (i, o) in world.objects.iter().enumerate() {
+                        if !drawn(i) || object_effects[i] != *effects {
+                            continue;
+                        }
+                        let sets = [o.set, object_sets[i]];
+                        d.raw.cmd_bind_descriptor_sets(cmd, bind, layout, OBJECT_SET_INDEX, &sets, &[]);
+                        let push = ExpandPush {
+                            object: i as u32,
+                            triangle_count: o.triangle_count(),
+                            bound,
+                            capacity: self.capacity[i],
+                            dilate,
+                        };
+                        d.raw.cmd_push_constants(
+                            cmd,
+                            layout,
+                            vk::ShaderStageFlags::COMPUTE,
+                            0,
+                            bytemuck::bytes_of(&push),
+                        );
+                        d.raw.cmd_dispatch(cmd, o.triangle_count().div_ceil(64), 1, 1);
                     }
-                    d.raw.cmd_bind_descriptor_sets(
-                        cmd,
-                        bind,
-                        self.expand_layout.raw,
-                        1,
-                        &[object_sets[i]],
-                        &[],
-                    );
-                    let push = ExpandPush {
-                        object: i as u32,
-                        triangle_count: count,
-                        bound,
-                        capacity: self.capacity[i],
-                        dilate,
-                    };
-                    d.raw.cmd_push_constants(
-                        cmd,
-                        self.expand_layout.raw,
-                        vk::ShaderStageFlags::COMPUTE,
-                        0,
-                        as_bytes(&push),
-                    );
-                    d.raw.cmd_dispatch(cmd, count.div_ceil(64), 1, 1);
                 }
             }
-        }
-        d.end_label(cmd);
+            Ok(())
+        });
+        g.host_read(counts);
     }
 
     /// Reads the counts of the last expansion; grows every buffer that overflowed (rewriting its
@@ -255,7 +293,7 @@ impl ComputeHull {
     pub fn grow_overflowed(
         &mut self,
         device: &Device,
-        scene: &GpuScene,
+        world: &GpuWorld,
         object_sets: &[vk::DescriptorSet],
     ) -> Result<bool> {
         let counts = self.counts()?;
@@ -265,7 +303,7 @@ impl ComputeHull {
                 if n > self.max_vertices {
                     return Err(Error::Limit {
                         what: "compute-expanded hull",
-                        value: format!("{n} vertices for object `{}`", scene.objects[i].name),
+                        value: format!("{n} vertices for object `{}`", world.objects[i].name),
                         limit: format!(
                             "{} vertices ({} bytes, maxStorageBufferRange); use the geometry-shader hull (--hull gs)",
                             self.max_vertices,
@@ -274,7 +312,7 @@ impl ComputeHull {
                     });
                 }
                 let cap = n.saturating_add(n / 4).min(self.max_vertices);
-                self.hulls[i] = hull_buffer(device, &scene.objects[i].name, cap)?;
+                self.hulls[i] = hull_buffers(device, &world.objects[i].name, cap)?;
                 self.capacity[i] = cap;
                 self.write_set(device, object_sets[i], i);
                 grew = true;
@@ -285,10 +323,7 @@ impl ComputeHull {
 
     /// Vertices of each object's hull from the last expansion.
     pub fn counts(&self) -> Result<Vec<u32>> {
-        Ok(self.counts.mapped()?[..4 * self.capacity.len()]
-            .chunks_exact(4)
-            .map(|c| u32::from_ne_bytes([c[0], c[1], c[2], c[3]]))
-            .collect())
+        self.counts.read_u32s(self.capacity.len())
     }
 
     /// Current capacity of each object's hull buffer, in vertices.
@@ -297,22 +332,22 @@ impl ComputeHull {
     }
 }
 
-fn hull_buffer(device: &Device, object: &str, vertices: u32) -> Result<[Buffer; 2]> {
+fn hull_buffers(device: &Device, object: &str, vertices: u32) -> Result<[Tracked<Buffer>; 2]> {
     let storage = vk::BufferUsageFlags::STORAGE_BUFFER;
     Ok([
-        Buffer::new(
+        Tracked::new(Buffer::new(
             device,
             &format!("hull:{object}"),
             vertices as u64 * HULL_VERTEX_BYTES,
             storage,
             MemoryLocation::GpuOnly,
-        )?,
-        Buffer::new(
+        )?),
+        Tracked::new(Buffer::new(
             device,
             &format!("hull triangles:{object}"),
             (vertices as u64).div_ceil(3) * HULL_TRIANGLE_BYTES,
             storage,
             MemoryLocation::GpuOnly,
-        )?,
+        )?),
     ])
 }

@@ -1,16 +1,19 @@
-//! The forward pass shared by `pinhole` and `accumulation`: the whole scene rendered with one
-//! (u, v, t) and one subpixel offset per pass, on the multipass frame of [`super::targets`].
-//! Shaders: `shaders-glsl/forward/`.
+//! The plain forward path shared by `pinhole`, `accumulation` and `auto`'s still, sharp objects: the
+//! objects rendered with one (u, v, t) and one subpixel offset per pass, into the passes of a
+//! [`MultipassFrame`]. Shaders: `shaders-glsl/forward/`.
 
 use ash::vk;
+use bytemuck::{Pod, Zeroable};
 use glam::Vec2;
 
-use super::gpu_scene::GpuScene;
-use super::targets::{PassTargets, COLOR_FORMAT, DEPTH_FORMAT};
+use super::multipass::{FrameUse, MultipassFrame, PassDraws, COLOR_FORMAT, DEPTH_FORMAT};
+use super::{FrameContext, FrameInputs, FrameTechnique, PrepareContext, TechniqueFrame};
 use crate::error::Result;
-use crate::image::LinearImage;
+use crate::gpu::layout::{shared_struct, vertex_input, SharedStruct};
+use crate::gpu::{GpuView, GpuWorld};
+use crate::graph::{FrameGraph, PassContext};
 use crate::shaders;
-use crate::vk::{CommandRecorder, Device, GraphicsDesc, PassTimings, Pipeline, PipelineLayout, ShaderModule};
+use crate::vk::{Device, GraphicsDesc, Pipeline, PipelineLayout, ShaderModule};
 
 /// One pass' sample of the lens and shutter.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -23,17 +26,21 @@ pub struct PassSample {
     pub jitter: Vec2,
 }
 
+/// Push constants of `forward.vert`/`forward.frag`.
 #[repr(C)]
-#[derive(Clone, Copy)]
-struct ForwardPush {
-    object: u32,
-    time: f32,
-    lens: [f32; 2],
-    jitter: [f32; 2],
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct ForwardPush {
+    pub object: u32,
+    pub time: f32,
+    pub lens: [f32; 2],
+    pub jitter: [f32; 2],
 }
 
-/// The forward pipeline for one MSAA count, without targets: drawn by [`ForwardRenderer`] and, for the
-/// objects the planner leaves on the pinhole path, into the stochastic frame's targets.
+/// For the reflection test.
+pub const FORWARD_STRUCTS: &[SharedStruct] =
+    &[shared_struct!("Push", ForwardPush, [object, time, lens, jitter])];
+
+/// The forward pipeline for one MSAA count.
 pub struct ForwardPipeline {
     pipeline: Pipeline,
     layout: PipelineLayout,
@@ -41,16 +48,16 @@ pub struct ForwardPipeline {
 }
 
 impl ForwardPipeline {
-    pub fn new(device: &Device, scene: &GpuScene, samples: u32) -> Result<Self> {
+    pub fn new(device: &Device, world: &GpuWorld, samples: u32) -> Result<Self> {
         let vert = ShaderModule::new(device, shaders::FORWARD_FORWARD_VERT)?;
         let frag = ShaderModule::new(device, shaders::FORWARD_FORWARD_FRAG)?;
-        let layout = PipelineLayout::new(
+        let layout = world.pipeline_layout(
             device,
-            &[&scene.frame_layout, &scene.material_layout],
+            &[],
             std::mem::size_of::<ForwardPush>() as u32,
             vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT,
         )?;
-        let (bindings, attributes) = GpuScene::vertex_input();
+        let (bindings, attributes) = vertex_input();
         let pipeline = Pipeline::graphics(
             device,
             &layout,
@@ -73,12 +80,13 @@ impl ForwardPipeline {
         Ok(ForwardPipeline { pipeline, layout, _shaders: vec![vert, frag] })
     }
 
-    /// Draws the objects `i` with `include(i)` with one pass' (t, lens, jitter).
+    /// Draws the objects `i` with `include(i)` seen from `view` with one pass' (t, lens, jitter).
     pub fn record_draws(
         &self,
         d: &Device,
         cmd: vk::CommandBuffer,
-        scene: &GpuScene,
+        world: &GpuWorld,
+        view: &GpuView,
         pass: &PassSample,
         include: impl Fn(usize) -> bool,
     ) {
@@ -90,37 +98,72 @@ impl ForwardPipeline {
             jitter: pass.jitter.to_array(),
         };
         let stages = vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT;
-        scene.record_object_draws(d, cmd, &self.layout, stages, include, push, |_| None);
+        world.record_object_draws(d, cmd, view, &self.layout, stages, include, push, |_| None);
     }
 }
 
-/// The forward pipeline and its targets for one image size and MSAA count.
-pub struct ForwardRenderer {
-    targets: PassTargets,
+/// The forward path of a set of objects: one [`PassSample`] per pass of the frame.
+pub struct ForwardDraws {
     pipeline: ForwardPipeline,
+    samples: Vec<PassSample>,
+    include: Vec<bool>,
 }
 
-impl ForwardRenderer {
-    pub fn new(device: &Device, scene: &GpuScene, samples: u32) -> Result<Self> {
-        let pipeline = ForwardPipeline::new(device, scene, samples)?;
-        let targets = PassTargets::new(device, scene.width, scene.height, samples)?;
-        Ok(ForwardRenderer { targets, pipeline })
-    }
-
-    pub fn samples(&self) -> u32 {
-        self.targets.samples()
-    }
-
-    /// Renders every pass, averages them (equal weights) and reads the result back.
-    pub fn render(
-        &self,
+impl ForwardDraws {
+    /// Objects `i` with `include[i]`, pass p drawn with `samples[p]`, at `msaa` samples.
+    pub fn new(
         device: &Device,
-        rec: &mut CommandRecorder,
-        scene: &GpuScene,
-        passes: &[PassSample],
-    ) -> Result<(LinearImage, PassTimings)> {
-        self.targets.render(device, rec, scene.background, passes.len(), "forward", &mut |d, cmd, i| {
-            self.pipeline.record_draws(d, cmd, scene, &passes[i], |_| true)
+        world: &GpuWorld,
+        msaa: u32,
+        samples: Vec<PassSample>,
+        include: Vec<bool>,
+    ) -> Result<Self> {
+        Ok(ForwardDraws { pipeline: ForwardPipeline::new(device, world, msaa)?, samples, include })
+    }
+}
+
+impl PassDraws for ForwardDraws {
+    fn add_frame_passes<'a>(
+        &'a self,
+        _g: &mut FrameGraph<'a>,
+        _inputs: &FrameInputs<'a>,
+    ) -> Result<FrameUse> {
+        // Reads only the world and the view (host-written before the frame): nothing to declare.
+        Ok(FrameUse::default())
+    }
+    fn record(&self, ctx: &mut PassContext<'_>, inputs: &FrameInputs<'_>, pass: u32) {
+        let sample = &self.samples[pass as usize];
+        self.pipeline
+            .record_draws(ctx.device, ctx.cmd, inputs.world, inputs.camera, sample, |i| self.include[i]);
+    }
+}
+
+/// Every object on the forward path, one [`PassSample`] per pass: `pinhole` and `accumulation`.
+pub struct ForwardTechnique {
+    frame: MultipassFrame,
+    draws: ForwardDraws,
+}
+
+impl ForwardTechnique {
+    /// `samples.len()` passes at `msaa` samples per pass, every object drawn.
+    pub fn new(ctx: &PrepareContext<'_>, msaa: u32, samples: Vec<PassSample>) -> Result<Self> {
+        let passes = samples.len() as u32;
+        let include = vec![true; ctx.world.objects.len()];
+        let draws = ForwardDraws::new(ctx.device, ctx.world, msaa, samples, include)?;
+        let frame = MultipassFrame::new(ctx.device, ctx.world, ctx.camera.size(), msaa, passes, "forward")?;
+        Ok(ForwardTechnique { frame, draws })
+    }
+}
+
+impl FrameTechnique for ForwardTechnique {
+    fn render(&mut self, inputs: &FrameInputs<'_>, frame: &mut FrameContext<'_>) -> Result<TechniqueFrame> {
+        let draws: [&dyn PassDraws; 1] = [&self.draws];
+        let image = self.frame.render(frame, inputs, &draws)?;
+        Ok(TechniqueFrame {
+            image,
+            passes: self.frame.passes(),
+            msaa_samples: self.frame.samples(),
+            counters: None,
         })
     }
 }

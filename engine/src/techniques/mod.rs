@@ -1,68 +1,58 @@
-//! Techniques: each estimates the pixel integral its own way from the same [`GpuScene`].
+//! Techniques: each estimates the pixel integral its own way over the same world and views.
 //!
 //! - `auto` (the default): the effect planner ([`crate::plan`]) decides per object; with nothing to
-//!   simulate it is `pinhole`, otherwise `stochastic` with each object on the shader permutation of
-//!   its effects and the still, sharp objects on the plain pipeline in the same targets
+//!   simulate it is `pinhole`, otherwise the stochastic frame with each object on the shader
+//!   permutation of its effects and the still, sharp objects drawn by the plain pipeline in the same
+//!   passes (`auto.rs` composes the two paths)
 //! - `pinhole`: one pass at mid-shutter through the lens centre (no effect), MSAA 4×
 //! - `accumulation`: P full-scene passes, one (x,y,u,v,t) each, averaged
 //! - `stochastic`: stochastic rasterization, S = M MSAA samples × P passes per pixel, each sample its
 //!   own (x,y,u,v,t), tested per triangle inside a conservative bound (`stochastic.rs`)
 //!
-//! [`Renderer`] owns the device-side state that outlives a frame (the command recorder) and renders a
-//! [`Scene`] with a [`Technique`] into a [`RenderOutput`].
+//! A technique is one file (plus one shader folder) exposing a [`TechniqueInfo`], listed once in
+//! [`registry`]. Its `prepare` function builds a [`FrameTechnique`] — pipelines and persistent
+//! targets for one scene and settings — whose [`FrameTechnique::render`] builds the frame's graph(s)
+//! ([`crate::graph`]) over the [`FrameInputs`] and runs them through the [`FrameContext`]. The frame
+//! loop, barriers, timestamps and submissions live in the graph executor.
+//!
+//! [`Renderer`] owns what outlives a frame (the device, the command recorder) and renders a [`Scene`]
+//! with a [`Technique`] into a [`RenderOutput`].
 
 pub mod accumulation;
+pub mod auto;
 pub mod compute_hull;
 pub mod forward;
-pub mod gpu_scene;
+pub mod multipass;
 pub mod pinhole;
+pub mod registry;
 pub mod stochastic;
-pub mod targets;
 
+use std::any::Any;
+use std::rc::Rc;
 use std::str::FromStr;
 use std::time::Instant;
 
 pub use compute_hull::HullExpansion;
 pub use forward::PassSample;
-pub use gpu_scene::GpuScene;
+pub use registry::{Technique, TechniqueInfo};
 pub use stochastic::{SampleCounters, ShadingRate, StochasticOptions};
 
 use crate::error::{Error, Result};
+use crate::gpu::{GpuView, GpuWorld};
+use crate::graph::{FrameGraph, GraphResult, TransientPool};
 use crate::image::LinearImage;
-use crate::plan::{Effects, Plan};
+use crate::plan::Plan;
 use crate::scene::file::{MAX_IMAGE_DIMENSION, MAX_SPP};
-use crate::scene::Scene;
+use crate::scene::{Scene, View};
 use crate::vk::{CommandRecorder, Device, PassTimings};
-
-/// A way of estimating the pixel integral on the GPU.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Technique {
-    Auto,
-    Pinhole,
-    Accumulation,
-    Stochastic,
-}
-
-impl Technique {
-    pub const ALL: &'static [Technique] =
-        &[Technique::Auto, Technique::Pinhole, Technique::Accumulation, Technique::Stochastic];
-    pub fn name(&self) -> &'static str {
-        match self {
-            Technique::Auto => "auto",
-            Technique::Pinhole => "pinhole",
-            Technique::Accumulation => "accumulation",
-            Technique::Stochastic => "stochastic",
-        }
-    }
-}
 
 impl FromStr for Technique {
     type Err = Error;
     fn from_str(s: &str) -> Result<Self> {
-        Technique::ALL.iter().copied().find(|t| t.name() == s).ok_or_else(|| {
+        registry::TECHNIQUES.iter().copied().find(|t| t.name() == s).ok_or_else(|| {
             Error::Unsupported(format!(
                 "unknown technique `{s}`; available: {}",
-                Technique::ALL.iter().map(|t| t.name()).collect::<Vec<_>>().join(", ")
+                registry::TECHNIQUES.iter().map(|t| t.name()).collect::<Vec<_>>().join(", ")
             ))
         })
     }
@@ -92,13 +82,7 @@ impl RenderSettings {
     }
     pub fn from_scene(scene: &Scene) -> Self {
         let i = scene.image;
-        RenderSettings {
-            width: i.width,
-            height: i.height,
-            spp: i.spp,
-            seed: i.seed,
-            stochastic: StochasticOptions::default(),
-        }
+        RenderSettings::new(i.width, i.height, i.spp, i.seed)
     }
 }
 
@@ -125,6 +109,67 @@ pub struct RenderOutput {
     /// GPU time per named pass, summed over repeats.
     pub timings: PassTimings,
     pub stats: RenderStats,
+}
+
+/// What a technique gets to prepare itself for a scene: the device, the uploaded world, the camera
+/// view (CPU, with the scene in camera space) and the settings.
+pub struct PrepareContext<'p> {
+    pub device: &'p Device,
+    pub scene: &'p Scene,
+    pub world: &'p GpuWorld,
+    pub camera: &'p View,
+    pub settings: &'p RenderSettings,
+}
+
+/// What a prepared technique reads each frame.
+#[derive(Clone, Copy)]
+pub struct FrameInputs<'f> {
+    pub world: &'f GpuWorld,
+    pub camera: &'f GpuView,
+}
+
+/// One frame's result from a technique (timings are collected by the [`FrameContext`]).
+pub struct TechniqueFrame {
+    pub image: LinearImage,
+    pub passes: u32,
+    pub msaa_samples: u32,
+    pub counters: Option<SampleCounters>,
+}
+
+/// A technique prepared for one scene and settings: it owns its pipelines and persistent targets.
+/// `Any` so tests and tools can reach a concrete technique's diagnostics.
+pub trait FrameTechnique: Any {
+    /// Renders one frame: builds the frame's graph(s) and runs them with `frame`.
+    fn render(&mut self, inputs: &FrameInputs<'_>, frame: &mut FrameContext<'_>) -> Result<TechniqueFrame>;
+    /// The effect plan behind the technique's choices, if it made any (`auto`).
+    fn plan(&self) -> Option<&Plan> {
+        None
+    }
+}
+
+/// Runs a technique's graphs: the one place frames are submitted ([`FrameGraph::execute`]), with the
+/// GPU timings of every graph of the frame collected.
+pub struct FrameContext<'f> {
+    device: &'f Device,
+    recorder: &'f mut CommandRecorder,
+    pool: Rc<TransientPool>,
+    timings: PassTimings,
+}
+
+impl FrameContext<'_> {
+    pub fn device(&self) -> &Device {
+        self.device
+    }
+    /// An empty graph whose transient resources come from the frame's pool.
+    pub fn graph<'a>(&self) -> FrameGraph<'a> {
+        FrameGraph::new(self.device, self.pool.clone())
+    }
+    /// Executes `graph` (recording, submitting and waiting) and adds its timings to the frame's.
+    pub fn run(&mut self, graph: FrameGraph<'_>) -> Result<GraphResult> {
+        let result = graph.execute(self.recorder)?;
+        self.timings.add(&result.timings);
+        Ok(result)
+    }
 }
 
 /// Renders scenes on one device.
@@ -199,108 +244,100 @@ impl Renderer {
         technique: Technique,
         settings: &RenderSettings,
     ) -> Result<PreparedFrame> {
+        self.prepare_with(scene, settings, technique.info().prepare)
+    }
+
+    /// [`Renderer::prepare`] with any technique: `prepare` builds it from the uploaded world and
+    /// camera (how a technique outside the registry, or a test's, is rendered).
+    pub fn prepare_with(
+        &mut self,
+        scene: &Scene,
+        settings: &RenderSettings,
+        prepare: impl FnOnce(&PrepareContext<'_>) -> Result<Box<dyn FrameTechnique>>,
+    ) -> Result<PreparedFrame> {
         self.check_settings(settings)?;
         if let Some(o) = scene.objects.iter().find(|o| o.material.alpha < 1.0) {
             return Err(Error::Unsupported(format!(
-                "object `{}` has alpha {} < 1: technique `{}` renders opaque surfaces only (the CPU reference \
-                 renders alpha as stochastic coverage)",
-                o.name,
-                o.material.alpha,
-                technique.name()
+                "object `{}` has alpha {} < 1: the GPU techniques render opaque surfaces only (the CPU \
+                 reference renders alpha as stochastic coverage)",
+                o.name, o.material.alpha,
             )));
         }
         let t0 = Instant::now();
-        let gpu_scene =
-            GpuScene::upload(&self.device, &mut self.recorder, scene, settings.width, settings.height)?;
+        let world = GpuWorld::upload(&self.device, &mut self.recorder, scene)?;
+        // The one camera-space build of the frame: the plan, the GPU view and the techniques share it.
+        let camera = View::camera(scene, settings.width, settings.height);
+        let camera_gpu = GpuView::new(&self.device, &world, &camera)?;
         let upload_ms = t0.elapsed().as_secs_f64() * 1e3;
-        let c = &scene.camera;
-        let plan = (technique == Technique::Auto).then(|| Plan::new(scene, settings.width, settings.height));
-        // `auto` takes the compute-expanded hull where there is no geometry shader.
-        let mut options = settings.stochastic;
-        if technique == Technique::Auto && !self.device.caps.geometry_shader {
-            options.expansion = HullExpansion::Compute;
-        }
-        let stochastic = |effects: &[Effects]| -> Result<Frame> {
-            Ok(Frame::Stochastic(Box::new(stochastic::StochasticRenderer::new(
-                &self.device,
-                &gpu_scene,
-                settings.spp,
-                settings.seed,
-                c.aperture,
-                c.shutter,
-                options,
-                Default::default(),
-                effects,
-            )?)))
-        };
-        let pinhole = || -> Result<Frame> {
-            let msaa = self.device.caps.msaa_samples(pinhole::PINHOLE_MSAA);
-            Ok(Frame::Forward(
-                Box::new(forward::ForwardRenderer::new(&self.device, &gpu_scene, msaa)?),
-                pinhole::pinhole_passes(),
-            ))
-        };
-        let frame = match technique {
-            Technique::Auto => match &plan {
-                Some(p) if p.needs_stochastic() => stochastic(&p.effects())?,
-                _ => pinhole()?,
-            },
-            Technique::Pinhole => pinhole()?,
-            Technique::Stochastic => stochastic(&vec![Effects::Both; scene.objects.len()])?,
-            Technique::Accumulation => Frame::Forward(
-                Box::new(forward::ForwardRenderer::new(&self.device, &gpu_scene, 1)?),
-                accumulation::accumulation_passes(settings.spp, settings.seed, c.aperture, c.shutter),
-            ),
-        };
-        Ok(PreparedFrame { frame, gpu_scene, triangles: scene.triangle_count(), upload_ms, plan })
+        let technique = prepare(&PrepareContext {
+            device: &self.device,
+            scene,
+            world: &world,
+            camera: &camera,
+            settings,
+        })?;
+        Ok(PreparedFrame {
+            technique,
+            pool: Rc::new(TransientPool::default()),
+            camera: camera_gpu,
+            world,
+            triangles: scene.triangle_count(),
+            upload_ms,
+        })
     }
 
     /// Renders one frame of a prepared scene and technique.
     pub fn render_prepared(&mut self, prepared: &mut PreparedFrame) -> Result<RenderOutput> {
         let t1 = Instant::now();
-        let gpu_scene = &prepared.gpu_scene;
-        let (image, timings, passes, msaa, counters) = match &mut prepared.frame {
-            Frame::Forward(fr, passes) => {
-                let (image, timings) = fr.render(&self.device, &mut self.recorder, gpu_scene, passes)?;
-                (image, timings, passes.len() as u32, fr.samples(), None)
-            }
-            Frame::Stochastic(sr) => {
-                let (msaa, passes) = sr.msaa_and_passes();
-                let (image, timings, counters) = sr.render(&self.device, &mut self.recorder, gpu_scene)?;
-                (image, timings, passes, msaa, counters)
-            }
+        let mut frame = FrameContext {
+            device: &self.device,
+            recorder: &mut self.recorder,
+            pool: prepared.pool.clone(),
+            timings: PassTimings::default(),
         };
+        let inputs = FrameInputs { world: &prepared.world, camera: &prepared.camera };
+        let out = prepared.technique.render(&inputs, &mut frame)?;
+        let timings = frame.timings;
         let cpu_frame_ms = t1.elapsed().as_secs_f64() * 1e3;
         self.device.check_validation()?;
         Ok(RenderOutput {
-            image,
+            image: out.image,
             timings,
             stats: RenderStats {
-                passes,
-                msaa_samples: msaa,
+                passes: out.passes,
+                msaa_samples: out.msaa_samples,
                 triangles: prepared.triangles,
                 cpu_frame_ms,
                 upload_ms: prepared.upload_ms,
-                counters,
-                plan: prepared.plan.clone(),
+                counters: out.counters,
+                plan: prepared.technique.plan().cloned(),
             },
         })
     }
 }
 
-enum Frame {
-    Forward(Box<forward::ForwardRenderer>, Vec<PassSample>),
-    Stochastic(Box<stochastic::StochasticRenderer>),
-}
-
 /// A scene on the device with one technique's pipelines and targets ([`Renderer::prepare`]).
 pub struct PreparedFrame {
-    // Declared before the scene: the renderers' descriptor sets refer to its buffers.
-    frame: Frame,
-    gpu_scene: GpuScene,
+    // Dropped in this order: the technique's descriptor sets and transient targets before the views
+    // and the world whose buffers they name.
+    technique: Box<dyn FrameTechnique>,
+    pool: Rc<TransientPool>,
+    camera: GpuView,
+    world: GpuWorld,
     triangles: usize,
     upload_ms: f64,
-    plan: Option<Plan>,
+}
+
+impl PreparedFrame {
+    /// The prepared technique (downcast with `as &dyn Any` to reach a concrete one's diagnostics).
+    pub fn technique(&self) -> &dyn FrameTechnique {
+        self.technique.as_ref()
+    }
+    /// The concrete technique, if it is a `T`.
+    pub fn technique_as<T: FrameTechnique>(&self) -> Option<&T> {
+        let any: &dyn Any = self.technique.as_ref();
+        any.downcast_ref::<T>()
+    }
 }
 
 /// Which path Shutter takes on a device for one hardware feature (`shutter probe`).

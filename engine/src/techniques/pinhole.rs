@@ -3,7 +3,22 @@
 
 use glam::Vec2;
 
-use super::forward::PassSample;
+use super::forward::{ForwardTechnique, PassSample};
+use super::registry::TechniqueInfo;
+use super::{FrameTechnique, PrepareContext};
+use crate::error::Result;
+
+/// The registry entry.
+pub const INFO: TechniqueInfo = TechniqueInfo {
+    name: "pinhole",
+    summary: "one forward pass at mid-shutter through the lens centre, MSAA 4x: no blur",
+    prepare,
+};
+
+fn prepare(ctx: &PrepareContext<'_>) -> Result<Box<dyn FrameTechnique>> {
+    let msaa = ctx.device.caps.msaa_samples(PINHOLE_MSAA);
+    Ok(Box::new(ForwardTechnique::new(ctx, msaa, pinhole_passes())?))
+}
 
 /// MSAA count the pinhole technique asks for (the device may offer less).
 pub const PINHOLE_MSAA: u32 = 4;

@@ -8,7 +8,7 @@
 //! runs the 5D inside test of each of the pass' samples — the ray from the sample's lens point through
 //! its (x, y) against the triangle at the sample's time — writes the hits to `gl_SampleMask` and the
 //! hit depth to `gl_FragDepth`, and shades per pixel or per sample ([`ShadingRate`]). The passes are
-//! resolved and averaged by [`super::targets::PassTargets`].
+//! resolved and averaged by the multipass frame ([`super::multipass::MultipassFrame`]).
 //!
 //! The (x, y, u, v, t) samples are those of the CPU reference ([`SampleTile`]: 64×64 pixels × S
 //! stratified samples, aperture shape and shutter curve applied here, never in the shaders), so at
@@ -16,23 +16,41 @@
 //! Shaders: `shaders-glsl/stochastic/`.
 
 use ash::vk;
+use bytemuck::{Pod, Zeroable};
 use gpu_allocator::MemoryLocation;
 
 use super::compute_hull::{ComputeHull, HullExpansion, INITIAL_VERTICES_PER_TRIANGLE};
-use super::forward::{ForwardPipeline, PassSample};
-use super::gpu_scene::GpuScene;
-use super::targets::{PassTargets, COLOR_FORMAT, DEPTH_FORMAT};
+use super::multipass::{FrameUse, MultipassFrame, PassDraws, COLOR_FORMAT, DEPTH_FORMAT};
+use super::registry::TechniqueInfo;
+use super::{FrameContext, FrameInputs, FrameTechnique, PrepareContext, TechniqueFrame};
 use crate::bounds::BoundKind;
 use crate::error::{Error, Result};
-use crate::image::LinearImage;
+use crate::gpu::layout::{
+    shared_struct, vertex_input, Binding, SharedStruct, FRAME_SET_INDEX, OBJECT_SET_INDEX,
+    TECHNIQUE_SET_INDEX,
+};
+use crate::gpu::{GpuView, GpuWorld};
+use crate::graph::{Access, FrameGraph, PassContext, ResourceHandle, Tracked};
 use crate::plan::Effects;
 use crate::sampling::{ApertureShape, SampleTile, ShutterCurve, SAMPLE_TILE_SIZE};
 use crate::shaders::{self, ShaderSource};
 use crate::vk::{
-    as_bytes, write_descriptors, Buffer, CommandRecorder, DescriptorPool, DescriptorSetLayout,
-    DescriptorWrite, Device, Feature, GpuTimer, GraphicsDesc, PassTimings, Pipeline, PipelineLayout,
-    ShaderModule,
+    write_descriptors, Buffer, DescriptorPool, DescriptorSetLayout, DescriptorWrite, Device, Feature,
+    GraphicsDesc, Pipeline, PipelineLayout, ShaderModule,
 };
+
+/// The registry entry.
+pub const INFO: TechniqueInfo = TechniqueInfo {
+    name: "stochastic",
+    summary: "stochastic rasterization: a conservative bound per triangle, the 5D inside test per sample, \
+              gl_SampleMask (McGuire et al. 2010; Toth & Linder 2008)",
+    prepare,
+};
+
+fn prepare(ctx: &PrepareContext<'_>) -> Result<Box<dyn FrameTechnique>> {
+    let effects = vec![Effects::Both; ctx.scene.objects.len()];
+    Ok(Box::new(StochasticTechnique::new(ctx, ctx.settings.stochastic, DebugOptions::default(), &effects)?))
+}
 
 /// Largest S the stochastic technique accepts (the sample tile is 64·64·S·20 bytes: 84 MB at 1024).
 pub const MAX_STOCHASTIC_SPP: u32 = 1024;
@@ -120,16 +138,59 @@ impl SampleCounters {
     }
 }
 
+/// Push constants of the stochastic pipelines (`stochastic/push.glsl`).
 #[repr(C)]
-#[derive(Clone, Copy)]
-struct StochasticPush {
-    object: u32,
-    bound: u32,
-    pass_index: u32,
-    spp: u32,
-    msaa: u32,
-    footprint: f32,
-    dilate: f32,
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct StochasticPush {
+    pub object: u32,
+    pub bound: u32,
+    pub pass_index: u32,
+    pub spp: u32,
+    pub msaa: u32,
+    pub footprint: f32,
+    pub dilate: f32,
+}
+
+/// Push constants of `triangles.comp`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct TrianglesPush {
+    pub object: u32,
+    pub triangle_count: u32,
+}
+
+/// Set 2 of the stochastic rasterizer, per object: the view's triangles and the compute-expanded hull.
+pub const STOCHASTIC_OBJECT_SET: [Binding; 3] = [
+    Binding { binding: 0, ty: vk::DescriptorType::STORAGE_BUFFER, block: "Triangles" },
+    Binding { binding: 1, ty: vk::DescriptorType::STORAGE_BUFFER, block: "Hull" },
+    Binding { binding: 2, ty: vk::DescriptorType::STORAGE_BUFFER, block: "HullTriangles" },
+];
+
+/// Set 3 of the stochastic rasterizer: the sample tile, counters, bound debug output, hull counts.
+pub const STOCHASTIC_SET: [Binding; 5] = [
+    Binding { binding: 0, ty: vk::DescriptorType::STORAGE_BUFFER, block: "SamplesXyLens" },
+    Binding { binding: 1, ty: vk::DescriptorType::STORAGE_BUFFER, block: "SamplesTime" },
+    Binding { binding: 2, ty: vk::DescriptorType::STORAGE_BUFFER, block: "Counters" },
+    Binding { binding: 3, ty: vk::DescriptorType::STORAGE_BUFFER, block: "BoundDebug" },
+    Binding { binding: 4, ty: vk::DescriptorType::STORAGE_BUFFER, block: "HullCounts" },
+];
+
+/// For the reflection test.
+pub const STOCHASTIC_STRUCTS: &[SharedStruct] = &[
+    shared_struct!("Push", StochasticPush, [object, bound, pass_index, spp, msaa, footprint, dilate]),
+    shared_struct!("Push", TrianglesPush, [object, triangle_count]),
+];
+
+/// MSAA samples per pass and passes for `spp` samples per pixel: `forced` when given (it must be a
+/// count of the device dividing S), else [`split_samples`].
+pub fn msaa_and_passes(spp: u32, forced: Option<u32>, supported: &[u32]) -> Result<(u32, u32)> {
+    match forced {
+        None => Ok(split_samples(spp, supported)),
+        Some(m) if supported.contains(&m) && spp.is_multiple_of(m) => Ok((m, spp / m)),
+        Some(m) => Err(Error::Unsupported(format!(
+            "{m}x MSAA per pass for S = {spp}: it must divide S and be one of the device's counts {supported:?}"
+        ))),
+    }
 }
 
 /// Splits S samples per pixel into passes of M MSAA samples: the largest count the device supports
@@ -193,40 +254,6 @@ fn geometry_shader(effects: Effects, bound_debug: bool) -> ShaderSource {
     }
 }
 
-/// Pipelines, sample buffers and per-object descriptor sets of the stochastic rasterizer.
-///
-/// Every object takes one path ([`Effects`], from [`crate::plan`] for technique `auto`, `Both` for
-/// technique `stochastic`): one stochastic pipeline per effect permutation in use, and the plain
-/// forward pipeline (mid-shutter, lens centre) for `Pinhole` objects, drawn into the same
-/// multisampled targets with the same reversed-Z depth in every pass.
-pub struct StochasticRenderer {
-    targets: PassTargets,
-    pipelines: Vec<(Effects, Pipeline)>,
-    plain: Option<ForwardPipeline>,
-    object_effects: Vec<Effects>,
-    layout: PipelineLayout,
-    object_sets: Vec<vk::DescriptorSet>,
-    sample_set: vk::DescriptorSet,
-    options: StochasticOptions,
-    spp: u32,
-    passes: u32,
-    /// Box half-size of the bound dilation ([`crate::bounds::dilation_px`]).
-    dilate: f32,
-    counters: Buffer,
-    bound_debug: Buffer,
-    /// The compute-expanded hull's buffers and pipelines ([`HullExpansion::Compute`]).
-    hull: Option<ComputeHull>,
-    /// Vertices of each object's expanded hull this frame (compute expansion).
-    hull_counts: Vec<u32>,
-    _samples: [Buffer; 2],
-    _pool: DescriptorPool,
-    _set_layouts: [DescriptorSetLayout; 2],
-    triangles_pipeline: Pipeline,
-    triangles_layout: PipelineLayout,
-    _triangles: Vec<Buffer>,
-    _shaders: Vec<ShaderModule>,
-}
-
 /// Bytes per camera-space triangle record (`triangles.comp`): 3 vertices × xyz at open and close.
 const TRIANGLE_RECORD_BYTES: u64 = 18 * 4;
 
@@ -243,14 +270,49 @@ pub struct DebugOptions {
 /// Floats per triangle in the bound debug buffer (see `stochastic.geom`).
 pub const BOUND_DEBUG_STRIDE: usize = 8 + 2 * 48;
 
-impl StochasticRenderer {
-    /// `object_effects[i]` is object i's path (one per object of `scene`).
+/// The stochastic path of a set of objects: pipelines (one shader permutation per effect path in
+/// use), the sample tile, the view's camera-space triangles, counters.
+///
+/// Every object takes one path ([`Effects`]): `object_effects[i]`; objects on [`Effects::Pinhole`]
+/// are not drawn here (`auto` draws them with the plain forward path in the same passes).
+pub struct StochasticDraws {
+    pipelines: Vec<(Effects, Pipeline)>,
+    object_effects: Vec<Effects>,
+    layout: PipelineLayout,
+    push_stages: vk::ShaderStageFlags,
+    /// Set 2 per object ([`STOCHASTIC_OBJECT_SET`]).
+    object_sets: Vec<vk::DescriptorSet>,
+    /// Set 3 ([`STOCHASTIC_SET`]).
+    technique_set: vk::DescriptorSet,
+    options: StochasticOptions,
+    spp: u32,
+    msaa: u32,
+    passes: u32,
+    /// Box half-size of the bound dilation ([`crate::bounds::dilation_px`]).
+    dilate: f32,
+    counters: Tracked<Buffer>,
+    bound_debug: Option<Tracked<Buffer>>,
+    /// The camera view's triangles at shutter open and close, per object (`triangles.comp`).
+    triangles: Vec<Tracked<Buffer>>,
+    triangles_pipeline: Pipeline,
+    triangles_layout: PipelineLayout,
+    /// The compute-expanded hull's buffers and pipelines ([`HullExpansion::Compute`]).
+    hull: Option<ComputeHull>,
+    /// Vertices of each object's expanded hull this frame (compute expansion).
+    hull_counts: Vec<u32>,
+    _samples: [Buffer; 2],
+    _pool: DescriptorPool,
+    _set_layouts: [DescriptorSetLayout; 2],
+    _shaders: Vec<ShaderModule>,
+}
+
+impl StochasticDraws {
+    /// The path for `object_effects` (one per object of `world`) at `spp` samples per pixel.
     #[allow(clippy::too_many_arguments)]
     pub fn new(
         device: &Device,
-        scene: &GpuScene,
-        spp: u32,
-        seed: u64,
+        world: &GpuWorld,
+        (spp, seed): (u32, u64),
         aperture: ApertureShape,
         shutter: ShutterCurve,
         options: StochasticOptions,
@@ -258,11 +320,11 @@ impl StochasticRenderer {
         object_effects: &[Effects],
     ) -> Result<Self> {
         let caps = &device.caps;
-        if object_effects.len() != scene.objects.len() {
+        if object_effects.len() != world.objects.len() {
             return Err(Error::Unsupported(format!(
                 "{} object paths for {} objects",
                 object_effects.len(),
-                scene.objects.len()
+                world.objects.len()
             )));
         }
         let mut paths: Vec<Effects> = object_effects.iter().copied().filter(|e| e.is_stochastic()).collect();
@@ -288,6 +350,11 @@ impl StochasticRenderer {
         }
         if debug.bound_debug_triangles > 0 {
             caps.require(Feature::VertexPipelineStoresAndAtomics, "the bound debug output")?;
+            if paths.iter().any(|&e| e != Effects::Both) {
+                return Err(Error::Unsupported(
+                    "the bound debug output exists for the defocus+motion path only".into(),
+                ));
+            }
         }
         if spp == 0 || spp > MAX_STOCHASTIC_SPP {
             return Err(Error::Limit {
@@ -296,75 +363,46 @@ impl StochasticRenderer {
                 limit: format!("1..={MAX_STOCHASTIC_SPP} for technique `stochastic`"),
             });
         }
-        let (msaa, passes) = match options.msaa {
-            None => split_samples(spp, &caps.framebuffer_sample_counts),
-            Some(m) if caps.framebuffer_sample_counts.contains(&m) && spp.is_multiple_of(m) => (m, spp / m),
-            Some(m) => {
-                return Err(Error::Unsupported(format!(
-                "{m}x MSAA per pass for S = {spp}: it must divide S and be one of the device's counts {:?}",
-                caps.framebuffer_sample_counts
-            )))
-            }
-        };
+        let (msaa, passes) = msaa_and_passes(spp, options.msaa, &caps.framebuffer_sample_counts)?;
 
-        if debug.bound_debug_triangles > 0 && paths.iter().any(|&e| e != Effects::Both) {
-            return Err(Error::Unsupported(
-                "the bound debug output exists for the defocus+motion path only".into(),
-            ));
-        }
-        let vert = ShaderModule::new(device, shaders::STOCHASTIC_STOCHASTIC_VERT)?;
-        let frag_stage = vk::ShaderStageFlags::FRAGMENT;
-        let geometry_stages = vk::ShaderStageFlags::FRAGMENT | vk::ShaderStageFlags::COMPUTE;
-        let geometry_layout = DescriptorSetLayout::new(
+        let object_set_layout = DescriptorSetLayout::from_table(
             device,
-            "stochastic geometry set layout",
-            &[
-                (0, vk::DescriptorType::STORAGE_BUFFER, geometry_stages),
-                (1, vk::DescriptorType::STORAGE_BUFFER, geometry_stages),
-                (2, vk::DescriptorType::STORAGE_BUFFER, geometry_stages),
-                // The compute-expanded hull: its triangle list and the per-object vertex counts.
-                (
-                    3,
-                    vk::DescriptorType::STORAGE_BUFFER,
-                    vk::ShaderStageFlags::COMPUTE | vk::ShaderStageFlags::VERTEX,
-                ),
-                (4, vk::DescriptorType::STORAGE_BUFFER, vk::ShaderStageFlags::COMPUTE),
-                (
-                    5,
-                    vk::DescriptorType::STORAGE_BUFFER,
-                    vk::ShaderStageFlags::COMPUTE | vk::ShaderStageFlags::VERTEX,
-                ),
-            ],
+            "stochastic object set layout",
+            &STOCHASTIC_OBJECT_SET,
+            vk::ShaderStageFlags::ALL_GRAPHICS | vk::ShaderStageFlags::COMPUTE,
         )?;
-        let comp = ShaderModule::new(device, shaders::STOCHASTIC_TRIANGLES_COMP)?;
-        let triangles_layout = PipelineLayout::new(
+        let technique_set_layout = DescriptorSetLayout::from_table(
             device,
-            &[&scene.frame_layout, &geometry_layout],
-            8,
+            "stochastic set layout",
+            &STOCHASTIC_SET,
+            vk::ShaderStageFlags::ALL_GRAPHICS | vk::ShaderStageFlags::COMPUTE,
+        )?;
+        let sets = [&object_set_layout, &technique_set_layout];
+        let comp = ShaderModule::new(device, shaders::STOCHASTIC_TRIANGLES_COMP)?;
+        let triangles_layout = world.pipeline_layout(
+            device,
+            &sets,
+            std::mem::size_of::<TrianglesPush>() as u32,
             vk::ShaderStageFlags::COMPUTE,
         )?;
         let triangles_pipeline =
             Pipeline::compute(device, "camera-space triangles", &triangles_layout, &comp)?;
-        let sample_layout = DescriptorSetLayout::new(
+        // The geometry stage is named only where the device has one.
+        let mut push_stages = vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT;
+        if caps.geometry_shader {
+            push_stages |= vk::ShaderStageFlags::GEOMETRY;
+        }
+        let layout = world.pipeline_layout(
             device,
-            "stochastic sample set layout",
-            &[
-                (0, vk::DescriptorType::STORAGE_BUFFER, frag_stage),
-                (1, vk::DescriptorType::STORAGE_BUFFER, frag_stage),
-                (2, vk::DescriptorType::STORAGE_BUFFER, frag_stage),
-                (3, vk::DescriptorType::STORAGE_BUFFER, vk::ShaderStageFlags::GEOMETRY),
-            ],
-        )?;
-        let layout = PipelineLayout::new(
-            device,
-            &[&scene.frame_layout, &scene.material_layout, &geometry_layout, &sample_layout],
+            &sets,
             std::mem::size_of::<StochasticPush>() as u32,
-            vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::GEOMETRY | vk::ShaderStageFlags::FRAGMENT,
+            push_stages,
         )?;
-        let (bindings, attributes) = GpuScene::vertex_input();
-        let mut shader_modules = vec![vert];
-        let mut pipelines = Vec::with_capacity(paths.len());
+        let (bindings, attributes) = vertex_input();
+        let vert = ShaderModule::new(device, shaders::STOCHASTIC_STOCHASTIC_VERT)?;
         let hull_vert = ShaderModule::new(device, shaders::STOCHASTIC_HULL_VERT)?;
+        let mut shader_modules = vec![];
+        let mut pipelines = Vec::with_capacity(paths.len());
         for &effects in &paths {
             let per_sample = options.shading == ShadingRate::PerSample;
             let (first, geom, frag) = if compute {
@@ -380,7 +418,7 @@ impl StochasticRenderer {
                     device,
                     fragment_shader(options.shading, options.instrumented, effects),
                 )?;
-                (&shader_modules[0], Some(geom), frag)
+                (&vert, Some(geom), frag)
             };
             let stages: Vec<&ShaderModule> =
                 [Some(first), geom.as_ref(), Some(&frag)].into_iter().flatten().collect();
@@ -406,12 +444,7 @@ impl StochasticRenderer {
             shader_modules.extend(geom);
             shader_modules.push(frag);
         }
-        shader_modules.push(hull_vert);
-        let plain = if object_effects.contains(&Effects::Pinhole) {
-            Some(ForwardPipeline::new(device, scene, msaa)?)
-        } else {
-            None
-        };
+        shader_modules.extend([vert, hull_vert, comp]);
 
         let storage = vk::BufferUsageFlags::STORAGE_BUFFER;
         let (xy_lens, time) = gpu_samples(spp, seed, aperture, shutter);
@@ -419,30 +452,33 @@ impl StochasticRenderer {
             Buffer::with_data(device, "stochastic samples (xy, lens)", storage, &xy_lens)?,
             Buffer::with_data(device, "stochastic samples (time)", storage, &time)?,
         ];
-        let counters = Buffer::with_data(device, "stochastic counters", storage, &[0u32; 4])?;
-        let debug_len = (debug.bound_debug_triangles as usize * BOUND_DEBUG_STRIDE).max(1);
-        let bound_debug = Buffer::with_data(device, "bound debug", storage, &vec![0f32; debug_len])?;
+        let counters = Tracked::new(Buffer::with_data(device, "stochastic counters", storage, &[0u32; 4])?);
+        let bound_debug = if debug.bound_debug_triangles > 0 {
+            let len = debug.bound_debug_triangles as usize * BOUND_DEBUG_STRIDE;
+            Some(Tracked::new(Buffer::with_data(device, "bound debug", storage, &vec![0f32; len])?))
+        } else {
+            None
+        };
 
-        let n_objects = scene.objects.len() as u32;
-        let pool = DescriptorPool::new(
+        let n_objects = world.objects.len() as u32;
+        let pool = DescriptorPool::for_tables(
             device,
             n_objects + 1,
-            &[(vk::DescriptorType::STORAGE_BUFFER, 6 * n_objects + 4)],
+            &[(&STOCHASTIC_OBJECT_SET, n_objects), (&STOCHASTIC_SET, 1)],
         )?;
-        let sample_set = pool.allocate(&sample_layout)?;
-        let buffer = |binding, b: &Buffer| DescriptorWrite::Buffer {
-            binding,
-            ty: vk::DescriptorType::STORAGE_BUFFER,
-            buffer: b.raw,
-        };
-        write_descriptors(
-            device,
-            sample_set,
-            &[buffer(0, &samples[0]), buffer(1, &samples[1]), buffer(2, &counters), buffer(3, &bound_debug)],
-        );
-        let mut object_sets = Vec::with_capacity(scene.objects.len());
-        let mut triangles = Vec::with_capacity(scene.objects.len());
-        for o in &scene.objects {
+        let technique_set = pool.allocate(&technique_set_layout)?;
+        let mut writes = vec![
+            DescriptorWrite::storage_buffer(0, &samples[0]),
+            DescriptorWrite::storage_buffer(1, &samples[1]),
+            DescriptorWrite::storage_buffer(2, &counters),
+        ];
+        if let Some(b) = &bound_debug {
+            writes.push(DescriptorWrite::storage_buffer(3, b));
+        }
+        write_descriptors(device, technique_set, &writes);
+        let mut object_sets = Vec::with_capacity(world.objects.len());
+        let mut triangles = Vec::with_capacity(world.objects.len());
+        for o in &world.objects {
             let bytes = (o.index_count as u64 / 3).max(1) * TRIANGLE_RECORD_BYTES;
             let t = Buffer::new(
                 device,
@@ -451,138 +487,67 @@ impl StochasticRenderer {
                 storage,
                 MemoryLocation::GpuOnly,
             )?;
-            let set = pool.allocate(&geometry_layout)?;
-            write_descriptors(device, set, &[buffer(0, &o.vertices), buffer(1, &o.indices), buffer(2, &t)]);
+            let set = pool.allocate(&object_set_layout)?;
+            write_descriptors(device, set, &[DescriptorWrite::storage_buffer(0, &t)]);
             object_sets.push(set);
-            triangles.push(t);
+            triangles.push(Tracked::new(t));
         }
         let hull = if compute {
             Some(ComputeHull::new(
                 device,
-                scene,
+                world,
                 &paths,
-                &geometry_layout,
+                &sets,
                 &object_sets,
+                technique_set,
                 debug.hull_vertices_per_triangle.unwrap_or(INITIAL_VERTICES_PER_TRIANGLE),
             )?)
         } else {
             None
         };
-        let targets = PassTargets::new(device, scene.width, scene.height, msaa)?;
-        shader_modules.push(comp);
-        Ok(StochasticRenderer {
-            targets,
+        Ok(StochasticDraws {
             pipelines,
-            plain,
             object_effects: object_effects.to_vec(),
             layout,
+            push_stages,
             object_sets,
-            sample_set,
+            technique_set,
             options,
             spp,
+            msaa,
             passes,
             dilate: crate::bounds::dilation_px(msaa, caps.standard_sample_locations),
             counters,
             bound_debug,
-            hull,
-            hull_counts: vec![0; scene.objects.len()],
-            _samples: samples,
-            _pool: pool,
-            _set_layouts: [geometry_layout, sample_layout],
+            triangles,
             triangles_pipeline,
             triangles_layout,
-            _triangles: triangles,
+            hull,
+            hull_counts: vec![0; world.objects.len()],
+            _samples: samples,
+            _pool: pool,
+            _set_layouts: [object_set_layout, technique_set_layout],
             _shaders: shader_modules,
         })
     }
 
     /// MSAA samples per pass and number of passes.
     pub fn msaa_and_passes(&self) -> (u32, u32) {
-        (self.targets.samples(), self.passes)
+        (self.msaa, self.passes)
     }
 
-    /// Renders all passes and reads the averaged image back; with `instrumented`, also the counters.
-    pub fn render(
-        &mut self,
-        device: &Device,
-        rec: &mut CommandRecorder,
-        scene: &GpuScene,
-    ) -> Result<(LinearImage, PassTimings, Option<SampleCounters>)> {
-        self.counters.write(&[0u32; 4])?;
-        let mut timer = GpuTimer::new(device, 2)?;
-        let mut pre = loop {
-            if let Some(h) = &mut self.hull {
-                h.reset_counts()?;
-            }
-            let this = &*self;
-            rec.submit(|d, cmd| {
-                timer.reset(cmd);
-                let t = timer.begin(cmd, "triangles");
-                this.record_triangles(d, cmd, scene);
-                timer.end(cmd, t);
-                if let Some(h) = &this.hull {
-                    let t = timer.begin(cmd, "expand");
-                    h.record_expand(
-                        d,
-                        cmd,
-                        scene,
-                        &this.object_sets,
-                        &this.object_effects,
-                        this.options.bound.id(),
-                        this.dilate,
-                    );
-                    // The passes' vertex shaders read the hulls (in later submissions). Inside the timed
-                    // scope: a driver may defer the dispatches' work to the barrier (lavapipe does).
-                    crate::vk::memory_barrier(
-                        d,
-                        cmd,
-                        (vk::PipelineStageFlags2::COMPUTE_SHADER, vk::AccessFlags2::SHADER_STORAGE_WRITE),
-                        (vk::PipelineStageFlags2::VERTEX_SHADER, vk::AccessFlags2::SHADER_STORAGE_READ),
-                    );
-                    timer.end(cmd, t);
-                }
-                Ok(())
-            })?;
-            let timings = timer.results()?;
-            match &mut self.hull {
-                None => break timings,
-                Some(h) => {
-                    // An overflowed buffer grows and the expansion runs again: no bound is dropped.
-                    if !h.grow_overflowed(device, scene, &self.object_sets)? {
-                        self.hull_counts = h.counts()?;
-                        break timings;
-                    }
-                }
-            }
-        };
-        let this = &*self;
-        let mut draw =
-            |d: &Device, cmd: vk::CommandBuffer, pass: usize| this.record_draws(d, cmd, scene, pass as u32);
-        let (image, timings) = this.targets.render(
-            device,
-            rec,
-            scene.background,
-            this.passes as usize,
-            "stochastic",
-            &mut draw,
-        )?;
-        pre.passes.extend(timings.passes);
-        let timings = pre;
-        let counters = if self.options.instrumented {
-            let raw: Vec<u32> = self.counters.mapped()?[..16]
-                .chunks_exact(4)
-                .map(|c| u32::from_ne_bytes([c[0], c[1], c[2], c[3]]))
-                .collect();
-            Some(SampleCounters {
-                samples_tested: raw[0] as u64,
-                samples_hit: raw[1] as u64,
-                shading_invocations: raw[2] as u64,
-                fragments: raw[3] as u64,
-            })
-        } else {
-            None
-        };
-        Ok((image, timings, counters))
+    /// The counters of the last frame (instrumented renders only).
+    pub fn counters(&self) -> Result<Option<SampleCounters>> {
+        if !self.options.instrumented {
+            return Ok(None);
+        }
+        let raw = self.counters.read_u32s(4)?;
+        Ok(Some(SampleCounters {
+            samples_tested: raw[0] as u64,
+            samples_hit: raw[1] as u64,
+            shading_invocations: raw[2] as u64,
+            fragments: raw[3] as u64,
+        }))
     }
 
     /// The compute-expanded hull's buffer capacity and this frame's vertex count per object (None
@@ -591,118 +556,254 @@ impl StochasticRenderer {
         self.hull.as_ref().map(|h| (h.capacity().to_vec(), self.hull_counts.clone()))
     }
 
-    /// The geometry shader's debug output: per triangle of the first object, `BOUND_DEBUG_STRIDE` floats.
+    /// The geometry shader's debug output of the last frame: per triangle of the first object,
+    /// `BOUND_DEBUG_STRIDE` floats (empty without [`DebugOptions::bound_debug_triangles`]).
     pub fn bound_debug(&self) -> Result<Vec<f32>> {
-        Ok(self
-            .bound_debug
-            .mapped()?
-            .chunks_exact(4)
-            .map(|c| f32::from_ne_bytes([c[0], c[1], c[2], c[3]]))
-            .collect())
+        let Some(b) = &self.bound_debug else { return Ok(vec![]) };
+        Ok(b.mapped()?.chunks_exact(4).map(|c| f32::from_ne_bytes([c[0], c[1], c[2], c[3]])).collect())
     }
 
-    /// Camera-space triangles of every object (once per frame: they do not depend on the pass).
-    fn record_triangles(&self, d: &Device, cmd: vk::CommandBuffer, scene: &GpuScene) {
-        d.begin_label(cmd, "camera-space triangles");
-        unsafe {
-            d.raw.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, self.triangles_pipeline.raw);
-            d.raw.cmd_bind_descriptor_sets(
-                cmd,
-                vk::PipelineBindPoint::COMPUTE,
-                self.triangles_layout.raw,
-                0,
-                &[scene.frame_set],
-                &[],
-            );
-            for (i, o) in scene.objects.iter().enumerate() {
-                let count = o.index_count / 3;
-                if count == 0 || !self.object_effects[i].is_stochastic() {
-                    continue;
-                }
-                d.raw.cmd_bind_descriptor_sets(
-                    cmd,
-                    vk::PipelineBindPoint::COMPUTE,
-                    self.triangles_layout.raw,
-                    1,
-                    &[self.object_sets[i]],
-                    &[],
-                );
-                let push = [i as u32, count];
-                d.raw.cmd_push_constants(
-                    cmd,
-                    self.triangles_layout.raw,
-                    vk::ShaderStageFlags::COMPUTE,
-                    0,
-                    as_bytes(&push),
-                );
-                d.raw.cmd_dispatch(cmd, count.div_ceil(64), 1, 1);
+    fn is_drawn(&self, i: usize) -> bool {
+        self.object_effects[i].is_stochastic()
+    }
+
+    /// The camera-space triangles of every object on the path, once per frame (they do not depend on
+    /// the pass): a compute pass per view (thesis §9.6: the fragment stage reads one record per
+    /// fragment instead of transforming three vertices twice).
+    fn add_triangles_pass<'a>(&'a self, g: &mut FrameGraph<'a>, inputs: &FrameInputs<'a>) {
+        let mut drawn = Vec::new();
+        let mut handles = Vec::new();
+        for (i, t) in self.triangles.iter().enumerate() {
+            if self.is_drawn(i) && inputs.world.objects[i].index_count >= 3 {
+                handles.push(g.import_buffer("camera-space triangles", t));
+                drawn.push(i);
             }
         }
-        // The expansion (same submission) and later submissions' fragment shaders read the records
-        // (barrier scopes span submission order).
-        crate::vk::memory_barrier(
-            d,
-            cmd,
-            (vk::PipelineStageFlags2::COMPUTE_SHADER, vk::AccessFlags2::SHADER_STORAGE_WRITE),
-            (
-                vk::PipelineStageFlags2::COMPUTE_SHADER | vk::PipelineStageFlags2::FRAGMENT_SHADER,
-                vk::AccessFlags2::SHADER_STORAGE_READ,
-            ),
-        );
-        d.end_label(cmd);
+        let mut pass = g.pass("triangles");
+        for h in handles {
+            pass = pass.overwrite(h, Access::ComputeShaderWrite);
+        }
+        let (world, view) = (inputs.world, inputs.camera);
+        pass.record(move |ctx| {
+            self.record_triangles(ctx, world, view, &drawn);
+            Ok(())
+        });
     }
 
-    fn record_draws(&self, d: &Device, cmd: vk::CommandBuffer, scene: &GpuScene, pass: u32) {
-        let stages =
-            vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::GEOMETRY | vk::ShaderStageFlags::FRAGMENT;
-        let bind = vk::PipelineBindPoint::GRAPHICS;
-        if let Some(plain) = &self.plain {
-            let pinhole = PassSample {
-                jitter: super::pinhole::pinhole_pass_jitter(pass, self.passes, self.targets.samples()),
-                ..super::pinhole::pinhole_passes()[0]
-            };
-            plain.record_draws(d, cmd, scene, &pinhole, |i| self.object_effects[i] == Effects::Pinhole);
+    fn record_triangles(&self, ctx: &PassContext<'_>, world: &GpuWorld, view: &GpuView, objects: &[usize]) {
+        let (d, cmd) = (ctx.device, ctx.cmd);
+        let bind = vk::PipelineBindPoint::COMPUTE;
+        let layout = self.triangles_layout.raw;
+        unsafe {
+            d.raw.cmd_bind_pipeline(cmd, bind, self.triangles_pipeline.raw);
+            d.raw.cmd_bind_descriptor_sets(cmd, bind, layout, FRAME_SET_INDEX, &[view.frame_set], &[]);
+            for &i in objects {
+                let o = &world.objects[i];
+                let sets = [o.set, self.object_sets[i]];
+                d.raw.cmd_bind_descriptor_sets(cmd, bind, layout, OBJECT_SET_INDEX, &sets, &[]);
+                let push = TrianglesPush { object: i as u32, triangle_count: o.triangle_count() };
+                d.raw.cmd_push_constants(
+                    cmd,
+                    layout,
+                    vk::ShaderStageFlags::COMPUTE,
+                    0,
+                    bytemuck::bytes_of(&push),
+                );
+                d.raw.cmd_dispatch(cmd, o.triangle_count().div_ceil(64), 1, 1);
+            }
         }
+    }
+}
+
+impl PassDraws for StochasticDraws {
+    fn before_frame(&mut self, inputs: &FrameInputs<'_>, frame: &mut FrameContext<'_>) -> Result<()> {
+        self.counters.get_mut().write(&[0u32; 4])?;
+        if self.hull.is_none() {
+            return Ok(());
+        }
+        // The compute-expanded hull: triangles and expansion in a graph of their own, its counts read
+        // back; an overflowed buffer grows and the expansion runs again, so no bound is ever dropped.
+        loop {
+            let hull = self.hull.as_mut().expect("checked");
+            hull.reset_counts()?;
+            {
+                let this = &*self;
+                let hull = this.hull.as_ref().expect("checked");
+                let mut g = frame.graph();
+                this.add_triangles_pass(&mut g, inputs);
+                hull.add_expand_pass(
+                    &mut g,
+                    inputs,
+                    (&this.triangles, &this.object_sets, this.technique_set),
+                    &this.object_effects,
+                    this.options.bound.id(),
+                    this.dilate,
+                );
+                frame.run(g)?;
+            }
+            let device = frame.device().clone();
+            let hull = self.hull.as_mut().expect("checked");
+            if !hull.grow_overflowed(&device, inputs.world, &self.object_sets)? {
+                self.hull_counts = hull.counts()?;
+                return Ok(());
+            }
+        }
+    }
+
+    fn add_frame_passes<'a>(&'a self, g: &mut FrameGraph<'a>, inputs: &FrameInputs<'a>) -> Result<FrameUse> {
+        let mut used = FrameUse::default();
+        if self.hull.is_none() {
+            self.add_triangles_pass(g, inputs);
+        }
+        for (i, t) in self.triangles.iter().enumerate() {
+            if self.is_drawn(i) {
+                let h = g.import_buffer("camera-space triangles", t);
+                used.pass_accesses.push((h.into(), Access::FragmentShaderReadOther));
+            }
+        }
+        if let Some(hull) = &self.hull {
+            for (i, [vertices, sources]) in hull.buffers().iter().enumerate() {
+                if self.is_drawn(i) {
+                    for (name, b) in [("hull", vertices), ("hull triangles", sources)] {
+                        let h: ResourceHandle = g.import_buffer(name, b).into();
+                        used.pass_accesses.push((h, Access::VertexShaderReadOther));
+                    }
+                }
+            }
+        }
+        if self.options.instrumented {
+            let h = g.import_buffer("stochastic counters", &self.counters);
+            // Atomics read and write.
+            used.pass_accesses.push((h.into(), Access::FragmentShaderReadOther));
+            used.pass_accesses.push((h.into(), Access::FragmentShaderWrite));
+            used.host_reads.push(h);
+        }
+        if let Some(b) = &self.bound_debug {
+            let h = g.import_buffer("bound debug", b);
+            used.pass_accesses.push((h.into(), Access::GeometryShaderWrite));
+            used.host_reads.push(h);
+        }
+        Ok(used)
+    }
+
+    fn record(&self, ctx: &mut PassContext<'_>, inputs: &FrameInputs<'_>, pass: u32) {
+        let (d, cmd) = (ctx.device, ctx.cmd);
+        let bind = vk::PipelineBindPoint::GRAPHICS;
         let push = |i: usize| StochasticPush {
             object: i as u32,
             bound: self.options.bound.id(),
             pass_index: pass,
             spp: self.spp,
-            msaa: self.targets.samples(),
+            msaa: self.msaa,
             footprint: 1.0 / (self.spp as f32).sqrt(),
             dilate: self.dilate,
         };
+        let world = inputs.world;
         for (effects, pipeline) in &self.pipelines {
             unsafe {
                 d.raw.cmd_bind_pipeline(cmd, bind, pipeline.raw);
-                d.raw.cmd_bind_descriptor_sets(cmd, bind, self.layout.raw, 3, &[self.sample_set], &[]);
+                d.raw.cmd_bind_descriptor_sets(
+                    cmd,
+                    bind,
+                    self.layout.raw,
+                    TECHNIQUE_SET_INDEX,
+                    &[self.technique_set],
+                    &[],
+                );
             }
             let include = |i: usize| self.object_effects[i] == *effects;
             if self.hull.is_none() {
-                scene.record_object_draws(d, cmd, &self.layout, stages, include, push, |i| {
-                    Some(self.object_sets[i])
-                });
+                world.record_object_draws(
+                    d,
+                    cmd,
+                    inputs.camera,
+                    &self.layout,
+                    self.push_stages,
+                    include,
+                    push,
+                    |i| Some(self.object_sets[i]),
+                );
                 continue;
             }
             // Compute-expanded hull: each object's triangle list, no vertex input.
             unsafe {
-                d.raw.cmd_bind_descriptor_sets(cmd, bind, self.layout.raw, 0, &[scene.frame_set], &[]);
-                for (i, o) in scene.objects.iter().enumerate() {
+                d.raw.cmd_bind_descriptor_sets(
+                    cmd,
+                    bind,
+                    self.layout.raw,
+                    FRAME_SET_INDEX,
+                    &[inputs.camera.frame_set],
+                    &[],
+                );
+                for (i, o) in world.objects.iter().enumerate() {
                     if !include(i) || self.hull_counts[i] == 0 {
                         continue;
                     }
-                    d.raw.cmd_push_constants(cmd, self.layout.raw, stages, 0, as_bytes(&push(i)));
-                    d.raw.cmd_bind_descriptor_sets(
+                    d.raw.cmd_push_constants(
                         cmd,
-                        bind,
                         self.layout.raw,
-                        1,
-                        &[o.material_set, self.object_sets[i]],
-                        &[],
+                        self.push_stages,
+                        0,
+                        bytemuck::bytes_of(&push(i)),
                     );
+                    let sets = [o.set, self.object_sets[i]];
+                    d.raw.cmd_bind_descriptor_sets(cmd, bind, self.layout.raw, OBJECT_SET_INDEX, &sets, &[]);
                     d.raw.cmd_draw(cmd, self.hull_counts[i], 1, 0, 0);
                 }
             }
         }
+    }
+}
+
+/// Technique `stochastic`: every object on the stochastic path simulating both effects, in the
+/// multipass frame.
+pub struct StochasticTechnique {
+    frame: MultipassFrame,
+    draws: StochasticDraws,
+}
+
+impl StochasticTechnique {
+    /// The technique for the objects' paths `object_effects` (technique `stochastic`: all `Both`).
+    pub fn new(
+        ctx: &PrepareContext<'_>,
+        options: StochasticOptions,
+        debug: DebugOptions,
+        object_effects: &[Effects],
+    ) -> Result<Self> {
+        let s = ctx.settings;
+        let c = &ctx.scene.camera;
+        let draws = StochasticDraws::new(
+            ctx.device,
+            ctx.world,
+            (s.spp, s.seed),
+            c.aperture,
+            c.shutter,
+            options,
+            debug,
+            object_effects,
+        )?;
+        let (msaa, passes) = draws.msaa_and_passes();
+        let frame =
+            MultipassFrame::new(ctx.device, ctx.world, ctx.camera.size(), msaa, passes, "stochastic")?;
+        Ok(StochasticTechnique { frame, draws })
+    }
+
+    /// The stochastic path (for its diagnostics: bound debug output, hull usage).
+    pub fn draws(&self) -> &StochasticDraws {
+        &self.draws
+    }
+}
+
+impl FrameTechnique for StochasticTechnique {
+    fn render(&mut self, inputs: &FrameInputs<'_>, frame: &mut FrameContext<'_>) -> Result<TechniqueFrame> {
+        self.draws.before_frame(inputs, frame)?;
+        let draws: [&dyn PassDraws; 1] = [&self.draws];
+        let image = self.frame.render(frame, inputs, &draws)?;
+        Ok(TechniqueFrame {
+            image,
+            passes: self.frame.passes(),
+            msaa_samples: self.frame.samples(),
+            counters: self.draws.counters()?,
+        })
     }
 }

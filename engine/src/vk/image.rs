@@ -9,7 +9,7 @@ use super::Device;
 use crate::error::{Result, VkContext};
 
 /// How to create an [`Image`].
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct ImageDesc {
     pub width: u32,
     pub height: u32,

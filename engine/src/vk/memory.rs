@@ -44,7 +44,7 @@ impl Buffer {
     }
 
     /// A host-visible buffer filled with `data`.
-    pub fn with_data<T: Copy>(
+    pub fn with_data<T: bytemuck::Pod>(
         device: &Device,
         name: &str,
         usage: vk::BufferUsageFlags,
@@ -57,18 +57,28 @@ impl Buffer {
     }
 
     /// Copies `data` into a host-visible buffer.
-    pub fn write<T: Copy>(&mut self, data: &[T]) -> Result<()> {
-        let bytes = std::mem::size_of_val(data);
+    pub fn write<T: bytemuck::Pod>(&mut self, data: &[T]) -> Result<()> {
+        let bytes: &[u8] = bytemuck::cast_slice(data);
         let slice = self.mapped_mut()?;
-        if bytes > slice.len() {
+        if bytes.len() > slice.len() {
             return Err(Error::Unsupported(format!(
-                "write of {bytes} bytes into a {}-byte buffer",
+                "write of {} bytes into a {}-byte buffer",
+                bytes.len(),
                 slice.len()
             )));
         }
-        // SAFETY: T is Copy (plain data); the destination is at least `bytes` long.
-        unsafe { std::ptr::copy_nonoverlapping(data.as_ptr() as *const u8, slice.as_mut_ptr(), bytes) };
+        slice[..bytes.len()].copy_from_slice(bytes);
         Ok(())
+    }
+
+    /// The first `n` `u32`s of a host-visible buffer (counters the GPU wrote; read after the graph
+    /// that wrote them declared the host read).
+    pub fn read_u32s(&self, n: usize) -> Result<Vec<u32>> {
+        let bytes = self.mapped()?;
+        if bytes.len() < 4 * n {
+            return Err(Error::Unsupported(format!("read of {n} u32 from a {}-byte buffer", bytes.len())));
+        }
+        Ok(bytes[..4 * n].chunks_exact(4).map(|c| u32::from_ne_bytes([c[0], c[1], c[2], c[3]])).collect())
     }
 
     fn mapped_mut(&mut self) -> Result<&mut [u8]> {
@@ -119,10 +129,4 @@ pub(crate) fn free(device: &Device, allocation: Option<Allocation>) {
             let _ = alloc.free(a);
         }
     }
-}
-
-/// Views a slice of plain data as bytes (for push constants).
-pub fn as_bytes<T: Copy>(v: &T) -> &[u8] {
-    // SAFETY: T is Copy plain data without padding requirements beyond its layout.
-    unsafe { std::slice::from_raw_parts(v as *const T as *const u8, std::mem::size_of::<T>()) }
 }

@@ -17,13 +17,13 @@ mod transfer;
 pub use commands::{image_barriers, memory_barrier, CommandRecorder};
 pub use context::{Capabilities, Device, DeviceDesc, DeviceShared, Feature, ValidationReport};
 pub use image::{aspect_of, barrier, Image, ImageDesc, Sampler};
-pub use memory::{as_bytes, Buffer};
+pub use memory::Buffer;
 pub use pipeline::{
-    write_descriptors, DescriptorPool, DescriptorSetLayout, DescriptorWrite, GraphicsDesc, Pipeline,
+    write_descriptors, Binding, DescriptorPool, DescriptorSetLayout, DescriptorWrite, GraphicsDesc, Pipeline,
     PipelineLayout, ShaderModule,
 };
 pub use queries::{GpuTimer, PassTimings};
-pub use transfer::{read_rgba32f, record_readback, srgb_mip_chain, upload_texture};
+pub use transfer::{read_rgba32f, srgb_mip_chain, upload_texture};
 
 /// Creates the device as the environment says (`SHUTTER_DEVICE`, `SHUTTER_VALIDATION`,
 /// `SHUTTER_SYNC_VALIDATION`).

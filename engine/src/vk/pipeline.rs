@@ -46,6 +46,16 @@ impl Drop for ShaderModule {
     }
 }
 
+/// One binding of a descriptor-set table: layouts and pools are created from such tables, and the
+/// SPIR-V reflection test checks the shaders against them. `block` names the GLSL block (or sampler /
+/// image variable) bound there.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Binding {
+    pub binding: u32,
+    pub ty: vk::DescriptorType,
+    pub block: &'static str,
+}
+
 /// A descriptor set layout, RAII.
 pub struct DescriptorSetLayout {
     pub raw: vk::DescriptorSetLayout,
@@ -77,6 +87,19 @@ impl DescriptorSetLayout {
     }
 }
 
+impl DescriptorSetLayout {
+    /// A layout with one descriptor per entry of `table`, visible to `stages`.
+    pub fn from_table(
+        device: &Device,
+        name: &str,
+        table: &[Binding],
+        stages: vk::ShaderStageFlags,
+    ) -> Result<Self> {
+        let bindings: Vec<_> = table.iter().map(|b| (b.binding, b.ty, stages)).collect();
+        DescriptorSetLayout::new(device, name, &bindings)
+    }
+}
+
 impl Drop for DescriptorSetLayout {
     fn drop(&mut self) {
         unsafe { self.device.raw.destroy_descriptor_set_layout(self.raw, None) };
@@ -97,6 +120,19 @@ impl DescriptorPool {
         let raw = unsafe { device.raw.create_descriptor_pool(&info, None) }.vk("vkCreateDescriptorPool")?;
         Ok(DescriptorPool { raw, device: device.clone() })
     }
+    /// A pool for `sets` sets of each `(table, sets)` entry.
+    pub fn for_tables(device: &Device, max_sets: u32, tables: &[(&[Binding], u32)]) -> Result<Self> {
+        let mut sizes: Vec<(vk::DescriptorType, u32)> = Vec::new();
+        for (table, sets) in tables {
+            for b in table.iter() {
+                match sizes.iter_mut().find(|(ty, _)| *ty == b.ty) {
+                    Some((_, n)) => *n += sets,
+                    None => sizes.push((b.ty, *sets)),
+                }
+            }
+        }
+        DescriptorPool::new(device, max_sets, &sizes)
+    }
     pub fn allocate(&self, layout: &DescriptorSetLayout) -> Result<vk::DescriptorSet> {
         let layouts = [layout.raw];
         let info = vk::DescriptorSetAllocateInfo::default().descriptor_pool(self.raw).set_layouts(&layouts);
@@ -115,6 +151,15 @@ pub enum DescriptorWrite {
     Buffer { binding: u32, ty: vk::DescriptorType, buffer: vk::Buffer },
     StorageImage { binding: u32, view: vk::ImageView },
     SampledImage { binding: u32, view: vk::ImageView, sampler: vk::Sampler },
+}
+
+impl DescriptorWrite {
+    pub fn storage_buffer(binding: u32, buffer: &super::Buffer) -> Self {
+        DescriptorWrite::Buffer { binding, ty: vk::DescriptorType::STORAGE_BUFFER, buffer: buffer.raw }
+    }
+    pub fn uniform_buffer(binding: u32, buffer: &super::Buffer) -> Self {
+        DescriptorWrite::Buffer { binding, ty: vk::DescriptorType::UNIFORM_BUFFER, buffer: buffer.raw }
+    }
 }
 
 pub fn write_descriptors(device: &Device, set: vk::DescriptorSet, writes: &[DescriptorWrite]) {

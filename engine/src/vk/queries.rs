@@ -29,6 +29,15 @@ impl PassTimings {
     pub fn get(&self, name: &str) -> Option<f64> {
         self.passes.iter().find(|(n, _)| n == name).map(|(_, ms)| *ms)
     }
+    /// Adds `other`'s times to the scopes of the same name (appending new names in order).
+    pub fn add(&mut self, other: &PassTimings) {
+        for (name, ms) in &other.passes {
+            match self.passes.iter_mut().find(|(n, _)| n == name) {
+                Some((_, acc)) => *acc += ms,
+                None => self.passes.push((name.clone(), *ms)),
+            }
+        }
+    }
 }
 
 impl GpuTimer {

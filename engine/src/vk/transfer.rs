@@ -121,53 +121,6 @@ pub fn upload_texture(device: &Device, rec: &mut CommandRecorder, tex: &Texture)
     Ok(image)
 }
 
-/// Records a copy of an `R32G32B32A32_SFLOAT` image (in `layout`, whose last writer was `src`) into a
-/// new host-visible buffer; read it with [`read_rgba32f`] after the submission completed.
-pub fn record_readback(
-    device: &Device,
-    cmd: vk::CommandBuffer,
-    image: &Image,
-    layout: vk::ImageLayout,
-    src: (vk::PipelineStageFlags2, vk::AccessFlags2),
-) -> Result<Buffer> {
-    let bytes = image.desc.width as u64 * image.desc.height as u64 * 16;
-    let buffer =
-        Buffer::new(device, "readback", bytes, vk::BufferUsageFlags::TRANSFER_DST, MemoryLocation::GpuToCpu)?;
-    image_barriers(
-        device,
-        cmd,
-        &[barrier(
-            image,
-            layout,
-            vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
-            src,
-            (vk::PipelineStageFlags2::COPY, vk::AccessFlags2::TRANSFER_READ),
-        )],
-    );
-    let region = vk::BufferImageCopy::default()
-        .image_subresource(
-            vk::ImageSubresourceLayers::default().aspect_mask(vk::ImageAspectFlags::COLOR).layer_count(1),
-        )
-        .image_extent(vk::Extent3D { width: image.desc.width, height: image.desc.height, depth: 1 });
-    unsafe {
-        device.raw.cmd_copy_image_to_buffer(
-            cmd,
-            image.raw,
-            vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
-            buffer.raw,
-            &[region],
-        )
-    };
-    // Make the copy visible to the host read after the fence.
-    super::memory_barrier(
-        device,
-        cmd,
-        (vk::PipelineStageFlags2::COPY, vk::AccessFlags2::TRANSFER_WRITE),
-        (vk::PipelineStageFlags2::HOST, vk::AccessFlags2::HOST_READ),
-    );
-    Ok(buffer)
-}
-
 /// Converts a completed readback buffer into a [`LinearImage`].
 pub fn read_rgba32f(buffer: &Buffer, width: u32, height: u32) -> Result<LinearImage> {
     let bytes = buffer.mapped()?;

@@ -5,7 +5,7 @@ fn main() -> anyhow::Result<()> {
     let out = args.next().unwrap_or_else(|| "render_to_png.png".into());
     let ms = shutter_samples::render_to_png(
         &scene,
-        shutter::techniques::Technique::Accumulation,
+        shutter::techniques::Technique::ACCUMULATION,
         640,
         360,
         16,

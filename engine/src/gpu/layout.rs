@@ -1,0 +1,169 @@
+//! Every structure the CPU shares with GLSL, and the one descriptor-set numbering of every pipeline,
+//! compute and graphics alike. Structs are `#[repr(C)]` + `bytemuck::Pod` (no padding, so their bytes
+//! are exactly what the shaders read); a test reflects the compiled SPIR-V and checks bindings, block
+//! sizes and member offsets against the tables and structs here (`tests/tests/gpu_layout.rs`).
+//!
+//! | set | what | owner | bindings |
+//! |---|---|---|---|
+//! | 0 | frame | world + one view ([`super::GpuView`]) | [`FRAME_SET`] |
+//! | 1 | object | world ([`super::GpuWorld`]), one per object | [`OBJECT_SET`] |
+//! | 2 | technique, per object | the technique | e.g. the stochastic rasterizer's triangles and hulls |
+//! | 3 | technique, per frame | the technique | e.g. sample tables, counters, pass images |
+//!
+//! GLSL side: `shaders-glsl/common/frame.glsl` (set 0) and `shaders-glsl/common/object.glsl` (set 1).
+
+use ash::vk;
+use bytemuck::{Pod, Zeroable};
+
+pub use crate::vk::Binding;
+
+/// `MAX_LIGHTS` in `common/frame.glsl`.
+pub const MAX_LIGHTS: usize = 16;
+
+/// Descriptor set numbers ([module docs](self)).
+pub const FRAME_SET_INDEX: u32 = 0;
+pub const OBJECT_SET_INDEX: u32 = 1;
+pub const TECHNIQUE_OBJECT_SET_INDEX: u32 = 2;
+pub const TECHNIQUE_SET_INDEX: u32 = 3;
+
+const fn binding(binding: u32, ty: vk::DescriptorType, block: &'static str) -> Binding {
+    Binding { binding, ty, block }
+}
+
+const UBO: vk::DescriptorType = vk::DescriptorType::UNIFORM_BUFFER;
+const SSBO: vk::DescriptorType = vk::DescriptorType::STORAGE_BUFFER;
+
+/// Set 0: the world's uniforms and materials, one view's uniforms and per-object transforms.
+pub const FRAME_SET: [Binding; 4] = [
+    binding(0, UBO, "WorldUniforms"),
+    binding(1, SSBO, "Materials"),
+    binding(2, UBO, "ViewUniforms"),
+    binding(3, SSBO, "ObjectViews"),
+];
+
+/// Set 1: one object's albedo texture and mesh (for shaders that fetch vertices themselves).
+pub const OBJECT_SET: [Binding; 3] = [
+    binding(0, vk::DescriptorType::COMBINED_IMAGE_SAMPLER, "albedo_texture"),
+    binding(1, SSBO, "Vertices"),
+    binding(2, SSBO, "Indices"),
+];
+
+/// `WorldUniforms` (std140; vec4s only).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct WorldUniforms {
+    /// rgb, unused.
+    pub ambient: [f32; 4],
+    /// rgb, 1.
+    pub background: [f32; 4],
+}
+
+/// `Material` (std430), one per object.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct GpuMaterial {
+    /// rgb albedo, specular weight.
+    pub albedo_specular: [f32; 4],
+    /// roughness, has_texture (0/1), alpha, unused.
+    pub params: [f32; 4],
+}
+
+/// `Light` (std140 array element): a light in one view's space at shutter open and close.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct GpuLight {
+    /// xyz: direction to the light (w = 0, directional) or position (w = 1, point).
+    pub at_open: [f32; 4],
+    pub at_close: [f32; 4],
+    /// rgb, unused.
+    pub color: [f32; 4],
+}
+
+/// Projection kinds in [`ViewUniforms::projection`]`[0]`.
+pub const PROJECTION_THIN_LENS: f32 = 0.0;
+pub const PROJECTION_ORTHOGRAPHIC: f32 = 1.0;
+
+/// `ViewUniforms` (std140; vec4s only).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct ViewUniforms {
+    /// width, height (pixels), pixel scale s (thin lens; 0 otherwise), light count.
+    pub viewport: [f32; 4],
+    /// aperture radius A, focus distance F, near, far.
+    pub lens: [f32; 4],
+    /// kind (`PROJECTION_*`), orthographic half extents x, y (world units), unused.
+    pub projection: [f32; 4],
+    pub lights: [GpuLight; MAX_LIGHTS],
+}
+
+/// `ObjectView` (std430): one object seen from one view.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct GpuObjectView {
+    /// Object → view space at shutter open, close (column-major).
+    pub model_view: [[f32; 16]; 2],
+    /// Inverse transpose of the upper 3×3, in a mat4 (std430 alignment).
+    pub normal_matrix: [[f32; 16]; 2],
+}
+
+/// Interleaved vertex (vertex input and `Vertex` in `common/object.glsl`): position, normal, uv.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct Vertex {
+    pub position: [f32; 3],
+    pub normal: [f32; 3],
+    pub uv: [f32; 2],
+}
+
+/// Vertex input of [`Vertex`] for pipelines that draw meshes through the input assembler.
+pub fn vertex_input() -> ([vk::VertexInputBindingDescription; 1], [vk::VertexInputAttributeDescription; 3]) {
+    let attribute = |location, format, offset| vk::VertexInputAttributeDescription {
+        location,
+        binding: 0,
+        format,
+        offset: offset as u32,
+    };
+    (
+        [vk::VertexInputBindingDescription {
+            binding: 0,
+            stride: std::mem::size_of::<Vertex>() as u32,
+            input_rate: vk::VertexInputRate::VERTEX,
+        }],
+        [
+            attribute(0, vk::Format::R32G32B32_SFLOAT, std::mem::offset_of!(Vertex, position)),
+            attribute(1, vk::Format::R32G32B32_SFLOAT, std::mem::offset_of!(Vertex, normal)),
+            attribute(2, vk::Format::R32G32_SFLOAT, std::mem::offset_of!(Vertex, uv)),
+        ],
+    )
+}
+
+/// A GLSL-shared struct's name and size, for the reflection test.
+#[derive(Clone, Copy, Debug)]
+pub struct SharedStruct {
+    /// The GLSL struct or block type name.
+    pub glsl: &'static str,
+    pub size: usize,
+    /// (member name, byte offset) in declaration order.
+    pub members: &'static [(&'static str, usize)],
+}
+
+macro_rules! shared_struct {
+    ($glsl:literal, $t:ty, [$($m:ident),* $(,)?]) => {
+        SharedStruct {
+            glsl: $glsl,
+            size: std::mem::size_of::<$t>(),
+            members: &[$((stringify!($m), std::mem::offset_of!($t, $m))),*],
+        }
+    };
+}
+pub(crate) use shared_struct;
+
+/// The structs of sets 0 and 1 as GLSL declares them (techniques list their push constants and
+/// records beside their own code).
+pub const SHARED_STRUCTS: &[SharedStruct] = &[
+    shared_struct!("WorldUniforms", WorldUniforms, [ambient, background]),
+    shared_struct!("Material", GpuMaterial, [albedo_specular, params]),
+    shared_struct!("Light", GpuLight, [at_open, at_close, color]),
+    shared_struct!("ViewUniforms", ViewUniforms, [viewport, lens, projection, lights]),
+    shared_struct!("ObjectView", GpuObjectView, [model_view, normal_matrix]),
+];

@@ -1,0 +1,139 @@
+//! One view on the GPU: its uniforms (viewport, lens or orthographic extent, depth range, the
+//! lights in its space), every object's transform into it at shutter open and close, and the frame
+//! set (set 0) that binds them beside the world's.
+//!
+//! The object → view matrices are the CPU's products ([`crate::scene::CameraSpaceScene`]), the very
+//! values the CPU reference and the bounds mirror use, so every consumer moves vertices the same way
+//! (DESIGN.md "Shutter"); the GPU never re-multiplies world and view matrices.
+
+use ash::vk;
+use glam::{Mat3, Mat4};
+
+use super::layout::{
+    GpuLight, GpuObjectView, ViewUniforms, FRAME_SET, MAX_LIGHTS, PROJECTION_ORTHOGRAPHIC,
+    PROJECTION_THIN_LENS,
+};
+use super::GpuWorld;
+use crate::error::{Error, Result};
+use crate::scene::{CameraSpaceLight, Projection, View};
+use crate::vk::{write_descriptors, Buffer, DescriptorPool, DescriptorWrite, Device};
+
+/// A view's block on the device.
+pub struct GpuView {
+    pub name: String,
+    pub width: u32,
+    pub height: u32,
+    /// Set 0: the world's uniforms and materials with this view's uniforms and object transforms.
+    pub frame_set: vk::DescriptorSet,
+    _uniforms: Buffer,
+    _object_views: Buffer,
+    _pool: DescriptorPool,
+}
+
+fn mat4(m: Mat4) -> [f32; 16] {
+    m.to_cols_array()
+}
+fn mat3_padded(m: Mat3) -> [f32; 16] {
+    Mat4::from_mat3(m).to_cols_array()
+}
+
+/// The uniforms of `view` (see [`ViewUniforms`]).
+pub fn view_uniforms(view: &View) -> Result<ViewUniforms> {
+    let lights_in_view = &view.space.lights;
+    if lights_in_view.len() > MAX_LIGHTS {
+        return Err(Error::Limit {
+            what: "light count",
+            value: lights_in_view.len().to_string(),
+            limit: format!("at most {MAX_LIGHTS} lights (MAX_LIGHTS in shaders-glsl/common/frame.glsl)"),
+        });
+    }
+    let mut lights = [GpuLight::default(); MAX_LIGHTS];
+    for (dst, l) in lights.iter_mut().zip(lights_in_view) {
+        *dst = match *l {
+            CameraSpaceLight::Directional { to_light, color } => GpuLight {
+                at_open: to_light[0].extend(0.0).to_array(),
+                at_close: to_light[1].extend(0.0).to_array(),
+                color: color.extend(0.0).to_array(),
+            },
+            CameraSpaceLight::Point { position, color } => GpuLight {
+                at_open: position[0].extend(1.0).to_array(),
+                at_close: position[1].extend(1.0).to_array(),
+                color: color.extend(0.0).to_array(),
+            },
+        };
+    }
+    let n = lights_in_view.len() as f32;
+    let (viewport, lens, projection) = match view.projection {
+        Projection::ThinLens(k) => (
+            [k.width, k.height, k.pixel_scale, n],
+            [k.aperture_radius, k.focus_distance, k.near, k.far],
+            [PROJECTION_THIN_LENS, 0.0, 0.0, 0.0],
+        ),
+        Projection::Orthographic { width, height, half_extent, near, far } => (
+            [width as f32, height as f32, 0.0, n],
+            [0.0, 0.0, near, far],
+            [PROJECTION_ORTHOGRAPHIC, half_extent.x, half_extent.y, 0.0],
+        ),
+    };
+    Ok(ViewUniforms { viewport, lens, projection, lights })
+}
+
+impl GpuView {
+    /// Uploads `view`'s block for `world` (whose objects it must list in the same order).
+    pub fn new(device: &Device, world: &GpuWorld, view: &View) -> Result<GpuView> {
+        let uniforms = Buffer::with_data(
+            device,
+            &format!("view uniforms:{}", view.name),
+            vk::BufferUsageFlags::UNIFORM_BUFFER,
+            &[view_uniforms(view)?],
+        )?;
+        let mut object_views: Vec<GpuObjectView> = view
+            .space
+            .objects
+            .iter()
+            .map(|m| GpuObjectView {
+                model_view: [mat4(m.model_view[0]), mat4(m.model_view[1])],
+                normal_matrix: [mat3_padded(m.normal_matrix[0]), mat3_padded(m.normal_matrix[1])],
+            })
+            .collect();
+        if object_views.len() != world.objects.len() {
+            return Err(Error::Unsupported(format!(
+                "view `{}` has {} objects, the world {}",
+                view.name,
+                object_views.len(),
+                world.objects.len()
+            )));
+        }
+        if object_views.is_empty() {
+            object_views.push(bytemuck::Zeroable::zeroed());
+        }
+        let object_views = Buffer::with_data(
+            device,
+            &format!("object views:{}", view.name),
+            vk::BufferUsageFlags::STORAGE_BUFFER,
+            &object_views,
+        )?;
+        let pool = DescriptorPool::for_tables(device, 1, &[(&FRAME_SET, 1)])?;
+        let frame_set = pool.allocate(&world.frame_layout)?;
+        write_descriptors(
+            device,
+            frame_set,
+            &[
+                DescriptorWrite::uniform_buffer(0, &world.uniforms),
+                DescriptorWrite::storage_buffer(1, &world.materials),
+                DescriptorWrite::uniform_buffer(2, &uniforms),
+                DescriptorWrite::storage_buffer(3, &object_views),
+            ],
+        );
+        let (width, height) = view.size();
+        Ok(GpuView {
+            name: view.name.clone(),
+            width,
+            height,
+            frame_set,
+            _uniforms: uniforms,
+            _object_views: object_views,
+            _pool: pool,
+        })
+    }
+}

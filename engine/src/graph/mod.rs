@@ -1,0 +1,789 @@
+//! A small typed frame graph: techniques declare passes and what each reads and writes; the graph
+//! places every barrier and layout transition, opens a debug label and a named GPU timestamp scope per
+//! pass, repeats a group of passes (the P passes of a multipass frame), and submits.
+//!
+//! # The contract
+//! * **Resources.** A handle ([`ImageHandle`], [`BufferHandle`]) carries its description. It is either
+//!   *imported* — a [`Tracked`] resource the technique owns, whose synchronization state persists
+//!   across passes, graphs and frames (accumulators, caches, per-view triangle buffers) — or *transient*
+//!   ([`FrameGraph::create_image`]): taken from a [`TransientPool`] for this graph only, contents
+//!   undefined at its first use (MSAA colour, depth). Read-only data the host wrote before the frame
+//!   (scene geometry, materials, textures, sample tables) may be bound without being declared:
+//!   `vkQueueSubmit` makes host writes visible, and nothing on the GPU writes it.
+//! * **Passes** ([`FrameGraph::pass`]) declare every GPU access to a graph resource with a
+//!   `vk_sync_fork::AccessType` (re-exported as [`Access`]): sampled, storage read/write, transfer,
+//!   host read, or — through [`PassBuilder::color`], [`PassBuilder::resolve`], [`PassBuilder::depth`] —
+//!   a colour/depth attachment with its load and store ops, which makes the pass a *raster* pass: the
+//!   graph begins dynamic rendering over the attachments and sets viewport and scissor to them.
+//!   A pass that overwrites a resource whole may say so ([`PassBuilder::overwrite`], clear and
+//!   don't-care loads do it implicitly), so its image transitions from `UNDEFINED`.
+//! * **Barriers** are derived while recording from each resource's last accesses ([`state`]): exactly
+//!   the hazards are synchronised, through vk-sync's stage/access/layout tables. A CPU read of
+//!   GPU-written data is declared ([`FrameGraph::host_read`], [`FrameGraph::read_back`]) and gets its
+//!   device→host dependency before the submission ends.
+//! * **Repeat** ([`FrameGraph::repeat`]): a group of passes recorded `count` times; each call of a
+//!   pass' recording closure sees the iteration in [`PassContext::iteration`]. Barriers between
+//!   iterations follow from the same tracking.
+//! * **Submission** ([`FrameGraph::execute`]): passes are recorded in order into command buffers of at
+//!   most [`MAX_PASSES_PER_SUBMIT`] passes, each submitted through the one submit path
+//!   ([`CommandRecorder::submit`]), which waits for it: nothing is ever in flight when `execute`
+//!   returns, so RAII wrappers may free their handles at any time the CPU holds them.
+//! * No aliasing, no async compute, no reordering: passes run in declaration order.
+//!
+//! kajiya's `kajiya-rg` and Granite's render graph were the models (declared accesses with vk-sync
+//! access types; imported vs transient resources); this one is much smaller: it compiles nothing
+//! ahead, tracks state while recording, and keeps techniques' own descriptor sets.
+
+pub mod state;
+
+use std::cell::RefCell;
+use std::rc::Rc;
+
+use ash::vk;
+use gpu_allocator::MemoryLocation;
+
+pub use state::ResourceState;
+pub use vk_sync_fork::AccessType as Access;
+
+use crate::error::{Error, Result};
+use crate::image::LinearImage;
+use crate::vk::{read_rgba32f, Buffer, CommandRecorder, Device, GpuTimer, Image, ImageDesc, PassTimings};
+
+/// Passes recorded per command buffer (bounds command-buffer size and the timestamp pool).
+pub const MAX_PASSES_PER_SUBMIT: usize = 128;
+
+/// A resource the technique owns, with its synchronization state between graphs and frames.
+pub struct Tracked<T> {
+    resource: T,
+    state: RefCell<ResourceState>,
+}
+
+impl<T> Tracked<T> {
+    /// A resource nothing has accessed yet (undefined layout, no pending writes).
+    pub fn new(resource: T) -> Self {
+        Tracked { resource, state: RefCell::new(ResourceState::default()) }
+    }
+    /// The resource, to change it between graphs (e.g. host writes to a mapped buffer).
+    pub fn get_mut(&mut self) -> &mut T {
+        &mut self.resource
+    }
+    /// Its state after the last graph that used it (for tests and diagnostics).
+    pub fn state(&self) -> ResourceState {
+        self.state.borrow().clone()
+    }
+}
+
+impl<T> std::ops::Deref for Tracked<T> {
+    type Target = T;
+    fn deref(&self) -> &T {
+        &self.resource
+    }
+}
+
+/// Images and buffers lent to graphs as transient resources, kept between frames so a frame of the
+/// same shape allocates nothing. A resource is reused when its name and description match and no live
+/// graph holds it.
+#[derive(Default)]
+pub struct TransientPool {
+    images: RefCell<Vec<(String, Rc<Image>)>>,
+    buffers: RefCell<Vec<(String, BufferKey, Rc<Buffer>)>>,
+}
+
+#[derive(Clone, Copy, PartialEq, Eq)]
+struct BufferKey {
+    size: u64,
+    usage: vk::BufferUsageFlags,
+    host_visible: bool,
+}
+
+impl TransientPool {
+    fn image(&self, device: &Device, name: &str, desc: ImageDesc) -> Result<Rc<Image>> {
+        let mut images = self.images.borrow_mut();
+        if let Some((_, i)) =
+            images.iter().find(|(n, i)| n == name && i.desc == desc && Rc::strong_count(i) == 1)
+        {
+            return Ok(i.clone());
+        }
+        let image = Rc::new(Image::new(device, name, desc)?);
+        images.push((name.to_string(), image.clone()));
+        Ok(image)
+    }
+
+    fn buffer(&self, device: &Device, name: &str, key: BufferKey) -> Result<Rc<Buffer>> {
+        let mut buffers = self.buffers.borrow_mut();
+        if let Some((_, _, b)) =
+            buffers.iter().find(|(n, k, b)| n == name && *k == key && Rc::strong_count(b) == 1)
+        {
+            return Ok(b.clone());
+        }
+        let location = if key.host_visible { MemoryLocation::GpuToCpu } else { MemoryLocation::GpuOnly };
+        let buffer = Rc::new(Buffer::new(device, name, key.size, key.usage, location)?);
+        buffers.push((name.to_string(), key, buffer.clone()));
+        Ok(buffer)
+    }
+}
+
+/// An image of a graph.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ImageHandle {
+    index: usize,
+    pub desc: ImageDesc,
+}
+
+/// A buffer of a graph.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct BufferHandle {
+    index: usize,
+    pub size: u64,
+}
+
+/// Either kind of handle, for the access declarations.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ResourceHandle {
+    Image(ImageHandle),
+    Buffer(BufferHandle),
+}
+
+impl ResourceHandle {
+    fn index(&self) -> usize {
+        match self {
+            ResourceHandle::Image(h) => h.index,
+            ResourceHandle::Buffer(h) => h.index,
+        }
+    }
+}
+
+impl From<ImageHandle> for ResourceHandle {
+    fn from(h: ImageHandle) -> Self {
+        ResourceHandle::Image(h)
+    }
+}
+impl From<BufferHandle> for ResourceHandle {
+    fn from(h: BufferHandle) -> Self {
+        ResourceHandle::Buffer(h)
+    }
+}
+
+/// A CPU copy of an image the graph reads back ([`FrameGraph::read_back`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Readback {
+    index: usize,
+}
+
+/// How an attachment starts.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Load<T> {
+    /// Cleared to a value (the old contents are discarded).
+    Clear(T),
+    /// Kept from the previous writer.
+    Load,
+    /// Undefined (discarded).
+    DontCare,
+}
+
+/// What happens to an attachment's contents at the end of the pass.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Store {
+    Store,
+    DontCare,
+}
+
+impl Store {
+    fn op(self) -> vk::AttachmentStoreOp {
+        match self {
+            Store::Store => vk::AttachmentStoreOp::STORE,
+            Store::DontCare => vk::AttachmentStoreOp::DONT_CARE,
+        }
+    }
+}
+
+fn load_op<T>(l: &Load<T>) -> vk::AttachmentLoadOp {
+    match l {
+        Load::Clear(_) => vk::AttachmentLoadOp::CLEAR,
+        Load::Load => vk::AttachmentLoadOp::LOAD,
+        Load::DontCare => vk::AttachmentLoadOp::DONT_CARE,
+    }
+}
+
+enum Slot<'a> {
+    ImportedImage(&'a Tracked<Image>),
+    ImportedBuffer(&'a Tracked<Buffer>),
+    TransientImage(Rc<Image>),
+    TransientBuffer(Rc<Buffer>),
+}
+
+struct Resource<'a> {
+    name: String,
+    slot: Slot<'a>,
+}
+
+impl Resource<'_> {
+    fn is_image(&self) -> bool {
+        matches!(self.slot, Slot::ImportedImage(_) | Slot::TransientImage(_))
+    }
+    fn image(&self) -> Option<&Image> {
+        match &self.slot {
+            Slot::ImportedImage(t) => Some(t),
+            Slot::TransientImage(i) => Some(i),
+            _ => None,
+        }
+    }
+    fn buffer(&self) -> Option<&Buffer> {
+        match &self.slot {
+            Slot::ImportedBuffer(t) => Some(t),
+            Slot::TransientBuffer(b) => Some(b),
+            _ => None,
+        }
+    }
+    fn initial_state(&self) -> ResourceState {
+        match &self.slot {
+            Slot::ImportedImage(t) => t.state(),
+            Slot::ImportedBuffer(t) => t.state(),
+            _ => ResourceState::default(),
+        }
+    }
+    fn store_state(&self, s: &ResourceState) {
+        match &self.slot {
+            Slot::ImportedImage(t) => *t.state.borrow_mut() = s.clone(),
+            Slot::ImportedBuffer(t) => *t.state.borrow_mut() = s.clone(),
+            _ => {}
+        }
+    }
+}
+
+/// One declared use of a resource by a pass.
+struct Use {
+    resource: usize,
+    accesses: Vec<Access>,
+    discard: bool,
+}
+
+struct ColorTarget {
+    image: usize,
+    load: Load<[f32; 4]>,
+    store: Store,
+    resolve: Option<usize>,
+}
+
+struct DepthTarget {
+    image: usize,
+    load: Load<f32>,
+    store: Store,
+    read_only: bool,
+}
+
+#[derive(Default)]
+struct Attachments {
+    colors: Vec<ColorTarget>,
+    depth: Option<DepthTarget>,
+}
+
+impl Attachments {
+    fn is_empty(&self) -> bool {
+        self.colors.is_empty() && self.depth.is_none()
+    }
+}
+
+type RecordFn<'a> = Box<dyn FnMut(&mut PassContext<'_>) -> Result<()> + 'a>;
+
+struct Pass<'a> {
+    name: String,
+    uses: Vec<Use>,
+    attachments: Attachments,
+    /// GPU work (None: a pass that only places barriers, e.g. a host read).
+    record: Option<RecordFn<'a>>,
+}
+
+enum Node<'a> {
+    Pass(Pass<'a>),
+    Repeat { count: u32, passes: Vec<Pass<'a>> },
+}
+
+/// What a pass' recording closure gets.
+pub struct PassContext<'r> {
+    pub device: &'r Device,
+    pub cmd: vk::CommandBuffer,
+    /// The iteration of the enclosing [`FrameGraph::repeat`] (0 outside one).
+    pub iteration: u32,
+    /// The render area of a raster pass (zero otherwise).
+    pub extent: vk::Extent2D,
+    resources: &'r [Resource<'r>],
+}
+
+impl PassContext<'_> {
+    /// The image behind a handle.
+    pub fn image(&self, h: ImageHandle) -> &Image {
+        self.resources[h.index].image().expect("image handle names an image")
+    }
+    /// The buffer behind a handle.
+    pub fn buffer(&self, h: BufferHandle) -> &Buffer {
+        self.resources[h.index].buffer().expect("buffer handle names a buffer")
+    }
+}
+
+/// The passes of one submission sequence. Build, then [`FrameGraph::execute`].
+pub struct FrameGraph<'a> {
+    device: Device,
+    pool: Rc<TransientPool>,
+    resources: Vec<Resource<'a>>,
+    nodes: Vec<Node<'a>>,
+    /// Passes of the repeat node being built.
+    repeat_body: Option<Vec<Pass<'a>>>,
+    /// (image read back, host-visible buffer it is copied to).
+    readbacks: Vec<(ImageHandle, BufferHandle)>,
+}
+
+/// What a graph produced: GPU time per pass name (repeats summed) and the images read back.
+pub struct GraphResult {
+    pub timings: PassTimings,
+    images: Vec<LinearImage>,
+}
+
+impl GraphResult {
+    /// The CPU copy of a read-back image.
+    pub fn image(&self, r: Readback) -> &LinearImage {
+        &self.images[r.index]
+    }
+    /// Takes the CPU copy of a read-back image out.
+    pub fn take_image(&mut self, r: Readback) -> LinearImage {
+        std::mem::replace(&mut self.images[r.index], LinearImage::new(0, 0))
+    }
+}
+
+impl<'a> FrameGraph<'a> {
+    /// An empty graph on `device` whose transient resources come from `pool`.
+    pub fn new(device: &Device, pool: Rc<TransientPool>) -> Self {
+        FrameGraph {
+            device: device.clone(),
+            pool,
+            resources: Vec::new(),
+            nodes: Vec::new(),
+            repeat_body: None,
+            readbacks: Vec::new(),
+        }
+    }
+
+    pub fn device(&self) -> &Device {
+        &self.device
+    }
+
+    fn add(&mut self, name: &str, slot: Slot<'a>) -> usize {
+        self.resources.push(Resource { name: name.to_string(), slot });
+        self.resources.len() - 1
+    }
+
+    /// Lends a persistent image to this graph; its state carries over from earlier graphs.
+    pub fn import_image(&mut self, name: &str, image: &'a Tracked<Image>) -> ImageHandle {
+        let desc = image.desc;
+        ImageHandle { index: self.add(name, Slot::ImportedImage(image)), desc }
+    }
+
+    /// Lends a persistent buffer to this graph; its state carries over from earlier graphs.
+    pub fn import_buffer(&mut self, name: &str, buffer: &'a Tracked<Buffer>) -> BufferHandle {
+        let size = buffer.size;
+        BufferHandle { index: self.add(name, Slot::ImportedBuffer(buffer)), size }
+    }
+
+    /// A transient image for this graph only (from the pool); undefined until a pass writes it.
+    pub fn create_image(&mut self, name: &str, desc: ImageDesc) -> Result<ImageHandle> {
+        let image = self.pool.image(&self.device, name, desc)?;
+        Ok(ImageHandle { index: self.add(name, Slot::TransientImage(image)), desc })
+    }
+
+    /// A transient buffer for this graph only (from the pool); `host_visible` for CPU reads.
+    pub fn create_buffer(
+        &mut self,
+        name: &str,
+        size: u64,
+        usage: vk::BufferUsageFlags,
+        host_visible: bool,
+    ) -> Result<BufferHandle> {
+        let buffer = self.pool.buffer(&self.device, name, BufferKey { size, usage, host_visible })?;
+        Ok(BufferHandle { index: self.add(name, Slot::TransientBuffer(buffer)), size })
+    }
+
+    /// Starts declaring a pass named `name` (its debug label and timestamp scope).
+    pub fn pass(&mut self, name: impl Into<String>) -> PassBuilder<'_, 'a> {
+        PassBuilder {
+            graph: self,
+            pass: Pass {
+                name: name.into(),
+                uses: Vec::new(),
+                attachments: Attachments::default(),
+                record: None,
+            },
+        }
+    }
+
+    fn push(&mut self, pass: Pass<'a>) {
+        match &mut self.repeat_body {
+            Some(body) => body.push(pass),
+            None => self.nodes.push(Node::Pass(pass)),
+        }
+    }
+
+    /// Declares the passes `body` adds as a group recorded `count` times in a row (repeat nodes do
+    /// not nest). A count of 0 records nothing.
+    pub fn repeat(&mut self, count: u32, body: impl FnOnce(&mut Self) -> Result<()>) -> Result<()> {
+        if self.repeat_body.is_some() {
+            return Err(Error::Graph("repeat nodes do not nest".into()));
+        }
+        self.repeat_body = Some(Vec::new());
+        let built = body(self);
+        let passes = self.repeat_body.take().expect("set above");
+        built?;
+        self.nodes.push(Node::Repeat { count, passes });
+        Ok(())
+    }
+
+    /// Makes the GPU's writes to `buffer` visible to the host once [`FrameGraph::execute`] returns
+    /// (the device→host memory dependency), for a host-visible buffer the CPU then maps.
+    pub fn host_read(&mut self, buffer: BufferHandle) {
+        self.push(Pass {
+            name: "host read".into(),
+            uses: vec![Use { resource: buffer.index, accesses: vec![Access::HostRead], discard: false }],
+            attachments: Attachments::default(),
+            record: None,
+        });
+    }
+
+    /// Copies an `R32G32B32A32_SFLOAT` image to a host-visible buffer in a pass named `readback`; the
+    /// result holds it as a [`LinearImage`].
+    pub fn read_back(&mut self, image: ImageHandle) -> Result<Readback> {
+        if image.desc.format != vk::Format::R32G32B32A32_SFLOAT {
+            return Err(Error::Graph(format!(
+                "read_back needs an RGBA32F image, not {:?}",
+                image.desc.format
+            )));
+        }
+        let bytes = image.desc.width as u64 * image.desc.height as u64 * 16;
+        let buffer = self.create_buffer("readback", bytes, vk::BufferUsageFlags::TRANSFER_DST, true)?;
+        self.pass("readback")
+            .access(image, Access::TransferRead)
+            .overwrite(buffer, Access::TransferWrite)
+            .record(move |ctx| {
+                let (src, dst) = (ctx.image(image), ctx.buffer(buffer));
+                let region = vk::BufferImageCopy::default()
+                    .image_subresource(
+                        vk::ImageSubresourceLayers::default()
+                            .aspect_mask(vk::ImageAspectFlags::COLOR)
+                            .layer_count(1),
+                    )
+                    .image_extent(vk::Extent3D { width: src.desc.width, height: src.desc.height, depth: 1 });
+                unsafe {
+                    ctx.device.raw.cmd_copy_image_to_buffer(
+                        ctx.cmd,
+                        src.raw,
+                        vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+                        dst.raw,
+                        &[region],
+                    )
+                };
+                Ok(())
+            });
+        self.host_read(buffer);
+        self.readbacks.push((image, buffer));
+        Ok(Readback { index: self.readbacks.len() - 1 })
+    }
+
+    /// Records every pass in order, submitting (and waiting) every [`MAX_PASSES_PER_SUBMIT`] passes.
+    pub fn execute(self, rec: &mut CommandRecorder) -> Result<GraphResult> {
+        let FrameGraph { device, resources, mut nodes, readbacks, .. } = self;
+        let mut schedule: Vec<(usize, usize, u32)> = Vec::new();
+        for (ni, node) in nodes.iter().enumerate() {
+            match node {
+                Node::Pass(_) => schedule.push((ni, 0, 0)),
+                Node::Repeat { count, passes } => {
+                    for it in 0..*count {
+                        schedule.extend((0..passes.len()).map(|pi| (ni, pi, it)));
+                    }
+                }
+            }
+        }
+        let mut states: Vec<ResourceState> = resources.iter().map(|r| r.initial_state()).collect();
+        let timed = schedule.len().min(MAX_PASSES_PER_SUBMIT) as u32;
+        let mut timer = GpuTimer::new(&device, timed.max(1))?;
+        let mut timings = PassTimings::default();
+        let mut next = 0;
+        while next < schedule.len() {
+            let end = (next + MAX_PASSES_PER_SUBMIT).min(schedule.len());
+            rec.submit(|d, cmd| {
+                timer.reset(cmd);
+                for &(ni, pi, iteration) in &schedule[next..end] {
+                    let pass = match &mut nodes[ni] {
+                        Node::Pass(p) => p,
+                        Node::Repeat { passes, .. } => &mut passes[pi],
+                    };
+                    record_pass(d, cmd, pass, iteration, &resources, &mut states, &mut timer)?;
+                }
+                Ok(())
+            })?;
+            // What was submitted has happened: persistent resources remember it.
+            for (r, s) in resources.iter().zip(&states) {
+                r.store_state(s);
+            }
+            timings.add(&timer.results()?);
+            next = end;
+        }
+        let images = readbacks
+            .iter()
+            .map(|(image, buffer)| {
+                let b = resources[buffer.index].buffer().expect("readback buffer");
+                read_rgba32f(b, image.desc.width, image.desc.height)
+            })
+            .collect::<Result<Vec<_>>>()?;
+        Ok(GraphResult { timings, images })
+    }
+}
+
+/// Barriers, label, timestamps, attachments and the pass' own commands.
+fn record_pass(
+    device: &Device,
+    cmd: vk::CommandBuffer,
+    pass: &mut Pass<'_>,
+    iteration: u32,
+    resources: &[Resource<'_>],
+    states: &mut [ResourceState],
+    timer: &mut GpuTimer,
+) -> Result<()> {
+    let gpu_work = pass.record.is_some();
+    let scope = if gpu_work { timer.begin(cmd, &pass.name) } else { None };
+    if gpu_work {
+        device.begin_label(cmd, &pass.name);
+    }
+    record_barriers(device, cmd, pass, resources, states)?;
+    if let Some(record) = &mut pass.record {
+        let raster = !pass.attachments.is_empty();
+        let extent = if raster {
+            begin_rendering(device, cmd, &pass.attachments, resources)
+        } else {
+            vk::Extent2D::default()
+        };
+        let mut ctx = PassContext { device, cmd, iteration, extent, resources };
+        let recorded = record(&mut ctx);
+        if raster {
+            unsafe { device.raw.cmd_end_rendering(cmd) };
+        }
+        recorded?;
+        device.end_label(cmd);
+    }
+    timer.end(cmd, scope);
+    Ok(())
+}
+
+fn record_barriers(
+    device: &Device,
+    cmd: vk::CommandBuffer,
+    pass: &Pass<'_>,
+    resources: &[Resource<'_>],
+    states: &mut [ResourceState],
+) -> Result<()> {
+    let (mut src, mut dst) = (vk::PipelineStageFlags::empty(), vk::PipelineStageFlags::empty());
+    let mut memory = vk::MemoryBarrier::default();
+    let mut any_memory = false;
+    let mut images = Vec::new();
+    for u in &pass.uses {
+        let r = &resources[u.resource];
+        let t = states[u.resource]
+            .access(&u.accesses, r.is_image(), u.discard)
+            .map_err(|e| Error::Graph(format!("pass `{}`, resource `{}`: {e}", pass.name, r.name)))?;
+        let Some(t) = t else { continue };
+        match r.image() {
+            Some(image) => {
+                let (s, d, b) = vk_sync_fork::get_image_memory_barrier(&vk_sync_fork::ImageBarrier {
+                    previous_accesses: &t.previous,
+                    next_accesses: &t.next,
+                    ..Default::default()
+                });
+                src |= s;
+                dst |= d;
+                // The tracked layouts are authoritative (vk-sync would derive the old one from the
+                // previous access kinds: the same unless contents are discarded).
+                images.push(
+                    vk::ImageMemoryBarrier::default()
+                        .src_access_mask(b.src_access_mask)
+                        .dst_access_mask(b.dst_access_mask)
+                        .old_layout(t.old_layout)
+                        .new_layout(t.new_layout)
+                        .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+                        .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+                        .image(image.raw)
+                        .subresource_range(image.full_range()),
+                );
+            }
+            None => {
+                let (s, d, b) = vk_sync_fork::get_memory_barrier(&vk_sync_fork::GlobalBarrier {
+                    previous_accesses: &t.previous,
+                    next_accesses: &t.next,
+                });
+                src |= s;
+                dst |= d;
+                memory.src_access_mask |= b.src_access_mask;
+                memory.dst_access_mask |= b.dst_access_mask;
+                any_memory = true;
+            }
+        }
+    }
+    if any_memory || !images.is_empty() {
+        let memories: &[vk::MemoryBarrier] = if any_memory { std::slice::from_ref(&memory) } else { &[] };
+        unsafe {
+            device.raw.cmd_pipeline_barrier(
+                cmd,
+                src,
+                dst,
+                vk::DependencyFlags::empty(),
+                memories,
+                &[],
+                &images,
+            )
+        };
+    }
+    Ok(())
+}
+
+/// Begins dynamic rendering over a raster pass' attachments, viewport and scissor covering the first
+/// one; returns the render area.
+fn begin_rendering(
+    device: &Device,
+    cmd: vk::CommandBuffer,
+    a: &Attachments,
+    resources: &[Resource<'_>],
+) -> vk::Extent2D {
+    let image = |i: usize| resources[i].image().expect("attachment is an image");
+    let first = a.colors.first().map(|c| c.image).or(a.depth.as_ref().map(|d| d.image)).expect("attachments");
+    let extent = image(first).extent_2d();
+    let colors: Vec<vk::RenderingAttachmentInfo> = a
+        .colors
+        .iter()
+        .map(|c| {
+            let clear = match c.load {
+                Load::Clear(v) => v,
+                _ => [0.0; 4],
+            };
+            let mut info = vk::RenderingAttachmentInfo::default()
+                .image_view(image(c.image).view)
+                .image_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL)
+                .load_op(load_op(&c.load))
+                .store_op(c.store.op())
+                .clear_value(vk::ClearValue { color: vk::ClearColorValue { float32: clear } });
+            if let Some(r) = c.resolve {
+                info = info
+                    .resolve_mode(vk::ResolveModeFlags::AVERAGE)
+                    .resolve_image_view(image(r).view)
+                    .resolve_image_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL);
+            }
+            info
+        })
+        .collect();
+    let depth = a.depth.as_ref().map(|d| {
+        let clear = match d.load {
+            Load::Clear(v) => v,
+            _ => 0.0,
+        };
+        vk::RenderingAttachmentInfo::default()
+            .image_view(image(d.image).view)
+            .image_layout(if d.read_only {
+                vk::ImageLayout::DEPTH_STENCIL_READ_ONLY_OPTIMAL
+            } else {
+                vk::ImageLayout::DEPTH_STENCIL_ATTACHMENT_OPTIMAL
+            })
+            .load_op(load_op(&d.load))
+            .store_op(d.store.op())
+            .clear_value(vk::ClearValue {
+                depth_stencil: vk::ClearDepthStencilValue { depth: clear, stencil: 0 },
+            })
+    });
+    let area = vk::Rect2D { offset: vk::Offset2D::default(), extent };
+    let mut info = vk::RenderingInfo::default().render_area(area).layer_count(1).color_attachments(&colors);
+    if let Some(d) = &depth {
+        info = info.depth_attachment(d);
+    }
+    unsafe {
+        device.raw.cmd_begin_rendering(cmd, &info);
+        let viewport = vk::Viewport {
+            x: 0.0,
+            y: 0.0,
+            width: extent.width as f32,
+            height: extent.height as f32,
+            min_depth: 0.0,
+            max_depth: 1.0,
+        };
+        device.raw.cmd_set_viewport(cmd, 0, &[viewport]);
+        device.raw.cmd_set_scissor(cmd, 0, &[area]);
+    }
+    extent
+}
+
+/// Declares one pass; ends with [`PassBuilder::record`] (or [`PassBuilder::barrier_only`]).
+pub struct PassBuilder<'g, 'a> {
+    graph: &'g mut FrameGraph<'a>,
+    pass: Pass<'a>,
+}
+
+impl<'a> PassBuilder<'_, 'a> {
+    fn add_use(mut self, h: ResourceHandle, access: Access, discard: bool) -> Self {
+        let index = h.index();
+        match self.pass.uses.iter_mut().find(|u| u.resource == index) {
+            Some(u) => {
+                if !u.accesses.contains(&access) {
+                    u.accesses.push(access);
+                }
+                u.discard &= discard;
+            }
+            None => self.pass.uses.push(Use { resource: index, accesses: vec![access], discard }),
+        }
+        self
+    }
+
+    /// The pass accesses `h` as `access` (read, write or both: vk-sync's classification decides).
+    pub fn access(self, h: impl Into<ResourceHandle>, access: Access) -> Self {
+        self.add_use(h.into(), access, false)
+    }
+
+    /// The pass writes all of `h` without reading it: earlier contents may be discarded.
+    pub fn overwrite(self, h: impl Into<ResourceHandle>, access: Access) -> Self {
+        self.add_use(h.into(), access, true)
+    }
+
+    /// A colour attachment (in declaration order: location 0, 1, ...).
+    pub fn color(mut self, image: ImageHandle, load: Load<[f32; 4]>, store: Store) -> Self {
+        let discard = !matches!(load, Load::Load);
+        let access = if discard { Access::ColorAttachmentWrite } else { Access::ColorAttachmentReadWrite };
+        self.pass.attachments.colors.push(ColorTarget { image: image.index, load, store, resolve: None });
+        self.add_use(image.into(), access, discard)
+    }
+
+    /// Resolves the last colour attachment (MSAA, averaged) into `target`, which is overwritten.
+    pub fn resolve(mut self, target: ImageHandle) -> Self {
+        if let Some(c) = self.pass.attachments.colors.last_mut() {
+            c.resolve = Some(target.index);
+        }
+        self.add_use(target.into(), Access::ColorAttachmentWrite, true)
+    }
+
+    /// The depth attachment, tested and written.
+    pub fn depth(mut self, image: ImageHandle, load: Load<f32>, store: Store) -> Self {
+        let discard = !matches!(load, Load::Load);
+        self.pass.attachments.depth = Some(DepthTarget { image: image.index, load, store, read_only: false });
+        self.add_use(image.into(), Access::DepthStencilAttachmentReadWrite, discard)
+    }
+
+    /// The depth attachment, loaded and tested but not written (pipelines must not write depth).
+    pub fn depth_read_only(mut self, image: ImageHandle) -> Self {
+        self.pass.attachments.depth =
+            Some(DepthTarget { image: image.index, load: Load::Load, store: Store::Store, read_only: true });
+        self.add_use(image.into(), Access::DepthStencilAttachmentRead, false)
+    }
+
+    /// Ends the declaration with the pass' commands. For a raster pass they run inside dynamic
+    /// rendering, with viewport and scissor set.
+    pub fn record(mut self, f: impl FnMut(&mut PassContext<'_>) -> Result<()> + 'a) {
+        self.pass.record = Some(Box::new(f));
+        self.graph.push(self.pass);
+    }
+
+    /// Ends the declaration with no commands: the pass only orders its accesses after earlier ones.
+    pub fn barrier_only(self) {
+        self.graph.push(self.pass);
+    }
+}
