@@ -21,6 +21,9 @@ pub mod vk;
 
 pub use error::{Error, Result};
 
+#[cfg(test)]
+mod shaders_tests;
+
 /// SPIR-V compiled from `shaders-glsl/` by `build.rs`, every permutation declared by the axes of
 /// `shaders-glsl/permutations.toml`.
 ///
