@@ -25,7 +25,43 @@ pub mod vk;
 
 pub use error::{Error, Result};
 
-/// SPIR-V compiled from `shaders-glsl/` by `build.rs`, one constant per named permutation.
+#[cfg(test)]
+mod shaders_tests;
+
+/// SPIR-V compiled from `shaders-glsl/` by `build.rs`, every permutation declared by the axes of
+/// `shaders-glsl/permutations.toml`.
+///
+/// Pick a permutation with the key struct of its file — one field per axis, enum axes are
+/// [`shaders::axes`] enums, bool axes `bool` — or by its constant (file path plus the non-default axis
+/// values, in axis order). [`shaders::FILES`] lists every file's permutations, [`shaders::ALL`] all of
+/// them.
+///
+/// ```
+/// use shutter::shaders::{self, axes::{Effects, Hull, Shading}, StochasticFrag};
+/// let key = StochasticFrag {
+///     hull: Hull::Compute,
+///     shading: Shading::PerSample,
+///     instrumented: false,
+///     effects: Effects::Defocus,
+/// };
+/// let source = key.source();
+/// assert_eq!(source.permutation, "COMPUTE_HULL_PER_SAMPLE_DEFOCUS");
+/// assert_eq!(source.defines, ["COMPUTE_HULL", "PER_SAMPLE", "NO_MOTION"]);
+/// let by_name = shaders::STOCHASTIC_STOCHASTIC_FRAG_COMPUTE_HULL_PER_SAMPLE_DEFOCUS;
+/// assert_eq!(source.spirv, by_name.spirv);
+/// ```
+///
+/// A value the axis does not have, or an axis the file does not have, fails to compile:
+///
+/// ```compile_fail
+/// use shutter::shaders::{axes::Effects, ExpandComp};
+/// let _ = ExpandComp { effects: Effects::Pinhole }.source();
+/// ```
+///
+/// ```compile_fail
+/// use shutter::shaders::{axes::Shading, ExpandComp};
+/// let _ = ExpandComp { shading: Shading::PerSample, ..Default::default() }.source();
+/// ```
 pub mod shaders {
     /// Pipeline stage of a compiled shader.
     #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -40,11 +76,26 @@ pub mod shaders {
     pub struct ShaderSource {
         /// Path under `shaders-glsl/`.
         pub file: &'static str,
+        /// `DEFAULT`, or the suffixes of its non-default axis values joined by `_` (`PER_SAMPLE_DEFOCUS`).
         pub permutation: &'static str,
         pub stage: ShaderStage,
+        /// The defines of its axis values, in axis order (`NAME` or `NAME=VALUE`; `STAGE_*` not listed).
         pub defines: &'static [&'static str],
+        /// `(axis, value)` for every axis of its file, in axis order: `("effects", "defocus")`,
+        /// `("instrumented", "true")`.
+        pub axis_values: &'static [(&'static str, &'static str)],
         /// SPIR-V bytes (little-endian words).
         pub spirv: &'static [u8],
+    }
+    /// One stage file under `shaders-glsl/` and every permutation compiled from it.
+    #[derive(Clone, Copy, Debug)]
+    pub struct StageFile {
+        /// Path under `shaders-glsl/`.
+        pub file: &'static str,
+        /// Its axes, in axis order (empty: one permutation, `DEFAULT`).
+        pub axes: &'static [&'static str],
+        /// The product of its axes, the first axis slowest.
+        pub permutations: &'static [ShaderSource],
     }
     include!(concat!(env!("OUT_DIR"), "/shaders.rs"));
 }
