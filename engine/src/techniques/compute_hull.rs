@@ -23,6 +23,7 @@ use ash::vk;
 use bytemuck::{Pod, Zeroable};
 use gpu_allocator::MemoryLocation;
 
+use super::stochastic::effects_axis;
 use super::FrameInputs;
 use crate::error::{Error, Result};
 use crate::gpu::layout::{
@@ -31,7 +32,7 @@ use crate::gpu::layout::{
 use crate::gpu::GpuWorld;
 use crate::graph::{Access, BufferHandle, FrameGraph, Tracked};
 use crate::plan::Effects;
-use crate::shaders::{self, ShaderSource};
+use crate::shaders::{axes, ExpandComp};
 use crate::vk::{
     write_descriptors, Buffer, DescriptorSetLayout, DescriptorWrite, Device, Pipeline, PipelineLayout,
     ShaderModule,
@@ -53,6 +54,16 @@ impl HullExpansion {
         match self {
             HullExpansion::GeometryShader => "gs",
             HullExpansion::Compute => "compute",
+        }
+    }
+}
+
+impl HullExpansion {
+    /// The shader permutations' hull axis.
+    pub fn axis(self) -> axes::Hull {
+        match self {
+            HullExpansion::GeometryShader => axes::Hull::GeometryShader,
+            HullExpansion::Compute => axes::Hull::Compute,
         }
     }
 }
@@ -89,34 +100,6 @@ pub struct ExpandPush {
 /// For the reflection test.
 pub const EXPAND_STRUCTS: &[SharedStruct] =
     &[shared_struct!("Push", ExpandPush, [object, triangle_count, bound, capacity, dilate])];
-
-fn expand_shader(effects: Effects) -> ShaderSource {
-    match effects {
-        Effects::Defocus => shaders::STOCHASTIC_EXPAND_COMP_DEFOCUS,
-        Effects::Motion => shaders::STOCHASTIC_EXPAND_COMP_MOTION,
-        Effects::Both | Effects::Pinhole => shaders::STOCHASTIC_EXPAND_COMP,
-    }
-}
-
-/// The fragment shader permutation behind the compute-expanded hull.
-pub fn fragment_shader(per_sample: bool, instrumented: bool, effects: Effects) -> ShaderSource {
-    use shaders::*;
-    use Effects::*;
-    match (per_sample, instrumented, effects) {
-        (false, false, Both | Pinhole) => STOCHASTIC_STOCHASTIC_FRAG_COMPUTE_HULL,
-        (false, false, Defocus) => STOCHASTIC_STOCHASTIC_FRAG_COMPUTE_HULL_DEFOCUS,
-        (false, false, Motion) => STOCHASTIC_STOCHASTIC_FRAG_COMPUTE_HULL_MOTION,
-        (false, true, Both | Pinhole) => STOCHASTIC_STOCHASTIC_FRAG_COMPUTE_HULL_INSTRUMENTED,
-        (false, true, Defocus) => STOCHASTIC_STOCHASTIC_FRAG_COMPUTE_HULL_INSTRUMENTED_DEFOCUS,
-        (false, true, Motion) => STOCHASTIC_STOCHASTIC_FRAG_COMPUTE_HULL_INSTRUMENTED_MOTION,
-        (true, false, Both | Pinhole) => STOCHASTIC_STOCHASTIC_FRAG_COMPUTE_HULL_PER_SAMPLE,
-        (true, false, Defocus) => STOCHASTIC_STOCHASTIC_FRAG_COMPUTE_HULL_PER_SAMPLE_DEFOCUS,
-        (true, false, Motion) => STOCHASTIC_STOCHASTIC_FRAG_COMPUTE_HULL_PER_SAMPLE_MOTION,
-        (true, true, Both | Pinhole) => STOCHASTIC_STOCHASTIC_FRAG_COMPUTE_HULL_PER_SAMPLE_INSTRUMENTED,
-        (true, true, Defocus) => STOCHASTIC_STOCHASTIC_FRAG_COMPUTE_HULL_PER_SAMPLE_INSTRUMENTED_DEFOCUS,
-        (true, true, Motion) => STOCHASTIC_STOCHASTIC_FRAG_COMPUTE_HULL_PER_SAMPLE_INSTRUMENTED_MOTION,
-    }
-}
 
 /// Expansion pipelines and the per-object hull buffers.
 pub struct ComputeHull {
@@ -155,7 +138,7 @@ impl ComputeHull {
         let mut shaders = Vec::new();
         let mut expand = Vec::new();
         for &e in paths {
-            let m = ShaderModule::new(device, expand_shader(e))?;
+            let m = ShaderModule::new(device, ExpandComp { effects: effects_axis(e) }.source())?;
             expand.push((
                 e,
                 Pipeline::compute(device, &format!("expand hull ({})", e.name()), &expand_layout, &m)?,

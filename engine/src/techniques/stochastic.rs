@@ -33,7 +33,7 @@ use crate::gpu::{GpuView, GpuWorld};
 use crate::graph::{Access, FrameGraph, PassContext, ResourceHandle, Tracked};
 use crate::plan::Effects;
 use crate::sampling::{ApertureShape, SampleTile, ShutterCurve, SAMPLE_TILE_SIZE};
-use crate::shaders::{self, ShaderSource};
+use crate::shaders::{self, axes, StochasticFrag, StochasticGeom};
 use crate::vk::{
     write_descriptors, Buffer, DescriptorPool, DescriptorSetLayout, DescriptorWrite, Device, Feature,
     GraphicsDesc, Pipeline, PipelineLayout, ShaderModule,
@@ -223,34 +223,22 @@ pub fn gpu_samples(
     (xy_lens, time)
 }
 
-/// The fragment shader permutation for a shading rate, instrumentation and effect path.
-fn fragment_shader(shading: ShadingRate, instrumented: bool, effects: Effects) -> ShaderSource {
-    use shaders::*;
-    use Effects::*;
-    use ShadingRate::*;
-    match (shading, instrumented, effects) {
-        (PerPixel, false, Both | Pinhole) => STOCHASTIC_STOCHASTIC_FRAG,
-        (PerPixel, false, Defocus) => STOCHASTIC_STOCHASTIC_FRAG_DEFOCUS,
-        (PerPixel, false, Motion) => STOCHASTIC_STOCHASTIC_FRAG_MOTION,
-        (PerPixel, true, Both | Pinhole) => STOCHASTIC_STOCHASTIC_FRAG_INSTRUMENTED,
-        (PerPixel, true, Defocus) => STOCHASTIC_STOCHASTIC_FRAG_INSTRUMENTED_DEFOCUS,
-        (PerPixel, true, Motion) => STOCHASTIC_STOCHASTIC_FRAG_INSTRUMENTED_MOTION,
-        (PerSample, false, Both | Pinhole) => STOCHASTIC_STOCHASTIC_FRAG_PER_SAMPLE,
-        (PerSample, false, Defocus) => STOCHASTIC_STOCHASTIC_FRAG_PER_SAMPLE_DEFOCUS,
-        (PerSample, false, Motion) => STOCHASTIC_STOCHASTIC_FRAG_PER_SAMPLE_MOTION,
-        (PerSample, true, Both | Pinhole) => STOCHASTIC_STOCHASTIC_FRAG_PER_SAMPLE_INSTRUMENTED,
-        (PerSample, true, Defocus) => STOCHASTIC_STOCHASTIC_FRAG_PER_SAMPLE_INSTRUMENTED_DEFOCUS,
-        (PerSample, true, Motion) => STOCHASTIC_STOCHASTIC_FRAG_PER_SAMPLE_INSTRUMENTED_MOTION,
+/// The shader permutations' effect axis for a path (`Pinhole` objects are never drawn here; they
+/// would take the defocus+motion permutation).
+pub fn effects_axis(effects: Effects) -> axes::Effects {
+    match effects {
+        Effects::Both | Effects::Pinhole => axes::Effects::Both,
+        Effects::Defocus => axes::Effects::Defocus,
+        Effects::Motion => axes::Effects::Motion,
     }
 }
 
-/// The geometry shader permutation for an effect path (the bound debug output exists for `Both`).
-fn geometry_shader(effects: Effects, bound_debug: bool) -> ShaderSource {
-    match (effects, bound_debug) {
-        (_, true) => shaders::STOCHASTIC_STOCHASTIC_GEOM_BOUND_DEBUG,
-        (Effects::Defocus, false) => shaders::STOCHASTIC_STOCHASTIC_GEOM_DEFOCUS,
-        (Effects::Motion, false) => shaders::STOCHASTIC_STOCHASTIC_GEOM_MOTION,
-        (Effects::Both | Effects::Pinhole, false) => shaders::STOCHASTIC_STOCHASTIC_GEOM,
+impl ShadingRate {
+    fn axis(self) -> axes::Shading {
+        match self {
+            ShadingRate::PerPixel => axes::Shading::PerPixel,
+            ShadingRate::PerSample => axes::Shading::PerSample,
+        }
     }
 }
 
@@ -404,21 +392,21 @@ impl StochasticDraws {
         let mut shader_modules = vec![];
         let mut pipelines = Vec::with_capacity(paths.len());
         for &effects in &paths {
-            let per_sample = options.shading == ShadingRate::PerSample;
-            let (first, geom, frag) = if compute {
-                let frag = ShaderModule::new(
-                    device,
-                    super::compute_hull::fragment_shader(per_sample, options.instrumented, effects),
-                )?;
-                (&hull_vert, None, frag)
+            let frag = StochasticFrag {
+                hull: options.expansion.axis(),
+                shading: options.shading.axis(),
+                instrumented: options.instrumented,
+                effects: effects_axis(effects),
+            };
+            let frag = ShaderModule::new(device, frag.source())?;
+            let (first, geom) = if compute {
+                (&hull_vert, None)
             } else {
-                let geom =
-                    ShaderModule::new(device, geometry_shader(effects, debug.bound_debug_triangles > 0))?;
-                let frag = ShaderModule::new(
-                    device,
-                    fragment_shader(options.shading, options.instrumented, effects),
-                )?;
-                (&vert, Some(geom), frag)
+                let geom = StochasticGeom {
+                    bound_debug: debug.bound_debug_triangles > 0,
+                    effects: effects_axis(effects),
+                };
+                (&vert, Some(ShaderModule::new(device, geom.source())?))
             };
             let stages: Vec<&ShaderModule> =
                 [Some(first), geom.as_ref(), Some(&frag)].into_iter().flatten().collect();
