@@ -1,7 +1,7 @@
 //! The engine's image type: linear HDR RGBA, f32, row-major, top row first.
 
 /// A linear-light RGBA image (what every technique and the reference produce).
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct LinearImage {
     pub width: u32,
     pub height: u32,

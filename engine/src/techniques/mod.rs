@@ -22,6 +22,7 @@ pub mod accumulation;
 pub mod auto;
 pub mod compute_hull;
 pub mod forward;
+pub mod graph_probe;
 pub mod multipass;
 pub mod pinhole;
 pub mod registry;
@@ -284,6 +285,25 @@ impl Renderer {
             triangles: scene.triangle_count(),
             upload_ms,
         })
+    }
+
+    /// Runs `f` with the prepared technique, its frame inputs and a frame context — for work beyond
+    /// one [`FrameTechnique::render`] (a technique's own extra graphs, tests of the graph).
+    pub fn run_with<R>(
+        &mut self,
+        prepared: &mut PreparedFrame,
+        f: impl FnOnce(&mut dyn FrameTechnique, &FrameInputs<'_>, &mut FrameContext<'_>) -> Result<R>,
+    ) -> Result<R> {
+        let mut frame = FrameContext {
+            device: &self.device,
+            recorder: &mut self.recorder,
+            pool: prepared.pool.clone(),
+            timings: PassTimings::default(),
+        };
+        let inputs = FrameInputs { world: &prepared.world, camera: &prepared.camera };
+        let out = f(prepared.technique.as_mut(), &inputs, &mut frame)?;
+        self.device.check_validation()?;
+        Ok(out)
     }
 
     /// Renders one frame of a prepared scene and technique.

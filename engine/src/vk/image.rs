@@ -137,6 +137,22 @@ impl Sampler {
     }
 }
 
+impl Sampler {
+    /// Nearest texel, clamped to the edge: how depth images are fetched.
+    pub fn nearest_clamp(device: &Device, name: &str) -> Result<Sampler> {
+        let info = vk::SamplerCreateInfo::default()
+            .mag_filter(vk::Filter::NEAREST)
+            .min_filter(vk::Filter::NEAREST)
+            .mipmap_mode(vk::SamplerMipmapMode::NEAREST)
+            .address_mode_u(vk::SamplerAddressMode::CLAMP_TO_EDGE)
+            .address_mode_v(vk::SamplerAddressMode::CLAMP_TO_EDGE)
+            .address_mode_w(vk::SamplerAddressMode::CLAMP_TO_EDGE);
+        let raw = unsafe { device.raw.create_sampler(&info, None) }.vk("vkCreateSampler")?;
+        device.set_name(raw, name);
+        Ok(Sampler { raw, device: device.clone() })
+    }
+}
+
 impl Drop for Sampler {
     fn drop(&mut self) {
         unsafe { self.device.raw.destroy_sampler(self.raw, None) };
