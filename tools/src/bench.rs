@@ -13,7 +13,7 @@ use std::fmt::Write as _;
 use std::path::PathBuf;
 
 use anyhow::{bail, Context, Result};
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 use shutter::scene::Scene;
 use shutter::techniques::{RenderSettings, Renderer, SampleCounters, StochasticOptions, Technique};
 
@@ -54,7 +54,7 @@ pub fn apply_option(s: &mut RenderSettings, key: &str, value: &str) -> Result<()
     Ok(())
 }
 
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct Stat {
     pub median: f64,
     pub min: f64,
@@ -73,7 +73,7 @@ impl Stat {
     }
 }
 
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct Counters {
     pub fragments: u64,
     pub samples_tested: u64,
@@ -94,7 +94,7 @@ impl From<SampleCounters> for Counters {
     }
 }
 
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct ConfigResult {
     pub label: String,
     pub technique: String,
@@ -114,7 +114,7 @@ pub struct ConfigResult {
     pub counters: Option<Counters>,
 }
 
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct BenchReport {
     pub scene: String,
     pub width: u32,
@@ -344,4 +344,84 @@ impl BenchReport {
         }
         Ok(())
     }
+}
+
+/// One configuration compared across two sets of bench runs ([`compare`]).
+#[derive(Clone, Debug)]
+pub struct Comparison {
+    pub label: String,
+    /// Median over runs of each run's median GPU ms per frame: old, new.
+    pub gpu_ms: (f64, f64),
+    /// Median over runs of each run's median CPU frame ms: old, new.
+    pub cpu_frame_ms: (f64, f64),
+}
+
+impl Comparison {
+    pub fn gpu_ratio(&self) -> f64 {
+        self.gpu_ms.1 / self.gpu_ms.0
+    }
+    pub fn cpu_ratio(&self) -> f64 {
+        self.cpu_frame_ms.1 / self.cpu_frame_ms.0
+    }
+}
+
+/// Compares the configurations common to every report of `old` and `new` (the JSON of `shutter
+/// bench`, e.g. of two binaries run alternately): per configuration the median over runs of the runs'
+/// medians, so one disturbed run moves nothing.
+pub fn compare(old: &[BenchReport], new: &[BenchReport]) -> Result<Vec<Comparison>> {
+    let (Some(first), false, false) = (old.first(), old.is_empty(), new.is_empty()) else {
+        bail!("bench-compare needs at least one report on each side");
+    };
+    let pick = |reports: &[BenchReport], label: &str, f: &dyn Fn(&ConfigResult) -> f64| -> Option<f64> {
+        let v: Option<Vec<f64>> =
+            reports.iter().map(|r| r.results.iter().find(|c| c.label == label).map(f)).collect();
+        v.map(|v| Stat::of(v).median)
+    };
+    let mut out = Vec::new();
+    for c in &first.results {
+        let gpu = |r: &ConfigResult| r.gpu_ms.median;
+        let cpu = |r: &ConfigResult| r.cpu_frame_ms.median;
+        if let (Some(go), Some(gn), Some(co), Some(cn)) = (
+            pick(old, &c.label, &gpu),
+            pick(new, &c.label, &gpu),
+            pick(old, &c.label, &cpu),
+            pick(new, &c.label, &cpu),
+        ) {
+            out.push(Comparison { label: c.label.clone(), gpu_ms: (go, gn), cpu_frame_ms: (co, cn) });
+        }
+    }
+    if out.is_empty() {
+        bail!("no configuration label is in every report");
+    }
+    Ok(out)
+}
+
+/// The comparison as a markdown table.
+pub fn comparison_markdown(scene: &str, runs: (usize, usize), rows: &[Comparison]) -> String {
+    let mut s = format!(
+        "`{scene}`: medians over {} old and {} new runs (each run's median frame)\n\n\
+         | config | GPU ms old | GPU ms new | new ÷ old | CPU frame ms old | CPU frame ms new | new ÷ old |\n\
+         |---|---:|---:|---:|---:|---:|---:|\n",
+        runs.0, runs.1
+    );
+    for r in rows {
+        let _ = writeln!(
+            s,
+            "| `{}` | {:.2} | {:.2} | {:.3} | {:.2} | {:.2} | {:.3} |",
+            r.label,
+            r.gpu_ms.0,
+            r.gpu_ms.1,
+            r.gpu_ratio(),
+            r.cpu_frame_ms.0,
+            r.cpu_frame_ms.1,
+            r.cpu_ratio()
+        );
+    }
+    s
+}
+
+/// Reads a report written by `shutter bench --json`.
+pub fn read_report(path: &std::path::Path) -> Result<BenchReport> {
+    let text = std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
+    serde_json::from_str(&text).with_context(|| format!("parsing {} as a bench report", path.display()))
 }

@@ -106,6 +106,20 @@ enum Command {
         #[command(flatten)]
         image: ImageArgs,
     },
+    /// Compare two sets of `bench --json` reports (e.g. an old and a new binary run alternately, see
+    /// scripts/bench-ab.sh): per configuration, the median over runs of each run's median GPU ms and
+    /// CPU frame ms, and new ÷ old; markdown on stdout.
+    BenchCompare {
+        /// Reports of the baseline.
+        #[arg(long, num_args = 1.., required = true)]
+        old: Vec<PathBuf>,
+        /// Reports of the candidate.
+        #[arg(long, num_args = 1.., required = true)]
+        new: Vec<PathBuf>,
+        /// Fail (exit 1) when a configuration's new ÷ old GPU or CPU frame ms exceeds this.
+        #[arg(long)]
+        max_ratio: Option<f64>,
+    },
     /// Time techniques and settings on one scene: interleaved frames after warm-up, medians and
     /// min/max of GPU ms per frame and per pass, CPU frame ms, sample counters; markdown on stdout.
     Bench {
@@ -430,6 +444,27 @@ fn run() -> Result<()> {
                     anyhow::bail!("over {max}× the first configuration's median GPU ms: {}", over.join(", "));
                 }
                 println!("every configuration within {max}× of `{}`", report.results[0].label);
+            }
+        }
+        Command::BenchCompare { old, new, max_ratio } => {
+            let read =
+                |paths: &[PathBuf]| paths.iter().map(|p| bench::read_report(p)).collect::<Result<Vec<_>>>();
+            let (old, new) = (read(&old)?, read(&new)?);
+            let rows = bench::compare(&old, &new)?;
+            println!("{}", bench::comparison_markdown(&old[0].scene, (old.len(), new.len()), &rows));
+            if let Some(max) = max_ratio {
+                if !(max.is_finite() && max > 0.0) {
+                    anyhow::bail!("--max-ratio must be a positive number, not {max}");
+                }
+                let over: Vec<String> = rows
+                    .iter()
+                    .filter(|r| r.gpu_ratio() > max || r.cpu_ratio() > max)
+                    .map(|r| format!("`{}` GPU {:.3}× CPU {:.3}×", r.label, r.gpu_ratio(), r.cpu_ratio()))
+                    .collect();
+                if !over.is_empty() {
+                    anyhow::bail!("over {max}× the old runs: {}", over.join(", "));
+                }
+                println!("every configuration within {max}× of the old runs");
             }
         }
         Command::Quality {
