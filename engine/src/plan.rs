@@ -71,6 +71,16 @@ impl Effects {
     pub fn is_stochastic(&self) -> bool {
         *self != Effects::Pinhole
     }
+    /// The effect axis of the stochastic shader permutations (`shaders-glsl/permutations.toml`);
+    /// `Pinhole` objects are never drawn by them and map to the defocus+motion permutation.
+    pub fn shader_axis(self) -> crate::shaders::axes::Effects {
+        use crate::shaders::axes::Effects as Axis;
+        match self {
+            Effects::Both | Effects::Pinhole => Axis::Both,
+            Effects::Defocus => Axis::Defocus,
+            Effects::Motion => Axis::Motion,
+        }
+    }
 }
 
 /// The decision for one object, with the numbers behind it.

@@ -8,8 +8,7 @@
 use glam::Vec2;
 
 use super::forward::{ForwardTechnique, PassSample};
-use super::registry::TechniqueInfo;
-use super::{FrameTechnique, PrepareContext};
+use super::{FrameTechnique, PrepareContext, TechniqueInfo};
 use crate::error::Result;
 use crate::sampling::{stratified_samples, ApertureShape, Pcg32, ShutterCurve};
 

@@ -13,9 +13,10 @@
 use super::forward::{ForwardDraws, ForwardTechnique, PassSample};
 use super::multipass::{MultipassFrame, PassDraws};
 use super::pinhole::{pinhole_pass_jitter, pinhole_passes, PINHOLE_MSAA};
-use super::registry::TechniqueInfo;
 use super::stochastic::{DebugOptions, StochasticDraws};
-use super::{FrameContext, FrameInputs, FrameTechnique, HullExpansion, PrepareContext, TechniqueFrame};
+use super::{
+    FrameContext, FrameInputs, FrameTechnique, HullExpansion, PrepareContext, TechniqueFrame, TechniqueInfo,
+};
 use crate::error::Result;
 use crate::plan::{Effects, Plan};
 

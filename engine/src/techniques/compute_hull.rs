@@ -23,7 +23,6 @@ use ash::vk;
 use bytemuck::{Pod, Zeroable};
 use gpu_allocator::MemoryLocation;
 
-use super::stochastic::effects_axis;
 use super::FrameInputs;
 use crate::error::{Error, Result};
 use crate::gpu::layout::{
@@ -138,7 +137,7 @@ impl ComputeHull {
         let mut shaders = Vec::new();
         let mut expand = Vec::new();
         for &e in paths {
-            let m = ShaderModule::new(device, ExpandComp { effects: effects_axis(e) }.source())?;
+            let m = ShaderModule::new(device, ExpandComp { effects: e.shader_axis() }.source())?;
             expand.push((
                 e,
                 Pipeline::compute(device, &format!("expand hull ({})", e.name()), &expand_layout, &m)?,

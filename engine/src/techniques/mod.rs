@@ -35,7 +35,7 @@ use std::time::Instant;
 
 pub use compute_hull::HullExpansion;
 pub use forward::PassSample;
-pub use registry::{Technique, TechniqueInfo};
+pub use registry::Technique;
 pub use stochastic::{SampleCounters, ShadingRate, StochasticOptions};
 
 use crate::error::{Error, Result};
@@ -110,6 +110,16 @@ pub struct RenderOutput {
     /// GPU time per named pass, summed over repeats.
     pub timings: PassTimings,
     pub stats: RenderStats,
+}
+
+/// A technique as the registry lists it.
+pub struct TechniqueInfo {
+    /// The name on the command line and in reports.
+    pub name: &'static str,
+    /// One line for `--help` and the docs.
+    pub summary: &'static str,
+    /// Builds the technique's pipelines and targets for one scene and settings.
+    pub prepare: fn(&PrepareContext<'_>) -> Result<Box<dyn FrameTechnique>>,
 }
 
 /// What a technique gets to prepare itself for a scene: the device, the uploaded world, the camera

@@ -1,19 +1,8 @@
 //! The one place techniques are registered. A new technique is one file under `techniques/` (plus one
-//! shader folder) exposing a `pub const INFO: TechniqueInfo`, added to [`TECHNIQUES`] here with a
+//! shader folder) exposing a `pub const INFO: `[`TechniqueInfo`], added to [`TECHNIQUES`] here with a
 //! constant on [`Technique`] — nothing else in the engine or the CLI names it.
 
-use super::{accumulation, auto, pinhole, stochastic, FrameTechnique, PrepareContext};
-use crate::error::Result;
-
-/// A technique as the registry lists it.
-pub struct TechniqueInfo {
-    /// The name on the command line and in reports.
-    pub name: &'static str,
-    /// One line for `--help` and the docs.
-    pub summary: &'static str,
-    /// Builds the technique's pipelines and targets for one scene and settings.
-    pub prepare: fn(&PrepareContext<'_>) -> Result<Box<dyn FrameTechnique>>,
-}
+use super::{accumulation, auto, pinhole, stochastic, TechniqueInfo};
 
 /// A way of estimating the pixel integral on the GPU: a handle to a registry entry.
 #[derive(Clone, Copy)]

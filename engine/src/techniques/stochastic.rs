@@ -21,8 +21,7 @@ use gpu_allocator::MemoryLocation;
 
 use super::compute_hull::{ComputeHull, HullExpansion, INITIAL_VERTICES_PER_TRIANGLE};
 use super::multipass::{FrameUse, MultipassFrame, PassDraws, COLOR_FORMAT, DEPTH_FORMAT};
-use super::registry::TechniqueInfo;
-use super::{FrameContext, FrameInputs, FrameTechnique, PrepareContext, TechniqueFrame};
+use super::{FrameContext, FrameInputs, FrameTechnique, PrepareContext, TechniqueFrame, TechniqueInfo};
 use crate::bounds::BoundKind;
 use crate::error::{Error, Result};
 use crate::gpu::layout::{
@@ -223,16 +222,6 @@ pub fn gpu_samples(
     (xy_lens, time)
 }
 
-/// The shader permutations' effect axis for a path (`Pinhole` objects are never drawn here; they
-/// would take the defocus+motion permutation).
-pub fn effects_axis(effects: Effects) -> axes::Effects {
-    match effects {
-        Effects::Both | Effects::Pinhole => axes::Effects::Both,
-        Effects::Defocus => axes::Effects::Defocus,
-        Effects::Motion => axes::Effects::Motion,
-    }
-}
-
 impl ShadingRate {
     fn axis(self) -> axes::Shading {
         match self {
@@ -396,7 +385,7 @@ impl StochasticDraws {
                 hull: options.expansion.axis(),
                 shading: options.shading.axis(),
                 instrumented: options.instrumented,
-                effects: effects_axis(effects),
+                effects: effects.shader_axis(),
             };
             let frag = ShaderModule::new(device, frag.source())?;
             let (first, geom) = if compute {
@@ -404,7 +393,7 @@ impl StochasticDraws {
             } else {
                 let geom = StochasticGeom {
                     bound_debug: debug.bound_debug_triangles > 0,
-                    effects: effects_axis(effects),
+                    effects: effects.shader_axis(),
                 };
                 (&vert, Some(ShaderModule::new(device, geom.source())?))
             };
