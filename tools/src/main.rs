@@ -35,9 +35,9 @@ enum Command {
         /// A built-in scene name or a path to a .toml scene file.
         #[arg(default_value = "default")]
         scene: String,
-        /// auto | pinhole | accumulation | stochastic. `auto` simulates per object only the effects
-        /// the scene calls for (see `shutter plan`).
-        #[arg(long, default_value = "auto")]
+        /// The technique (`shutter techniques` lists them). `auto` simulates per object only the
+        /// effects the scene calls for (see `shutter plan`).
+        #[arg(long, default_value = "auto", value_parser = technique_names())]
         technique: String,
         /// Samples per pixel S (accumulation: passes; stochastic: MSAA samples × passes). Default: the
         /// scene's [image] spp.
@@ -209,6 +209,17 @@ enum Command {
     Probe,
     /// List the built-in scenes.
     Scenes,
+    /// List the techniques (the registry, engine/src/techniques/registry.rs) with one line each.
+    Techniques,
+}
+
+/// The registered techniques' names, with their summaries for `--help`.
+fn technique_names() -> clap::builder::PossibleValuesParser {
+    shutter::techniques::registry::TECHNIQUES
+        .iter()
+        .map(|t| clap::builder::PossibleValue::new(t.name()).help(t.summary()))
+        .collect::<Vec<_>>()
+        .into()
 }
 
 /// Image options shared by `render` and `reference`.
@@ -558,6 +569,11 @@ fn run() -> Result<()> {
         Command::Scenes => {
             for s in BUILTIN_SCENES {
                 println!("{s}");
+            }
+        }
+        Command::Techniques => {
+            for t in shutter::techniques::registry::TECHNIQUES {
+                println!("{:<13} {}", t.name(), t.summary());
             }
         }
     }
