@@ -137,33 +137,134 @@ pub fn vertex_input() -> ([vk::VertexInputBindingDescription; 1], [vk::VertexInp
     )
 }
 
-/// A GLSL-shared struct's name and size, for the reflection test.
+/// A GLSL-shared struct's name and layout, for the reflection test: built by `shared_struct!` from the
+/// Rust struct, compared with the struct or block of that name in the compiled SPIR-V.
 #[derive(Clone, Copy, Debug)]
 pub struct SharedStruct {
     /// The GLSL struct or block type name.
     pub glsl: &'static str,
     pub size: usize,
-    /// (member name, byte offset) in declaration order.
-    pub members: &'static [(&'static str, usize)],
+    /// The fields the GLSL declares, in declaration order.
+    pub members: &'static [SharedMember],
 }
 
+/// One field of a [`SharedStruct`].
+#[derive(Clone, Copy, Debug)]
+pub struct SharedMember {
+    pub name: &'static str,
+    pub offset: usize,
+    pub size: usize,
+    /// `(length, element size)` when the Rust field is an array. A GLSL array must match both (the
+    /// element size is its `ArrayStride`); a GLSL vector or matrix is a Rust array too (`[f32; 4]` for
+    /// a `vec4`), whose size alone is compared.
+    pub array: Option<(usize, usize)>,
+    /// The scalar (or struct) under any arrays.
+    pub component: Component,
+}
+
+/// The scalar (or struct) a [`SharedMember`] is made of.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Component {
+    F32,
+    U32,
+    I32,
+    /// A struct, by its GLSL name.
+    Struct(&'static str),
+}
+
+/// A Rust type that may be the field of a [`SharedStruct`]: what GLSL type it stands for.
+pub trait GpuField {
+    const COMPONENT: Component;
+    /// `(length, element size)` of an array.
+    const ARRAY: Option<(usize, usize)> = None;
+}
+
+impl GpuField for f32 {
+    const COMPONENT: Component = Component::F32;
+}
+impl GpuField for u32 {
+    const COMPONENT: Component = Component::U32;
+}
+impl GpuField for i32 {
+    const COMPONENT: Component = Component::I32;
+}
+impl<T: GpuField, const N: usize> GpuField for [T; N] {
+    const COMPONENT: Component = T::COMPONENT;
+    const ARRAY: Option<(usize, usize)> = Some((N, std::mem::size_of::<T>()));
+}
+impl GpuField for GpuLight {
+    const COMPONENT: Component = Component::Struct("Light");
+}
+
+impl SharedMember {
+    /// The field `name` at `offset` of `S`, whose type `field` names (`|s: &S| &s.name`).
+    pub const fn of<S, F: GpuField>(name: &'static str, offset: usize, _field: fn(&S) -> &F) -> Self {
+        SharedMember {
+            name,
+            offset,
+            size: std::mem::size_of::<F>(),
+            array: F::ARRAY,
+            component: F::COMPONENT,
+        }
+    }
+}
+
+/// `shared_struct!("GlslName", RustType, [field, ...])`: the [`SharedStruct`] of `RustType`, with the
+/// fields GLSL declares in GLSL's order.
 macro_rules! shared_struct {
     ($glsl:literal, $t:ty, [$($m:ident),* $(,)?]) => {
-        SharedStruct {
+        $crate::gpu::layout::SharedStruct {
             glsl: $glsl,
             size: std::mem::size_of::<$t>(),
-            members: &[$((stringify!($m), std::mem::offset_of!($t, $m))),*],
+            members: &[$($crate::gpu::layout::SharedMember::of::<$t, _>(
+                stringify!($m),
+                std::mem::offset_of!($t, $m),
+                |s: &$t| &s.$m,
+            )),*],
         }
     };
 }
 pub(crate) use shared_struct;
 
 /// The structs of sets 0 and 1 as GLSL declares them (techniques list their push constants and
-/// records beside their own code).
+/// records beside their own code). The reflection test finds each, by name, in the shaders.
 pub const SHARED_STRUCTS: &[SharedStruct] = &[
     shared_struct!("WorldUniforms", WorldUniforms, [ambient, background]),
     shared_struct!("Material", GpuMaterial, [albedo_specular, params]),
     shared_struct!("Light", GpuLight, [at_open, at_close, color]),
     shared_struct!("ViewUniforms", ViewUniforms, [viewport, lens, projection, lights]),
     shared_struct!("ObjectView", GpuObjectView, [model_view, normal_matrix]),
+    shared_struct!("Vertex", Vertex, [position, normal, uv]),
 ];
+
+/// What a group of shader stage files expects of the pipeline layout the Rust side builds for them:
+/// the binding table of each descriptor set and the push-constant struct. Each technique declares its
+/// shaders' interfaces beside the code that builds their pipelines (`SHADER_INTERFACES`), and
+/// [`crate::techniques::shader_interfaces`] collects them; the reflection test checks every compiled
+/// permutation of every file against its interface, and fails for a file that has none.
+#[derive(Clone, Copy, Debug)]
+pub struct ShaderInterface {
+    /// Stage files under `shaders-glsl/` (all their permutations).
+    pub files: &'static [&'static str],
+    /// The binding table of each set, by set number; `None`: no bindings in that set.
+    pub sets: [Option<&'static [Binding]>; 4],
+    /// The push-constant block; `None`: none.
+    pub push: Option<SharedStruct>,
+}
+
+impl ShaderInterface {
+    /// The interface of a pipeline layout from [`super::GpuWorld::pipeline_layout`]: [`FRAME_SET`] and
+    /// [`OBJECT_SET`], then the technique's sets 2 (per object) and 3.
+    pub const fn technique(
+        files: &'static [&'static str],
+        technique_object_set: Option<&'static [Binding]>,
+        technique_set: Option<&'static [Binding]>,
+        push: Option<SharedStruct>,
+    ) -> Self {
+        ShaderInterface {
+            files,
+            sets: [Some(&FRAME_SET), Some(&OBJECT_SET), technique_object_set, technique_set],
+            push,
+        }
+    }
+}
