@@ -167,3 +167,12 @@ impl FrameTechnique for ForwardTechnique {
         })
     }
 }
+
+/// What `forward/` expects of [`ForwardPipeline`]'s layout: sets 0 and 1, [`ForwardPush`].
+pub const SHADER_INTERFACES: &[crate::gpu::layout::ShaderInterface] =
+    &[crate::gpu::layout::ShaderInterface::technique(
+        &["forward/forward.vert", "forward/forward.frag"],
+        None,
+        None,
+        Some(FORWARD_STRUCTS[0]),
+    )];

@@ -454,3 +454,27 @@ pub fn pixel_point(camera: &View, x: u32, y: u32, z: f32) -> (Vec3, Vec3) {
     let to_world: Mat4 = camera.world_to_view[0].inverse();
     (p, to_world.transform_point3(p))
 }
+
+/// What `graph_probe/` expects of the probe's layouts: `probe.vert` shares the forward pipeline's
+/// layout (sets 0 and 1, [`ForwardPush`]; its fragment stage is `forward.frag`); the compute passes
+/// have set 2 empty and [`MASK_SET`] or [`COUNT_SET`] as set 3, with [`MaskPush`] or [`CountPush`].
+pub const SHADER_INTERFACES: &[crate::gpu::layout::ShaderInterface] = &[
+    crate::gpu::layout::ShaderInterface::technique(
+        &["graph_probe/probe.vert"],
+        None,
+        None,
+        Some(super::forward::FORWARD_STRUCTS[0]),
+    ),
+    crate::gpu::layout::ShaderInterface::technique(
+        &["graph_probe/shadow_mask.comp"],
+        None,
+        Some(&MASK_SET),
+        Some(GRAPH_PROBE_STRUCTS[0]),
+    ),
+    crate::gpu::layout::ShaderInterface::technique(
+        &["graph_probe/count.comp"],
+        None,
+        Some(&COUNT_SET),
+        Some(GRAPH_PROBE_STRUCTS[1]),
+    ),
+];

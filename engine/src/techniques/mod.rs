@@ -464,3 +464,17 @@ pub fn feature_paths(caps: &crate::vk::Capabilities) -> Vec<FeaturePath> {
         ),
     ]
 }
+
+/// Every shader interface the techniques declare (`SHADER_INTERFACES` beside the code that builds each
+/// pipeline): what each stage file under `shaders-glsl/` expects of its pipeline layout. The
+/// reflection test (`engine/src/gpu/layout_tests.rs`) checks the compiled shaders against them.
+pub fn shader_interfaces() -> impl Iterator<Item = &'static crate::gpu::layout::ShaderInterface> {
+    [
+        forward::SHADER_INTERFACES,
+        stochastic::SHADER_INTERFACES,
+        multipass::SHADER_INTERFACES,
+        graph_probe::SHADER_INTERFACES,
+    ]
+    .into_iter()
+    .flatten()
+}

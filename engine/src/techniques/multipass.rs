@@ -265,3 +265,13 @@ impl MultipassFrame {
         }
     }
 }
+
+/// What `accumulate.comp` expects of [`MultipassFrame`]'s accumulate layout: set 2 empty, set 3
+/// [`ACCUMULATE_SET`], [`AccumulatePush`].
+pub const SHADER_INTERFACES: &[crate::gpu::layout::ShaderInterface] =
+    &[crate::gpu::layout::ShaderInterface::technique(
+        &["accumulation/accumulate.comp"],
+        None,
+        Some(&ACCUMULATE_SET),
+        Some(ACCUMULATE_STRUCTS[0]),
+    )];

@@ -784,3 +784,35 @@ impl FrameTechnique for StochasticTechnique {
         })
     }
 }
+
+/// What the stochastic rasterizer's shaders expect of the layouts [`StochasticDraws::new`] builds:
+/// sets 2 and 3 from [`STOCHASTIC_OBJECT_SET`] and [`STOCHASTIC_SET`], and [`StochasticPush`] for the
+/// raster pipelines (`hull.vert` pushes nothing), [`TrianglesPush`] for `triangles.comp`. Also
+/// `expand.comp`'s: [`ComputeHull`] builds its pipeline with these two sets' layouts (handed over
+/// here; it writes the hull bindings of set 2 and the counts' binding of set 3) and
+/// [`super::compute_hull::ExpandPush`].
+pub const SHADER_INTERFACES: &[crate::gpu::layout::ShaderInterface] = &[
+    crate::gpu::layout::ShaderInterface::technique(
+        &[
+            "stochastic/stochastic.vert",
+            "stochastic/stochastic.geom",
+            "stochastic/hull.vert",
+            "stochastic/stochastic.frag",
+        ],
+        Some(&STOCHASTIC_OBJECT_SET),
+        Some(&STOCHASTIC_SET),
+        Some(STOCHASTIC_STRUCTS[0]),
+    ),
+    crate::gpu::layout::ShaderInterface::technique(
+        &["stochastic/triangles.comp"],
+        Some(&STOCHASTIC_OBJECT_SET),
+        Some(&STOCHASTIC_SET),
+        Some(STOCHASTIC_STRUCTS[1]),
+    ),
+    crate::gpu::layout::ShaderInterface::technique(
+        &["stochastic/expand.comp"],
+        Some(&STOCHASTIC_OBJECT_SET),
+        Some(&STOCHASTIC_SET),
+        Some(super::compute_hull::EXPAND_STRUCTS[0]),
+    ),
+];
