@@ -1,7 +1,14 @@
 //! Every structure the CPU shares with GLSL, and the one descriptor-set numbering of every pipeline,
 //! compute and graphics alike. Structs are `#[repr(C)]` + `bytemuck::Pod` (no padding, so their bytes
-//! are exactly what the shaders read); a test reflects the compiled SPIR-V and checks bindings, block
-//! sizes and member offsets against the tables and structs here (`tests/tests/gpu_layout.rs`).
+//! are exactly what the shaders read).
+//!
+//! Checked: each technique declares what its shaders expect of their pipeline layout
+//! ([`ShaderInterface`]: binding tables per set, push struct) in its `SHADER_INTERFACES`, and a test
+//! (`engine/src/gpu/layout_tests.rs`, `cargo test -p shutter --lib layout_tests`) reflects every
+//! compiled permutation's SPIR-V and checks its descriptor set/binding numbers, descriptor types and
+//! names against those tables, its push-constant block against the push struct, and the std140/std430
+//! layout of every struct in [`SHARED_STRUCTS`] (offsets, sizes, array strides) against the Rust
+//! structs. A stage file without an interface fails it.
 //!
 //! | set | what | owner | bindings |
 //! |---|---|---|---|

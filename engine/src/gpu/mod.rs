@@ -9,6 +9,8 @@
 //! [`layout`] holds every CPU/GLSL-shared struct and the descriptor-set numbering.
 
 pub mod layout;
+#[cfg(test)]
+mod layout_tests;
 mod view;
 mod world;
 

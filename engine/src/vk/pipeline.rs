@@ -47,8 +47,9 @@ impl Drop for ShaderModule {
 }
 
 /// One binding of a descriptor-set table: layouts and pools are created from such tables, and the
-/// SPIR-V reflection test checks the shaders against them. `block` names the GLSL block (or sampler /
-/// image variable) bound there.
+/// SPIR-V reflection test checks the shaders against them. `block` names what GLSL binds there: a
+/// buffer's block type name (`Materials` in `buffer Materials { .. } materials;`), a sampler's or
+/// image's variable name (`albedo_texture`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Binding {
     pub binding: u32,
