@@ -8,6 +8,7 @@
 
 pub mod bounds;
 pub mod error;
+pub mod geometry;
 pub mod image;
 pub mod image_io;
 pub mod metrics;
