@@ -1,7 +1,9 @@
 //! The geometry model, written once: a triangle moving linearly over the shutter
 //! ([`MovingTriangle`]) and the one ray–triangle intersector ([`intersect_triangle`]) that every CPU
-//! consumer is to use — so far the bounds' inside test ([`crate::bounds::sample_hit`], the specification
-//! of the GPU's `sample_hit` in `shaders-glsl/stochastic/inside.glsl`).
+//! consumer uses — the bounds' inside test ([`crate::bounds::sample_hit`], the specification of the
+//! GPU's `sample_hit` in `shaders-glsl/stochastic/inside.glsl`) and the reference's BVH
+//! ([`crate::reference::Bvh`]). A hit is therefore the same hit, with the same barycentrics and the
+//! same depth, whether the reference or a GPU technique finds it (DESIGN.md "The model").
 //!
 //! Why a module of its own and not `bounds`: the bounds are the CPU mirror of one GPU technique's
 //! culling (stochastic rasterization), while the triangle and the hit are the model itself, which the
