@@ -11,6 +11,7 @@ pub mod error;
 pub mod geometry;
 pub mod image;
 pub mod image_io;
+pub mod limits;
 pub mod metrics;
 pub mod plan;
 pub mod reference;

@@ -30,7 +30,8 @@
 //!
 //! Geometry lives in a [`Bvh`] over [`MovingTriangle`]s (boxes at both shutter ends, interpolated at
 //! ray time). Rendering is parallel over 16×16-pixel tiles with rayon; every pixel depends only on its
-//! own samples, so images are bit-identical for any thread count.
+//! own samples, so images are bit-identical for any thread count. Image size and sample count are
+//! checked against [`crate::limits`].
 
 mod bvh;
 
@@ -45,6 +46,7 @@ pub use bvh::{Bvh, Hit};
 use crate::error::{Error, Result};
 use crate::geometry::MovingTriangle;
 use crate::image::LinearImage;
+use crate::limits::{MAX_IMAGE_DIMENSION, MAX_SPP};
 use crate::sampling::{stratified_samples, Pcg32, Sample5, SAMPLE_TILE_SIZE};
 use crate::scene::{Camera, CameraSpaceScene, Intrinsics, Scene, Texture};
 use crate::shading::{shade, ShadingLight};
@@ -57,10 +59,6 @@ use crate::shading::{shade, ShadingLight};
 /// barycentric view depth, shaded at the barycentric point. (1: a Möller–Trumbore of its own, nearest
 /// by ray parameter, shaded at `o + t·d`.)
 pub const REFERENCE_VERSION: u32 = 2;
-/// Largest accepted image width and height.
-pub const MAX_SIZE: u32 = 8192;
-/// Largest accepted samples per pixel.
-pub const MAX_SPP: u32 = 65536;
 /// Side of the square pixel tiles rendered in parallel.
 pub const TILE: u32 = 16;
 
@@ -69,7 +67,7 @@ pub const TILE: u32 = 16;
 pub struct ReferenceSettings {
     pub width: u32,
     pub height: u32,
-    /// Rays per pixel, 1..=65536.
+    /// Rays per pixel, 1..=[`MAX_SPP`].
     pub spp: u32,
     /// Seed of the sample sets (and of stochastic alpha).
     pub seed: u64,
@@ -159,14 +157,15 @@ fn limit(what: &'static str, value: impl ToString, limit: &str) -> Error {
 }
 
 fn validate(s: &ReferenceSettings, camera: &Camera) -> Result<()> {
-    if !(1..=MAX_SIZE).contains(&s.width) {
-        return Err(limit("width", s.width, "1..=8192"));
+    let size = format!("1..={MAX_IMAGE_DIMENSION} (MAX_IMAGE_DIMENSION)");
+    if !(1..=MAX_IMAGE_DIMENSION).contains(&s.width) {
+        return Err(limit("width", s.width, &size));
     }
-    if !(1..=MAX_SIZE).contains(&s.height) {
-        return Err(limit("height", s.height, "1..=8192"));
+    if !(1..=MAX_IMAGE_DIMENSION).contains(&s.height) {
+        return Err(limit("height", s.height, &size));
     }
     if !(1..=MAX_SPP).contains(&s.spp) {
-        return Err(limit("spp", s.spp, "1..=65536"));
+        return Err(limit("spp", s.spp, &format!("1..={MAX_SPP} (MAX_SPP)")));
     }
     if !(camera.near > 0.0 && camera.near.is_finite()) {
         return Err(limit("camera.near", camera.near, "finite and > 0"));
