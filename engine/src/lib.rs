@@ -10,10 +10,12 @@
 
 pub mod bounds;
 pub mod error;
+pub mod geometry;
 pub mod gpu;
 pub mod graph;
 pub mod image;
 pub mod image_io;
+pub mod limits;
 pub mod metrics;
 pub mod plan;
 pub mod reference;

@@ -1,13 +1,13 @@
 //! `shutter quality`: what accuracy costs in time, for one scene.
 //!
-//! Renders the CPU reference once (cached under `--cache` by the scene's content hash, size, spp and
-//! seed), then sweeps series of configurations — a technique with its settings over a list of sample
-//! counts — recording per point the median GPU ms per frame (after warm-up) and the error against the
-//! reference (RMSE, mean FLIP). Each finished point is appended to the CSV at once, so an interrupted
-//! sweep resumes from it (points already there for the same scene hash, size and reference are
-//! skipped). Outputs: the CSV, a log-log plot of FLIP against ms (one curve per series, the Pareto
-//! front over all points marked) as PNG and SVG, a markdown table, and the ratio of milliseconds at
-//! equal FLIP between two series (the thesis' claim: stochastic rasterization vs accumulation).
+//! Renders the CPU reference once (cached under `--cache` by the reference's version, the scene's content
+//! hash, size, spp and seed), then sweeps series of configurations — a technique with its settings over a
+//! list of sample counts — recording per point the median GPU ms per frame (after warm-up) and the error
+//! against the reference (RMSE, mean FLIP). Each finished point is appended to the CSV at once, so an
+//! interrupted sweep resumes from it (points already there for the same scene hash, size and reference are
+//! skipped). Outputs: the CSV, a log-log plot of FLIP against ms (one curve per series, the Pareto front over
+//! all points marked) as PNG and SVG, a markdown table, and the ratio of milliseconds at equal FLIP between
+//! two series (the thesis' claim: stochastic rasterization vs accumulation).
 
 use std::fmt::Write as _;
 use std::io::Write as _;
@@ -18,7 +18,7 @@ use plotters::prelude::*;
 use shutter::image::LinearImage;
 use shutter::image_io::{load_image, save_image};
 use shutter::metrics::compare;
-use shutter::reference::{render_reference, ReferenceSettings};
+use shutter::reference::{render_reference, ReferenceSettings, REFERENCE_VERSION};
 use shutter::scene::Scene;
 use shutter::techniques::{RenderSettings, Renderer, Technique};
 
@@ -89,8 +89,10 @@ const CSV_HEADER: &str =
 /// The cached reference, rendering it on a miss.
 fn reference(scene: &Scene, a: &QualityArgs) -> Result<LinearImage> {
     std::fs::create_dir_all(&a.cache).with_context(|| format!("creating {}", a.cache.display()))?;
+    // The key: everything the reference's pixels depend on. `REFERENCE_VERSION` changes when the
+    // reference's own computation does, so a reference cached by an older build is never reused.
     let path = a.cache.join(format!(
-        "reference-{:016x}-{}x{}-{}spp-seed{}.exr",
+        "reference-v{REFERENCE_VERSION}-{:016x}-{}x{}-{}spp-seed{}.exr",
         scene.content_hash(),
         a.width,
         a.height,

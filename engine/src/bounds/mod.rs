@@ -4,10 +4,10 @@
 //! sample the bound covers. The CPU code is the specification and the test oracle for that port.
 //!
 //! # Model
-//! A [`MovingTriangle`] holds camera-space vertices at shutter open and close; at time t each vertex is
-//! the linear interpolation (DESIGN.md "Shutter"). A point `p` seen through lens sample `l` (unit disk)
-//! lands at pixel [`Intrinsics::project`]`(p, l) = pinhole(p) + φ(z)·(l.x, −l.y)` with
-//! `φ(z) = A·s·(1/F − 1/z)`.
+//! A [`MovingTriangle`] ([`crate::geometry`], re-exported here) holds camera-space vertices at shutter
+//! open and close; at time t each vertex is the linear interpolation (DESIGN.md "Shutter"). A point `p`
+//! seen through lens sample `l` (unit disk) lands at pixel
+//! [`Intrinsics::project`]`(p, l) = pinhole(p) + φ(z)·(l.x, −l.y)` with `φ(z) = A·s·(1/F − 1/z)`.
 //!
 //! # Why the convex hull bound is conservative
 //! Every point of the triangle at any time is `P(b, t) = Σᵢ bᵢ((1−t)·vᵢ₀ + t·vᵢ₁)`, a convex
@@ -56,7 +56,8 @@
 //! `shaders-glsl/stochastic/bounds.glsl` (`compute_bound`) mirrors [`bound`] operation for operation
 //! in `float` (the degenerate tests use documented `float` thresholds there).
 //!
-//! Also here: the 5D inside test [`sample_hit`]; a Monte Carlo [`sample_test_efficiency_estimate`].
+//! Also here: the 5D inside test [`sample_hit`] (the shared [`crate::geometry::intersect_triangle`] plus
+//! the depth range); a Monte Carlo [`sample_test_efficiency_estimate`].
 //! Not implemented: a tighter hull (instead of a box) of the clipped polytope, per-time-interval bounds
 //! (interleaved/tiled time slices), and viewport clipping/culling of off-screen bounds.
 
@@ -67,9 +68,10 @@ pub mod shapes;
 #[cfg(test)]
 mod tests;
 
+pub use crate::geometry::{MovingTriangle, TriangleHit};
 pub use dilate::{dilate_box, dilation_px, DILATE_MARGIN_PX};
 pub use hull::{convex_contains, convex_hull, orient, signed_area};
-pub use inside::{sample_hit, sample_test_efficiency_estimate, Hit};
+pub use inside::{sample_hit, sample_test_efficiency_estimate};
 pub use shapes::{
     adaptive_kind_of, hexagon_2d, parallel_edge_triangle, reduced_wedge, variable_radius_triangle, wedge,
     EndDiscs, MidTriangle, RADIUS_ROUND_UP,
@@ -77,56 +79,13 @@ pub use shapes::{
 
 use std::str::FromStr;
 
-use glam::{DVec3, Vec2, Vec3};
+use glam::{Vec2, Vec3};
 
 use crate::error::{Error, Result};
 use crate::scene::camera::Intrinsics;
 
 /// Sides of the regular polygon circumscribing each circle of confusion in [`BoundKind::ConvexHull`].
 pub const DISC_SIDES: usize = 8;
-
-/// Relative threshold of [`MovingTriangle::is_degenerate`] (times the longest edge², `f64`). The GLSL
-/// mirror uses the same value in `float`, where rounding usually keeps an exactly degenerate triangle
-/// above it: the GPU then builds a (conservative) bound where the CPU culls.
-pub const DEGENERATE_EPS: f64 = 1e-12;
-
-/// A triangle whose camera-space vertices move linearly from `v0` (shutter open) to `v1` (close).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct MovingTriangle {
-    pub v0: [Vec3; 3],
-    pub v1: [Vec3; 3],
-}
-
-impl MovingTriangle {
-    /// A triangle that does not move.
-    pub fn fixed(v: [Vec3; 3]) -> Self {
-        MovingTriangle { v0: v, v1: v }
-    }
-    /// Camera-space vertices at shutter time `t ∈ [0, 1]`.
-    pub fn at(&self, t: f32) -> [Vec3; 3] {
-        [0, 1, 2].map(|i| self.v0[i].lerp(self.v1[i], t))
-    }
-    /// The six end vertices (open then close); their convex hull contains the triangle at every time.
-    pub fn end_vertices(&self) -> [Vec3; 6] {
-        [self.v0[0], self.v0[1], self.v0[2], self.v1[0], self.v1[1], self.v1[2]]
-    }
-    /// Does the triangle have zero area at every time in [0, 1]? The area vector
-    /// `cross(e₁(t), e₂(t)) = (1−t)²·X₀ + t(1−t)·Xₘ + t²·X₁` is checked coefficient by coefficient in
-    /// `f64`, relative to the triangle's extent (threshold [`DEGENERATE_EPS`]·L²).
-    pub fn is_degenerate(&self) -> bool {
-        let d = |v: Vec3| v.as_dvec3();
-        let e = |v: &[Vec3; 3]| (d(v[1]) - d(v[0]), d(v[2]) - d(v[0]));
-        let (a0, b0) = e(&self.v0);
-        let (a1, b1) = e(&self.v1);
-        let x0 = a0.cross(b0);
-        let x1 = a1.cross(b1);
-        let xm = a0.cross(b1) + a1.cross(b0);
-        let l2 = [a0, b0, a1, b1].iter().map(|v| v.length_squared()).fold(0.0, f64::max);
-        let eps = DEGENERATE_EPS * l2;
-        let small = |x: DVec3| x.length() <= eps;
-        small(x0) && small(x1) && small(xm)
-    }
-}
 
 /// Which screen-space bound to build; [`bound`] dispatches on it. The order is the order of
 /// [`BoundKind::ALL`] and of [`BoundKind::id`] (the GLSL `kind` argument, `BOUND_*` in

@@ -6,6 +6,7 @@ use proptest::strategy::ValueTree;
 use proptest::test_runner::TestCaseError;
 
 use super::*;
+use crate::geometry::DEGENERATE_EPS;
 use crate::sampling::{ApertureShape, Pcg32};
 use crate::scene::camera::pixel_scale;
 

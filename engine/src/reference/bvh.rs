@@ -7,11 +7,12 @@
 //!
 //! Built top-down with binned SAH on the mid-shutter centroids (cost = open + close surface area),
 //! flattened depth-first (left child follows its parent), traversed iteratively, nearest child first.
+//! Triangles are [`MovingTriangle`]s tested with the shared [`intersect_triangle`] (the GPU's inside
+//! test), so the nearest hit is the nearest by the GPU's barycentric view depth.
 
 use glam::Vec3;
 
-/// A triangle's camera-space vertices at shutter open `[0]` and close `[1]`.
-pub type MovingTriangle = [[Vec3; 3]; 2];
+use crate::geometry::{intersect_triangle, MovingTriangle, TriangleHit};
 
 /// Axis-aligned box.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -52,70 +53,26 @@ struct Node {
     count: u32,
 }
 
-/// Triangle as stored for intersection: vertices at both shutter ends.
-#[derive(Clone, Copy, Debug)]
-struct TriGeom {
-    v0: [Vec3; 3],
-    v1: [Vec3; 3],
-}
-
-impl TriGeom {
-    /// Vertices at time `t`, interpolated exactly as the GPU does (`mix(p0, p1, t)`).
-    #[inline(always)]
-    fn at(&self, t: f32) -> [Vec3; 3] {
-        [self.v0[0].lerp(self.v1[0], t), self.v0[1].lerp(self.v1[1], t), self.v0[2].lerp(self.v1[2], t)]
-    }
-}
-
-/// The nearest accepted intersection along a ray.
+/// The nearest accepted hit along a ray.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Hit {
-    /// Ray parameter (distance along the unit direction).
-    pub t: f32,
-    /// Barycentric weights of vertices 1 and 2 (vertex 0 gets `1 − u − v`).
-    pub u: f32,
-    pub v: f32,
     /// Index of the triangle in the list given to [`Bvh::build`].
     pub id: u32,
+    /// View depth and barycentrics, from the shared [`intersect_triangle`].
+    pub hit: TriangleHit,
 }
 
-/// Möller–Trumbore on the triangle `p` (two-sided). Returns `(t, u, v)` when the ray hits it with
-/// `t_min <= t < t_max`. Rays (nearly) parallel to the plane and non-finite intermediate values are
-/// rejected, so needle and huge triangles never produce NaN.
-#[inline(always)]
-pub fn intersect_triangle(
-    p: &[Vec3; 3],
-    o: Vec3,
-    d: Vec3,
-    t_min: f32,
-    t_max: f32,
-) -> Option<(f32, f32, f32)> {
-    let e1 = p[1] - p[0];
-    let e2 = p[2] - p[0];
-    let pvec = d.cross(e2);
-    let det = e1.dot(pvec);
-    // Scale-aware parallel test: |det| ≤ |e1|·|d × e2|, so this rejects grazing angles below ~1e-7.
-    let scale = e1.abs().max_element() * pvec.abs().max_element();
-    if det.abs() <= 1e-7 * scale || !det.is_finite() || scale == 0.0 {
-        return None;
-    }
-    let inv = 1.0 / det;
-    let s = o - p[0];
-    let u = s.dot(pvec) * inv;
-    if !(0.0..=1.0).contains(&u) {
-        return None;
-    }
-    let q = s.cross(e1);
-    let v = d.dot(q) * inv;
-    if !(v >= 0.0 && u + v <= 1.0) {
-        return None;
-    }
-    let t = e2.dot(q) * inv;
-    if t >= t_min && t < t_max {
-        Some((t, u, v))
-    } else {
-        None
-    }
+/// Relative slack of the depth → ray-parameter bounds the traversal prunes with. A hit's depth is the
+/// barycentric interpolation of the vertices' `z` (the GPU's), not the depth of the ray's exact point on the
+/// triangle; the two differ by rounding, amplified for grazing rays (below 1e-5 of the depth for millions of
+/// rays grazing a plane, measured against `f64`). A node is skipped only when the ray enters its box more
+/// than this fraction beyond the best hit's (or the far plane's) depth, so the rounding cannot hide a nearer
+/// hit; it costs a few extra node visits next to the hit.
+const DEPTH_SLACK: f32 = 1e-3;
+
+/// Does view depth grow along direction `d` (`d.z < 0`), and is `[near, far]` a range? False for NaN.
+fn depth_grows_within(d: Vec3, near: f32, far: f32) -> bool {
+    d.z < 0.0 && near <= far
 }
 
 /// BVH over moving triangles.
@@ -123,7 +80,7 @@ pub fn intersect_triangle(
 pub struct Bvh {
     nodes: Vec<Node>,
     /// Triangles in BVH (leaf) order.
-    tris: Vec<TriGeom>,
+    tris: Vec<MovingTriangle>,
     /// For each triangle in BVH order, its index in the input list.
     ids: Vec<u32>,
 }
@@ -291,11 +248,10 @@ fn pad(bounds: [Aabb; 2]) -> [Aabb; 2] {
 impl Bvh {
     /// Builds the tree. Triangles with non-finite vertices are left out (they can never be hit).
     pub fn build(triangles: &[MovingTriangle]) -> Bvh {
-        let boxes: Vec<[Aabb; 2]> = triangles.iter().map(|t| [Aabb::of(&t[0]), Aabb::of(&t[1])]).collect();
+        let boxes: Vec<[Aabb; 2]> = triangles.iter().map(|t| [Aabb::of(&t.v0), Aabb::of(&t.v1)]).collect();
         let centres: Vec<Vec3> = boxes.iter().map(|b| 0.5 * (b[0].centre() + b[1].centre())).collect();
-        let mut prims: Vec<u32> = (0..triangles.len() as u32)
-            .filter(|&i| triangles[i as usize].iter().flatten().all(|p| p.is_finite()))
-            .collect();
+        let mut prims: Vec<u32> =
+            (0..triangles.len() as u32).filter(|&i| triangles[i as usize].is_finite()).collect();
         let mut builder = Builder { boxes: &boxes, centres: &centres, nodes: Vec::new() };
         if !prims.is_empty() {
             builder.nodes.reserve(2 * prims.len());
@@ -305,10 +261,7 @@ impl Bvh {
         for n in &mut nodes {
             n.bounds = pad(n.bounds);
         }
-        let tris = prims
-            .iter()
-            .map(|&i| TriGeom { v0: triangles[i as usize][0], v1: triangles[i as usize][1] })
-            .collect();
+        let tris = prims.iter().map(|&i| triangles[i as usize]).collect();
         Bvh { nodes, tris, ids: prims }
     }
 
@@ -337,7 +290,7 @@ impl Bvh {
         }
     }
 
-    /// Entry distance of the ray into `node`'s box at `time`, or +∞ when it misses within
+    /// Entry ray parameter of the ray into `node`'s box at `time`, or +∞ when it misses within
     /// `[t_min, t_max]`.
     #[inline(always)]
     fn enter(node: &Node, time: f32, o: Vec3, inv_d: Vec3, t_min: f32, t_max: f32) -> f32 {
@@ -357,27 +310,39 @@ impl Bvh {
         }
     }
 
-    /// Nearest intersection with `t_min <= t < t_max` at shutter time `time` among triangles for which
-    /// `accept(id)` says yes (`id` = index in the build list). `accept` is asked only for triangles the
-    /// ray actually hits nearer than the best hit so far (stochastic alpha).
+    /// The nearest hit at shutter time `time` whose view depth lies in `[near, far]`, among triangles
+    /// for which `accept(id)` says yes (`id` = index in the build list). Hits are found by the shared
+    /// [`intersect_triangle`] and ordered by its (barycentric) depth; on an exact tie the first found
+    /// wins. `accept` is asked only for triangles the ray hits in range and nearer than the best hit so
+    /// far (stochastic alpha).
+    ///
+    /// Depth along the ray `o + s·d` is `−(o.z + s·d.z)`, increasing in `s` when `d.z < 0` (primary rays
+    /// start on the lens plane and go forward): the node boxes are pruned in ray-parameter units, with
+    /// `s = (depth + o.z) / −d.z` widened by `DEPTH_SLACK`. Rays with `d.z ≥ 0` (or NaN) and an empty
+    /// or NaN depth range find nothing. As on the GPU, no separate test excludes points behind the
+    /// origin: for a primary ray (`o.z = 0`) they have depth < 0, below any `near > 0`.
     #[inline]
     pub fn intersect(
         &self,
         o: Vec3,
         d: Vec3,
         time: f32,
-        t_min: f32,
-        t_max: f32,
+        near: f32,
+        far: f32,
         mut accept: impl FnMut(u32) -> bool,
     ) -> Option<Hit> {
-        if self.nodes.is_empty() || t_min.is_nan() || t_max.is_nan() || t_min > t_max {
+        if self.nodes.is_empty() || !depth_grows_within(d, near, far) {
             return None;
         }
+        let ray_parameter = |depth: f32| (depth + o.z) / -d.z;
+        let s_min = ray_parameter(near - DEPTH_SLACK * near.abs());
+        let s_bound = |depth: f32| ray_parameter(depth + DEPTH_SLACK * depth.abs());
         let inv_d = d.recip();
-        let mut best = t_max;
+        let mut best = f32::INFINITY;
+        let mut s_max = s_bound(far);
         let mut hit: Option<Hit> = None;
         let mut stack = [(0u32, 0.0f32); STACK];
-        let root = Self::enter(&self.nodes[0], time, o, inv_d, t_min, best);
+        let root = Self::enter(&self.nodes[0], time, o, inv_d, s_min, s_max);
         if root == f32::INFINITY {
             return None;
         }
@@ -386,7 +351,7 @@ impl Bvh {
         while sp > 0 {
             sp -= 1;
             let (mut ni, entry) = stack[sp];
-            if entry > best {
+            if entry > s_max {
                 continue;
             }
             loop {
@@ -394,60 +359,59 @@ impl Bvh {
                 if node.count > 0 {
                     let first = node.first as usize;
                     for k in first..first + node.count as usize {
-                        let p = self.tris[k].at(time);
-                        if let Some((t, u, v)) = intersect_triangle(&p, o, d, t_min, best) {
+                        let Some(h) = intersect_triangle(&self.tris[k].at(time), o, d) else { continue };
+                        if h.depth_z >= near && h.depth_z <= far && h.depth_z < best {
                             let id = self.ids[k];
                             if accept(id) {
-                                best = t;
-                                hit = Some(Hit { t, u, v, id });
+                                best = h.depth_z;
+                                s_max = s_bound(best);
+                                hit = Some(Hit { id, hit: h });
                             }
                         }
                     }
                     break;
                 }
                 let (l, r) = (ni + 1, node.first);
-                let tl = Self::enter(&self.nodes[l as usize], time, o, inv_d, t_min, best);
-                let tr = Self::enter(&self.nodes[r as usize], time, o, inv_d, t_min, best);
-                let (near, far, tn, tf) = if tl <= tr { (l, r, tl, tr) } else { (r, l, tr, tl) };
+                let tl = Self::enter(&self.nodes[l as usize], time, o, inv_d, s_min, s_max);
+                let tr = Self::enter(&self.nodes[r as usize], time, o, inv_d, s_min, s_max);
+                let (near_child, far_child, tn, tf) = if tl <= tr { (l, r, tl, tr) } else { (r, l, tr, tl) };
                 if tn == f32::INFINITY {
                     break;
                 }
                 if tf != f32::INFINITY {
-                    stack[sp] = (far, tf);
+                    stack[sp] = (far_child, tf);
                     sp += 1;
                 }
-                ni = near;
+                ni = near_child;
             }
         }
         hit
     }
 
-    /// Reference for tests: the nearest hit found by testing every triangle (same triangle test).
+    /// Reference for tests: the hit [`Bvh::intersect`] should find (same rules), by testing every
+    /// triangle in list order.
     pub fn brute_force(
         triangles: &[MovingTriangle],
         o: Vec3,
         d: Vec3,
         time: f32,
-        t_min: f32,
-        t_max: f32,
+        near: f32,
+        far: f32,
     ) -> Option<Hit> {
-        let mut best = t_max;
+        if !depth_grows_within(d, near, far) {
+            return None;
+        }
+        let mut best = f32::INFINITY;
         let mut hit = None;
         for (i, tri) in triangles.iter().enumerate() {
-            let g = TriGeom { v0: tri[0], v1: tri[1] };
-            if let Some((t, u, v)) = intersect_triangle(&g.at(time), o, d, t_min, best) {
-                best = t;
-                hit = Some(Hit { t, u, v, id: i as u32 });
+            let Some(h) = intersect_triangle(&tri.at(time), o, d) else { continue };
+            if h.depth_z >= near && h.depth_z <= far && h.depth_z < best {
+                best = h.depth_z;
+                hit = Some(Hit { id: i as u32, hit: h });
             }
         }
         hit
     }
-}
-
-/// Vertices of a moving triangle at time `t` (same interpolation as the BVH and the GPU).
-#[inline(always)]
-pub fn triangle_at(tri: &MovingTriangle, t: f32) -> [Vec3; 3] {
-    TriGeom { v0: tri[0], v1: tri[1] }.at(t)
 }
 
 #[cfg(test)]
@@ -459,10 +423,11 @@ mod tests {
         Vec3::new(r.next_f32() - 0.5, r.next_f32() - 0.5, r.next_f32() - 0.5) * scale
     }
 
+    /// Moving and deforming triangles in front of the lens plane (depths about 5 to 45).
     fn random_scene(r: &mut Pcg32, n: usize) -> Vec<MovingTriangle> {
         (0..n)
             .map(|i| {
-                let c = rnd3(r, 20.0);
+                let c = rnd3(r, 20.0) - 25.0 * Vec3::Z;
                 let size = if i % 17 == 0 { 8.0 } else { 1.5 };
                 let v0 = [c + rnd3(r, size), c + rnd3(r, size), c + rnd3(r, size)];
                 let motion = if i % 3 == 0 { Vec3::ZERO } else { rnd3(r, 6.0) };
@@ -472,9 +437,42 @@ mod tests {
                 } else {
                     v0.map(|p| p + motion)
                 };
-                [v0, v1]
+                MovingTriangle { v0, v1 }
             })
             .collect()
+    }
+
+    /// A primary ray: origin on the lens plane z = 0, going forward.
+    fn lens_ray(r: &mut Pcg32, target: Vec3) -> (Vec3, Vec3) {
+        let o = Vec3::new(r.next_f32() - 0.5, r.next_f32() - 0.5, 0.0) * 4.0;
+        (o, (target - o).normalize())
+    }
+
+    /// Asserts that the BVH finds the brute force's hit: the same depth (and, but for an exact depth
+    /// tie, the same triangle and barycentrics). Returns whether there was a hit.
+    fn check_ray(
+        bvh: &Bvh,
+        tris: &[MovingTriangle],
+        o: Vec3,
+        d: Vec3,
+        time: f32,
+        near: f32,
+        far: f32,
+    ) -> bool {
+        let a = bvh.intersect(o, d, time, near, far, |_| true);
+        let b = Bvh::brute_force(tris, o, d, time, near, far);
+        match (a, b) {
+            (None, None) => false,
+            (Some(a), Some(b)) => {
+                assert_eq!(a.hit.depth_z, b.hit.depth_z, "{a:?} vs {b:?}");
+                if a.id == b.id {
+                    assert_eq!(a, b);
+                }
+                assert!(a.hit.depth_z >= near && a.hit.depth_z <= far);
+                true
+            }
+            _ => panic!("o={o} d={d} time={time}: bvh {a:?} vs brute force {b:?}"),
+        }
     }
 
     #[test]
@@ -487,31 +485,17 @@ mod tests {
             assert!(bvh.depth() < STACK);
             let mut hits = 0;
             for _ in 0..4000 {
-                let o = rnd3(&mut r, 40.0);
                 let time = r.next_f32();
                 // Half the rays aim near a random triangle at the ray's time, half anywhere.
                 let target = if r.next_u32() & 1 == 0 {
-                    let p = triangle_at(&tris[r.below(n as u32) as usize], time);
+                    let p = tris[r.below(n as u32) as usize].at(time);
                     (p[0] + p[1] + p[2]) / 3.0 + rnd3(&mut r, 0.3)
                 } else {
-                    rnd3(&mut r, 20.0)
+                    rnd3(&mut r, 20.0) - 25.0 * Vec3::Z
                 };
-                let d = (target - o).normalize();
-                let (t_min, t_max) = if r.next_u32() & 3 == 0 { (5.0, 30.0) } else { (0.0, f32::INFINITY) };
-                let a = bvh.intersect(o, d, time, t_min, t_max, |_| true);
-                let b = Bvh::brute_force(&tris, o, d, time, t_min, t_max);
-                match (a, b) {
-                    (None, None) => {}
-                    (Some(a), Some(b)) => {
-                        hits += 1;
-                        assert_eq!(a.t, b.t, "n={n}: {a:?} vs {b:?}");
-                        if a.id != b.id {
-                            // Only an exact tie may pick a different triangle.
-                            assert_eq!(a.t, b.t);
-                        }
-                    }
-                    _ => panic!("n={n} o={o} d={d} time={time}: bvh {a:?} vs brute force {b:?}"),
-                }
+                let (o, d) = lens_ray(&mut r, target);
+                let (near, far) = if r.next_u32() & 3 == 0 { (20.0, 30.0) } else { (0.1, f32::INFINITY) };
+                hits += check_ray(&bvh, &tris, o, d, time, near, far) as usize;
             }
             if n >= 40 {
                 assert!(hits > 800, "test rays should hit something (n={n}, hits={hits})");
@@ -519,40 +503,123 @@ mod tests {
         }
     }
 
+    /// Where the barycentric depth and the ray's own depth disagree most: a finely tessellated,
+    /// slightly bumpy floor seen at grazing angles, every ray crossing many nearly coplanar triangles
+    /// at nearly equal depths.
+    #[test]
+    fn bvh_matches_brute_force_on_a_grazing_floor() {
+        let mut r = Pcg32::new(5, 1);
+        let (nx, nz) = (24usize, 400usize);
+        let vertex = |i: usize, j: usize, r: &mut Pcg32| {
+            Vec3::new(
+                i as f32 - 0.5 * nx as f32,
+                -1.0 + 1e-3 * r.next_f32(),
+                -0.5 - 0.25 * (j * j) as f32 / nz as f32,
+            )
+        };
+        let grid: Vec<Vec<Vec3>> =
+            (0..=nz).map(|j| (0..=nx).map(|i| vertex(i, j, &mut r)).collect()).collect();
+        let mut tris = vec![];
+        for j in 0..nz {
+            for i in 0..nx {
+                let (a, b, c, e) = (grid[j][i], grid[j][i + 1], grid[j + 1][i + 1], grid[j + 1][i]);
+                let lift = Vec3::new(0.0, 0.02, 0.0);
+                tris.push(MovingTriangle { v0: [a, b, c], v1: [a + lift, b, c] });
+                tris.push(MovingTriangle { v0: [a, c, e], v1: [a + lift, c, e] });
+            }
+        }
+        let bvh = Bvh::build(&tris);
+        let mut hits = 0;
+        for k in 0..20_000 {
+            let depth = 2.0f32.powf(1.0 + 6.0 * r.next_f32());
+            let target = Vec3::new(8.0 * (r.next_f32() - 0.5), -1.0 + 1e-3 * r.next_f32(), -depth);
+            let (o, d) = lens_ray(&mut r, target);
+            let (near, far) = if k % 4 == 0 { (3.0, 20.0) } else { (0.1, 1000.0) };
+            hits += check_ray(&bvh, &tris, o, d, r.next_f32(), near, far) as usize;
+        }
+        assert!(hits > 10_000, "{hits}");
+    }
+
     #[test]
     fn accept_filter_skips_rejected_triangles() {
-        // Two parallel quads' worth of triangles; rejecting the near one yields the far one.
-        let near = [[Vec3::new(-1.0, -1.0, -2.0), Vec3::new(1.0, -1.0, -2.0), Vec3::new(0.0, 1.0, -2.0)]; 2];
-        let far = [[Vec3::new(-1.0, -1.0, -4.0), Vec3::new(1.0, -1.0, -4.0), Vec3::new(0.0, 1.0, -4.0)]; 2];
+        // Two parallel triangles; rejecting the near one yields the far one.
+        let near = MovingTriangle::fixed([
+            Vec3::new(-1.0, -1.0, -2.0),
+            Vec3::new(1.0, -1.0, -2.0),
+            Vec3::new(0.0, 1.0, -2.0),
+        ]);
+        let far = MovingTriangle::fixed([
+            Vec3::new(-1.0, -1.0, -4.0),
+            Vec3::new(1.0, -1.0, -4.0),
+            Vec3::new(0.0, 1.0, -4.0),
+        ]);
         let bvh = Bvh::build(&[near, far]);
-        let h = bvh.intersect(Vec3::ZERO, -Vec3::Z, 0.5, 0.0, f32::INFINITY, |_| true).unwrap();
-        assert_eq!((h.id, h.t), (0, 2.0));
-        let h = bvh.intersect(Vec3::ZERO, -Vec3::Z, 0.5, 0.0, f32::INFINITY, |id| id != 0).unwrap();
-        assert_eq!((h.id, h.t), (1, 4.0));
-        // The t range acts like clip planes.
-        let h = bvh.intersect(Vec3::ZERO, -Vec3::Z, 0.5, 3.0, f32::INFINITY, |_| true).unwrap();
-        assert_eq!(h.id, 1);
-        assert!(bvh.intersect(Vec3::ZERO, -Vec3::Z, 0.5, 0.0, 1.5, |_| true).is_none());
+        let h = bvh.intersect(Vec3::ZERO, -Vec3::Z, 0.5, 0.1, f32::INFINITY, |_| true).unwrap();
+        assert_eq!((h.id, h.hit.depth_z), (0, 2.0));
+        let h = bvh.intersect(Vec3::ZERO, -Vec3::Z, 0.5, 0.1, f32::INFINITY, |id| id != 0).unwrap();
+        assert_eq!((h.id, h.hit.depth_z), (1, 4.0));
+        // The depth range acts like clip planes, both ends inclusive as on the GPU.
+        assert_eq!(bvh.intersect(Vec3::ZERO, -Vec3::Z, 0.5, 3.0, f32::INFINITY, |_| true).unwrap().id, 1);
+        assert!(bvh.intersect(Vec3::ZERO, -Vec3::Z, 0.5, 0.1, 1.5, |_| true).is_none());
+        assert_eq!(bvh.intersect(Vec3::ZERO, -Vec3::Z, 0.5, 4.0, 4.0, |_| true).unwrap().id, 1);
+        // Rays that do not go forward find nothing.
+        assert!(bvh
+            .intersect(Vec3::new(0.0, 0.0, -3.0), Vec3::Z, 0.5, 0.1, f32::INFINITY, |_| true)
+            .is_none());
     }
 
     #[test]
     fn degenerate_inputs_do_not_produce_nan() {
-        let needle = [[Vec3::new(0.0, 0.0, -3.0), Vec3::new(1e-9, 5.0, -3.0), Vec3::new(0.0, 5.0, -3.0)]; 2];
-        let huge =
-            [[Vec3::new(-1e18, -1e18, -5.0), Vec3::new(1e18, -1e18, -5.0), Vec3::new(0.0, 1e18, -5.0)]; 2];
-        let line = [[Vec3::new(0.0, 0.0, -2.0), Vec3::new(1.0, 1.0, -2.0), Vec3::new(2.0, 2.0, -2.0)]; 2];
-        let tris = [needle, huge, line];
+        let needle = MovingTriangle::fixed([
+            Vec3::new(0.0, 0.0, -3.0),
+            Vec3::new(1e-9, 5.0, -3.0),
+            Vec3::new(0.0, 5.0, -3.0),
+        ]);
+        let huge = MovingTriangle::fixed([
+            Vec3::new(-1e9, -1e9, -5.0),
+            Vec3::new(1e9, -1e9, -5.0),
+            Vec3::new(0.0, 1e9, -5.0),
+        ]);
+        // |e₁ × e₂|² overflows f32: the GPU's inside test (and so the shared intersector) finds no
+        // hit on it rather than a NaN.
+        let too_huge = MovingTriangle::fixed([
+            Vec3::new(-1e18, -1e18, -6.0),
+            Vec3::new(1e18, -1e18, -6.0),
+            Vec3::new(0.0, 1e18, -6.0),
+        ]);
+        let line = MovingTriangle::fixed([
+            Vec3::new(0.0, 0.0, -2.0),
+            Vec3::new(1.0, 1.0, -2.0),
+            Vec3::new(2.0, 2.0, -2.0),
+        ]);
+        let infinite = MovingTriangle::fixed([
+            Vec3::new(0.0, 0.0, -1.0),
+            Vec3::new(f32::INFINITY, 0.0, -1.0),
+            Vec3::new(0.0, 1.0, -1.0),
+        ]);
+        let tris = [needle, huge, line, infinite, too_huge];
         let bvh = Bvh::build(&tris);
+        assert_eq!(bvh.triangle_count(), 4, "non-finite triangles are left out");
         let mut r = Pcg32::new(1, 2);
         for _ in 0..2000 {
             let d = (rnd3(&mut r, 2.0) - Vec3::Z).normalize();
-            if let Some(h) = bvh.intersect(Vec3::ZERO, d, r.next_f32(), 0.0, f32::INFINITY, |_| true) {
-                assert!(h.t.is_finite() && h.u.is_finite() && h.v.is_finite(), "{h:?}");
+            let time = r.next_f32();
+            for h in [
+                bvh.intersect(Vec3::ZERO, d, time, 0.1, f32::INFINITY, |_| true),
+                Bvh::brute_force(&tris, Vec3::ZERO, d, time, 0.1, f32::INFINITY),
+            ]
+            .into_iter()
+            .flatten()
+            {
+                assert!(h.hit.depth_z.is_finite() && h.hit.barycentrics.is_finite(), "{h:?}");
             }
         }
-        // Straight down the axis hits the huge triangle at depth 5 (the needle is grazed or missed).
-        let h = bvh.intersect(Vec3::new(0.3, 0.2, 0.0), -Vec3::Z, 0.0, 0.0, f32::INFINITY, |_| true).unwrap();
+        // Straight down the axis hits the huge triangle at depth 5 (the needle and the line are
+        // degenerate for the relative area test), and nothing behind it but the too-huge one.
+        let o = Vec3::new(0.3, 0.2, 0.0);
+        let h = bvh.intersect(o, -Vec3::Z, 0.0, 0.1, f32::INFINITY, |_| true).unwrap();
         assert_eq!(h.id, 1);
-        assert!((h.t - 5.0).abs() < 1e-4);
+        assert!((h.hit.depth_z - 5.0).abs() < 1e-4);
+        assert!(bvh.intersect(o, -Vec3::Z, 0.0, 5.5, f32::INFINITY, |_| true).is_none());
     }
 }

@@ -12,9 +12,12 @@
 //! * **Rays.** Sample `s` of pixel `(px, py)` is the thin-lens ray [`Intrinsics::primary_ray`] through
 //!   `(px + s.xy.x, py + s.xy.y)` from lens point `aperture.map(s.lens)` at time `shutter.warp(s.time)`.
 //!   The pixel value is the plain mean of its samples (box filter); alpha is 1.
-//! * **Visibility.** The nearest hit whose view depth lies in `[near, far]` (the GPU's clip planes;
-//!   hits outside are skipped, the ray goes on). Triangles are two-sided.
-//! * **Shading.** Shading normal = barycentric interpolation (the ray's barycentrics are the GPU's
+//! * **Visibility.** Every triangle test is the GPU's inside test,
+//!   [`crate::geometry::intersect_triangle`] (two-sided, edges inclusive, the same barycentrics and
+//!   view depth). The nearest hit by that view depth whose depth lies in `[near, far]` wins (the GPU's
+//!   clip planes; hits outside are skipped, the ray goes on).
+//! * **Shading.** At the hit's barycentric point `w₀·a + w₁·b + w₂·c` of the triangle at `t` (what the
+//!   GPU shades). Shading normal = barycentric interpolation (the ray's barycentrics are the GPU's
 //!   perspective-correct ones) of the per-vertex `mix(N0, N1, t)`, normalised, and flipped when the
 //!   triangle's geometric normal at `t` faces away from the ray origin (the GPU's `gl_FrontFacing`).
 //!   UVs are interpolated likewise; albedo is `material.albedo × texture.sample_bilinear(uv)`. The view
@@ -25,9 +28,10 @@
 //!   probability alpha and passes through it otherwise, decided by a hash of (seed, pixel, sample,
 //!   triangle) so renders are reproducible.
 //!
-//! Geometry lives in a [`Bvh`] over moving triangles (boxes at both shutter ends, interpolated at ray
-//! time). Rendering is parallel over 16×16-pixel tiles with rayon; every pixel depends only on its own
-//! samples, so images are bit-identical for any thread count.
+//! Geometry lives in a [`Bvh`] over [`MovingTriangle`]s (boxes at both shutter ends, interpolated at
+//! ray time). Rendering is parallel over 16×16-pixel tiles with rayon; every pixel depends only on its
+//! own samples, so images are bit-identical for any thread count. Image size and sample count are
+//! checked against [`crate::limits`].
 
 mod bvh;
 
@@ -37,18 +41,24 @@ use glam::{DVec3, Vec2, Vec3};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use rayon::prelude::*;
 
-pub use bvh::{intersect_triangle, Bvh, Hit, MovingTriangle};
+pub use bvh::{Bvh, Hit};
 
 use crate::error::{Error, Result};
+use crate::geometry::MovingTriangle;
 use crate::image::LinearImage;
+use crate::limits::{MAX_IMAGE_DIMENSION, MAX_SPP};
 use crate::sampling::{stratified_samples, Pcg32, Sample5, SAMPLE_TILE_SIZE};
 use crate::scene::{Camera, CameraSpaceScene, Intrinsics, Scene, Texture};
 use crate::shading::{shade, ShadingLight};
 
-/// Largest accepted image width and height.
-pub const MAX_SIZE: u32 = 8192;
-/// Largest accepted samples per pixel.
-pub const MAX_SPP: u32 = 65536;
+/// Version of what the reference computes: bumped whenever the same scene and settings render to
+/// different pixels (intersection, shading, sampling). `shutter quality` puts it in the key of its
+/// cached references, so a reference rendered by an older version is never reused.
+///
+/// 2: hits from the shared [`crate::geometry::intersect_triangle`] (the GPU's inside test), nearest by
+/// barycentric view depth, shaded at the barycentric point. (1: a Möller–Trumbore of its own, nearest
+/// by ray parameter, shaded at `o + t·d`.)
+pub const REFERENCE_VERSION: u32 = 2;
 /// Side of the square pixel tiles rendered in parallel.
 pub const TILE: u32 = 16;
 
@@ -57,7 +67,7 @@ pub const TILE: u32 = 16;
 pub struct ReferenceSettings {
     pub width: u32,
     pub height: u32,
-    /// Rays per pixel, 1..=65536.
+    /// Rays per pixel, 1..=[`MAX_SPP`].
     pub spp: u32,
     /// Seed of the sample sets (and of stochastic alpha).
     pub seed: u64,
@@ -147,14 +157,15 @@ fn limit(what: &'static str, value: impl ToString, limit: &str) -> Error {
 }
 
 fn validate(s: &ReferenceSettings, camera: &Camera) -> Result<()> {
-    if !(1..=MAX_SIZE).contains(&s.width) {
-        return Err(limit("width", s.width, "1..=8192"));
+    let size = format!("1..={MAX_IMAGE_DIMENSION} (MAX_IMAGE_DIMENSION)");
+    if !(1..=MAX_IMAGE_DIMENSION).contains(&s.width) {
+        return Err(limit("width", s.width, &size));
     }
-    if !(1..=MAX_SIZE).contains(&s.height) {
-        return Err(limit("height", s.height, "1..=8192"));
+    if !(1..=MAX_IMAGE_DIMENSION).contains(&s.height) {
+        return Err(limit("height", s.height, &size));
     }
     if !(1..=MAX_SPP).contains(&s.spp) {
-        return Err(limit("spp", s.spp, "1..=65536"));
+        return Err(limit("spp", s.spp, &format!("1..={MAX_SPP} (MAX_SPP)")));
     }
     if !(camera.near > 0.0 && camera.near.is_finite()) {
         return Err(limit("camera.near", camera.near, "finite and > 0"));
@@ -227,7 +238,10 @@ impl<'a> Tracer<'a> {
             let normals: Vec<[Vec3; 2]> = mesh.normals.iter().map(|&n| motion.normals(n)).collect();
             for tri in mesh.indices.chunks_exact(3) {
                 let idx = [tri[0] as usize, tri[1] as usize, tri[2] as usize];
-                geometry.push([idx.map(|i| positions[i][0]), idx.map(|i| positions[i][1])]);
+                geometry.push(MovingTriangle {
+                    v0: idx.map(|i| positions[i][0]),
+                    v1: idx.map(|i| positions[i][1]),
+                });
                 let normal_at = |end: usize| idx.map(|i| normals.get(i).map_or(Vec3::ZERO, |n| n[end]));
                 let uv = if mesh.has_uvs() { idx.map(|i| mesh.uvs[i]) } else { [Vec2::ZERO; 3] };
                 surface.push(SurfaceTri { n: [normal_at(0), normal_at(1)], uv, object: oi as u32 });
@@ -301,24 +315,19 @@ impl<'a> Tracer<'a> {
         sample: u32,
         lights: &mut Vec<ShadingLight>,
     ) -> Vec3 {
-        // View depth along the ray is −(o.z + t·d.z); clip to [near, far] as the GPU does.
-        if d.z.is_nan() || d.z >= 0.0 {
-            return self.background;
-        }
-        let t_near = (self.camera.near + o.z) / -d.z;
-        let t_far = (self.camera.far + o.z) / -d.z;
-        let hit = self.bvh.intersect(o, d, time, t_near.max(0.0), t_far, |id| {
+        // Hits whose view depth is outside [near, far] are skipped, as the GPU's clip planes do.
+        let hit = self.bvh.intersect(o, d, time, self.camera.near, self.camera.far, |id| {
             let alpha = self.materials[self.surface[id as usize].object as usize].alpha;
             alpha >= 1.0 || coverage_hash(self.seed, pixel, sample, id) < alpha
         });
-        let Some(hit) = hit else {
+        let Some(Hit { id, hit }) = hit else {
             return self.background;
         };
-        let tri = &self.surface[hit.id as usize];
+        let tri = &self.surface[id as usize];
         let material = &self.materials[tri.object as usize];
-        let w = [1.0 - hit.u - hit.v, hit.u, hit.v];
+        let w = hit.barycentrics.to_array();
 
-        let p = bvh::triangle_at(&self.geometry[hit.id as usize], time);
+        let p = self.geometry[id as usize].at(time);
         let geometric = (p[1] - p[0]).cross(p[2] - p[0]);
         let mut n = Vec3::ZERO;
         for (i, &wi) in w.iter().enumerate() {
@@ -335,7 +344,8 @@ impl<'a> Tracer<'a> {
         }
         lights.clear();
         lights.extend(self.scene_space.lights.iter().map(|l| l.at(time)));
-        let position = o + hit.t * d;
+        // The barycentric point, as the GPU shades (its depth is exactly `hit.depth_z`).
+        let position = hit.point(&p);
         shade(position, n, -d, albedo, material.specular, material.roughness, lights, self.ambient)
     }
 }

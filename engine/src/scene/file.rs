@@ -6,7 +6,7 @@
 //! ```toml
 //! name = "optional"             # default: the file stem (or the built-in's name)
 //!
-//! [image]                       # all optional
+//! [image]                       # all optional; limits in crate::limits
 //! width = 640                   # 1..=8192 (MAX_IMAGE_DIMENSION)
 //! height = 360                  # 1..=8192
 //! spp = 16                      # 1..=65536 (MAX_SPP)
@@ -71,10 +71,7 @@ use super::{Camera, CameraPose, Environment, ImageSettings, Light, Material, Obj
 use crate::error::{Error, Result};
 use crate::sampling::{ApertureShape, ShutterCurve};
 
-/// Largest accepted image width or height, in pixels.
-pub const MAX_IMAGE_DIMENSION: u32 = 8192;
-/// Largest accepted samples per pixel.
-pub const MAX_SPP: u32 = 65536;
+use crate::limits::{MAX_IMAGE_DIMENSION, MAX_SPP};
 
 type V3 = [f32; 3];
 

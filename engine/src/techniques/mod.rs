@@ -42,8 +42,8 @@ use crate::error::{Error, Result};
 use crate::gpu::{GpuView, GpuWorld};
 use crate::graph::{FrameGraph, GraphResult, TransientPool};
 use crate::image::LinearImage;
+use crate::limits::{MAX_IMAGE_DIMENSION, MAX_SPP};
 use crate::plan::Plan;
-use crate::scene::file::{MAX_IMAGE_DIMENSION, MAX_SPP};
 use crate::scene::{Scene, View};
 use crate::vk::{CommandRecorder, Device, PassTimings};
 

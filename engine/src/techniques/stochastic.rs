@@ -51,8 +51,7 @@ fn prepare(ctx: &PrepareContext<'_>) -> Result<Box<dyn FrameTechnique>> {
     Ok(Box::new(StochasticTechnique::new(ctx, ctx.settings.stochastic, DebugOptions::default(), &effects)?))
 }
 
-/// Largest S the stochastic technique accepts (the sample tile is 64·64·S·20 bytes: 84 MB at 1024).
-pub const MAX_STOCHASTIC_SPP: u32 = 1024;
+pub use crate::limits::MAX_STOCHASTIC_SPP;
 
 /// How often the fragment shader shades.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]

@@ -1,0 +1,232 @@
+//! The geometry model, written once: a triangle moving linearly over the shutter
+//! ([`MovingTriangle`]) and the one ray–triangle intersector ([`intersect_triangle`]) that every CPU
+//! consumer uses — the bounds' inside test ([`crate::bounds::sample_hit`], the specification of the
+//! GPU's `sample_hit` in `shaders-glsl/stochastic/inside.glsl`) and the reference's BVH
+//! ([`crate::reference::Bvh`]). A hit is therefore the same hit, with the same barycentrics and the
+//! same depth, whether the reference or a GPU technique finds it (DESIGN.md "The model").
+//!
+//! Why a module of its own and not `bounds`: the bounds are the CPU mirror of one GPU technique's
+//! culling (stochastic rasterization), while the triangle and the hit are the model itself, which the
+//! reference must share without depending on any technique.
+
+use glam::{DVec3, Vec3};
+
+/// Relative threshold of [`MovingTriangle::is_degenerate`] (times the longest edge², `f64`). The GLSL
+/// mirror (`shaders-glsl/stochastic/bounds.glsl`) uses the same value in `float`, where rounding
+/// usually keeps an exactly degenerate triangle above it: the GPU then builds a (conservative) bound
+/// where the CPU culls.
+pub const DEGENERATE_EPS: f64 = 1e-12;
+
+/// Relative threshold of [`intersect_triangle`] below which a triangle is treated as degenerate
+/// (`|e₁ × e₂| ≤ ε·|e₁|·|e₂|`) or the ray as parallel to it (`|d · n| ≤ ε·|n|`): both cover no area.
+/// `PARALLEL_EPS` in `inside.glsl`.
+pub const PARALLEL_EPS: f32 = 1e-7;
+
+/// A triangle whose camera-space vertices move linearly from `v0` (shutter open) to `v1` (close).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MovingTriangle {
+    pub v0: [Vec3; 3],
+    pub v1: [Vec3; 3],
+}
+
+impl MovingTriangle {
+    /// A triangle that does not move.
+    pub fn fixed(v: [Vec3; 3]) -> Self {
+        MovingTriangle { v0: v, v1: v }
+    }
+    /// Camera-space vertices at shutter time `t ∈ [0, 1]`, interpolated as the GPU does: GLSL
+    /// `mix(p0, p1, t)`, which the GLSL spec defines as `p0·(1 − t) + p1·t` — glam's `lerp`.
+    #[inline(always)]
+    pub fn at(&self, t: f32) -> [Vec3; 3] {
+        [self.v0[0].lerp(self.v1[0], t), self.v0[1].lerp(self.v1[1], t), self.v0[2].lerp(self.v1[2], t)]
+    }
+    /// The six end vertices (open then close); their convex hull contains the triangle at every time.
+    pub fn end_vertices(&self) -> [Vec3; 6] {
+        [self.v0[0], self.v0[1], self.v0[2], self.v1[0], self.v1[1], self.v1[2]]
+    }
+    /// Are all six end vertices finite?
+    pub fn is_finite(&self) -> bool {
+        self.end_vertices().iter().all(|v| v.is_finite())
+    }
+    /// Does the triangle have zero area at every time in [0, 1]? The area vector
+    /// `cross(e₁(t), e₂(t)) = (1−t)²·X₀ + t(1−t)·Xₘ + t²·X₁` is checked coefficient by coefficient in
+    /// `f64`, relative to the triangle's extent (threshold [`DEGENERATE_EPS`]·L²).
+    pub fn is_degenerate(&self) -> bool {
+        let d = |v: Vec3| v.as_dvec3();
+        let e = |v: &[Vec3; 3]| (d(v[1]) - d(v[0]), d(v[2]) - d(v[0]));
+        let (a0, b0) = e(&self.v0);
+        let (a1, b1) = e(&self.v1);
+        let x0 = a0.cross(b0);
+        let x1 = a1.cross(b1);
+        let xm = a0.cross(b1) + a1.cross(b0);
+        let l2 = [a0, b0, a1, b1].iter().map(|v| v.length_squared()).fold(0.0, f64::max);
+        let eps = DEGENERATE_EPS * l2;
+        let small = |x: DVec3| x.length() <= eps;
+        small(x0) && small(x1) && small(xm)
+    }
+}
+
+/// Where a ray meets a triangle.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TriangleHit {
+    /// View depth `z = −p.z` of the hit point `p`: the barycentric interpolation of the vertices' `z`
+    /// (what the GPU interpolates and depth-tests).
+    pub depth_z: f32,
+    /// Weights of the triangle's vertices (sum to 1, each ≥ 0).
+    pub barycentrics: Vec3,
+}
+
+impl TriangleHit {
+    /// The hit point `w₀·a + w₁·b + w₂·c` on the triangle `p` it was found on, as the GPU shades it
+    /// (`stochastic.frag`); its `−z` is exactly [`TriangleHit::depth_z`].
+    #[inline]
+    pub fn point(&self, p: &[Vec3; 3]) -> Vec3 {
+        let w = self.barycentrics;
+        w.x * p[0] + w.y * p[1] + w.z * p[2]
+    }
+}
+
+/// Möller–Trumbore intersection of the ray `o + s·d` (camera space) with the triangle `p` (two-sided,
+/// edges inclusive), with no range on the ray parameter: the caller tests [`TriangleHit::depth_z`]
+/// (the GPU's `[near, far]`, the reference's nearest hit). `None` for a miss, a degenerate triangle
+/// (`|e₁ × e₂| ≤ ε·|e₁|·|e₂|`), a ray in the triangle's plane (`|d·n| ≤ ε·|n|`, ε = [`PARALLEL_EPS`])
+/// and non-finite input, so it never returns NaN.
+///
+/// The arithmetic is that of `sample_hit` in `shaders-glsl/stochastic/inside.glsl`, operation for
+/// operation, so a hit has the same barycentrics and depth on both sides. The rejection tests form a
+/// pure conjunction, so their order cannot change the answer: the cheap barycentric range tests come
+/// first here (most of the reference's triangle tests are misses), the degeneracy test with its square
+/// roots last, while the GLSL tests degeneracy first.
+#[inline(always)]
+pub fn intersect_triangle(p: &[Vec3; 3], o: Vec3, d: Vec3) -> Option<TriangleHit> {
+    let [a, b, c] = *p;
+    let e1 = b - a;
+    let e2 = c - a;
+    let pv = d.cross(e2);
+    let det = e1.dot(pv); // = −d·n
+    let inv = 1.0 / det;
+    let s = o - a;
+    let b1 = s.dot(pv) * inv;
+    if !(0.0..=1.0).contains(&b1) {
+        return None;
+    }
+    let q = s.cross(e1);
+    let b2 = d.dot(q) * inv;
+    if !(b2 >= 0.0 && b1 + b2 <= 1.0) {
+        return None;
+    }
+    if !(a.is_finite() && b.is_finite() && c.is_finite() && o.is_finite() && d.is_finite()) {
+        return None;
+    }
+    let n_len = e1.cross(e2).length();
+    if n_len.is_nan() || n_len <= PARALLEL_EPS * e1.length() * e2.length() {
+        return None; // degenerate
+    }
+    if det.is_nan() || det.abs() <= PARALLEL_EPS * n_len {
+        return None; // the ray lies in the triangle's plane
+    }
+    let w = Vec3::new(1.0 - b1 - b2, b1, b2);
+    let depth_z = -(w.x * a.z + w.y * b.z + w.z * c.z);
+    Some(TriangleHit { depth_z, barycentrics: w })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sampling::Pcg32;
+
+    /// `sample_hit` of `inside.glsl` transcribed line for line (its test order), minus the depth range:
+    /// the oracle that pins [`intersect_triangle`]'s reordered tests to the GPU's answer.
+    fn inside_glsl(a: Vec3, b: Vec3, c: Vec3, o: Vec3, d: Vec3) -> Option<(f32, Vec3)> {
+        let e1 = b - a;
+        let e2 = c - a;
+        let n = e1.cross(e2);
+        let n_len = n.length();
+        if n_len.is_nan() || n_len <= PARALLEL_EPS * e1.length() * e2.length() {
+            return None;
+        }
+        let p = d.cross(e2);
+        let det = e1.dot(p);
+        if det.is_nan() || det.abs() <= PARALLEL_EPS * n_len {
+            return None;
+        }
+        let inv = 1.0 / det;
+        let s = o - a;
+        let b1 = s.dot(p) * inv;
+        if !(0.0..=1.0).contains(&b1) {
+            return None;
+        }
+        let q = s.cross(e1);
+        let b2 = d.dot(q) * inv;
+        if !(b2 >= 0.0 && b1 + b2 <= 1.0) {
+            return None;
+        }
+        let w = Vec3::new(1.0 - b1 - b2, b1, b2);
+        Some((-(w.x * a.z + w.y * b.z + w.z * c.z), w))
+    }
+
+    fn rnd3(r: &mut Pcg32, scale: f32) -> Vec3 {
+        Vec3::new(r.next_f32() - 0.5, r.next_f32() - 0.5, r.next_f32() - 0.5) * scale
+    }
+
+    /// Random, needle, sliver, edge-on, huge, tiny and non-finite triangles and rays, many of them
+    /// aimed at the triangle so that hits and near-misses are common.
+    #[test]
+    fn intersector_is_bit_identical_to_the_glsl_order() {
+        let mut r = Pcg32::new(3, 11);
+        let specials = [0.0, -0.0, 1e-30, 1e30, f32::INFINITY, f32::NEG_INFINITY, f32::NAN];
+        let (mut hits, mut n) = (0, 0);
+        for i in 0..200_000 {
+            let scale = [1.0, 1e-4, 1e4, 1e18][i % 4];
+            let mut v = [rnd3(&mut r, scale), rnd3(&mut r, scale), rnd3(&mut r, scale)];
+            match i % 7 {
+                0 => v[2] = v[0].lerp(v[1], r.next_f32()),     // collinear
+                1 => v[2] = v[1] + rnd3(&mut r, scale * 1e-6), // sliver
+                2 => v[1] = v[0],
+                3 if i % 5 == 0 => v[r.below(3) as usize][r.below(3) as usize] = specials[i % specials.len()],
+                _ => {}
+            }
+            let o = Vec3::new(r.next_f32() - 0.5, r.next_f32() - 0.5, 0.0) * 0.2;
+            let w = Vec3::new(r.next_f32(), r.next_f32(), r.next_f32());
+            let target = (w.x * v[0] + w.y * v[1] + w.z * v[2]) / w.element_sum();
+            let d = match i % 3 {
+                0 => (target - o).normalize(),
+                1 => (target + rnd3(&mut r, scale * 0.1) - o).normalize(),
+                _ => ((v[1] - v[0]) + rnd3(&mut r, 1e-3 * scale)).normalize(), // grazing
+            };
+            let got = intersect_triangle(&v, o, d);
+            let want = inside_glsl(v[0], v[1], v[2], o, d);
+            let bits = |h: Option<(f32, Vec3)>| h.map(|(z, w)| (z.to_bits(), w.to_array().map(f32::to_bits)));
+            assert_eq!(bits(got.map(|h| (h.depth_z, h.barycentrics))), bits(want), "{v:?} {o} {d}");
+            if let Some(h) = got {
+                hits += 1;
+                assert!(h.depth_z.is_finite() && h.barycentrics.is_finite(), "{h:?}");
+                assert_eq!(-h.point(&v).z, h.depth_z);
+            }
+            n += 1;
+        }
+        assert!(hits > n / 10, "the rays should hit often ({hits} of {n})");
+    }
+
+    #[test]
+    fn glsl_mirror_uses_the_cpu_threshold() {
+        let src = include_str!("../../shaders-glsl/stochastic/inside.glsl");
+        let line = format!("const float PARALLEL_EPS = {PARALLEL_EPS:?};");
+        assert!(src.contains(&line), "inside.glsl lacks `{line}`");
+    }
+
+    #[test]
+    fn moving_triangle_interpolates_like_glsl_mix() {
+        let tri = MovingTriangle {
+            v0: [Vec3::new(0.1, 0.2, -1.0), Vec3::new(1.0, 0.0, -2.0), Vec3::new(0.0, 3.0, -1.5)],
+            v1: [Vec3::new(0.7, -0.2, -4.0), Vec3::new(1.0, 0.5, -2.0), Vec3::new(-1.0, 3.0, -0.5)],
+        };
+        for t in [0.0f32, 0.1, 0.5, 0.9, 1.0] {
+            let p = tri.at(t);
+            // GLSL: mix(x, y, a) = x·(1 − a) + y·a.
+            assert_eq!(p, [0, 1, 2].map(|i| tri.v0[i] * (1.0 - t) + tri.v1[i] * t));
+        }
+        assert_eq!((tri.at(0.0), tri.at(1.0)), (tri.v0, tri.v1));
+        assert!(tri.is_finite() && !tri.is_degenerate());
+    }
+}
