@@ -7,19 +7,25 @@
 # Usage: scripts/bench-ab.sh OLD_BIN NEW_BIN [ROUNDS] [MAX_RATIO]
 #   e.g. build the old tree with `git worktree add /tmp/old <rev> && (cd /tmp/old && cargo build
 #   --release --bin shutter)`, then scripts/bench-ab.sh /tmp/old/target/release/shutter
-#   target/release/shutter 5 1.03
-# Scenes and configurations: pinhole, accumulation and stochastic on `default` and `static` at
-# 160x90, S = 4 (override with SCENES / SIZE / SPP / FRAMES). Reports land in out/ab/.
+#   target/release/shutter 9 1.03
+# What runs: SCENES (default: `default static`) × SETS, each set `WxH:config,config,...` benched as one
+# interleaved run (default: the cheap forward techniques at 640x360, where a frame is long enough to
+# time on a shared CPU, and `stochastic` at 160x90), S = SPP (4), FRAMES timed frames (7) after one
+# warm-up frame. MAX_RATIO gates the CPU frame-time ratio by default (GATE=cpu|gpu|both): a frame's wall
+# time covers every pass in both binaries, while their timestamp scopes may differ (the frame-graph
+# port times the accumulator clear and the readback, which the tree before it left untimed). Reports
+# land in out/ab/.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 OLD=$1
 NEW=$2
-ROUNDS=${3:-5}
+ROUNDS=${3:-9}
 MAX=${4:-}
 SCENES=${SCENES:-"default static"}
-SIZE=${SIZE:-160x90}
+SETS=${SETS:-"640x360:pinhole,accumulation 160x90:stochastic"}
 SPP=${SPP:-4}
-FRAMES=${FRAMES:-5}
+FRAMES=${FRAMES:-7}
+GATE=${GATE:-cpu}
 export SHUTTER_DEVICE="${SHUTTER_DEVICE:-llvmpipe}"
 export SHUTTER_VALIDATION=0
 mkdir -p out/ab
@@ -27,20 +33,28 @@ echo "== machine: $(nproc) cores, $(grep -m1 'model name' /proc/cpuinfo | cut -d
 "$NEW" probe | head -2
 status=0
 for scene in $SCENES; do
-  rm -f out/ab/"$scene"-old-*.json out/ab/"$scene"-new-*.json
-  for r in $(seq 1 "$ROUNDS"); do
-    order="old new"
-    if (( r % 2 == 0 )); then order="new old"; fi
-    for who in $order; do
-      bin=$OLD
-      if [ "$who" = new ]; then bin=$NEW; fi
-      "$bin" bench "$scene" --size "$SIZE" --spp "$SPP" --frames "$FRAMES" --warmup 1 --no-counters \
-        -c pinhole -c accumulation -c stochastic --json "out/ab/$scene-$who-$r.json" >/dev/null
-      echo "round $r: $scene $who done"
+  for set in $SETS; do
+    size=${set%%:*}
+    configs=()
+    IFS=, read -ra names <<< "${set#*:}"
+    for c in "${names[@]}"; do configs+=(-c "$c"); done
+    stem="out/ab/$scene-$size"
+    rm -f "$stem"-old-*.json "$stem"-new-*.json
+    for r in $(seq 1 "$ROUNDS"); do
+      order="old new"
+      if (( r % 2 == 0 )); then order="new old"; fi
+      for who in $order; do
+        bin=$OLD
+        if [ "$who" = new ]; then bin=$NEW; fi
+        "$bin" bench "$scene" --size "$size" --spp "$SPP" --frames "$FRAMES" --warmup 1 --no-counters \
+          "${configs[@]}" --json "$stem-$who-$r.json" >/dev/null
+      done
+      echo "round $r of $scene $size done" >&2
     done
+    args=()
+    if [ -n "$MAX" ]; then args=(--max-ratio "$MAX" --gate "$GATE"); fi
+    echo "### $scene, $size"
+    "$NEW" bench-compare --old "$stem"-old-*.json --new "$stem"-new-*.json "${args[@]}" || status=1
   done
-  args=()
-  if [ -n "$MAX" ]; then args=(--max-ratio "$MAX"); fi
-  "$NEW" bench-compare --old out/ab/"$scene"-old-*.json --new out/ab/"$scene"-new-*.json "${args[@]}" || status=1
 done
 exit $status

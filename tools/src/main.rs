@@ -116,9 +116,14 @@ enum Command {
         /// Reports of the candidate.
         #[arg(long, num_args = 1.., required = true)]
         new: Vec<PathBuf>,
-        /// Fail (exit 1) when a configuration's new ÷ old GPU or CPU frame ms exceeds this.
+        /// Fail (exit 1) when a configuration's new ÷ old exceeds this (in the measures of --gate).
         #[arg(long)]
         max_ratio: Option<f64>,
+        /// Which ratio --max-ratio applies to: `cpu` (frame wall time, every pass included — the
+        /// measure to use when the two binaries time different sets of passes), `gpu` (summed
+        /// timestamp scopes) or `both`.
+        #[arg(long, default_value = "both", value_parser = ["cpu", "gpu", "both"])]
+        gate: String,
     },
     /// Time techniques and settings on one scene: interleaved frames after warm-up, medians and
     /// min/max of GPU ms per frame and per pass, CPU frame ms, sample counters; markdown on stdout.
@@ -457,7 +462,7 @@ fn run() -> Result<()> {
                 println!("every configuration within {max}× of `{}`", report.results[0].label);
             }
         }
-        Command::BenchCompare { old, new, max_ratio } => {
+        Command::BenchCompare { old, new, max_ratio, gate } => {
             let read =
                 |paths: &[PathBuf]| paths.iter().map(|p| bench::read_report(p)).collect::<Result<Vec<_>>>();
             let (old, new) = (read(&old)?, read(&new)?);
@@ -469,13 +474,15 @@ fn run() -> Result<()> {
                 }
                 let over: Vec<String> = rows
                     .iter()
-                    .filter(|r| r.gpu_ratio() > max || r.cpu_ratio() > max)
+                    .filter(|r| {
+                        (gate != "cpu" && r.gpu_ratio() > max) || (gate != "gpu" && r.cpu_ratio() > max)
+                    })
                     .map(|r| format!("`{}` GPU {:.3}× CPU {:.3}×", r.label, r.gpu_ratio(), r.cpu_ratio()))
                     .collect();
                 if !over.is_empty() {
                     anyhow::bail!("over {max}× the old runs: {}", over.join(", "));
                 }
-                println!("every configuration within {max}× of the old runs");
+                println!("every configuration within {max}× of the old runs ({gate} ratio)");
             }
         }
         Command::Quality {

@@ -551,7 +551,10 @@ fn record_pass(
     if gpu_work {
         device.begin_label(cmd, &pass.name);
     }
-    record_barriers(device, cmd, pass, resources, states)?;
+    if record_barriers(device, cmd, pass, resources, states)? && !gpu_work {
+        // A barrier outside any scope: the next scope starts after it.
+        timer.interrupt();
+    }
     if let Some(record) = &mut pass.record {
         let raster = !pass.attachments.is_empty();
         let extent = if raster {
@@ -571,13 +574,14 @@ fn record_pass(
     Ok(())
 }
 
+/// Records the barriers `pass` needs first; returns whether there were any.
 fn record_barriers(
     device: &Device,
     cmd: vk::CommandBuffer,
     pass: &Pass<'_>,
     resources: &[Resource<'_>],
     states: &mut [ResourceState],
-) -> Result<()> {
+) -> Result<bool> {
     let (mut src, mut dst) = (vk::PipelineStageFlags::empty(), vk::PipelineStageFlags::empty());
     let mut memory = vk::MemoryBarrier::default();
     let mut any_memory = false;
@@ -624,7 +628,8 @@ fn record_barriers(
             }
         }
     }
-    if any_memory || !images.is_empty() {
+    let any = any_memory || !images.is_empty();
+    if any {
         let memories: &[vk::MemoryBarrier] = if any_memory { std::slice::from_ref(&memory) } else { &[] };
         unsafe {
             device.raw.cmd_pipeline_barrier(
@@ -638,7 +643,7 @@ fn record_barriers(
             )
         };
     }
-    Ok(())
+    Ok(any)
 }
 
 /// Begins dynamic rendering over a raster pass' attachments, viewport and scissor covering the first

@@ -6,12 +6,18 @@ use super::Device;
 use crate::error::{Result, VkContext};
 
 /// Timestamps around named scopes within one submission; a scope name may repeat (e.g. one per
-/// accumulation pass) and [`GpuTimer::results`] sums repeats.
+/// accumulation pass) and [`GpuTimer::results`] sums repeats. A scope that begins right where the
+/// previous one ended shares its timestamp ([`GpuTimer::begin`]): back-to-back passes cost one
+/// timestamp each, not two — on lavapipe every timestamp after the top of the pipe flushes the
+/// queued rendering, so they are not free.
 pub struct GpuTimer {
     pool: vk::QueryPool,
     capacity: u32,
     next: u32,
-    scopes: Vec<(String, u32)>,
+    /// (name, begin query, end query).
+    scopes: Vec<(String, u32, u32)>,
+    /// The last timestamp written, while nothing has been recorded after it.
+    boundary: Option<u32>,
     enabled: bool,
     device: Device,
 }
@@ -52,42 +58,60 @@ impl GpuTimer {
         } else {
             vk::QueryPool::null()
         };
-        Ok(GpuTimer { pool, capacity, next: 0, scopes: vec![], enabled, device: device.clone() })
+        Ok(GpuTimer {
+            pool,
+            capacity,
+            next: 0,
+            scopes: vec![],
+            boundary: None,
+            enabled,
+            device: device.clone(),
+        })
     }
 
     /// Resets the pool; record at the start of the command buffer.
     pub fn reset(&mut self, cmd: vk::CommandBuffer) {
         self.next = 0;
         self.scopes.clear();
+        self.boundary = None;
         if self.enabled {
             unsafe { self.device.raw.cmd_reset_query_pool(cmd, self.pool, 0, self.capacity) };
         }
     }
 
-    /// Starts scope `name`; returns a token for [`GpuTimer::end`].
-    pub fn begin(&mut self, cmd: vk::CommandBuffer, name: &str) -> Option<u32> {
-        if !self.enabled || self.next + 2 > self.capacity {
+    fn timestamp(&mut self, cmd: vk::CommandBuffer) -> Option<u32> {
+        if !self.enabled || self.next >= self.capacity {
             return None;
         }
         let q = self.next;
-        self.next += 2;
-        self.scopes.push((name.to_string(), q));
+        self.next += 1;
         unsafe {
             self.device.raw.cmd_write_timestamp2(cmd, vk::PipelineStageFlags2::ALL_COMMANDS, self.pool, q)
         };
         Some(q)
     }
 
-    pub fn end(&mut self, cmd: vk::CommandBuffer, token: Option<u32>) {
-        if let Some(q) = token {
-            unsafe {
-                self.device.raw.cmd_write_timestamp2(
-                    cmd,
-                    vk::PipelineStageFlags2::ALL_COMMANDS,
-                    self.pool,
-                    q + 1,
-                )
-            };
+    /// Marks that commands were recorded since the last timestamp (the next scope needs its own).
+    pub fn interrupt(&mut self) {
+        self.boundary = None;
+    }
+
+    /// Starts scope `name` (at the previous scope's end when nothing was recorded in between);
+    /// returns a token for [`GpuTimer::end`].
+    pub fn begin(&mut self, cmd: vk::CommandBuffer, name: &str) -> Option<(String, u32)> {
+        let q = match self.boundary.take() {
+            Some(q) => q,
+            None => self.timestamp(cmd)?,
+        };
+        Some((name.to_string(), q))
+    }
+
+    pub fn end(&mut self, cmd: vk::CommandBuffer, token: Option<(String, u32)>) {
+        if let Some((name, begin)) = token {
+            if let Some(end) = self.timestamp(cmd) {
+                self.scopes.push((name, begin, end));
+                self.boundary = Some(end);
+            }
         }
     }
 
@@ -108,8 +132,8 @@ impl GpuTimer {
         }
         .vk("vkGetQueryPoolResults")?;
         let period = self.device.caps.timestamp_period_ns as f64;
-        for (name, q) in &self.scopes {
-            let ms = ticks[*q as usize + 1].saturating_sub(ticks[*q as usize]) as f64 * period * 1e-6;
+        for (name, begin, end) in &self.scopes {
+            let ms = ticks[*end as usize].saturating_sub(ticks[*begin as usize]) as f64 * period * 1e-6;
             match out.passes.iter_mut().find(|(n, _)| n == name) {
                 Some((_, acc)) => *acc += ms,
                 None => out.passes.push((name.clone(), ms)),
