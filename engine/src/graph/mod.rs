@@ -372,16 +372,26 @@ impl<'a> FrameGraph<'a> {
         self.resources.len() - 1
     }
 
-    /// Lends a persistent image to this graph; its state carries over from earlier graphs.
+    /// Lends a persistent image to this graph; its state carries over from earlier graphs. Importing
+    /// the same image again returns the same handle (one resource, one state).
     pub fn import_image(&mut self, name: &str, image: &'a Tracked<Image>) -> ImageHandle {
         let desc = image.desc;
-        ImageHandle { index: self.add(name, Slot::ImportedImage(image)), desc }
+        let known = self
+            .resources
+            .iter()
+            .position(|r| matches!(r.slot, Slot::ImportedImage(t) if std::ptr::eq(t, image)));
+        ImageHandle { index: known.unwrap_or_else(|| self.add(name, Slot::ImportedImage(image))), desc }
     }
 
-    /// Lends a persistent buffer to this graph; its state carries over from earlier graphs.
+    /// Lends a persistent buffer to this graph; its state carries over from earlier graphs. Importing
+    /// the same buffer again returns the same handle (one resource, one state).
     pub fn import_buffer(&mut self, name: &str, buffer: &'a Tracked<Buffer>) -> BufferHandle {
         let size = buffer.size;
-        BufferHandle { index: self.add(name, Slot::ImportedBuffer(buffer)), size }
+        let known = self
+            .resources
+            .iter()
+            .position(|r| matches!(r.slot, Slot::ImportedBuffer(t) if std::ptr::eq(t, buffer)));
+        BufferHandle { index: known.unwrap_or_else(|| self.add(name, Slot::ImportedBuffer(buffer))), size }
     }
 
     /// A transient image for this graph only (from the pool); undefined until a pass writes it.

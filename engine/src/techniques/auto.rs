@@ -40,18 +40,7 @@ fn prepare(ctx: &PrepareContext<'_>) -> Result<Box<dyn FrameTechnique>> {
     if !ctx.device.caps.geometry_shader {
         options.expansion = HullExpansion::Compute;
     }
-    let s = ctx.settings;
-    let c = &ctx.scene.camera;
-    let stochastic = StochasticDraws::new(
-        ctx.device,
-        ctx.world,
-        (s.spp, s.seed),
-        c.aperture,
-        c.shutter,
-        options,
-        DebugOptions::default(),
-        &effects,
-    )?;
+    let stochastic = StochasticDraws::new(ctx, options, DebugOptions::default(), &effects)?;
     let (msaa, passes) = stochastic.msaa_and_passes();
     let plain = if effects.contains(&Effects::Pinhole) {
         let samples = (0..passes)
@@ -98,12 +87,7 @@ impl FrameTechnique for Auto {
                 }
                 draws.push(&*stochastic);
                 let image = passes.render(frame, inputs, &draws)?;
-                Ok(TechniqueFrame {
-                    image,
-                    passes: passes.passes(),
-                    msaa_samples: passes.samples(),
-                    counters: stochastic.counters()?,
-                })
+                Ok(passes.technique_frame(image, stochastic.counters()?))
             }
         }
     }

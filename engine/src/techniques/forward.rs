@@ -159,12 +159,7 @@ impl FrameTechnique for ForwardTechnique {
     fn render(&mut self, inputs: &FrameInputs<'_>, frame: &mut FrameContext<'_>) -> Result<TechniqueFrame> {
         let draws: [&dyn PassDraws; 1] = [&self.draws];
         let image = self.frame.render(frame, inputs, &draws)?;
-        Ok(TechniqueFrame {
-            image,
-            passes: self.frame.passes(),
-            msaa_samples: self.frame.samples(),
-            counters: None,
-        })
+        Ok(self.frame.technique_frame(image, None))
     }
 }
 

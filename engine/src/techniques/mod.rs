@@ -319,17 +319,11 @@ impl Renderer {
     /// Renders one frame of a prepared scene and technique.
     pub fn render_prepared(&mut self, prepared: &mut PreparedFrame) -> Result<RenderOutput> {
         let t1 = Instant::now();
-        let mut frame = FrameContext {
-            device: &self.device,
-            recorder: &mut self.recorder,
-            pool: prepared.pool.clone(),
-            timings: PassTimings::default(),
-        };
-        let inputs = FrameInputs { world: &prepared.world, camera: &prepared.camera };
-        let out = prepared.technique.render(&inputs, &mut frame)?;
-        let timings = frame.timings;
+        let (out, timings) = self.run_with(prepared, |technique, inputs, frame| {
+            let out = technique.render(inputs, frame)?;
+            Ok((out, std::mem::take(&mut frame.timings)))
+        })?;
         let cpu_frame_ms = t1.elapsed().as_secs_f64() * 1e3;
-        self.device.check_validation()?;
         Ok(RenderOutput {
             image: out.image,
             timings,

@@ -159,6 +159,15 @@ impl MultipassFrame {
         self.passes
     }
 
+    /// A frame's result: `image` from [`MultipassFrame::render`], this frame's pass and sample counts.
+    pub fn technique_frame(
+        &self,
+        image: LinearImage,
+        counters: Option<super::SampleCounters>,
+    ) -> super::TechniqueFrame {
+        super::TechniqueFrame { image, passes: self.passes, msaa_samples: self.samples, counters }
+    }
+
     /// Renders the P passes with every path of `draws` (in order) in each, averages them and reads the
     /// result back. Each pass clears colour to the world's background and depth to 0.
     pub fn render<'a>(

@@ -34,8 +34,8 @@ use crate::plan::Effects;
 use crate::sampling::{ApertureShape, SampleTile, ShutterCurve, SAMPLE_TILE_SIZE};
 use crate::shaders::{self, axes, StochasticFrag, StochasticGeom};
 use crate::vk::{
-    write_descriptors, Buffer, DescriptorPool, DescriptorSetLayout, DescriptorWrite, Device, Feature,
-    GraphicsDesc, Pipeline, PipelineLayout, ShaderModule,
+    write_descriptors, Buffer, DescriptorPool, DescriptorSetLayout, DescriptorWrite, Feature, GraphicsDesc,
+    Pipeline, PipelineLayout, ShaderModule,
 };
 
 /// The registry entry.
@@ -283,18 +283,17 @@ pub struct StochasticDraws {
 }
 
 impl StochasticDraws {
-    /// The path for `object_effects` (one per object of `world`) at `spp` samples per pixel.
-    #[allow(clippy::too_many_arguments)]
+    /// The path for `object_effects` (one per object of the world) at the settings' samples per pixel
+    /// and seed, through the scene camera's aperture shape and shutter curve.
     pub fn new(
-        device: &Device,
-        world: &GpuWorld,
-        (spp, seed): (u32, u64),
-        aperture: ApertureShape,
-        shutter: ShutterCurve,
+        ctx: &PrepareContext<'_>,
         options: StochasticOptions,
         debug: DebugOptions,
         object_effects: &[Effects],
     ) -> Result<Self> {
+        let (device, world) = (ctx.device, ctx.world);
+        let (spp, seed) = (ctx.settings.spp, ctx.settings.seed);
+        let (aperture, shutter) = (ctx.scene.camera.aperture, ctx.scene.camera.shutter);
         let caps = &device.caps;
         if object_effects.len() != world.objects.len() {
             return Err(Error::Unsupported(format!(
@@ -746,18 +745,7 @@ impl StochasticTechnique {
         debug: DebugOptions,
         object_effects: &[Effects],
     ) -> Result<Self> {
-        let s = ctx.settings;
-        let c = &ctx.scene.camera;
-        let draws = StochasticDraws::new(
-            ctx.device,
-            ctx.world,
-            (s.spp, s.seed),
-            c.aperture,
-            c.shutter,
-            options,
-            debug,
-            object_effects,
-        )?;
+        let draws = StochasticDraws::new(ctx, options, debug, object_effects)?;
         let (msaa, passes) = draws.msaa_and_passes();
         let frame =
             MultipassFrame::new(ctx.device, ctx.world, ctx.camera.size(), msaa, passes, "stochastic")?;
@@ -775,12 +763,7 @@ impl FrameTechnique for StochasticTechnique {
         self.draws.before_frame(inputs, frame)?;
         let draws: [&dyn PassDraws; 1] = [&self.draws];
         let image = self.frame.render(frame, inputs, &draws)?;
-        Ok(TechniqueFrame {
-            image,
-            passes: self.frame.passes(),
-            msaa_samples: self.frame.samples(),
-            counters: self.draws.counters()?,
-        })
+        Ok(self.frame.technique_frame(image, self.draws.counters()?))
     }
 }
 
