@@ -30,7 +30,8 @@ export SHUTTER_DEVICE="${SHUTTER_DEVICE:-llvmpipe}"
 export SHUTTER_VALIDATION=0
 mkdir -p out/ab
 echo "== machine: $(nproc) cores, $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2)"
-"$NEW" probe | head -2
+"$NEW" probe > out/ab/probe.txt
+head -2 out/ab/probe.txt
 status=0
 for scene in $SCENES; do
   for set in $SETS; do
