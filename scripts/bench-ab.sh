@@ -11,10 +11,14 @@
 # What runs: SCENES (default: `default static`) × SETS, each set `WxH:config,config,...` benched as one
 # interleaved run (default: the cheap forward techniques at 640x360, where a frame is long enough to
 # time on a shared CPU, and `stochastic` at 160x90), S = SPP (4), FRAMES timed frames (7) after one
-# warm-up frame. MAX_RATIO gates the CPU frame-time ratio by default (GATE=cpu|gpu|both): a frame's wall
-# time covers every pass in both binaries, while their timestamp scopes may differ (the frame-graph
-# port times the accumulator clear and the readback, which the tree before it left untimed). Reports
-# land in out/ab/.
+# warm-up frame. MAX_RATIO gates the process-CPU-time ratio by default (GATE=process|cpu|gpu|all): the
+# CPU time of every thread of the process during a frame covers every pass in both binaries and is the
+# steadiest measure on a shared machine (wall time swings by 10-20 % from run to run here), while the
+# binaries' timestamp scopes may differ (the frame-graph port times the accumulator clear and the
+# readback, which the tree before it left untimed). Both binaries must report process CPU time, which
+# `shutter bench` does since the frame-graph port (docs/ARCHITECTURE.md says how the tree before it was
+# measured).
+# Reports land in out/ab/.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 OLD=$1
@@ -25,7 +29,7 @@ SCENES=${SCENES:-"default static"}
 SETS=${SETS:-"640x360:pinhole,accumulation 160x90:stochastic"}
 SPP=${SPP:-4}
 FRAMES=${FRAMES:-7}
-GATE=${GATE:-cpu}
+GATE=${GATE:-process}
 export SHUTTER_DEVICE="${SHUTTER_DEVICE:-llvmpipe}"
 export SHUTTER_VALIDATION=0
 mkdir -p out/ab

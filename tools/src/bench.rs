@@ -62,6 +62,10 @@ pub struct Stat {
 }
 
 impl Stat {
+    /// A statistic that was not measured (NaN).
+    pub fn missing() -> Stat {
+        Stat { median: f64::NAN, min: f64::NAN, max: f64::NAN }
+    }
     pub fn of(mut v: Vec<f64>) -> Stat {
         v.sort_by(|a, b| a.total_cmp(b));
         if v.is_empty() {
@@ -109,6 +113,9 @@ pub struct ConfigResult {
     /// GPU ms per named pass (triangles, stochastic, forward, accumulate, ...).
     pub passes_ms: Vec<(String, Stat)>,
     pub cpu_frame_ms: Stat,
+    /// Process CPU ms per frame, every thread (absent in reports of older binaries).
+    #[serde(default = "Stat::missing")]
+    pub process_cpu_ms: Stat,
     /// Median GPU ms ÷ the first configuration's.
     pub ratio_to_first: f64,
     pub counters: Option<Counters>,
@@ -215,6 +222,7 @@ pub fn run(renderer: &mut Renderer, scene: &Scene, a: &BenchArgs) -> Result<Benc
             gpu_ms: Stat::of(outs.iter().map(|o| o.timings.total_ms()).collect()),
             passes_ms,
             cpu_frame_ms: Stat::of(outs.iter().map(|o| o.stats.cpu_frame_ms).collect()),
+            process_cpu_ms: Stat::of(outs.iter().map(|o| o.stats.process_cpu_ms).collect()),
             ratio_to_first: f64::NAN,
             counters: None,
         };
@@ -354,6 +362,9 @@ pub struct Comparison {
     pub gpu_ms: (f64, f64),
     /// Median over runs of each run's median CPU frame ms: old, new.
     pub cpu_frame_ms: (f64, f64),
+    /// Median over runs of each run's median process CPU ms per frame: old, new (NaN when a side's
+    /// reports lack it).
+    pub process_cpu_ms: (f64, f64),
 }
 
 impl Comparison {
@@ -362,6 +373,9 @@ impl Comparison {
     }
     pub fn cpu_ratio(&self) -> f64 {
         self.cpu_frame_ms.1 / self.cpu_frame_ms.0
+    }
+    pub fn process_ratio(&self) -> f64 {
+        self.process_cpu_ms.1 / self.process_cpu_ms.0
     }
 }
 
@@ -381,13 +395,23 @@ pub fn compare(old: &[BenchReport], new: &[BenchReport]) -> Result<Vec<Compariso
     for c in &first.results {
         let gpu = |r: &ConfigResult| r.gpu_ms.median;
         let cpu = |r: &ConfigResult| r.cpu_frame_ms.median;
+        let process = |r: &ConfigResult| r.process_cpu_ms.median;
         if let (Some(go), Some(gn), Some(co), Some(cn)) = (
             pick(old, &c.label, &gpu),
             pick(new, &c.label, &gpu),
             pick(old, &c.label, &cpu),
             pick(new, &c.label, &cpu),
         ) {
-            out.push(Comparison { label: c.label.clone(), gpu_ms: (go, gn), cpu_frame_ms: (co, cn) });
+            let process_cpu_ms = (
+                pick(old, &c.label, &process).unwrap_or(f64::NAN),
+                pick(new, &c.label, &process).unwrap_or(f64::NAN),
+            );
+            out.push(Comparison {
+                label: c.label.clone(),
+                gpu_ms: (go, gn),
+                cpu_frame_ms: (co, cn),
+                process_cpu_ms,
+            });
         }
     }
     if out.is_empty() {
@@ -399,22 +423,27 @@ pub fn compare(old: &[BenchReport], new: &[BenchReport]) -> Result<Vec<Compariso
 /// The comparison as a markdown table.
 pub fn comparison_markdown(scene: &str, runs: (usize, usize), rows: &[Comparison]) -> String {
     let mut s = format!(
-        "`{scene}`: medians over {} old and {} new runs (each run's median frame)\n\n\
-         | config | GPU ms old | GPU ms new | new ÷ old | CPU frame ms old | CPU frame ms new | new ÷ old |\n\
-         |---|---:|---:|---:|---:|---:|---:|\n",
+        "`{scene}`: medians over {} old and {} new runs (each run's median frame); GPU ms: summed \
+         timestamp scopes, CPU frame ms: wall time of a frame, process CPU ms: CPU time of every thread \
+         of the process during a frame\n\n\
+         | config | GPU ms old | new | new ÷ old | CPU frame ms old | new | new ÷ old | process CPU ms old | new | new ÷ old |\n\
+         |---|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n",
         runs.0, runs.1
     );
     for r in rows {
         let _ = writeln!(
             s,
-            "| `{}` | {:.2} | {:.2} | {:.3} | {:.2} | {:.2} | {:.3} |",
+            "| `{}` | {:.2} | {:.2} | {:.3} | {:.2} | {:.2} | {:.3} | {:.2} | {:.2} | {:.3} |",
             r.label,
             r.gpu_ms.0,
             r.gpu_ms.1,
             r.gpu_ratio(),
             r.cpu_frame_ms.0,
             r.cpu_frame_ms.1,
-            r.cpu_ratio()
+            r.cpu_ratio(),
+            r.process_cpu_ms.0,
+            r.process_cpu_ms.1,
+            r.process_ratio()
         );
     }
     s

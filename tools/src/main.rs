@@ -119,10 +119,11 @@ enum Command {
         /// Fail (exit 1) when a configuration's new ÷ old exceeds this (in the measures of --gate).
         #[arg(long)]
         max_ratio: Option<f64>,
-        /// Which ratio --max-ratio applies to: `cpu` (frame wall time, every pass included — the
-        /// measure to use when the two binaries time different sets of passes), `gpu` (summed
-        /// timestamp scopes) or `both`.
-        #[arg(long, default_value = "both", value_parser = ["cpu", "gpu", "both"])]
+        /// Which ratio --max-ratio applies to: `process` (process CPU time per frame, every thread —
+        /// the steadiest on a shared machine), `cpu` (frame wall time), `gpu` (summed timestamp
+        /// scopes) or `all`. Frame and process time include every pass, so they compare binaries
+        /// that time different sets of passes.
+        #[arg(long, default_value = "all", value_parser = ["process", "cpu", "gpu", "all"])]
         gate: String,
     },
     /// Time techniques and settings on one scene: interleaved frames after warm-up, medians and
@@ -475,9 +476,22 @@ fn run() -> Result<()> {
                 let over: Vec<String> = rows
                     .iter()
                     .filter(|r| {
-                        (gate != "cpu" && r.gpu_ratio() > max) || (gate != "gpu" && r.cpu_ratio() > max)
+                        let all = gate == "all";
+                        ((all || gate == "gpu") && r.gpu_ratio() > max)
+                            || ((all || gate == "cpu") && r.cpu_ratio() > max)
+                            || ((all || gate == "process") && r.process_ratio() > max)
+                            // Not measured (an older binary) cannot pass a process-time gate.
+                            || (gate == "process" && r.process_ratio().is_nan())
                     })
-                    .map(|r| format!("`{}` GPU {:.3}× CPU {:.3}×", r.label, r.gpu_ratio(), r.cpu_ratio()))
+                    .map(|r| {
+                        format!(
+                            "`{}` GPU {:.3}× frame {:.3}× process {:.3}×",
+                            r.label,
+                            r.gpu_ratio(),
+                            r.cpu_ratio(),
+                            r.process_ratio()
+                        )
+                    })
                     .collect();
                 if !over.is_empty() {
                     anyhow::bail!("over {max}× the old runs: {}", over.join(", "));

@@ -95,6 +95,9 @@ pub struct RenderStats {
     pub triangles: usize,
     /// CPU time to record and submit, and wait for, the frame (ms), upload excluded.
     pub cpu_frame_ms: f64,
+    /// CPU time the whole process spent during the frame (ms, every thread: on lavapipe the driver's
+    /// rasterizer threads too), steadier than `cpu_frame_ms` on a shared machine.
+    pub process_cpu_ms: f64,
     /// CPU time to upload the scene (ms).
     pub upload_ms: f64,
     /// Sample counters of an instrumented `stochastic` (or stochastic `auto`) render.
@@ -319,11 +322,13 @@ impl Renderer {
     /// Renders one frame of a prepared scene and technique.
     pub fn render_prepared(&mut self, prepared: &mut PreparedFrame) -> Result<RenderOutput> {
         let t1 = Instant::now();
+        let p1 = cpu_time::ProcessTime::now();
         let (out, timings) = self.run_with(prepared, |technique, inputs, frame| {
             let out = technique.render(inputs, frame)?;
             Ok((out, std::mem::take(&mut frame.timings)))
         })?;
         let cpu_frame_ms = t1.elapsed().as_secs_f64() * 1e3;
+        let process_cpu_ms = p1.elapsed().as_secs_f64() * 1e3;
         Ok(RenderOutput {
             image: out.image,
             timings,
@@ -332,6 +337,7 @@ impl Renderer {
                 msaa_samples: out.msaa_samples,
                 triangles: prepared.triangles,
                 cpu_frame_ms,
+                process_cpu_ms,
                 upload_ms: prepared.upload_ms,
                 counters: out.counters,
                 plan: prepared.technique.plan().cloned(),
