@@ -49,8 +49,6 @@ float depth_value(float z) {
 }
 
 void main() {
-    ObjectView o = object_views[pc.object];
-    Material m = materials[pc.object];
 #ifdef COMPUTE_HULL
     uint prim = v_triangle;
 #else
@@ -130,7 +128,11 @@ void main() {
     gl_SampleMask[0] = int(mask);
     gl_FragDepth = depth_value(best_z);
 
-    // Shade the chosen hit (the reference's rules: engine/src/reference/mod.rs).
+    // Shade the chosen hit (the reference's rules: engine/src/reference/mod.rs). The object's
+    // transforms and material are read only here, after the discard: llvmpipe runs the fragment stage
+    // for every pixel a bound touches and pays loads before the discard for the misses too.
+    ObjectView o = object_views[pc.object];
+    Material m = materials[pc.object];
     Vertex tv[3];
     for (uint k = 0u; k < 3u; k++) tv[k] = vertices[indices[3u * prim + k]];
     float t = best_t;
