@@ -219,7 +219,7 @@ struct Resource<'a> {
 
 impl Resource<'_> {
     fn is_image(&self) -> bool {
-        matches!(self.slot, Slot::ImportedImage(_) | Slot::TransientImage(_))
+        self.image().is_some()
     }
     fn image(&self) -> Option<&Image> {
         match &self.slot {
@@ -235,18 +235,20 @@ impl Resource<'_> {
             _ => None,
         }
     }
-    fn initial_state(&self) -> ResourceState {
+    /// The state cell of an imported resource (None for a transient one).
+    fn tracked_state(&self) -> Option<&RefCell<ResourceState>> {
         match &self.slot {
-            Slot::ImportedImage(t) => t.state(),
-            Slot::ImportedBuffer(t) => t.state(),
-            _ => ResourceState::default(),
+            Slot::ImportedImage(t) => Some(&t.state),
+            Slot::ImportedBuffer(t) => Some(&t.state),
+            _ => None,
         }
     }
+    fn initial_state(&self) -> ResourceState {
+        self.tracked_state().map(|c| c.borrow().clone()).unwrap_or_default()
+    }
     fn store_state(&self, s: &ResourceState) {
-        match &self.slot {
-            Slot::ImportedImage(t) => *t.state.borrow_mut() = s.clone(),
-            Slot::ImportedBuffer(t) => *t.state.borrow_mut() = s.clone(),
-            _ => {}
+        if let Some(c) = self.tracked_state() {
+            *c.borrow_mut() = s.clone();
         }
     }
 }
@@ -372,26 +374,27 @@ impl<'a> FrameGraph<'a> {
         self.resources.len() - 1
     }
 
+    /// Adds an imported resource once: importing the same `Tracked` again returns its first index (one
+    /// resource, one state).
+    fn import(&mut self, name: &str, slot: Slot<'a>, state: &RefCell<ResourceState>) -> usize {
+        let known =
+            self.resources.iter().position(|r| r.tracked_state().is_some_and(|c| std::ptr::eq(c, state)));
+        known.unwrap_or_else(|| self.add(name, slot))
+    }
+
     /// Lends a persistent image to this graph; its state carries over from earlier graphs. Importing
-    /// the same image again returns the same handle (one resource, one state).
+    /// the same image again returns the same handle.
     pub fn import_image(&mut self, name: &str, image: &'a Tracked<Image>) -> ImageHandle {
-        let desc = image.desc;
-        let known = self
-            .resources
-            .iter()
-            .position(|r| matches!(r.slot, Slot::ImportedImage(t) if std::ptr::eq(t, image)));
-        ImageHandle { index: known.unwrap_or_else(|| self.add(name, Slot::ImportedImage(image))), desc }
+        ImageHandle { index: self.import(name, Slot::ImportedImage(image), &image.state), desc: image.desc }
     }
 
     /// Lends a persistent buffer to this graph; its state carries over from earlier graphs. Importing
-    /// the same buffer again returns the same handle (one resource, one state).
+    /// the same buffer again returns the same handle.
     pub fn import_buffer(&mut self, name: &str, buffer: &'a Tracked<Buffer>) -> BufferHandle {
-        let size = buffer.size;
-        let known = self
-            .resources
-            .iter()
-            .position(|r| matches!(r.slot, Slot::ImportedBuffer(t) if std::ptr::eq(t, buffer)));
-        BufferHandle { index: known.unwrap_or_else(|| self.add(name, Slot::ImportedBuffer(buffer))), size }
+        BufferHandle {
+            index: self.import(name, Slot::ImportedBuffer(buffer), &buffer.state),
+            size: buffer.size,
+        }
     }
 
     /// A transient image for this graph only (from the pool); undefined until a pass writes it.

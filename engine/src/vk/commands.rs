@@ -87,19 +87,3 @@ pub fn image_barriers(device: &Device, cmd: vk::CommandBuffer, barriers: &[vk::I
     let dep = vk::DependencyInfo::default().image_memory_barriers(barriers);
     unsafe { device.raw.cmd_pipeline_barrier2(cmd, &dep) };
 }
-
-/// A global memory barrier (synchronization2).
-pub fn memory_barrier(
-    device: &Device,
-    cmd: vk::CommandBuffer,
-    src: (vk::PipelineStageFlags2, vk::AccessFlags2),
-    dst: (vk::PipelineStageFlags2, vk::AccessFlags2),
-) {
-    let b = [vk::MemoryBarrier2::default()
-        .src_stage_mask(src.0)
-        .src_access_mask(src.1)
-        .dst_stage_mask(dst.0)
-        .dst_access_mask(dst.1)];
-    let dep = vk::DependencyInfo::default().memory_barriers(&b);
-    unsafe { device.raw.cmd_pipeline_barrier2(cmd, &dep) };
-}
