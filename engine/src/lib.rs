@@ -39,17 +39,12 @@ mod shaders_tests;
 /// them.
 ///
 /// ```
-/// use shutter::shaders::{self, axes::{Effects, Hull, Shading}, StochasticFrag};
-/// let key = StochasticFrag {
-///     hull: Hull::Compute,
-///     shading: Shading::PerSample,
-///     instrumented: false,
-///     effects: Effects::Defocus,
-/// };
+/// use shutter::shaders::{self, axes::{Effects, Hull}, StochasticFrag};
+/// let key = StochasticFrag { hull: Hull::Compute, instrumented: false, effects: Effects::Defocus };
 /// let source = key.source();
-/// assert_eq!(source.permutation, "COMPUTE_HULL_PER_SAMPLE_DEFOCUS");
-/// assert_eq!(source.defines, ["COMPUTE_HULL", "PER_SAMPLE", "NO_MOTION"]);
-/// let by_name = shaders::STOCHASTIC_STOCHASTIC_FRAG_COMPUTE_HULL_PER_SAMPLE_DEFOCUS;
+/// assert_eq!(source.permutation, "COMPUTE_HULL_DEFOCUS");
+/// assert_eq!(source.defines, ["COMPUTE_HULL", "NO_MOTION"]);
+/// let by_name = shaders::STOCHASTIC_STOCHASTIC_FRAG_COMPUTE_HULL_DEFOCUS;
 /// assert_eq!(source.spirv, by_name.spirv);
 /// ```
 ///

@@ -71,12 +71,13 @@ impl Effects {
     pub fn is_stochastic(&self) -> bool {
         *self != Effects::Pinhole
     }
-    /// The effect axis of the stochastic shader permutations (`shaders-glsl/permutations.toml`);
-    /// `Pinhole` objects are never drawn by them and map to the defocus+motion permutation.
+    /// The effect axis of the stochastic shader permutations (`shaders-glsl/permutations.toml`):
+    /// `Pinhole` objects take the `still` one (mid-shutter, lens centre).
     pub fn shader_axis(self) -> crate::shaders::axes::Effects {
         use crate::shaders::axes::Effects as Axis;
         match self {
-            Effects::Both | Effects::Pinhole => Axis::Both,
+            Effects::Pinhole => Axis::Still,
+            Effects::Both => Axis::Both,
             Effects::Defocus => Axis::Defocus,
             Effects::Motion => Axis::Motion,
         }
@@ -392,7 +393,14 @@ mod tests {
         let shift = blur_px * z / k.pixel_scale;
         s.objects[0].transform_close =
             Some(Mat4::from_translation(Vec3::new(shift, 0.0, 0.0)) * s.objects[0].transform_open);
-        let settings = ReferenceSettings { width: w, height: h, spp: 1024, seed: 3, progress: false };
+        let settings = ReferenceSettings {
+            width: w,
+            height: h,
+            spp: 1024,
+            seed: 3,
+            progress: false,
+            shading: Default::default(),
+        };
         let blurred = render_reference(&s, &settings).unwrap();
         let plain = render_reference(&sharp, &settings).unwrap();
         let effect = crate::metrics::compare(&plain, &blurred).unwrap().rmse as f32;

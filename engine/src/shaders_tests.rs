@@ -6,7 +6,7 @@
 use std::collections::{BTreeMap, BTreeSet};
 
 use crate::shaders::axes::{Effects, Hull, Shading};
-use crate::shaders::{self, ExpandComp, ShaderSource, StochasticFrag, StochasticGeom};
+use crate::shaders::{self, ExpandComp, ShadeComp, ShaderSource, StochasticFrag, StochasticGeom};
 
 const DECLARATION: &str = include_str!("../../shaders-glsl/permutations.toml");
 
@@ -100,26 +100,46 @@ fn stochastic_frag_key_selects_the_declared_defines() {
     let d = declared();
     let mut n = 0;
     for hull in Hull::ALL {
-        for shading in Shading::ALL {
-            for instrumented in [false, true] {
-                for effects in Effects::ALL {
-                    let key = StochasticFrag { hull, shading, instrumented, effects };
-                    let pairs = [
-                        ("hull", hull.name()),
-                        ("shading", shading.name()),
-                        ("instrumented", bool_name(instrumented)),
-                        ("effects", effects.name()),
-                    ];
-                    check(&d, key.source(), "stochastic/stochastic.frag", &pairs);
-                    assert!(same(StochasticFrag::SOURCES[n], key.source()));
-                    assert_eq!(StochasticFrag::ALL[n], key);
-                    n += 1;
-                }
+        for instrumented in [false, true] {
+            for effects in Effects::ALL {
+                let key = StochasticFrag { hull, instrumented, effects };
+                let pairs = [
+                    ("hull", hull.name()),
+                    ("instrumented", bool_name(instrumented)),
+                    ("effects", effects.name()),
+                ];
+                check(&d, key.source(), "stochastic/stochastic.frag", &pairs);
+                assert!(same(StochasticFrag::SOURCES[n], key.source()));
+                assert_eq!(StochasticFrag::ALL[n], key);
+                n += 1;
             }
         }
     }
     assert_eq!(n, StochasticFrag::ALL.len());
     assert_eq!(n, StochasticFrag::SOURCES.len());
+}
+
+#[test]
+fn shade_comp_key_selects_the_declared_defines() {
+    let d = declared();
+    let mut n = 0;
+    for shading in Shading::ALL {
+        for instrumented in [false, true] {
+            for effects in Effects::ALL {
+                let key = ShadeComp { shading, instrumented, effects };
+                let pairs = [
+                    ("shading", shading.name()),
+                    ("instrumented", bool_name(instrumented)),
+                    ("effects", effects.name()),
+                ];
+                check(&d, key.source(), "stochastic/shade.comp", &pairs);
+                assert!(same(ShadeComp::SOURCES[n], key.source()));
+                assert_eq!(ShadeComp::ALL[n], key);
+                n += 1;
+            }
+        }
+    }
+    assert_eq!(n, ShadeComp::ALL.len());
 }
 
 #[test]
@@ -201,9 +221,10 @@ fn each_file_has_the_product_of_its_axes() {
             assert!(seen.insert(p.permutation), "{} [{}] twice", f.file, p.permutation);
         }
     }
-    assert_eq!(d.count("stochastic/stochastic.frag"), 24);
-    assert_eq!(d.count("stochastic/stochastic.geom"), 6);
-    assert_eq!(d.count("stochastic/expand.comp"), 3);
+    assert_eq!(d.count("stochastic/stochastic.frag"), 16);
+    assert_eq!(d.count("stochastic/shade.comp"), 16);
+    assert_eq!(d.count("stochastic/stochastic.geom"), 8);
+    assert_eq!(d.count("stochastic/expand.comp"), 4);
     assert_eq!(d.count("stochastic/stochastic.vert"), 1);
 
     // `ALL` is every permutation of every file, once.
@@ -214,16 +235,18 @@ fn each_file_has_the_product_of_its_axes() {
 }
 
 /// The permutations the hand-written `permutations.txt` listed before the axes (name, defines), and the
-/// constants the techniques use: the same names with the same defines.
+/// constants the techniques use: the same names with the same defines — except the shading axis, which
+/// left the coverage stage for `shade.comp` when visibility came first (its per-sample constants
+/// there).
 #[test]
 fn the_former_hand_written_permutations_keep_their_names_and_defines() {
     use shaders::*;
     let former: &[(ShaderSource, &str, &str, &[&str])] = &[
-        (STOCHASTIC_STOCHASTIC_FRAG_PER_SAMPLE, "stochastic.frag", "PER_SAMPLE", &["PER_SAMPLE"]),
+        (STOCHASTIC_SHADE_COMP_PER_SAMPLE, "shade.comp", "PER_SAMPLE", &["PER_SAMPLE"]),
         (STOCHASTIC_STOCHASTIC_FRAG_INSTRUMENTED, "stochastic.frag", "INSTRUMENTED", &["INSTRUMENTED"]),
         (
-            STOCHASTIC_STOCHASTIC_FRAG_PER_SAMPLE_INSTRUMENTED,
-            "stochastic.frag",
+            STOCHASTIC_SHADE_COMP_PER_SAMPLE_INSTRUMENTED,
+            "shade.comp",
             "PER_SAMPLE_INSTRUMENTED",
             &["PER_SAMPLE", "INSTRUMENTED"],
         ),
@@ -233,14 +256,14 @@ fn the_former_hand_written_permutations_keep_their_names_and_defines() {
         (STOCHASTIC_STOCHASTIC_FRAG_DEFOCUS, "stochastic.frag", "DEFOCUS", &["NO_MOTION"]),
         (STOCHASTIC_STOCHASTIC_FRAG_MOTION, "stochastic.frag", "MOTION", &["NO_DEFOCUS"]),
         (
-            STOCHASTIC_STOCHASTIC_FRAG_PER_SAMPLE_DEFOCUS,
-            "stochastic.frag",
+            STOCHASTIC_SHADE_COMP_PER_SAMPLE_DEFOCUS,
+            "shade.comp",
             "PER_SAMPLE_DEFOCUS",
             &["PER_SAMPLE", "NO_MOTION"],
         ),
         (
-            STOCHASTIC_STOCHASTIC_FRAG_PER_SAMPLE_MOTION,
-            "stochastic.frag",
+            STOCHASTIC_SHADE_COMP_PER_SAMPLE_MOTION,
+            "shade.comp",
             "PER_SAMPLE_MOTION",
             &["PER_SAMPLE", "NO_DEFOCUS"],
         ),
@@ -257,14 +280,14 @@ fn the_former_hand_written_permutations_keep_their_names_and_defines() {
             &["INSTRUMENTED", "NO_DEFOCUS"],
         ),
         (
-            STOCHASTIC_STOCHASTIC_FRAG_PER_SAMPLE_INSTRUMENTED_DEFOCUS,
-            "stochastic.frag",
+            STOCHASTIC_SHADE_COMP_PER_SAMPLE_INSTRUMENTED_DEFOCUS,
+            "shade.comp",
             "PER_SAMPLE_INSTRUMENTED_DEFOCUS",
             &["PER_SAMPLE", "INSTRUMENTED", "NO_MOTION"],
         ),
         (
-            STOCHASTIC_STOCHASTIC_FRAG_PER_SAMPLE_INSTRUMENTED_MOTION,
-            "stochastic.frag",
+            STOCHASTIC_SHADE_COMP_PER_SAMPLE_INSTRUMENTED_MOTION,
+            "shade.comp",
             "PER_SAMPLE_INSTRUMENTED_MOTION",
             &["PER_SAMPLE", "INSTRUMENTED", "NO_DEFOCUS"],
         ),
@@ -284,24 +307,6 @@ fn the_former_hand_written_permutations_keep_their_names_and_defines() {
             &["COMPUTE_HULL", "NO_DEFOCUS"],
         ),
         (
-            STOCHASTIC_STOCHASTIC_FRAG_COMPUTE_HULL_PER_SAMPLE,
-            "stochastic.frag",
-            "COMPUTE_HULL_PER_SAMPLE",
-            &["COMPUTE_HULL", "PER_SAMPLE"],
-        ),
-        (
-            STOCHASTIC_STOCHASTIC_FRAG_COMPUTE_HULL_PER_SAMPLE_DEFOCUS,
-            "stochastic.frag",
-            "COMPUTE_HULL_PER_SAMPLE_DEFOCUS",
-            &["COMPUTE_HULL", "PER_SAMPLE", "NO_MOTION"],
-        ),
-        (
-            STOCHASTIC_STOCHASTIC_FRAG_COMPUTE_HULL_PER_SAMPLE_MOTION,
-            "stochastic.frag",
-            "COMPUTE_HULL_PER_SAMPLE_MOTION",
-            &["COMPUTE_HULL", "PER_SAMPLE", "NO_DEFOCUS"],
-        ),
-        (
             STOCHASTIC_STOCHASTIC_FRAG_COMPUTE_HULL_INSTRUMENTED,
             "stochastic.frag",
             "COMPUTE_HULL_INSTRUMENTED",
@@ -319,26 +324,8 @@ fn the_former_hand_written_permutations_keep_their_names_and_defines() {
             "COMPUTE_HULL_INSTRUMENTED_MOTION",
             &["COMPUTE_HULL", "INSTRUMENTED", "NO_DEFOCUS"],
         ),
-        (
-            STOCHASTIC_STOCHASTIC_FRAG_COMPUTE_HULL_PER_SAMPLE_INSTRUMENTED,
-            "stochastic.frag",
-            "COMPUTE_HULL_PER_SAMPLE_INSTRUMENTED",
-            &["COMPUTE_HULL", "PER_SAMPLE", "INSTRUMENTED"],
-        ),
-        (
-            STOCHASTIC_STOCHASTIC_FRAG_COMPUTE_HULL_PER_SAMPLE_INSTRUMENTED_DEFOCUS,
-            "stochastic.frag",
-            "COMPUTE_HULL_PER_SAMPLE_INSTRUMENTED_DEFOCUS",
-            &["COMPUTE_HULL", "PER_SAMPLE", "INSTRUMENTED", "NO_MOTION"],
-        ),
-        (
-            STOCHASTIC_STOCHASTIC_FRAG_COMPUTE_HULL_PER_SAMPLE_INSTRUMENTED_MOTION,
-            "stochastic.frag",
-            "COMPUTE_HULL_PER_SAMPLE_INSTRUMENTED_MOTION",
-            &["COMPUTE_HULL", "PER_SAMPLE", "INSTRUMENTED", "NO_DEFOCUS"],
-        ),
     ];
-    assert_eq!(former.len(), 28);
+    assert_eq!(former.len(), 22);
     for &(source, file, permutation, defines) in former {
         assert_eq!(source.file, format!("stochastic/{file}"));
         assert_eq!(source.permutation, permutation);
@@ -350,13 +337,10 @@ fn the_former_hand_written_permutations_keep_their_names_and_defines() {
         assert_eq!((default.permutation, default.defines), ("DEFAULT", &[][..]), "{}", f.file);
     }
     // Spot checks of the key structs against the old constants.
-    let key = StochasticFrag {
-        hull: Hull::Compute,
-        shading: Shading::PerSample,
-        instrumented: true,
-        effects: Effects::Motion,
-    };
-    assert!(same(key.source(), STOCHASTIC_STOCHASTIC_FRAG_COMPUTE_HULL_PER_SAMPLE_INSTRUMENTED_MOTION));
+    let key = StochasticFrag { hull: Hull::Compute, instrumented: true, effects: Effects::Motion };
+    assert!(same(key.source(), STOCHASTIC_STOCHASTIC_FRAG_COMPUTE_HULL_INSTRUMENTED_MOTION));
+    let key = ShadeComp { shading: Shading::PerSample, instrumented: true, effects: Effects::Motion };
+    assert!(same(key.source(), STOCHASTIC_SHADE_COMP_PER_SAMPLE_INSTRUMENTED_MOTION));
     let key = StochasticGeom { bound_debug: true, effects: Effects::Both };
     assert!(same(key.source(), STOCHASTIC_STOCHASTIC_GEOM_BOUND_DEBUG));
     assert!(same(ExpandComp { effects: Effects::Defocus }.source(), STOCHASTIC_EXPAND_COMP_DEFOCUS));

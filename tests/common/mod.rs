@@ -6,9 +6,10 @@ use std::sync::Arc;
 
 use glam::{Mat4, Vec2, Vec3};
 use shutter::image::LinearImage;
+use shutter::reference::{render_reference, ReferenceSettings, ReferenceShading};
 use shutter::sampling::{ApertureShape, ShutterCurve};
 use shutter::scene::{Camera, CameraPose, Environment, ImageSettings, Light, Material, Mesh, Object, Scene};
-use shutter::techniques::Renderer;
+use shutter::techniques::{RenderOutput, Renderer, ShadingRate};
 
 /// A renderer on the environment's device with validation forced on (any message fails a render).
 pub fn renderer() -> Renderer {
@@ -17,6 +18,24 @@ pub fn renderer() -> Renderer {
     let device = shutter::vk::create_device().expect("a Vulkan device (run scripts/setup.sh for lavapipe)");
     assert!(device.validation_enabled, "validation layer missing: install vulkan-validationlayers");
     Renderer::new(device).expect("renderer")
+}
+
+/// The CPU reference with the same samples *and* the same shading rate as a stochastic (or `auto`)
+/// render `out` of S = `spp`: per-pixel shading groups the samples of each of its passes.
+pub fn same_sample_reference(
+    scene: &Scene,
+    (w, h): (u32, u32),
+    spp: u32,
+    seed: u64,
+    shading: ShadingRate,
+    out: &RenderOutput,
+) -> LinearImage {
+    let shading = match shading {
+        ShadingRate::PerSample => ReferenceShading::PerSample,
+        ShadingRate::PerPixel => ReferenceShading::PerPixel { per_pass: spp / out.stats.passes.max(1) },
+    };
+    render_reference(scene, &ReferenceSettings { width: w, height: h, spp, seed, progress: false, shading })
+        .expect("reference")
 }
 
 /// Where tests write images for a person to look at.

@@ -60,8 +60,8 @@ fn config(scene: &'static str, technique: &'static str, spp: u32, o: StochasticO
             o.shading.name(),
             o.expansion.name()
         );
-        if let Some(m) = o.msaa {
-            let _ = write!(label, "/msaa={m}");
+        if let Some(m) = o.per_pass {
+            let _ = write!(label, "/per-pass={m}");
         }
         if o.instrumented {
             label.push_str("/instrumented");
@@ -117,10 +117,10 @@ fn configs() -> Vec<Config> {
             }
         }
     }
-    // Several passes accumulated (S = 16 = 4 MSAA × 4 passes on lavapipe), one sample per pass forced,
-    // per-sample shading instrumented (per-pixel is in the bound sweep), and `auto` over passes.
+    // S = 16 (one pass of 16 samples), one sample per pass forced (4 passes through the visibility
+    // buffer), per-sample shading instrumented (per-pixel is in the bound sweep), and `auto` at S = 16.
     c.push(config("default", "stochastic", 16, base));
-    c.push(config("default", "stochastic", 4, StochasticOptions { msaa: Some(1), ..base }));
+    c.push(config("default", "stochastic", 4, StochasticOptions { per_pass: Some(1), ..base }));
     c.push(config(
         "default",
         "stochastic",

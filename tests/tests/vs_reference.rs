@@ -11,8 +11,18 @@ use shutter_tests::{renderer, save_comparison};
 
 fn reference(name: &str, w: u32, h: u32, spp: u32) -> shutter::image::LinearImage {
     let scene = builtin_scene(name).expect("built-in").expect("parses");
-    render_reference(&scene, &ReferenceSettings { width: w, height: h, spp, seed: 1, progress: false })
-        .expect("reference")
+    render_reference(
+        &scene,
+        &ReferenceSettings {
+            width: w,
+            height: h,
+            spp,
+            seed: 1,
+            progress: false,
+            shading: Default::default(),
+        },
+    )
+    .expect("reference")
 }
 
 /// Pinhole vs reference on `static` (no blur anywhere): only antialiasing and texture filtering differ.

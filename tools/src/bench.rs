@@ -17,7 +17,7 @@ use serde::{Deserialize, Serialize};
 use shutter::scene::Scene;
 use shutter::techniques::{RenderSettings, Renderer, SampleCounters, StochasticOptions, Technique};
 
-/// One configuration: `technique[:key=value...]` with keys spp, bound, shading, msaa, hull; unset keys
+/// One configuration: `technique[:key=value...]` with keys spp, bound, shading, per-pass, hull; unset keys
 /// take the command's defaults.
 #[derive(Clone, Debug)]
 pub struct Config {
@@ -47,9 +47,9 @@ pub fn apply_option(s: &mut RenderSettings, key: &str, value: &str) -> Result<()
         "spp" => s.spp = value.parse().with_context(|| format!("spp `{value}`"))?,
         "bound" => o.bound = value.parse()?,
         "shading" => o.shading = value.parse()?,
-        "msaa" => o.msaa = Some(value.parse().with_context(|| format!("msaa `{value}`"))?),
+        "per-pass" => o.per_pass = Some(value.parse().with_context(|| format!("per-pass `{value}`"))?),
         "hull" => o.expansion = value.parse()?,
-        _ => bail!("unknown setting `{key}` (spp, bound, shading, msaa, hull)"),
+        _ => bail!("unknown setting `{key}` (spp, bound, shading, per-pass, hull)"),
     }
     Ok(())
 }

@@ -12,10 +12,10 @@ use clap::{Parser, Subcommand};
 
 use shutter::image_io::{load_image, save_image};
 use shutter::metrics::{compare, write_flip_diff_png};
-use shutter::reference::{render_reference, ReferenceSettings};
+use shutter::reference::{render_reference, ReferenceSettings, ReferenceShading};
 use shutter::scene::builtin::BUILTIN_SCENES;
 use shutter::scene::file::load_scene;
-use shutter::techniques::{RenderSettings, Renderer, StochasticOptions, Technique};
+use shutter::techniques::{RenderSettings, Renderer, ShadingRate, StochasticOptions, Technique};
 
 #[derive(Parser)]
 #[command(
@@ -53,10 +53,10 @@ enum Command {
         /// Stochastic: count samples tested / hit and shading invocations (atomics; slower).
         #[arg(long)]
         instrumented: bool,
-        /// Stochastic: force M MSAA samples per pass (S = M × passes). Default: the largest the device
-        /// supports that divides S.
+        /// Stochastic: force M samples per pixel and pass (S = M × passes; M must divide S). Default:
+        /// all S in one pass where the visibility buffer fits 256 MiB.
         #[arg(long)]
-        msaa: Option<u32>,
+        per_pass: Option<u32>,
         /// Stochastic: expand the bounds in a geometry shader (gs) or a compute pass (compute).
         #[arg(long, default_value = "gs")]
         hull: String,
@@ -70,6 +70,14 @@ enum Command {
         /// Rays per pixel.
         #[arg(long, default_value_t = 256)]
         spp: u32,
+        /// per-sample (the ground truth) or per-pixel: shade like `stochastic --shading per-pixel`
+        /// with --per-pass samples per pass, so the two can be compared exactly.
+        #[arg(long, default_value = "per-sample")]
+        shading: String,
+        /// Per-pixel shading: samples per pixel and pass of the stochastic render it mirrors (default:
+        /// all of them, its one pass).
+        #[arg(long)]
+        per_pass: Option<u32>,
         #[command(flatten)]
         image: ImageArgs,
     },
@@ -131,7 +139,7 @@ enum Command {
     Bench {
         #[arg(default_value = "default")]
         scene: String,
-        /// A configuration `technique[:spp=N][:bound=B][:shading=per-pixel|per-sample][:msaa=M][:hull=gs|compute]`; repeat for
+        /// A configuration `technique[:spp=N][:bound=B][:shading=per-pixel|per-sample][:per-pass=M][:hull=gs|compute]`; repeat for
         /// more. The first is the baseline of the ratios.
         #[arg(short = 'c', long = "config", default_values_t = ["auto".to_string(), "pinhole".to_string()])]
         configs: Vec<String>,
@@ -166,7 +174,7 @@ enum Command {
     Quality {
         #[arg(default_value = "default")]
         scene: String,
-        /// A series `technique[:key=value...]@S1,S2,...` (keys: bound, shading, msaa, hull); repeat for more.
+        /// A series `technique[:key=value...]@S1,S2,...` (keys: bound, shading, per-pass, hull); repeat for more.
         #[arg(short = 's', long = "series", default_values_t = [
             "accumulation@4,16,64,256".to_string(),
             "stochastic@4,16,64".to_string(),
@@ -273,7 +281,7 @@ fn run() -> Result<()> {
             bound,
             shading,
             instrumented,
-            msaa,
+            per_pass,
             hull,
             image: ImageArgs { size, seed, out },
         } => {
@@ -282,7 +290,7 @@ fn run() -> Result<()> {
                 bound: bound.parse()?,
                 shading: shading.parse()?,
                 instrumented,
-                msaa,
+                per_pass,
                 expansion: hull.parse()?,
             };
             let sc = load_scene(&scene)?;
@@ -349,11 +357,15 @@ fn run() -> Result<()> {
             }
             println!("wrote {}", out.display());
         }
-        Command::Reference { scene, spp, image: ImageArgs { size, seed, out } } => {
+        Command::Reference { scene, spp, shading, per_pass, image: ImageArgs { size, seed, out } } => {
             let sc = load_scene(&scene)?;
             let (width, height) = size.unwrap_or((sc.image.width, sc.image.height));
-            let settings =
-                ReferenceSettings { width, height, spp, seed: seed.unwrap_or(sc.image.seed), progress: true };
+            let shading = match shading.parse::<ShadingRate>()? {
+                ShadingRate::PerSample => ReferenceShading::PerSample,
+                ShadingRate::PerPixel => ReferenceShading::PerPixel { per_pass: per_pass.unwrap_or(spp) },
+            };
+            let seed = seed.unwrap_or(sc.image.seed);
+            let settings = ReferenceSettings { width, height, spp, seed, progress: true, shading };
             let start = std::time::Instant::now();
             let image = render_reference(&sc, &settings)?;
             let secs = start.elapsed().as_secs_f64();

@@ -113,6 +113,7 @@ fn reference(scene: &Scene, a: &QualityArgs) -> Result<LinearImage> {
             spp: a.reference_spp,
             seed: a.seed,
             progress: true,
+            shading: Default::default(),
         },
     )?;
     save_image(&path, &img)?;

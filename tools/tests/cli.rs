@@ -91,8 +91,8 @@ fn plan_bench_and_quality_work_and_quality_resumes() {
     );
     let j = std::fs::read_to_string(&json).unwrap();
     assert!(j.contains("\"ratio_to_first\"") && j.contains("\"device\""), "{j}");
-    let (code, _, err) = shutter(&["bench", "static", "--size", "32x18", "-c", "stochastic:msaa=3"]);
-    assert!(code == 1 && err.contains("3x MSAA per pass"), "{err}");
+    let (code, _, err) = shutter(&["bench", "static", "--size", "32x18", "-c", "stochastic:per-pass=3"]);
+    assert!(code == 1 && err.contains("3 samples per pass for S = 16"), "{err}");
 
     let stem = dir.join("q");
     let cache = dir.join("cache");

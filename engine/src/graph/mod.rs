@@ -278,11 +278,14 @@ struct DepthTarget {
 struct Attachments {
     colors: Vec<ColorTarget>,
     depth: Option<DepthTarget>,
+    /// Render area of a raster pass without attachments (its fragments only have side effects).
+    area: Option<vk::Extent2D>,
 }
 
 impl Attachments {
-    fn is_empty(&self) -> bool {
-        self.colors.is_empty() && self.depth.is_none()
+    /// Whether the pass rasterizes (begins dynamic rendering).
+    fn is_raster(&self) -> bool {
+        !self.colors.is_empty() || self.depth.is_some() || self.area.is_some()
     }
 }
 
@@ -569,7 +572,7 @@ fn record_pass(
         timer.interrupt();
     }
     if let Some(record) = &mut pass.record {
-        let raster = !pass.attachments.is_empty();
+        let raster = pass.attachments.is_raster();
         let extent = if raster {
             begin_rendering(device, cmd, &pass.attachments, resources)
         } else {
@@ -668,8 +671,12 @@ fn begin_rendering(
     resources: &[Resource<'_>],
 ) -> vk::Extent2D {
     let image = |i: usize| resources[i].image().expect("attachment is an image");
-    let first = a.colors.first().map(|c| c.image).or(a.depth.as_ref().map(|d| d.image)).expect("attachments");
-    let extent = image(first).extent_2d();
+    let first = a.colors.first().map(|c| c.image).or(a.depth.as_ref().map(|d| d.image));
+    let extent = match (first, a.area) {
+        (Some(i), _) => image(i).extent_2d(),
+        (None, Some(area)) => area,
+        (None, None) => unreachable!("a raster pass has attachments or an area"),
+    };
     let colors: Vec<vk::RenderingAttachmentInfo> = a
         .colors
         .iter()
@@ -784,6 +791,13 @@ impl<'a> PassBuilder<'_, 'a> {
         let discard = !matches!(load, Load::Load);
         self.pass.attachments.depth = Some(DepthTarget { image: image.index, load, store, read_only: false });
         self.add_use(image.into(), Access::DepthStencilAttachmentReadWrite, discard)
+    }
+
+    /// A raster pass without attachments over `width × height` pixels: its fragment shaders work
+    /// through storage writes only (the stochastic visibility buffer's atomics).
+    pub fn render_area(mut self, width: u32, height: u32) -> Self {
+        self.pass.attachments.area = Some(vk::Extent2D { width, height });
+        self
     }
 
     /// The depth attachment, loaded and tested but not written (pipelines must not write depth).

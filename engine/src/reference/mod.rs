@@ -73,7 +73,28 @@ pub struct ReferenceSettings {
     pub seed: u64,
     /// Show a progress bar on stderr (not drawn when stderr is not a terminal).
     pub progress: bool,
+    /// How often samples are shaded (visibility is always per sample).
+    pub shading: ReferenceShading,
 }
+
+/// How often the reference shades: the ground truth shades every sample; the per-pixel mode mirrors
+/// the stochastic rasterizer's `ShadingRate::PerPixel` (`shaders-glsl/stochastic/shade.comp`) so that
+/// its images can be compared exactly with the same samples.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum ReferenceShading {
+    /// Every sample shaded at its own hit (the ground truth).
+    #[default]
+    PerSample,
+    /// The pixel's samples in consecutive chunks of `per_pass` (the rasterizer's passes); within a
+    /// chunk, samples that hit the same triangle from the same side take the radiance of the first
+    /// of them, for at most [`PER_PIXEL_SHADING_GROUPS`] groups per object (samples of later groups are
+    /// shaded on their own).
+    PerPixel { per_pass: u32 },
+}
+
+/// Groups per object, pixel and pass that per-pixel shading remembers (`SHADE_GROUPS` in
+/// `shade.comp`).
+pub const PER_PIXEL_SHADING_GROUPS: usize = 8;
 
 /// What a render cost.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -223,6 +244,7 @@ struct Tracer<'a> {
     width: u32,
     spp: u32,
     seed: u64,
+    shading: ReferenceShading,
 }
 
 impl<'a> Tracer<'a> {
@@ -269,6 +291,7 @@ impl<'a> Tracer<'a> {
             width: s.width,
             spp: s.spp,
             seed: s.seed,
+            shading: s.shading,
         }
     }
 
@@ -294,35 +317,59 @@ impl<'a> Tracer<'a> {
     fn render_pixel(&self, x: u32, y: u32, lights: &mut Vec<ShadingLight>) -> Vec3 {
         let samples = pixel_samples(self.spp, self.seed, x, y);
         let pixel_index = y as u64 * self.width as u64 + x as u64;
+        let per_pass = match self.shading {
+            ReferenceShading::PerSample => 1,
+            ReferenceShading::PerPixel { per_pass } => per_pass.max(1) as usize,
+        };
+        // Per-pixel shading groups of the current chunk: (triangle id, side, object, radiance).
+        let mut groups: Vec<(u32, bool, u32, Vec3)> = Vec::new();
         let mut sum = DVec3::ZERO;
         for (k, s) in samples.iter().enumerate() {
+            if k % per_pass == 0 {
+                groups.clear();
+            }
             let pos = Vec2::new(x as f32 + s.xy.x, y as f32 + s.xy.y);
             let lens = self.camera.aperture.map(s.lens);
             let time = self.camera.shutter.warp(s.time);
             let (o, d) = self.intrinsics.primary_ray(pos, lens);
-            sum += self.radiance(o, d, time, pixel_index, k as u32, lights).as_dvec3();
+            let Some(hit) = self.nearest_hit(o, d, time, pixel_index, k as u32) else {
+                sum += self.background.as_dvec3();
+                continue;
+            };
+            let radiance = if self.shading == ReferenceShading::PerSample {
+                self.shade_hit(&hit, d, time, lights)
+            } else {
+                let p = self.geometry[hit.id as usize].at(time);
+                let side = (p[1] - p[0]).cross(p[2] - p[0]).dot(d) > 0.0;
+                let object = self.surface[hit.id as usize].object;
+                match groups.iter().find(|g| g.0 == hit.id && g.1 == side) {
+                    Some(g) => g.3,
+                    None => {
+                        let r = self.shade_hit(&hit, d, time, lights);
+                        if groups.iter().filter(|g| g.2 == object).count() < PER_PIXEL_SHADING_GROUPS {
+                            groups.push((hit.id, side, object, r));
+                        }
+                        r
+                    }
+                }
+            };
+            sum += radiance.as_dvec3();
         }
         (sum / self.spp as f64).as_vec3()
     }
 
-    /// Radiance along one primary ray.
-    fn radiance(
-        &self,
-        o: Vec3,
-        d: Vec3,
-        time: f32,
-        pixel: u64,
-        sample: u32,
-        lights: &mut Vec<ShadingLight>,
-    ) -> Vec3 {
-        // Hits whose view depth is outside [near, far] are skipped, as the GPU's clip planes do.
-        let hit = self.bvh.intersect(o, d, time, self.camera.near, self.camera.far, |id| {
+    /// The nearest hit along one primary ray whose view depth lies in `[near, far]`, as the GPU's
+    /// visibility keeps it.
+    fn nearest_hit(&self, o: Vec3, d: Vec3, time: f32, pixel: u64, sample: u32) -> Option<Hit> {
+        self.bvh.intersect(o, d, time, self.camera.near, self.camera.far, |id| {
             let alpha = self.materials[self.surface[id as usize].object as usize].alpha;
             alpha >= 1.0 || coverage_hash(self.seed, pixel, sample, id) < alpha
-        });
-        let Some(Hit { id, hit }) = hit else {
-            return self.background;
-        };
+        })
+    }
+
+    /// Radiance towards the lens of a primary ray (direction `d`) at `hit`.
+    fn shade_hit(&self, hit: &Hit, d: Vec3, time: f32, lights: &mut Vec<ShadingLight>) -> Vec3 {
+        let Hit { id, hit } = *hit;
         let tri = &self.surface[id as usize];
         let material = &self.materials[tri.object as usize];
         let w = hit.barycentrics.to_array();

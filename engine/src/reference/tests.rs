@@ -68,7 +68,7 @@ fn scene(camera: Camera, objects: Vec<Object>, background: Vec3) -> Scene {
 }
 
 fn settings(width: u32, height: u32, spp: u32) -> ReferenceSettings {
-    ReferenceSettings { width, height, spp, seed: 7, progress: false }
+    ReferenceSettings { width, height, spp, seed: 7, progress: false, shading: Default::default() }
 }
 
 fn render(scene: &Scene, s: ReferenceSettings) -> LinearImage {

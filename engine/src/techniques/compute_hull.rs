@@ -214,7 +214,8 @@ impl ComputeHull {
     ) {
         let world = inputs.world;
         let view_set = inputs.camera.frame_set;
-        let drawn = |i: usize| object_effects[i].is_stochastic() && world.objects[i].triangle_count() > 0;
+        // Every object: auto's still objects take the `still` permutation of the same expansion.
+        let drawn = |i: usize| world.objects[i].triangle_count() > 0;
         let mut reads: Vec<BufferHandle> = vec![];
         let mut writes: Vec<BufferHandle> = vec![];
         for i in (0..world.objects.len()).filter(|&i| drawn(i)) {

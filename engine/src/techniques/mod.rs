@@ -386,10 +386,6 @@ pub fn feature_paths(caps: &crate::vk::Capabilities) -> Vec<FeaturePath> {
         available,
         path,
     };
-    let split = |s: u32| {
-        let (m, p) = stochastic::split_samples(s, counts);
-        format!("S={s} → {p} pass(es) × {m}x")
-    };
     vec![
         f(
             "geometryShader",
@@ -406,39 +402,43 @@ pub fn feature_paths(caps: &crate::vk::Capabilities) -> Vec<FeaturePath> {
             "MSAA",
             counts.len() > 1,
             format!(
-                "counts {counts:?}; stochastic splits S into passes of the largest count dividing S ({}, {}); \
-                 force with --msaa M; pinhole uses {}x",
-                split(16),
-                split(64),
+                "counts {counts:?}; pinhole and accumulation use {}x; stochastic uses none (one rasterizer \
+                 sample per pixel, every (x, y, u, v, t) sample in its visibility buffer)",
                 caps.msaa_samples(pinhole::PINHOLE_MSAA)
             ),
         ),
         f(
             "sampleRateShading",
             caps.sample_rate_shading,
-            if caps.sample_rate_shading {
-                "default per-pixel shading (one invocation loops over the pass' samples and writes the mask); \
-                 --shading per-sample runs one invocation per sample"
-                    .into()
-            } else {
-                "per-pixel shading only (mask loop); --shading per-sample is refused".into()
-            },
+            "unused: stochastic shades in a compute pass over its visibility buffer, per pixel group or per \
+             sample (--shading)"
+                .into(),
         ),
         f(
             "fragmentStoresAndAtomics",
             caps.fragment_stores_and_atomics,
             if caps.fragment_stores_and_atomics {
-                "sample counters available (--instrumented)".into()
+                "stochastic coverage writes its visibility buffer; sample counters (--instrumented)".into()
             } else {
-                "no sample counters".into()
+                "stochastic and auto with blur are refused (the coverage pass writes a storage buffer)".into()
+            },
+        ),
+        f(
+            "shaderBufferInt64Atomics",
+            caps.buffer_int64_atomics,
+            if caps.buffer_int64_atomics {
+                "stochastic visibility: one 64-bit atomicMax of (depth, object, triangle) per hit sample".into()
+            } else {
+                "stochastic and auto with blur are refused (the visibility buffer needs 64-bit atomics)".into()
             },
         ),
         f(
             "standard sample locations",
             caps.standard_sample_locations,
             format!(
-                "bound dilation {:.4} px at 4x ({})",
-                crate::bounds::dilation_px(4, caps.standard_sample_locations),
+                "pinhole/accumulation MSAA at the standard locations; stochastic dilates its bounds by {:.4} px \
+                 (one sample at the pixel centre) ({})",
+                crate::bounds::dilation_px(1, caps.standard_sample_locations),
                 if caps.standard_sample_locations { "from the standard locations" } else { "half-pixel box: locations unknown" }
             ),
         ),

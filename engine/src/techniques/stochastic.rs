@@ -1,14 +1,20 @@
 //! Technique `stochastic`: stochastic rasterization of motion blur and depth of field on the conventional
 //! pipeline (McGuire, Enderton, Shirley & Luebke, HPG 2010; Toth & Linder 2008).
 //!
-//! S samples per pixel are split into P = S / M passes of M MSAA samples. In every pass each triangle
-//! goes through a geometry shader that replaces it by a conservative screen-space bound of everywhere
-//! it can land over the lens and the shutter (`bounds`, selectable per draw, mirrored on the CPU in
-//! [`crate::bounds`]), dilated by a pixel box; for every pixel the bound touches, the fragment shader
-//! runs the 5D inside test of each of the pass' samples — the ray from the sample's lens point through
-//! its (x, y) against the triangle at the sample's time — writes the hits to `gl_SampleMask` and the
-//! hit depth to `gl_FragDepth`, and shades per pixel or per sample ([`ShadingRate`]). The passes are
-//! resolved and averaged by the multipass frame ([`super::multipass::MultipassFrame`]).
+//! **Visibility first, shading second.** S samples per pixel are split into P passes of M = S / P
+//! samples ([`samples_per_pass`]; one pass unless the visibility buffer would be too large). In every
+//! pass each triangle goes through a geometry shader that replaces it by a conservative screen-space
+//! bound of everywhere it can land over the lens and the shutter (`bounds`, selectable per draw,
+//! mirrored on the CPU in [`crate::bounds`]), dilated by half a pixel; for every pixel the bound
+//! touches, the coverage fragment shader runs the 5D inside test of each of the pass' samples — the
+//! ray from the sample's lens point through its (x, y) against the triangle at the sample's time — and
+//! keeps each hit in a visibility buffer, one 64-bit word per pixel and sample, `atomicMax` of (view
+//! depth, object, triangle): the nearest hit of every sample, exactly, with no depth attachment and no
+//! shading. A compute pass then shades the surviving hits from the samples themselves, per sample or
+//! once per (triangle, side) group of the pixel ([`ShadingRate`]), and adds them to the frame's
+//! accumulation image. This departs from McGuire et al. (who shade in the coverage pass and write one
+//! depth per pixel through `gl_FragDepth`): on a CPU rasterizer that masks SIMD lanes, shading there is
+//! paid by every bound fragment, and one depth per pixel misorders samples (`docs/STOCHASTIC.md`).
 //!
 //! The (x, y, u, v, t) samples are those of the CPU reference ([`SampleTile`]: 64×64 pixels × S
 //! stratified samples, aperture shape and shutter curve applied here, never in the shaders), so at
@@ -20,7 +26,7 @@ use bytemuck::{Pod, Zeroable};
 use gpu_allocator::MemoryLocation;
 
 use super::compute_hull::{ComputeHull, HullExpansion, INITIAL_VERTICES_PER_TRIANGLE};
-use super::multipass::{FrameUse, MultipassFrame, PassDraws, COLOR_FORMAT, DEPTH_FORMAT};
+use super::multipass::ACCUM_FORMAT;
 use super::{FrameContext, FrameInputs, FrameTechnique, PrepareContext, TechniqueFrame, TechniqueInfo};
 use crate::bounds::BoundKind;
 use crate::error::{Error, Result};
@@ -30,12 +36,13 @@ use crate::gpu::layout::{
 };
 use crate::gpu::{GpuView, GpuWorld};
 use crate::graph::{Access, FrameGraph, PassContext, ResourceHandle, Tracked};
+use crate::image::LinearImage;
 use crate::plan::Effects;
 use crate::sampling::{ApertureShape, SampleTile, ShutterCurve, SAMPLE_TILE_SIZE};
-use crate::shaders::{self, axes, StochasticFrag, StochasticGeom};
+use crate::shaders::{self, axes, ShadeComp, StochasticFrag, StochasticGeom};
 use crate::vk::{
     write_descriptors, Buffer, DescriptorPool, DescriptorSetLayout, DescriptorWrite, Feature, GraphicsDesc,
-    Pipeline, PipelineLayout, ShaderModule,
+    Image, ImageDesc, Pipeline, PipelineLayout, ShaderModule,
 };
 
 /// The registry entry.
@@ -53,14 +60,16 @@ fn prepare(ctx: &PrepareContext<'_>) -> Result<Box<dyn FrameTechnique>> {
 
 pub use crate::limits::MAX_STOCHASTIC_SPP;
 
-/// How often the fragment shader shades.
+/// How often the shading pass shades. Visibility is per sample either way.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum ShadingRate {
-    /// Once per pixel and pass from the nearest covered sample (MSAA-like); every covered sample takes
-    /// that sample's colour and depth.
+    /// Once per pixel, pass and group of samples that hit the same triangle from the same side: the
+    /// group's first sample is shaded and its radiance stands for the others (at most
+    /// [`crate::reference::PER_PIXEL_SHADING_GROUPS`] groups per object; later ones are shaded per
+    /// sample). The reference mirrors it ([`crate::reference::ReferenceSettings::shading`]).
     #[default]
     PerPixel,
-    /// Once per covered sample (`sampleRateShading`), each with its own hit, time, lens and depth.
+    /// Every sample shaded with its own hit, time and lens point.
     PerSample,
 }
 
@@ -90,10 +99,10 @@ pub struct StochasticOptions {
     pub shading: ShadingRate,
     /// Count samples tested / hit and shading invocations with atomics (slower).
     pub instrumented: bool,
-    /// MSAA samples per pass M (S = M × passes): `None` takes the largest the device supports that
-    /// divides S ([`split_samples`]); `Some(m)` forces m (a hardware experiment: fewer, cheaper MSAA
-    /// passes against more passes).
-    pub msaa: Option<u32>,
+    /// Samples per pixel and pass M (S = M × passes): `None` takes all S in one pass where the
+    /// visibility buffer fits [`VISIBILITY_BUDGET_BYTES`] ([`samples_per_pass`]); `Some(m)` forces m
+    /// (an experiment: more passes, each paying the bounds' rasterization again).
+    pub per_pass: Option<u32>,
     /// Geometry shader or compute-expanded hull ([`HullExpansion`]).
     pub expansion: HullExpansion,
 }
@@ -104,7 +113,7 @@ impl Default for StochasticOptions {
             bound: DEFAULT_BOUND,
             shading: ShadingRate::PerPixel,
             instrumented: false,
-            msaa: None,
+            per_pass: None,
             expansion: HullExpansion::GeometryShader,
         }
     }
@@ -115,13 +124,13 @@ const DEFAULT_BOUND: BoundKind = BoundKind::Adaptive;
 /// Counters of an instrumented render, summed over all passes.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct SampleCounters {
-    /// Fragment shader invocations (pixels × passes the bounds touched).
+    /// Coverage fragment shader invocations (pixels × passes the bounds touched).
     pub fragments: u64,
     /// (x, y, u, v, t) samples run through the inside test.
     pub samples_tested: u64,
-    /// Samples the inside test accepted (before the depth test).
+    /// Samples the inside test accepted (before the visibility buffer keeps the nearest).
     pub samples_hit: u64,
-    /// Invocations that shaded (per pixel: fragments with a hit; per sample: hits).
+    /// Shading evaluations of the shading pass (per pixel: one per group; per sample: visible hits).
     pub shading_invocations: u64,
 }
 
@@ -144,8 +153,7 @@ pub struct StochasticPush {
     pub bound: u32,
     pub pass_index: u32,
     pub spp: u32,
-    pub msaa: u32,
-    pub footprint: f32,
+    pub per_pass: u32,
     pub dilate: f32,
 }
 
@@ -164,39 +172,49 @@ pub const STOCHASTIC_OBJECT_SET: [Binding; 3] = [
     Binding { binding: 2, ty: vk::DescriptorType::STORAGE_BUFFER, block: "HullTriangles" },
 ];
 
-/// Set 3 of the stochastic rasterizer: the sample tile, counters, bound debug output, hull counts.
-pub const STOCHASTIC_SET: [Binding; 5] = [
+/// Set 3 of the stochastic rasterizer: the sample tile, counters, bound debug output, hull counts, the
+/// visibility buffer and the accumulation image.
+pub const STOCHASTIC_SET: [Binding; 7] = [
     Binding { binding: 0, ty: vk::DescriptorType::STORAGE_BUFFER, block: "SamplesXyLens" },
     Binding { binding: 1, ty: vk::DescriptorType::STORAGE_BUFFER, block: "SamplesTime" },
     Binding { binding: 2, ty: vk::DescriptorType::STORAGE_BUFFER, block: "Counters" },
     Binding { binding: 3, ty: vk::DescriptorType::STORAGE_BUFFER, block: "BoundDebug" },
     Binding { binding: 4, ty: vk::DescriptorType::STORAGE_BUFFER, block: "HullCounts" },
+    Binding { binding: 5, ty: vk::DescriptorType::STORAGE_BUFFER, block: "Visibility" },
+    Binding { binding: 6, ty: vk::DescriptorType::STORAGE_IMAGE, block: "accum" },
 ];
+
+/// `StochasticPush::object` of the shading pass' dispatch that adds the background for the samples
+/// without a hit (`SHADE_BACKGROUND` in `shade.comp`).
+pub const SHADE_BACKGROUND: u32 = u32::MAX;
+
+/// Bits of the visibility payload's triangle index (`PAYLOAD_TRIANGLE_BITS` in `visibility.glsl`):
+/// payload = object << 24 | triangle, so at most 256 objects and 2^24 triangles per object.
+pub const PAYLOAD_TRIANGLE_BITS: u32 = 24;
+
+/// Largest visibility buffer (8 bytes per pixel and sample of a pass) before S is split into more
+/// passes.
+pub const VISIBILITY_BUDGET_BYTES: u64 = 256 << 20;
 
 /// For the reflection test.
 pub const STOCHASTIC_STRUCTS: &[SharedStruct] = &[
-    shared_struct!("Push", StochasticPush, [object, bound, pass_index, spp, msaa, footprint, dilate]),
+    shared_struct!("Push", StochasticPush, [object, bound, pass_index, spp, per_pass, dilate]),
     shared_struct!("Push", TrianglesPush, [object, triangle_count]),
 ];
 
-/// MSAA samples per pass and passes for `spp` samples per pixel: `forced` when given (it must be a
-/// count of the device dividing S), else [`split_samples`].
-pub fn msaa_and_passes(spp: u32, forced: Option<u32>, supported: &[u32]) -> Result<(u32, u32)> {
+/// Samples per pixel and pass M and passes P (S = M × P) for `pixels` pixels: `forced` when given (it
+/// must divide S), else the largest divisor of S whose visibility buffer (8 bytes per pixel and
+/// sample) fits [`VISIBILITY_BUDGET_BYTES`].
+pub fn samples_per_pass(spp: u32, forced: Option<u32>, pixels: u64) -> Result<(u32, u32)> {
     match forced {
-        None => Ok(split_samples(spp, supported)),
-        Some(m) if supported.contains(&m) && spp.is_multiple_of(m) => Ok((m, spp / m)),
-        Some(m) => Err(Error::Unsupported(format!(
-            "{m}x MSAA per pass for S = {spp}: it must divide S and be one of the device's counts {supported:?}"
-        ))),
+        Some(m) if m > 0 && spp.is_multiple_of(m) => Ok((m, spp / m)),
+        Some(m) => Err(Error::Unsupported(format!("{m} samples per pass for S = {spp}: it must divide S"))),
+        None => {
+            let fits = |m: u32| pixels * m as u64 * 8 <= VISIBILITY_BUDGET_BYTES;
+            let m = (1..=spp).rev().find(|&m| spp.is_multiple_of(m) && fits(m)).unwrap_or(1);
+            Ok((m, spp / m))
+        }
     }
-}
-
-/// Splits S samples per pixel into passes of M MSAA samples: the largest count the device supports
-/// (up to 8) that divides S.
-pub fn split_samples(spp: u32, supported: &[u32]) -> (u32, u32) {
-    let msaa =
-        [8, 4, 2, 1].into_iter().find(|&m| spp.is_multiple_of(m) && supported.contains(&m)).unwrap_or(1);
-    (msaa, spp / msaa)
 }
 
 /// The sample tile as the fragment shader reads it: (x, y, lens u, lens v) and time per sample.
@@ -246,15 +264,19 @@ pub struct DebugOptions {
 /// Floats per triangle in the bound debug buffer (see `stochastic.geom`).
 pub const BOUND_DEBUG_STRIDE: usize = 8 + 2 * 48;
 
-/// The stochastic path of a set of objects: pipelines (one shader permutation per effect path in
-/// use), the sample tile, the view's camera-space triangles, counters.
+/// The stochastic path of a set of objects: coverage pipelines (one shader permutation per effect path
+/// in use) and their shading pipelines, the sample tile, the view's camera-space triangles, the
+/// visibility buffer, the accumulation image, counters.
 ///
-/// Every object takes one path ([`Effects`]): `object_effects[i]`; objects on [`Effects::Pinhole`]
-/// are not drawn here (`auto` draws them with the plain forward path in the same passes).
+/// Every object takes one path ([`Effects`]): `object_effects[i]`; [`Effects::Pinhole`] objects (from
+/// `auto`'s planner) take the `still` permutation — bounded and tested at mid-shutter through the lens
+/// centre — so every object of the frame meets the others in the same visibility buffer.
 pub struct StochasticDraws {
     pipelines: Vec<(Effects, Pipeline)>,
+    shade_pipelines: Vec<(Effects, Pipeline)>,
     object_effects: Vec<Effects>,
     layout: PipelineLayout,
+    shade_layout: PipelineLayout,
     push_stages: vk::ShaderStageFlags,
     /// Set 2 per object ([`STOCHASTIC_OBJECT_SET`]).
     object_sets: Vec<vk::DescriptorSet>,
@@ -262,9 +284,10 @@ pub struct StochasticDraws {
     technique_set: vk::DescriptorSet,
     options: StochasticOptions,
     spp: u32,
-    msaa: u32,
+    per_pass: u32,
     passes: u32,
-    /// Box half-size of the bound dilation ([`crate::bounds::dilation_px`]).
+    size: (u32, u32),
+    /// Box half-size of the bound dilation ([`crate::bounds::dilation_px`] for one sample per pixel).
     dilate: f32,
     counters: Tracked<Buffer>,
     bound_debug: Option<Tracked<Buffer>>,
@@ -272,6 +295,10 @@ pub struct StochasticDraws {
     triangles: Vec<Tracked<Buffer>>,
     triangles_pipeline: Pipeline,
     triangles_layout: PipelineLayout,
+    /// One 64-bit word per pixel and sample of a pass (`visibility.glsl`).
+    visibility: Tracked<Buffer>,
+    /// Σ (radiance, 1) / S over every sample of the frame.
+    accum: Tracked<Image>,
     /// The compute-expanded hull's buffers and pipelines ([`HullExpansion::Compute`]).
     hull: Option<ComputeHull>,
     /// Vertices of each object's expanded hull this frame (compute expansion).
@@ -294,6 +321,7 @@ impl StochasticDraws {
         let (device, world) = (ctx.device, ctx.world);
         let (spp, seed) = (ctx.settings.spp, ctx.settings.seed);
         let (aperture, shutter) = (ctx.scene.camera.aperture, ctx.scene.camera.shutter);
+        let (width, height) = ctx.camera.size();
         let caps = &device.caps;
         if object_effects.len() != world.objects.len() {
             return Err(Error::Unsupported(format!(
@@ -302,7 +330,7 @@ impl StochasticDraws {
                 world.objects.len()
             )));
         }
-        let mut paths: Vec<Effects> = object_effects.iter().copied().filter(|e| e.is_stochastic()).collect();
+        let mut paths: Vec<Effects> = object_effects.to_vec();
         paths.sort();
         paths.dedup();
         if options.expansion == HullExpansion::GeometryShader {
@@ -311,12 +339,11 @@ impl StochasticDraws {
                 "technique `stochastic` with the geometry-shader hull (--hull compute needs none)",
             )?;
         }
-        if options.shading == ShadingRate::PerSample {
-            caps.require(Feature::SampleRateShading, "technique `stochastic --shading per-sample`")?;
-        }
-        if options.instrumented {
-            caps.require(Feature::FragmentStoresAndAtomics, "instrumented `stochastic` (sample counters)")?;
-        }
+        caps.require(
+            Feature::FragmentStoresAndAtomics,
+            "the stochastic visibility buffer (coverage atomics)",
+        )?;
+        caps.require(Feature::BufferInt64Atomics, "the stochastic visibility buffer (64-bit atomicMax)")?;
         let compute = options.expansion == HullExpansion::Compute;
         if compute && debug.bound_debug_triangles > 0 {
             return Err(Error::Unsupported(
@@ -338,7 +365,21 @@ impl StochasticDraws {
                 limit: format!("1..={MAX_STOCHASTIC_SPP} for technique `stochastic`"),
             });
         }
-        let (msaa, passes) = msaa_and_passes(spp, options.msaa, &caps.framebuffer_sample_counts)?;
+        if world.objects.len() > 1 << (32 - PAYLOAD_TRIANGLE_BITS) {
+            return Err(Error::Limit {
+                what: "objects",
+                value: world.objects.len().to_string(),
+                limit: format!("at most {} for technique `stochastic`", 1u32 << (32 - PAYLOAD_TRIANGLE_BITS)),
+            });
+        }
+        if let Some(o) = world.objects.iter().find(|o| o.triangle_count() >= 1 << PAYLOAD_TRIANGLE_BITS) {
+            return Err(Error::Limit {
+                what: "triangles per object",
+                value: format!("{} ({})", o.triangle_count(), o.name),
+                limit: format!("below {} for technique `stochastic`", 1u32 << PAYLOAD_TRIANGLE_BITS),
+            });
+        }
+        let (per_pass, passes) = samples_per_pass(spp, options.per_pass, width as u64 * height as u64)?;
 
         let object_set_layout = DescriptorSetLayout::from_table(
             device,
@@ -362,6 +403,12 @@ impl StochasticDraws {
         )?;
         let triangles_pipeline =
             Pipeline::compute(device, "camera-space triangles", &triangles_layout, &comp)?;
+        let shade_layout = world.pipeline_layout(
+            device,
+            &sets,
+            std::mem::size_of::<StochasticPush>() as u32,
+            vk::ShaderStageFlags::COMPUTE,
+        )?;
         // The geometry stage is named only where the device has one.
         let mut push_stages = vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT;
         if caps.geometry_shader {
@@ -378,10 +425,10 @@ impl StochasticDraws {
         let hull_vert = ShaderModule::new(device, shaders::STOCHASTIC_HULL_VERT)?;
         let mut shader_modules = vec![];
         let mut pipelines = Vec::with_capacity(paths.len());
+        let mut shade_pipelines = Vec::with_capacity(paths.len());
         for &effects in &paths {
             let frag = StochasticFrag {
                 hull: options.expansion.axis(),
-                shading: options.shading.axis(),
                 instrumented: options.instrumented,
                 effects: effects.shader_axis(),
             };
@@ -401,23 +448,36 @@ impl StochasticDraws {
                 device,
                 &layout,
                 &GraphicsDesc {
-                    name: &format!("stochastic ({}, {} hull)", effects.name(), options.expansion.name()),
+                    name: &format!(
+                        "stochastic coverage ({}, {} hull)",
+                        effects.name(),
+                        options.expansion.name()
+                    ),
                     stages: &stages,
                     vertex_bindings: if compute { &[] } else { &bindings },
                     vertex_attributes: if compute { &[] } else { &attributes[..1] },
-                    color_formats: &[COLOR_FORMAT],
-                    depth_format: Some(DEPTH_FORMAT),
-                    samples: msaa,
-                    sample_shading: (options.shading == ShadingRate::PerSample).then_some(1.0),
+                    color_formats: &[],
+                    depth_format: None,
+                    samples: 1,
+                    sample_shading: None,
                     cull_mode: vk::CullModeFlags::NONE,
                     front_face: vk::FrontFace::COUNTER_CLOCKWISE,
-                    depth_compare: vk::CompareOp::GREATER,
-                    depth_write: true,
+                    depth_compare: vk::CompareOp::ALWAYS,
+                    depth_write: false,
                 },
             )?;
             pipelines.push((effects, pipeline));
             shader_modules.extend(geom);
             shader_modules.push(frag);
+            let shade = ShadeComp {
+                shading: options.shading.axis(),
+                instrumented: options.instrumented,
+                effects: effects.shader_axis(),
+            };
+            let shade = ShaderModule::new(device, shade.source())?;
+            let name = format!("stochastic shading ({}, {})", effects.name(), options.shading.name());
+            shade_pipelines.push((effects, Pipeline::compute(device, &name, &shade_layout, &shade)?));
+            shader_modules.push(shade);
         }
         shader_modules.extend([vert, hull_vert, comp]);
 
@@ -434,6 +494,25 @@ impl StochasticDraws {
         } else {
             None
         };
+        let visibility = Tracked::new(Buffer::new(
+            device,
+            "stochastic visibility",
+            width as u64 * height as u64 * per_pass as u64 * 8,
+            storage | vk::BufferUsageFlags::TRANSFER_DST,
+            MemoryLocation::GpuOnly,
+        )?);
+        let accum = Tracked::new(Image::new(
+            device,
+            "stochastic accumulation",
+            ImageDesc::new_2d(
+                width,
+                height,
+                ACCUM_FORMAT,
+                vk::ImageUsageFlags::STORAGE
+                    | vk::ImageUsageFlags::TRANSFER_SRC
+                    | vk::ImageUsageFlags::TRANSFER_DST,
+            ),
+        )?);
 
         let n_objects = world.objects.len() as u32;
         let pool = DescriptorPool::for_tables(
@@ -446,6 +525,8 @@ impl StochasticDraws {
             DescriptorWrite::storage_buffer(0, &samples[0]),
             DescriptorWrite::storage_buffer(1, &samples[1]),
             DescriptorWrite::storage_buffer(2, &counters),
+            DescriptorWrite::storage_buffer(5, &visibility),
+            DescriptorWrite::StorageImage { binding: 6, view: accum.view },
         ];
         if let Some(b) = &bound_debug {
             writes.push(DescriptorWrite::storage_buffer(3, b));
@@ -482,21 +563,27 @@ impl StochasticDraws {
         };
         Ok(StochasticDraws {
             pipelines,
+            shade_pipelines,
             object_effects: object_effects.to_vec(),
             layout,
+            shade_layout,
             push_stages,
             object_sets,
             technique_set,
             options,
             spp,
-            msaa,
+            per_pass,
             passes,
-            dilate: crate::bounds::dilation_px(msaa, caps.standard_sample_locations),
+            size: (width, height),
+            // One rasterizer sample per pixel, at its centre.
+            dilate: crate::bounds::dilation_px(1, caps.standard_sample_locations),
             counters,
             bound_debug,
             triangles,
             triangles_pipeline,
             triangles_layout,
+            visibility,
+            accum,
             hull,
             hull_counts: vec![0; world.objects.len()],
             _samples: samples,
@@ -506,9 +593,9 @@ impl StochasticDraws {
         })
     }
 
-    /// MSAA samples per pass and number of passes.
-    pub fn msaa_and_passes(&self) -> (u32, u32) {
-        (self.msaa, self.passes)
+    /// Samples per pixel and pass, and passes.
+    pub fn samples_per_pass(&self) -> (u32, u32) {
+        (self.per_pass, self.passes)
     }
 
     /// The counters of the last frame (instrumented renders only).
@@ -538,18 +625,18 @@ impl StochasticDraws {
         Ok(b.mapped()?.chunks_exact(4).map(|c| f32::from_ne_bytes([c[0], c[1], c[2], c[3]])).collect())
     }
 
-    fn is_drawn(&self, i: usize) -> bool {
-        self.object_effects[i].is_stochastic()
+    fn is_drawn(&self, i: usize, world: &GpuWorld) -> bool {
+        world.objects[i].triangle_count() > 0
     }
 
-    /// The camera-space triangles of every object on the path, once per frame (they do not depend on
-    /// the pass): a compute pass per view (thesis §9.6: the fragment stage reads one record per
-    /// fragment instead of transforming three vertices twice).
+    /// The camera-space triangles of every object, once per frame (they do not depend on the pass): a
+    /// compute pass per view (thesis §9.6: the fragment stage reads one record per fragment instead of
+    /// transforming three vertices twice).
     fn add_triangles_pass<'a>(&'a self, g: &mut FrameGraph<'a>, inputs: &FrameInputs<'a>) {
         let mut drawn = Vec::new();
         let mut handles = Vec::new();
         for (i, t) in self.triangles.iter().enumerate() {
-            if self.is_drawn(i) && inputs.world.objects[i].index_count >= 3 {
+            if self.is_drawn(i, inputs.world) {
                 handles.push(g.import_buffer("camera-space triangles", t));
                 drawn.push(i);
             }
@@ -588,16 +675,15 @@ impl StochasticDraws {
             }
         }
     }
-}
 
-impl PassDraws for StochasticDraws {
-    fn before_frame(&mut self, inputs: &FrameInputs<'_>, frame: &mut FrameContext<'_>) -> Result<()> {
+    /// Work before the frame's graph: the counters reset and, with the compute-expanded hull, the
+    /// triangles and the expansion in a graph of their own, their counts read back; an overflowed
+    /// buffer grows and the expansion runs again, so no bound is ever dropped.
+    pub fn before_frame(&mut self, inputs: &FrameInputs<'_>, frame: &mut FrameContext<'_>) -> Result<()> {
         self.counters.get_mut().write(&[0u32; 4])?;
         if self.hull.is_none() {
             return Ok(());
         }
-        // The compute-expanded hull: triangles and expansion in a graph of their own, its counts read
-        // back; an overflowed buffer grows and the expansion runs again, so no bound is ever dropped.
         loop {
             let hull = self.hull.as_mut().expect("checked");
             hull.reset_counts()?;
@@ -625,54 +711,129 @@ impl PassDraws for StochasticDraws {
         }
     }
 
-    fn add_frame_passes<'a>(&'a self, g: &mut FrameGraph<'a>, inputs: &FrameInputs<'a>) -> Result<FrameUse> {
-        let mut used = FrameUse::default();
-        if self.hull.is_none() {
-            self.add_triangles_pass(g, inputs);
+    fn push(&self, object: u32, pass: u32) -> StochasticPush {
+        StochasticPush {
+            object,
+            bound: self.options.bound.id(),
+            pass_index: pass,
+            spp: self.spp,
+            per_pass: self.per_pass,
+            dilate: self.dilate,
         }
+    }
+
+    /// The frame as a graph: `triangles` → `clear accumulation` → repeat P × { `clear visibility` →
+    /// `stochastic coverage` (raster, no attachments) → `stochastic shading` (compute) } → readback.
+    pub fn render<'a>(
+        &'a self,
+        frame: &mut FrameContext<'_>,
+        inputs: &FrameInputs<'a>,
+    ) -> Result<LinearImage> {
+        let mut g = frame.graph();
+        if self.hull.is_none() {
+            self.add_triangles_pass(&mut g, inputs);
+        }
+        let world = inputs.world;
+        // What the coverage pass reads besides the visibility buffer, and what the shading pass reads.
+        let mut coverage_uses: Vec<(ResourceHandle, Access)> = Vec::new();
+        let mut shading_uses: Vec<(ResourceHandle, Access)> = Vec::new();
         for (i, t) in self.triangles.iter().enumerate() {
-            if self.is_drawn(i) {
-                let h = g.import_buffer("camera-space triangles", t);
-                used.pass_accesses.push((h.into(), Access::FragmentShaderReadOther));
+            if self.is_drawn(i, world) {
+                let h: ResourceHandle = g.import_buffer("camera-space triangles", t).into();
+                coverage_uses.push((h, Access::FragmentShaderReadOther));
+                shading_uses.push((h, Access::ComputeShaderReadOther));
             }
         }
         if let Some(hull) = &self.hull {
             for (i, [vertices, sources]) in hull.buffers().iter().enumerate() {
-                if self.is_drawn(i) {
+                if self.is_drawn(i, world) {
                     for (name, b) in [("hull", vertices), ("hull triangles", sources)] {
                         let h: ResourceHandle = g.import_buffer(name, b).into();
-                        used.pass_accesses.push((h, Access::VertexShaderReadOther));
+                        coverage_uses.push((h, Access::VertexShaderReadOther));
                     }
                 }
             }
         }
+        let mut host_reads = Vec::new();
         if self.options.instrumented {
             let h = g.import_buffer("stochastic counters", &self.counters);
             // Atomics read and write.
-            used.pass_accesses.push((h.into(), Access::FragmentShaderReadOther));
-            used.pass_accesses.push((h.into(), Access::FragmentShaderWrite));
-            used.host_reads.push(h);
+            for access in [Access::FragmentShaderReadOther, Access::FragmentShaderWrite] {
+                coverage_uses.push((h.into(), access));
+            }
+            for access in [Access::ComputeShaderReadOther, Access::ComputeShaderWrite] {
+                shading_uses.push((h.into(), access));
+            }
+            host_reads.push(h);
         }
         if let Some(b) = &self.bound_debug {
             let h = g.import_buffer("bound debug", b);
-            used.pass_accesses.push((h.into(), Access::GeometryShaderWrite));
-            used.host_reads.push(h);
+            coverage_uses.push((h.into(), Access::GeometryShaderWrite));
+            host_reads.push(h);
         }
-        Ok(used)
+        let visibility = g.import_buffer("stochastic visibility", &self.visibility);
+        let accum = g.import_image("stochastic accumulation", &self.accum);
+
+        g.pass("clear accumulation").overwrite(accum, Access::TransferWrite).record(move |ctx| {
+            let image = ctx.image(accum);
+            let zero = vk::ClearColorValue { float32: [0.0; 4] };
+            unsafe {
+                ctx.device.raw.cmd_clear_color_image(
+                    ctx.cmd,
+                    image.raw,
+                    vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+                    &zero,
+                    &[image.full_range()],
+                )
+            };
+            Ok(())
+        });
+        let inputs = *inputs;
+        let (w, h) = self.size;
+        g.repeat(self.passes, |g| {
+            g.pass("clear visibility").overwrite(visibility, Access::TransferWrite).record(move |ctx| {
+                let b = ctx.buffer(visibility);
+                unsafe { ctx.device.raw.cmd_fill_buffer(ctx.cmd, b.raw, 0, vk::WHOLE_SIZE, 0) };
+                Ok(())
+            });
+            let mut pass = g
+                .pass("stochastic coverage")
+                .render_area(w, h)
+                .access(visibility, Access::FragmentShaderReadOther)
+                .access(visibility, Access::FragmentShaderWrite);
+            for &(handle, access) in &coverage_uses {
+                pass = pass.access(handle, access);
+            }
+            pass.record(move |ctx| {
+                self.record_coverage(ctx, &inputs, ctx.iteration);
+                Ok(())
+            });
+            let mut pass = g
+                .pass("stochastic shading")
+                .access(visibility, Access::ComputeShaderReadOther)
+                .access(accum, Access::ComputeShaderReadWrite);
+            for &(handle, access) in &shading_uses {
+                pass = pass.access(handle, access);
+            }
+            pass.record(move |ctx| {
+                self.record_shading(ctx, &inputs, ctx.iteration);
+                Ok(())
+            });
+            Ok(())
+        })?;
+        for b in host_reads {
+            g.host_read(b);
+        }
+        let readback = g.read_back(accum)?;
+        let mut result = frame.run(g)?;
+        Ok(result.take_image(readback))
     }
 
-    fn record(&self, ctx: &mut PassContext<'_>, inputs: &FrameInputs<'_>, pass: u32) {
+    /// The coverage draws of pass `pass`, inside the attachment-less rendering.
+    fn record_coverage(&self, ctx: &mut PassContext<'_>, inputs: &FrameInputs<'_>, pass: u32) {
         let (d, cmd) = (ctx.device, ctx.cmd);
         let bind = vk::PipelineBindPoint::GRAPHICS;
-        let push = |i: usize| StochasticPush {
-            object: i as u32,
-            bound: self.options.bound.id(),
-            pass_index: pass,
-            spp: self.spp,
-            msaa: self.msaa,
-            footprint: 1.0 / (self.spp as f32).sqrt(),
-            dilate: self.dilate,
-        };
+        let push = |i: usize| self.push(i as u32, pass);
         let world = inputs.world;
         for (effects, pipeline) in &self.pipelines {
             unsafe {
@@ -728,12 +889,94 @@ impl PassDraws for StochasticDraws {
             }
         }
     }
+
+    /// The shading dispatches of pass `pass`: the background for the samples without a hit, then one
+    /// per object with its sets (each adds its own samples; the accumulation image orders them).
+    fn record_shading(&self, ctx: &mut PassContext<'_>, inputs: &FrameInputs<'_>, pass: u32) {
+        let (d, cmd) = (ctx.device, ctx.cmd);
+        let bind = vk::PipelineBindPoint::COMPUTE;
+        let layout = self.shade_layout.raw;
+        let (w, h) = self.size;
+        let world = inputs.world;
+        let barrier = || {
+            // Read-modify-write of the accumulation image by consecutive dispatches.
+            let b = vk::MemoryBarrier2::default()
+                .src_stage_mask(vk::PipelineStageFlags2::COMPUTE_SHADER)
+                .src_access_mask(vk::AccessFlags2::SHADER_STORAGE_WRITE)
+                .dst_stage_mask(vk::PipelineStageFlags2::COMPUTE_SHADER)
+                .dst_access_mask(
+                    vk::AccessFlags2::SHADER_STORAGE_READ | vk::AccessFlags2::SHADER_STORAGE_WRITE,
+                );
+            let dep = vk::DependencyInfo::default().memory_barriers(std::slice::from_ref(&b));
+            unsafe { d.raw.cmd_pipeline_barrier2(cmd, &dep) };
+        };
+        unsafe {
+            d.raw.cmd_bind_descriptor_sets(
+                cmd,
+                bind,
+                layout,
+                FRAME_SET_INDEX,
+                &[inputs.camera.frame_set],
+                &[],
+            );
+            d.raw.cmd_bind_descriptor_sets(
+                cmd,
+                bind,
+                layout,
+                TECHNIQUE_SET_INDEX,
+                &[self.technique_set],
+                &[],
+            );
+        }
+        let mut first = true;
+        let mut dispatch = |pipeline: &Pipeline, object: u32, sets: Option<[vk::DescriptorSet; 2]>| {
+            if !first {
+                barrier();
+            }
+            first = false;
+            unsafe {
+                d.raw.cmd_bind_pipeline(cmd, bind, pipeline.raw);
+                if let Some(sets) = sets {
+                    d.raw.cmd_bind_descriptor_sets(cmd, bind, layout, OBJECT_SET_INDEX, &sets, &[]);
+                }
+                let push = self.push(object, pass);
+                d.raw.cmd_push_constants(
+                    cmd,
+                    layout,
+                    vk::ShaderStageFlags::COMPUTE,
+                    0,
+                    bytemuck::bytes_of(&push),
+                );
+                d.raw.cmd_dispatch(cmd, w.div_ceil(8), h.div_ceil(8), 1);
+            }
+        };
+        // The background dispatch binds no object sets; any permutation does it. Set 1 and 2 of the
+        // first drawn object keep the layout's sets valid.
+        let Some(first_drawn) = (0..world.objects.len()).find(|&i| self.is_drawn(i, world)) else {
+            let (_, p) = &self.shade_pipelines[0];
+            let o = &world.objects[0];
+            dispatch(p, SHADE_BACKGROUND, Some([o.set, self.object_sets[0]]));
+            return;
+        };
+        let o = &world.objects[first_drawn];
+        dispatch(&self.shade_pipelines[0].1, SHADE_BACKGROUND, Some([o.set, self.object_sets[first_drawn]]));
+        for (effects, pipeline) in &self.shade_pipelines {
+            for (i, o) in world.objects.iter().enumerate() {
+                if self.object_effects[i] == *effects && self.is_drawn(i, world) {
+                    dispatch(pipeline, i as u32, Some([o.set, self.object_sets[i]]));
+                }
+            }
+        }
+    }
+
+    /// This frame's result.
+    pub fn technique_frame(&self, image: LinearImage) -> Result<TechniqueFrame> {
+        Ok(TechniqueFrame { image, passes: self.passes, msaa_samples: 1, counters: self.counters()? })
+    }
 }
 
-/// Technique `stochastic`: every object on the stochastic path simulating both effects, in the
-/// multipass frame.
+/// Technique `stochastic`: every object on the stochastic path simulating both effects.
 pub struct StochasticTechnique {
-    frame: MultipassFrame,
     draws: StochasticDraws,
 }
 
@@ -745,11 +988,7 @@ impl StochasticTechnique {
         debug: DebugOptions,
         object_effects: &[Effects],
     ) -> Result<Self> {
-        let draws = StochasticDraws::new(ctx, options, debug, object_effects)?;
-        let (msaa, passes) = draws.msaa_and_passes();
-        let frame =
-            MultipassFrame::new(ctx.device, ctx.world, ctx.camera.size(), msaa, passes, "stochastic")?;
-        Ok(StochasticTechnique { frame, draws })
+        Ok(StochasticTechnique { draws: StochasticDraws::new(ctx, options, debug, object_effects)? })
     }
 
     /// The stochastic path (for its diagnostics: bound debug output, hull usage).
@@ -761,18 +1000,17 @@ impl StochasticTechnique {
 impl FrameTechnique for StochasticTechnique {
     fn render(&mut self, inputs: &FrameInputs<'_>, frame: &mut FrameContext<'_>) -> Result<TechniqueFrame> {
         self.draws.before_frame(inputs, frame)?;
-        let draws: [&dyn PassDraws; 1] = [&self.draws];
-        let image = self.frame.render(frame, inputs, &draws)?;
-        Ok(self.frame.technique_frame(image, self.draws.counters()?))
+        let image = self.draws.render(frame, inputs)?;
+        self.draws.technique_frame(image)
     }
 }
 
 /// What the stochastic rasterizer's shaders expect of the layouts [`StochasticDraws::new`] builds:
 /// sets 2 and 3 from [`STOCHASTIC_OBJECT_SET`] and [`STOCHASTIC_SET`], and [`StochasticPush`] for the
-/// raster pipelines (`hull.vert` pushes nothing), [`TrianglesPush`] for `triangles.comp`. Also
-/// `expand.comp`'s: [`ComputeHull`] builds its pipeline with these two sets' layouts (handed over
-/// here; it writes the hull bindings of set 2 and the counts' binding of set 3) and
-/// [`super::compute_hull::ExpandPush`].
+/// raster pipelines (`hull.vert` pushes nothing) and the shading pass, [`TrianglesPush`] for
+/// `triangles.comp`. Also `expand.comp`'s: [`ComputeHull`] builds its pipeline with these two sets'
+/// layouts (handed over here; it writes the hull bindings of set 2 and the counts' binding of set 3)
+/// and [`super::compute_hull::ExpandPush`].
 pub const SHADER_INTERFACES: &[crate::gpu::layout::ShaderInterface] = &[
     crate::gpu::layout::ShaderInterface::technique(
         &[
@@ -780,6 +1018,7 @@ pub const SHADER_INTERFACES: &[crate::gpu::layout::ShaderInterface] = &[
             "stochastic/stochastic.geom",
             "stochastic/hull.vert",
             "stochastic/stochastic.frag",
+            "stochastic/shade.comp",
         ],
         Some(&STOCHASTIC_OBJECT_SET),
         Some(&STOCHASTIC_SET),

@@ -61,6 +61,9 @@ pub struct Capabilities {
     /// Stores from vertex/geometry stages (the bound readback test's debug output).
     pub vertex_pipeline_stores_and_atomics: bool,
     pub conservative_rasterization: bool,
+    /// `shaderInt64` and `shaderBufferInt64Atomics`: 64-bit atomics on storage buffers (the stochastic
+    /// visibility buffer packs a sample's depth and payload into one `atomicMax`).
+    pub buffer_int64_atomics: bool,
     pub max_geometry_output_vertices: u32,
     pub max_geometry_total_output_components: u32,
     pub max_push_constants_size: u32,
@@ -84,6 +87,7 @@ pub enum Feature {
     FragmentStoresAndAtomics,
     VertexPipelineStoresAndAtomics,
     ConservativeRasterization,
+    BufferInt64Atomics,
     TimestampQueries,
     /// MSAA with this many samples for colour and depth.
     Msaa(u32),
@@ -98,6 +102,7 @@ impl Feature {
             Feature::FragmentStoresAndAtomics => "fragmentStoresAndAtomics".into(),
             Feature::VertexPipelineStoresAndAtomics => "vertexPipelineStoresAndAtomics".into(),
             Feature::ConservativeRasterization => "VK_EXT_conservative_rasterization".into(),
+            Feature::BufferInt64Atomics => "shaderInt64 and shaderBufferInt64Atomics".into(),
             Feature::TimestampQueries => "timestampComputeAndGraphics".into(),
             Feature::Msaa(n) => {
                 format!("{n}x MSAA (framebufferColorSampleCounts & framebufferDepthSampleCounts)")
@@ -119,6 +124,7 @@ impl Capabilities {
             Feature::FragmentStoresAndAtomics => self.fragment_stores_and_atomics,
             Feature::VertexPipelineStoresAndAtomics => self.vertex_pipeline_stores_and_atomics,
             Feature::ConservativeRasterization => self.conservative_rasterization,
+            Feature::BufferInt64Atomics => self.buffer_int64_atomics,
             Feature::TimestampQueries => self.timestamps,
             Feature::Msaa(n) => self.framebuffer_sample_counts.contains(&n),
         }
@@ -161,6 +167,7 @@ impl std::fmt::Display for Capabilities {
         writeln!(f, "fragment stores/atomics {}", self.fragment_stores_and_atomics)?;
         writeln!(f, "vertex-pipeline stores/atomics {}", self.vertex_pipeline_stores_and_atomics)?;
         writeln!(f, "VK_EXT_conservative_rasterization {}", self.conservative_rasterization)?;
+        writeln!(f, "64-bit buffer atomics {}", self.buffer_int64_atomics)?;
         writeln!(f, "push constants    {} bytes", self.max_push_constants_size)?;
         writeln!(f, "storage buffer range {} bytes", self.max_storage_buffer_range)?;
         writeln!(f, "max image 2D      {}", self.max_image_dimension_2d)?;
@@ -428,6 +435,8 @@ impl DeviceShared {
             fragment_stores_and_atomics: supported.fragment_stores_and_atomics == vk::TRUE,
             vertex_pipeline_stores_and_atomics: supported.vertex_pipeline_stores_and_atomics == vk::TRUE,
             conservative_rasterization: conservative,
+            buffer_int64_atomics: supported.shader_int64 == vk::TRUE
+                && f12.shader_buffer_int64_atomics == vk::TRUE,
             max_geometry_output_vertices: limits.max_geometry_output_vertices,
             max_geometry_total_output_components: limits.max_geometry_total_output_components,
             max_push_constants_size: limits.max_push_constants_size,
@@ -446,14 +455,16 @@ impl DeviceShared {
             .sample_rate_shading(caps.sample_rate_shading)
             .fragment_stores_and_atomics(caps.fragment_stores_and_atomics)
             .vertex_pipeline_stores_and_atomics(caps.vertex_pipeline_stores_and_atomics)
+            .shader_int64(caps.buffer_int64_atomics)
             .sampler_anisotropy(supported.sampler_anisotropy == vk::TRUE)
             .shader_storage_image_write_without_format(
                 supported.shader_storage_image_write_without_format == vk::TRUE,
             );
         let mut enable13 =
             vk::PhysicalDeviceVulkan13Features::default().dynamic_rendering(true).synchronization2(true);
-        let mut enable12 =
-            vk::PhysicalDeviceVulkan12Features::default().host_query_reset(f12.host_query_reset == vk::TRUE);
+        let mut enable12 = vk::PhysicalDeviceVulkan12Features::default()
+            .host_query_reset(f12.host_query_reset == vk::TRUE)
+            .shader_buffer_int64_atomics(caps.buffer_int64_atomics);
         let priorities = [1.0f32];
         let queue_info = [vk::DeviceQueueCreateInfo::default()
             .queue_family_index(queue_family)
