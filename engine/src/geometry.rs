@@ -70,7 +70,8 @@ impl MovingTriangle {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct TriangleHit {
     /// View depth `z = −p.z` of the hit point `p`: the barycentric interpolation of the vertices' `z`
-    /// (what the GPU interpolates and depth-tests).
+    /// (what the GPU interpolates and depth-tests), clamped to the vertices' depth range (rounding can
+    /// leave it by an ulp; a face exactly on the near plane must stay at `near`).
     pub depth_z: f32,
     /// Weights of the triangle's vertices (sum to 1, each ≥ 0).
     pub barycentrics: Vec3,
@@ -78,7 +79,8 @@ pub struct TriangleHit {
 
 impl TriangleHit {
     /// The hit point `w₀·a + w₁·b + w₂·c` on the triangle `p` it was found on, as the GPU shades it
-    /// (`stochastic.frag`); its `−z` is exactly [`TriangleHit::depth_z`].
+    /// (`stochastic.frag`); its `−z`, clamped to the vertices' depth range, is exactly
+    /// [`TriangleHit::depth_z`].
     #[inline]
     pub fn point(&self, p: &[Vec3; 3]) -> Vec3 {
         let w = self.barycentrics;
@@ -126,7 +128,11 @@ pub fn intersect_triangle(p: &[Vec3; 3], o: Vec3, d: Vec3) -> Option<TriangleHit
         return None; // the ray lies in the triangle's plane
     }
     let w = Vec3::new(1.0 - b1 - b2, b1, b2);
-    let depth_z = -(w.x * a.z + w.y * b.z + w.z * c.z);
+    // Clamped to the vertices' depth range, which holds every convex combination: the rounded sum can
+    // leave it by an ulp (w's rounded components need not sum to 1), and for a face lying exactly on the
+    // near (or far) plane that decided [near, far] by rounding noise, differently on the GPU.
+    let (z_lo, z_hi) = (-(a.z.max(b.z).max(c.z)), -(a.z.min(b.z).min(c.z)));
+    let depth_z = (-(w.x * a.z + w.y * b.z + w.z * c.z)).max(z_lo).min(z_hi);
     Some(TriangleHit { depth_z, barycentrics: w })
 }
 
@@ -162,7 +168,9 @@ mod tests {
             return None;
         }
         let w = Vec3::new(1.0 - b1 - b2, b1, b2);
-        Some((-(w.x * a.z + w.y * b.z + w.z * c.z), w))
+        let z_lo = -(a.z.max(b.z).max(c.z));
+        let z_hi = -(a.z.min(b.z).min(c.z));
+        Some(((-(w.x * a.z + w.y * b.z + w.z * c.z)).max(z_lo).min(z_hi), w))
     }
 
     fn rnd3(r: &mut Pcg32, scale: f32) -> Vec3 {
@@ -201,7 +209,14 @@ mod tests {
             if let Some(h) = got {
                 hits += 1;
                 assert!(h.depth_z.is_finite() && h.barycentrics.is_finite(), "{h:?}");
-                assert_eq!(-h.point(&v).z, h.depth_z);
+                let z = [-v[0].z, -v[1].z, -v[2].z];
+                assert_eq!(
+                    (-h.point(&v).z).clamp(
+                        z.into_iter().fold(f32::INFINITY, f32::min),
+                        z.into_iter().fold(f32::NEG_INFINITY, f32::max)
+                    ),
+                    h.depth_z
+                );
             }
             n += 1;
         }

@@ -1,7 +1,8 @@
 // The 5D inside test: the GLSL mirror of bounds::sample_hit (engine/src/bounds/inside.rs), operation for
 // operation. Does the thin-lens ray through `pixel` from lens sample `lens` hit triangle (a, b, c)
-// (camera space at the sample's time)? Möller–Trumbore, edges inclusive; hits outside [near, far],
-// degenerate triangles and rays in the triangle's plane are rejected.
+// (camera space at the sample's time)? Möller–Trumbore, edges inclusive, the hit's depth clamped to the
+// vertices' depth range; hits outside [near, far], degenerate triangles and rays in the triangle's plane
+// are rejected.
 #ifndef SHUTTER_INSIDE_GLSL
 #define SHUTTER_INSIDE_GLSL
 #include "common/frame.glsl"
@@ -54,7 +55,9 @@ bool sample_hit(vec3 a, vec3 b, vec3 c, vec3 o, vec3 d, out float depth_z, out v
     float b2 = dot(d, q) * inv;
     if (!(b2 >= 0.0 && b1 + b2 <= 1.0)) return false;
     w = vec3(1.0 - b1 - b2, b1, b2);
-    depth_z = -(w.x * a.z + w.y * b.z + w.z * c.z);
+    // Clamped to the vertices' depth range (rounding can leave it; a face exactly on the near plane).
+    float z_lo = -max(max(a.z, b.z), c.z), z_hi = -min(min(a.z, b.z), c.z);
+    depth_z = min(max(-(w.x * a.z + w.y * b.z + w.z * c.z), z_lo), z_hi);
     return depth_z >= view.lens.z && depth_z <= view.lens.w;
 }
 

@@ -590,6 +590,19 @@ fn hard_beyond_far_plane_at_one_end_of_shutter() {
     check_hard_case("beyond-far", &scene);
 }
 
+#[test]
+fn hard_surface_on_the_near_plane() {
+    // Issue 10, hard case 2: a face at view depth exactly `near` (0.5, exact in f32, as is the translated
+    // z). The rounded barycentric depth dipped below `near` for a few per cent of the hits, for other
+    // samples on the GPU than in the reference (bounds::tests::surface_on_the_near_plane).
+    let open = Mat4::from_translation(Vec3::new(0.1, 0.05, -0.5));
+    for (name, aperture) in [("near-plane-pinhole", 0.0), ("near-plane-defocus", 0.02)] {
+        let mut scene = hard_scene(aperture, 2.0, square(0.3), open, None);
+        scene.camera.near = 0.5;
+        check_hard_case(name, &scene);
+    }
+}
+
 // ---------------------------------------------------------------------------------------------------
 // The compute-expanded hull (HullExpansion::Compute)
 
