@@ -75,6 +75,9 @@ pub struct TriangleHit {
     pub depth_z: f32,
     /// Weights of the triangle's vertices (sum to 1, each ≥ 0).
     pub barycentrics: Vec3,
+    /// The ray sees the triangle's back (`d · n > 0`, n = (b − a) × (c − a)): Möller–Trumbore's
+    /// determinant is negative. The side of the stochastic rasterizer's per-pixel shading groups.
+    pub back: bool,
 }
 
 impl TriangleHit {
@@ -133,7 +136,7 @@ pub fn intersect_triangle(p: &[Vec3; 3], o: Vec3, d: Vec3) -> Option<TriangleHit
     // near (or far) plane that decided [near, far] by rounding noise, differently on the GPU.
     let (z_lo, z_hi) = (-(a.z.max(b.z).max(c.z)), -(a.z.min(b.z).min(c.z)));
     let depth_z = (-(w.x * a.z + w.y * b.z + w.z * c.z)).max(z_lo).min(z_hi);
-    Some(TriangleHit { depth_z, barycentrics: w })
+    Some(TriangleHit { depth_z, barycentrics: w, back: det < 0.0 })
 }
 
 #[cfg(test)]

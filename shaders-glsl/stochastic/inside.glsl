@@ -36,9 +36,11 @@ vec3 plane_barycentrics(vec3 a, vec3 b, vec3 c, vec3 o, vec3 d, out bool ok) {
     return vec3(1.0 - b1 - b2, b1, b2);
 }
 
-bool sample_hit(vec3 a, vec3 b, vec3 c, vec3 o, vec3 d, out float depth_z, out vec3 w) {
+// `back`: the ray sees the triangle's back (det < 0, TriangleHit::back).
+bool sample_hit(vec3 a, vec3 b, vec3 c, vec3 o, vec3 d, out float depth_z, out vec3 w, out bool back) {
     depth_z = 0.0;
     w = vec3(0.0);
+    back = false;
     vec3 e1 = b - a;
     vec3 e2 = c - a;
     vec3 n = cross(e1, e2);
@@ -47,6 +49,7 @@ bool sample_hit(vec3 a, vec3 b, vec3 c, vec3 o, vec3 d, out float depth_z, out v
     vec3 p = cross(d, e2);
     float det = dot(e1, p);
     if (isnan(det) || abs(det) <= PARALLEL_EPS * n_len) return false;
+    back = det < 0.0;
     float inv = 1.0 / det;
     vec3 s = o - a;
     float b1 = dot(s, p) * inv;
@@ -59,6 +62,11 @@ bool sample_hit(vec3 a, vec3 b, vec3 c, vec3 o, vec3 d, out float depth_z, out v
     float z_lo = -max(max(a.z, b.z), c.z), z_hi = -min(min(a.z, b.z), c.z);
     depth_z = min(max(-(w.x * a.z + w.y * b.z + w.z * c.z), z_lo), z_hi);
     return depth_z >= view.lens.z && depth_z <= view.lens.w;
+}
+
+bool sample_hit(vec3 a, vec3 b, vec3 c, vec3 o, vec3 d, out float depth_z, out vec3 w) {
+    bool back;
+    return sample_hit(a, b, c, o, d, depth_z, w, back);
 }
 
 #endif

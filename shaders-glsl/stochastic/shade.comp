@@ -83,10 +83,9 @@ SampleHit sample_at(uint prim, uint tile_index, uvec2 pix) {
     return h;
 }
 
-// Which side of the triangle the ray sees (the group key's low bit).
-uint side_of(SampleHit h) {
-    return dot(cross(h.b - h.a, h.c - h.a), h.rd) > 0.0 ? 1u : 0u;
-}
+// The object's transforms and material, loaded once per invocation.
+ObjectView object_view;
+Material object_material;
 
 // Radiance of the sample hitting triangle `prim` (the reference's Tracer::shade_hit).
 vec3 shade_hit(uint prim, SampleHit h) {
@@ -98,28 +97,33 @@ vec3 shade_hit(uint prim, SampleHit h) {
         bool ok;
         w = plane_barycentrics(h.a, h.b, h.c, h.ro, h.rd, ok);
     }
-    ObjectView o = object_views[pc.object];
-    Material m = materials[pc.object];
     Vertex tv[3];
     for (uint k = 0u; k < 3u; k++) tv[k] = vertices[indices[3u * prim + k]];
     vec3 geometric = cross(h.b - h.a, h.c - h.a);
     vec3 n = vec3(0.0);
     for (int k = 0; k < 3; k++) {
         vec3 nk = vec3(tv[k].normal[0], tv[k].normal[1], tv[k].normal[2]);
-        n += w[k] * mix(mat3(o.normal_matrix[0]) * nk, mat3(o.normal_matrix[1]) * nk, h.t);
+        n += w[k] * mix(mat3(object_view.normal_matrix[0]) * nk, mat3(object_view.normal_matrix[1]) * nk, h.t);
     }
     if (dot(n, n) > 0.0) n = normalize(n);
     else if (dot(geometric, geometric) > 0.0) n = normalize(geometric);
     else n = -h.rd;
     if (dot(geometric, h.rd) > 0.0) n = -n;
     vec3 position = w.x * h.a + w.y * h.b + w.z * h.c;
-    vec3 albedo = m.albedo_specular.rgb;
-    if (m.params.y > 0.5) {
+    vec3 albedo = object_material.albedo_specular.rgb;
+    if (object_material.params.y > 0.5) {
         vec2 uv = w.x * vec2(tv[0].uv[0], tv[0].uv[1]) + w.y * vec2(tv[1].uv[0], tv[1].uv[1])
                 + w.z * vec2(tv[2].uv[0], tv[2].uv[1]);
         albedo *= texture_bilinear(uv);
     }
-    return shade(position, n, -h.rd, albedo, m.albedo_specular.w, m.params.x, h.t);
+    return shade(position, n, -h.rd, albedo, object_material.albedo_specular.w, object_material.params.x, h.t);
+}
+
+// Component g (0..8) of the pair (lo, hi), by selects rather than a variable index.
+uint pick(uvec4 lo, uvec4 hi, uint g) {
+    uvec4 v = g < 4u ? lo : hi;
+    uint k = g & 3u;
+    return k == 0u ? v.x : (k == 1u ? v.y : (k == 2u ? v.z : v.w));
 }
 
 void main() {
@@ -137,6 +141,8 @@ void main() {
         }
         return;
     }
+    object_view = object_views[pc.object];
+    object_material = materials[pc.object];
     uint base = ((pix.y % SAMPLE_TILE_SIZE) * SAMPLE_TILE_SIZE + pix.x % SAMPLE_TILE_SIZE) * pc.spp
               + pc.pass_index * pc.per_pass;
     vec3 sum = vec3(0.0);
@@ -145,8 +151,8 @@ void main() {
     for (uint i = 0u; i < pc.per_pass; i++) {
         uint64_t v = visibility[visibility_index(pix, i, pc.per_pass)];
         uint payload = visibility_payload(v);
-        if (v == 0UL || (payload >> PAYLOAD_TRIANGLE_BITS) != pc.object) continue;
-        uint prim = payload & PAYLOAD_TRIANGLE_MASK;
+        if (v == 0UL || (payload >> PAYLOAD_OBJECT_SHIFT) != pc.object) continue;
+        uint prim = (payload & PAYLOAD_KEY_MASK) >> 1;
         sum += shade_hit(prim, sample_at(prim, base + i, pix));
         count++;
         shaded++;
@@ -154,40 +160,45 @@ void main() {
 #else
     // Two phases, so that SIMD lanes (llvmpipe runs 8 pixels in lock-step) shade together: first the
     // pixel's groups — (triangle, side), the first sample of each, how many samples it stands for —
-    // then one shading per group. Samples beyond SHADE_GROUPS groups are shaded on their own.
-    uint group_key[SHADE_GROUPS];
-    uint group_sample[SHADE_GROUPS];
-    uint group_count[SHADE_GROUPS];
+    // then one shading per group. Samples beyond SHADE_GROUPS groups are shaded on their own. The
+    // groups live in vectors read by selects: llvmpipe keeps a dynamically indexed local array in
+    // memory, which cost more than all the shading.
+    const uint NO_KEY = 0xffffffffu;
+    uvec4 key_lo = uvec4(NO_KEY), key_hi = uvec4(NO_KEY);
+    uvec4 first_lo = uvec4(0u), first_hi = uvec4(0u);
+    uvec4 count_lo = uvec4(0u), count_hi = uvec4(0u);
     uint groups = 0u;
+    // Branch-free but for the rare overflow: llvmpipe pays every branch's masking per sample.
     for (uint i = 0u; i < pc.per_pass; i++) {
         uint64_t v = visibility[visibility_index(pix, i, pc.per_pass)];
         uint payload = visibility_payload(v);
-        if (v == 0UL || (payload >> PAYLOAD_TRIANGLE_BITS) != pc.object) continue;
-        uint prim = payload & PAYLOAD_TRIANGLE_MASK;
-        uint key = (prim << 1) | side_of(sample_at(prim, base + i, pix));
-        count++;
-        bool found = false;
-        for (uint g = 0u; g < groups; g++) {
-            if (group_key[g] == key) {
-                group_count[g]++;
-                found = true;
-                break;
-            }
-        }
-        if (found) continue;
-        if (groups < SHADE_GROUPS) {
-            group_key[groups] = key;
-            group_sample[groups] = i;
-            group_count[groups] = 1u;
-            groups++;
-        } else {
+        bool mine = v != 0UL && (payload >> PAYLOAD_OBJECT_SHIFT) == pc.object;
+        uint key = payload & PAYLOAD_KEY_MASK;  // the group: the triangle and the side its ray sees
+        uvec4 m = uvec4(mine ? 1u : 0u);
+        uvec4 in_lo = uvec4(equal(key_lo, uvec4(key))) & m, in_hi = uvec4(equal(key_hi, uvec4(key))) & m;
+        bool found = any(bvec4(in_lo | in_hi));
+        bool insert = mine && !found && groups < SHADE_GROUPS;
+        uvec4 ins = uvec4(insert ? 1u : 0u);
+        uvec4 at_lo = uvec4(equal(uvec4(groups), uvec4(0u, 1u, 2u, 3u))) & ins;
+        uvec4 at_hi = uvec4(equal(uvec4(groups), uvec4(4u, 5u, 6u, 7u))) & ins;
+        key_lo = mix(key_lo, uvec4(key), bvec4(at_lo));
+        key_hi = mix(key_hi, uvec4(key), bvec4(at_hi));
+        first_lo = mix(first_lo, uvec4(i), bvec4(at_lo));
+        first_hi = mix(first_hi, uvec4(i), bvec4(at_hi));
+        count_lo += in_lo + at_lo;
+        count_hi += in_hi + at_hi;
+        groups += insert ? 1u : 0u;
+        count += mine ? 1u : 0u;
+        if (mine && !found && !insert) {
+            uint prim = key >> 1;
             sum += shade_hit(prim, sample_at(prim, base + i, pix));
             shaded++;
         }
     }
     for (uint g = 0u; g < groups; g++) {
-        uint prim = group_key[g] >> 1;
-        sum += float(group_count[g]) * shade_hit(prim, sample_at(prim, base + group_sample[g], pix));
+        uint prim = pick(key_lo, key_hi, g) >> 1;
+        uint first = pick(first_lo, first_hi, g);
+        sum += float(pick(count_lo, count_hi, g)) * shade_hit(prim, sample_at(prim, base + first, pix));
         shaded++;
     }
 #endif

@@ -75,8 +75,9 @@ void main() {
 #endif
         float z;
         vec3 w;
-        if (sample_hit(a, b, c, ro, rd, z, w)) {
-            atomicMax(visibility[visibility_index(pix, i, pc.per_pass)], visibility_pack(z, pc.object, prim));
+        bool back;
+        if (sample_hit(a, b, c, ro, rd, z, w, back)) {
+            atomicMax(visibility[visibility_index(pix, i, pc.per_pass)], visibility_pack(z, pc.object, prim, back));
             hits++;
         }
     }

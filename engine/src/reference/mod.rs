@@ -339,8 +339,7 @@ impl<'a> Tracer<'a> {
             let radiance = if self.shading == ReferenceShading::PerSample {
                 self.shade_hit(&hit, d, time, lights)
             } else {
-                let p = self.geometry[hit.id as usize].at(time);
-                let side = (p[1] - p[0]).cross(p[2] - p[0]).dot(d) > 0.0;
+                let side = hit.hit.back;
                 let object = self.surface[hit.id as usize].object;
                 match groups.iter().find(|g| g.0 == hit.id && g.1 == side) {
                     Some(g) => g.3,

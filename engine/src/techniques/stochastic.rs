@@ -188,9 +188,11 @@ pub const STOCHASTIC_SET: [Binding; 7] = [
 /// without a hit (`SHADE_BACKGROUND` in `shade.comp`).
 pub const SHADE_BACKGROUND: u32 = u32::MAX;
 
-/// Bits of the visibility payload's triangle index (`PAYLOAD_TRIANGLE_BITS` in `visibility.glsl`):
-/// payload = object << 24 | triangle, so at most 256 objects and 2^24 triangles per object.
-pub const PAYLOAD_TRIANGLE_BITS: u32 = 24;
+/// Bits below the object index in the visibility payload (`PAYLOAD_OBJECT_SHIFT` in
+/// `visibility.glsl`): payload = object << 24 | triangle << 1 | back, so at most 256 objects and 2^23
+/// triangles per object.
+pub const PAYLOAD_TRIANGLE_BITS: u32 = 23;
+const PAYLOAD_OBJECT_SHIFT: u32 = PAYLOAD_TRIANGLE_BITS + 1;
 
 /// Largest visibility buffer (8 bytes per pixel and sample of a pass) before S is split into more
 /// passes.
@@ -365,11 +367,11 @@ impl StochasticDraws {
                 limit: format!("1..={MAX_STOCHASTIC_SPP} for technique `stochastic`"),
             });
         }
-        if world.objects.len() > 1 << (32 - PAYLOAD_TRIANGLE_BITS) {
+        if world.objects.len() > 1 << (32 - PAYLOAD_OBJECT_SHIFT) {
             return Err(Error::Limit {
                 what: "objects",
                 value: world.objects.len().to_string(),
-                limit: format!("at most {} for technique `stochastic`", 1u32 << (32 - PAYLOAD_TRIANGLE_BITS)),
+                limit: format!("at most {} for technique `stochastic`", 1u32 << (32 - PAYLOAD_OBJECT_SHIFT)),
             });
         }
         if let Some(o) = world.objects.iter().find(|o| o.triangle_count() >= 1 << PAYLOAD_TRIANGLE_BITS) {
