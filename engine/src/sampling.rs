@@ -140,6 +140,18 @@ pub fn stratified_samples(n: u32, rng: &mut Pcg32) -> Vec<Sample5> {
     (0..n as usize).map(|i| Sample5 { xy: xy[i], lens: lens[i], time: time[i] }).collect()
 }
 
+/// The samples of one pixel of a [`SampleTile`]: [`stratified_samples`] in shutter-time order. Time is
+/// jittered with one sample per stratum of width 1/n, so for every K dividing n the k-th run of n/K
+/// consecutive samples holds exactly the times in `[k/K, (k+1)/K)`: the stochastic rasterizer bounds
+/// each run over its own sub-interval of the shutter (interval bounds) and the reference, which uses
+/// the same order, groups per-pixel shading by the same runs. Sorting only reorders the set: the
+/// pairing of (x, y), lens and time stays the random one.
+pub fn pixel_sample_set(n: u32, rng: &mut Pcg32) -> Vec<Sample5> {
+    let mut samples = stratified_samples(n, rng);
+    samples.sort_by(|a, b| a.time.total_cmp(&b.time));
+    samples
+}
+
 /// Sample sets for a `size × size` tile of pixels, repeated over the screen.
 #[derive(Clone, Debug)]
 pub struct SampleTile {
@@ -158,7 +170,7 @@ impl SampleTile {
         for p in 0..size * size {
             // One stream per pixel: the tile is the same whatever order pixels are generated in.
             let mut rng = Pcg32::new(seed, p as u64 + 1);
-            samples.extend(stratified_samples(spp, &mut rng));
+            samples.extend(pixel_sample_set(spp, &mut rng));
         }
         SampleTile { size, spp, seed, samples }
     }
@@ -284,6 +296,20 @@ mod tests {
     }
 
     proptest! {
+        #[test]
+        fn pixel_sample_runs_are_shutter_strata(log_n in 0u32..9, seed in any::<u64>()) {
+            let n = 1u32 << log_n;
+            let samples = pixel_sample_set(n, &mut Pcg32::new(seed, 3));
+            for k_log in 0..=log_n {
+                let k = 1u32 << k_log;
+                let run = (n / k) as usize;
+                for (j, chunk) in samples.chunks(run).enumerate() {
+                    let (lo, hi) = (j as f32 / k as f32, (j + 1) as f32 / k as f32);
+                    prop_assert!(chunk.iter().all(|s| s.time >= lo && s.time < hi), "run {} of {}", j, k);
+                }
+            }
+        }
+
         #[test]
         fn multi_jittered_hits_every_stratum_once(n in 1u32..300, seed in any::<u64>()) {
             let mut rng = Pcg32::new(seed, 7);

@@ -51,7 +51,7 @@ void main() {
     }
     vec2 pts[BOUND_MAX_POINTS];
     int piece_len[BOUND_MAX_PIECES];
-    int pieces = compute_bound(pc.bound, bound_vertices(open, close), pts, piece_len);
+    int pieces = compute_bound(pc.bound, bound_vertices(open, close, 0.0, 1.0), pts, piece_len);
     emit_bound(pieces, pts, piece_len);
     uint n = 0u;
     int begin = 0;

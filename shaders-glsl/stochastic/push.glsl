@@ -10,6 +10,13 @@ layout(push_constant) uniform Push {
     uint spp;         // S: samples per pixel over all passes (the sample tile's depth)
     uint per_pass;    // samples per pixel and pass (the visibility buffer's depth)
     float dilate;     // box half-size the bound is dilated by, pixels (bounds::dilation_px)
+    // Interval bounds: this draw tests the pass' samples [sample_first, sample_first + sample_count),
+    // whose shutter times all lie in [t0, t1] (samples come in time order), and bounds the triangle
+    // over [t0, t1] only. The shading pass ignores them.
+    uint sample_first;
+    uint sample_count;
+    float t0;
+    float t1;
 } pc;
 
 #endif

@@ -148,14 +148,24 @@ void main() {
     vec3 sum = vec3(0.0);
     uint count = 0u, shaded = 0u;
 #ifdef PER_SAMPLE
-    for (uint i = 0u; i < pc.per_pass; i++) {
-        uint64_t v = visibility[visibility_index(pix, i, pc.per_pass)];
-        uint payload = visibility_payload(v);
-        if (v == 0UL || (payload >> PAYLOAD_OBJECT_SHIFT) != pc.object) continue;
-        uint prim = (payload & PAYLOAD_KEY_MASK) >> 1;
-        sum += shade_hit(prim, sample_at(prim, base + i, pix));
-        count++;
-        shaded++;
+    // Per 32 samples: first which are this object's (a cheap loop), then the shading of those only,
+    // lowest first — llvmpipe pays a loop body's shading code on every iteration it contains it.
+    for (uint chunk = 0u; chunk < pc.per_pass; chunk += 32u) {
+        uint mine = 0u;
+        uint n = min(32u, pc.per_pass - chunk);
+        for (uint j = 0u; j < n; j++) {
+            uint64_t v = visibility[visibility_index(pix, chunk + j, pc.per_pass)];
+            bool is_mine = v != 0UL && (visibility_payload(v) >> PAYLOAD_OBJECT_SHIFT) == pc.object;
+            mine |= is_mine ? 1u << j : 0u;
+        }
+        count += uint(bitCount(mine));
+        while (mine != 0u) {
+            uint i = chunk + uint(findLSB(mine));
+            mine &= mine - 1u;
+            uint prim = (visibility_payload(visibility[visibility_index(pix, i, pc.per_pass)]) & PAYLOAD_KEY_MASK) >> 1;
+            sum += shade_hit(prim, sample_at(prim, base + i, pix));
+            shaded++;
+        }
     }
 #else
     // Two phases, so that SIMD lanes (llvmpipe runs 8 pixels in lock-step) shade together: first the
@@ -168,6 +178,7 @@ void main() {
     uvec4 first_lo = uvec4(0u), first_hi = uvec4(0u);
     uvec4 count_lo = uvec4(0u), count_hi = uvec4(0u);
     uint groups = 0u;
+    bool overflow = false;
     // Branch-free but for the rare overflow: llvmpipe pays every branch's masking per sample.
     for (uint i = 0u; i < pc.per_pass; i++) {
         uint64_t v = visibility[visibility_index(pix, i, pc.per_pass)];
@@ -189,7 +200,16 @@ void main() {
         count_hi += in_hi + at_hi;
         groups += insert ? 1u : 0u;
         count += mine ? 1u : 0u;
-        if (mine && !found && !insert) {
+        overflow = overflow || (mine && !found && !insert);
+    }
+    // Samples of groups past SHADE_GROUPS, each on its own (rare: kept out of the loop above, whose
+    // every iteration llvmpipe would otherwise pay for the shading code).
+    for (uint i = 0u; overflow && i < pc.per_pass; i++) {
+        uint64_t v = visibility[visibility_index(pix, i, pc.per_pass)];
+        uint payload = visibility_payload(v);
+        uint key = payload & PAYLOAD_KEY_MASK;
+        bool grouped = any(equal(key_lo, uvec4(key))) || any(equal(key_hi, uvec4(key)));
+        if (v != 0UL && (payload >> PAYLOAD_OBJECT_SHIFT) == pc.object && !grouped) {
             uint prim = key >> 1;
             sum += shade_hit(prim, sample_at(prim, base + i, pix));
             shaded++;

@@ -58,7 +58,8 @@ void main() {
     uint base = ((pix.y % SAMPLE_TILE_SIZE) * SAMPLE_TILE_SIZE + pix.x % SAMPLE_TILE_SIZE) * pc.spp
               + pc.pass_index * pc.per_pass;
     uint hits = 0u;
-    for (uint i = 0u; i < pc.per_pass; i++) {
+    uint end = pc.sample_first + pc.sample_count;
+    for (uint i = pc.sample_first; i < end; i++) {
         vec4 xl = sample_xy_lens[base + i];
 #ifdef NO_DEFOCUS
         xl.zw = vec2(0.0);
@@ -83,7 +84,7 @@ void main() {
     }
 #ifdef INSTRUMENTED
     atomicAdd(counters.fragments, 1u);
-    atomicAdd(counters.samples_tested, pc.per_pass);
+    atomicAdd(counters.samples_tested, pc.sample_count);
     atomicAdd(counters.samples_hit, hits);
 #endif
 }

@@ -35,7 +35,8 @@ void end_strip() {
 #include "stochastic/emit.glsl"
 
 void main() {
-    vec3 v[6] = bound_vertices(vec3[3](v_open[0], v_open[1], v_open[2]), vec3[3](v_close[0], v_close[1], v_close[2]));
+    vec3 v[6] = bound_vertices(vec3[3](v_open[0], v_open[1], v_open[2]),
+                               vec3[3](v_close[0], v_close[1], v_close[2]), pc.t0, pc.t1);
     vec2 pts[BOUND_MAX_POINTS];
     int piece_len[BOUND_MAX_PIECES];
     int pieces = compute_bound(pc.bound, v, pts, piece_len);

@@ -16,8 +16,8 @@ use shutter::scene::camera_space::CameraSpaceScene;
 use shutter::scene::{CameraPose, Mesh, Scene};
 use shutter::techniques::stochastic::{DebugOptions, StochasticTechnique, BOUND_DEBUG_STRIDE};
 use shutter::techniques::{
-    FrameTechnique, HullExpansion, PreparedFrame, RenderOutput, RenderSettings, Renderer, ShadingRate,
-    StochasticOptions, Technique,
+    FrameTechnique, HullExpansion, Intervals, PreparedFrame, RenderOutput, RenderSettings, Renderer,
+    ShadingRate, StochasticOptions, Technique,
 };
 use shutter_tests::{camera, renderer, same_sample_reference, save_comparison, single_object_scene, square};
 
@@ -333,6 +333,72 @@ fn bounds_agree_on_focus_sweep() {
     let sphere = scene.objects.iter_mut().find(|o| o.name == "displaced-sphere").expect("the sphere");
     sphere.mesh = Arc::new(builtin_mesh("displaced-sphere", Some(5)).unwrap().unwrap());
     assert_bounds_agree("focus-sweep", &scene, 96, 54, 4, &BoundKind::ALL);
+}
+
+/// Interval bounds (a moving object's samples split into K runs of shutter time, each bounded over its
+/// own sub-interval) and passes (S split into P visibility buffers, each over its own part of the
+/// shutter) change the cost, never the result: the same hits, the same image — and with K > 1 the
+/// moving sphere of `one-mover` tests fewer samples. Passes also regroup per-pixel shading, which the
+/// reference mirrors exactly.
+#[test]
+fn interval_bounds_and_passes_change_the_cost_never_the_image() {
+    let (w, h, spp) = (160, 90, 16);
+    let mut r = renderer();
+    for name in ["one-mover", "default"] {
+        let scene = builtin_scene(name).unwrap().unwrap();
+        let run = |r: &mut Renderer, intervals: Intervals, per_pass: Option<u32>, shading: ShadingRate| {
+            let o = StochasticOptions {
+                instrumented: true,
+                intervals,
+                per_pass,
+                ..options(BoundKind::Adaptive, shading)
+            };
+            render(r, &scene, w, h, spp, 4, o)
+        };
+        let base = run(&mut r, Intervals::Fixed(1), None, ShadingRate::PerPixel);
+        let b = base.stats.counters.unwrap();
+        for intervals in [Intervals::Fixed(2), Intervals::Fixed(4), Intervals::Auto] {
+            let out = run(&mut r, intervals, None, ShadingRate::PerPixel);
+            let c = out.stats.counters.unwrap();
+            let d = max_abs_diff(&base.image, &out.image);
+            println!(
+                "{name} intervals {}: max |Δ| {d:e}; tested {} (K=1: {}), hit {}, fragments {} (K=1: {})",
+                intervals.name(),
+                c.samples_tested,
+                b.samples_tested,
+                c.samples_hit,
+                c.fragments,
+                b.fragments
+            );
+            assert!(d <= 1e-6, "{name}: intervals {} change the image by {d}", intervals.name());
+            assert_eq!(
+                c.samples_hit,
+                b.samples_hit,
+                "{name}: intervals {} change the hits",
+                intervals.name()
+            );
+            if name == "one-mover" && intervals == Intervals::Fixed(4) {
+                assert!(c.samples_tested < b.samples_tested, "{name}: K = 4 tests no fewer samples");
+            }
+        }
+        for shading in ShadingRate::ALL {
+            let out = run(&mut r, Intervals::Auto, Some(4), shading);
+            assert_eq!(out.stats.passes, 4);
+            assert_eq!(
+                out.stats.counters.unwrap().samples_hit,
+                b.samples_hit,
+                "{name}: 4 passes change the hits"
+            );
+            let same = reference_like(&scene, w, h, spp, 4, shading, &out);
+            let m = compare(&same, &out.image).unwrap();
+            println!(
+                "{name} 4 passes {}: RMSE {:.6} vs the same samples and grouping",
+                shading.name(),
+                m.rmse
+            );
+            assert!(m.rmse < SAME_SAMPLES_RMSE_MAX, "{name} 4 passes {}: RMSE {}", shading.name(), m.rmse);
+        }
+    }
 }
 
 // ---------------------------------------------------------------------------------------------------

@@ -17,7 +17,7 @@ use serde::{Deserialize, Serialize};
 use shutter::scene::Scene;
 use shutter::techniques::{RenderSettings, Renderer, SampleCounters, StochasticOptions, Technique};
 
-/// One configuration: `technique[:key=value...]` with keys spp, bound, shading, per-pass, hull; unset keys
+/// One configuration: `technique[:key=value...]` with keys spp, bound, shading, per-pass, intervals, hull; unset keys
 /// take the command's defaults.
 #[derive(Clone, Debug)]
 pub struct Config {
@@ -49,7 +49,8 @@ pub fn apply_option(s: &mut RenderSettings, key: &str, value: &str) -> Result<()
         "shading" => o.shading = value.parse()?,
         "per-pass" => o.per_pass = Some(value.parse().with_context(|| format!("per-pass `{value}`"))?),
         "hull" => o.expansion = value.parse()?,
-        _ => bail!("unknown setting `{key}` (spp, bound, shading, per-pass, hull)"),
+        "intervals" => o.intervals = value.parse()?,
+        _ => bail!("unknown setting `{key}` (spp, bound, shading, per-pass, intervals, hull)"),
     }
     Ok(())
 }

@@ -60,6 +60,11 @@ enum Command {
         /// Stochastic: expand the bounds in a geometry shader (gs) or a compute pass (compute).
         #[arg(long, default_value = "gs")]
         hull: String,
+        /// Stochastic: interval bounds — split each moving object's samples into K runs of shutter
+        /// time, each bounded over its own sub-interval (`auto`: per object from its motion and blur;
+        /// 1: off).
+        #[arg(long, default_value = "auto")]
+        intervals: String,
         #[command(flatten)]
         image: ImageArgs,
     },
@@ -139,7 +144,7 @@ enum Command {
     Bench {
         #[arg(default_value = "default")]
         scene: String,
-        /// A configuration `technique[:spp=N][:bound=B][:shading=per-pixel|per-sample][:per-pass=M][:hull=gs|compute]`; repeat for
+        /// A configuration `technique[:spp=N][:bound=B][:shading=per-pixel|per-sample][:per-pass=M][:intervals=auto|K][:hull=gs|compute]`; repeat for
         /// more. The first is the baseline of the ratios.
         #[arg(short = 'c', long = "config", default_values_t = ["auto".to_string(), "pinhole".to_string()])]
         configs: Vec<String>,
@@ -174,7 +179,7 @@ enum Command {
     Quality {
         #[arg(default_value = "default")]
         scene: String,
-        /// A series `technique[:key=value...]@S1,S2,...` (keys: bound, shading, per-pass, hull); repeat for more.
+        /// A series `technique[:key=value...]@S1,S2,...` (keys: bound, shading, per-pass, intervals, hull); repeat for more.
         #[arg(short = 's', long = "series", default_values_t = [
             "accumulation@4,16,64,256".to_string(),
             "stochastic@4,16,64".to_string(),
@@ -283,6 +288,7 @@ fn run() -> Result<()> {
             instrumented,
             per_pass,
             hull,
+            intervals,
             image: ImageArgs { size, seed, out },
         } => {
             let technique: Technique = technique.parse()?;
@@ -292,6 +298,7 @@ fn run() -> Result<()> {
                 instrumented,
                 per_pass,
                 expansion: hull.parse()?,
+                intervals: intervals.parse()?,
             };
             let sc = load_scene(&scene)?;
             let mut settings = RenderSettings::from_scene(&sc).with_stochastic(stochastic);

@@ -47,7 +47,7 @@ use crate::error::{Error, Result};
 use crate::geometry::MovingTriangle;
 use crate::image::LinearImage;
 use crate::limits::{MAX_IMAGE_DIMENSION, MAX_SPP};
-use crate::sampling::{stratified_samples, Pcg32, Sample5, SAMPLE_TILE_SIZE};
+use crate::sampling::{pixel_sample_set, Pcg32, Sample5, SAMPLE_TILE_SIZE};
 use crate::scene::{Camera, CameraSpaceScene, Intrinsics, Scene, Texture};
 use crate::shading::{shade, ShadingLight};
 
@@ -210,7 +210,7 @@ fn validate(s: &ReferenceSettings, camera: &Camera) -> Result<()> {
 /// generated on the fly so that huge sample counts need no 64×64×spp table.
 pub fn pixel_samples(spp: u32, seed: u64, x: u32, y: u32) -> Vec<Sample5> {
     let p = (y % SAMPLE_TILE_SIZE) * SAMPLE_TILE_SIZE + x % SAMPLE_TILE_SIZE;
-    stratified_samples(spp, &mut Pcg32::new(seed, p as u64 + 1))
+    pixel_sample_set(spp, &mut Pcg32::new(seed, p as u64 + 1))
 }
 
 /// Per-triangle shading data, in build (scene) order.

@@ -36,7 +36,7 @@ use std::time::Instant;
 pub use compute_hull::HullExpansion;
 pub use forward::PassSample;
 pub use registry::Technique;
-pub use stochastic::{SampleCounters, ShadingRate, StochasticOptions};
+pub use stochastic::{Intervals, SampleCounters, ShadingRate, StochasticOptions};
 
 use crate::error::{Error, Result};
 use crate::gpu::{GpuView, GpuWorld};

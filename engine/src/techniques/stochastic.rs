@@ -105,6 +105,79 @@ pub struct StochasticOptions {
     pub per_pass: Option<u32>,
     /// Geometry shader or compute-expanded hull ([`HullExpansion`]).
     pub expansion: HullExpansion,
+    /// Interval bounds: into how many runs of time-ordered samples each object's draw is split, each
+    /// bounded over its own sub-interval of the shutter ([`Intervals`]).
+    pub intervals: Intervals,
+}
+
+/// How many shutter sub-intervals an object's samples are bounded in, per pass. The samples of a pixel
+/// come in time order ([`crate::sampling::pixel_sample_set`]), so run k of K holds exactly the shutter
+/// times of `[k/K, (k+1)/K)` (warped by the shutter curve): the draw for run k bounds the triangle
+/// between its positions at those two times — a shorter smear, fewer samples per fragment, more draws.
+/// Same samples, same hits, same image whatever K: only the cost changes.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum Intervals {
+    /// Per object from its screen motion and blur ([`auto_intervals`]).
+    #[default]
+    Auto,
+    /// K for every moving object whose motion is bounded (a power of two; clamped to the samples per
+    /// pass).
+    Fixed(u32),
+}
+
+impl std::str::FromStr for Intervals {
+    type Err = Error;
+    fn from_str(s: &str) -> Result<Self> {
+        if s == "auto" {
+            return Ok(Intervals::Auto);
+        }
+        match s.parse::<u32>() {
+            Ok(k) if k.is_power_of_two() && k <= MAX_STOCHASTIC_SPP => Ok(Intervals::Fixed(k)),
+            _ => Err(Error::Unsupported(format!(
+                "intervals `{s}`: `auto` or a power of two up to {MAX_STOCHASTIC_SPP}"
+            ))),
+        }
+    }
+}
+
+impl Intervals {
+    pub fn name(&self) -> String {
+        match self {
+            Intervals::Auto => "auto".into(),
+            Intervals::Fixed(k) => k.to_string(),
+        }
+    }
+}
+
+/// Cost of one sample test relative to one fragment invocation of the coverage pass: the ratio the
+/// interval count trades. Measured on llvmpipe from `shutter bench default -c stochastic:intervals=1
+/// -c stochastic:intervals=4` (fragments and samples tested of each, solved for the two unit costs:
+/// ≈ 175 ns a fragment, ≈ 16.5 ns a sample test; `docs/STOCHASTIC.md`).
+pub const SAMPLE_TEST_COST_PER_FRAGMENT: f32 = 0.1;
+
+/// Interval count for an object whose vertices move up to `motion_px` over the shutter with blur
+/// radius up to `coc_px`, at `per_pass` samples per pass. A triangle's bound spans about
+/// `a = 2·coc + 8` px across the motion (a small triangle plus its blur) and `a + m` along it; K runs
+/// rasterize about `K·a + m` in that direction, each fragment testing `per_pass / K` samples, so the
+/// cost is about `(K·a + m)·(1 + c·per_pass/K)` (c = [`SAMPLE_TEST_COST_PER_FRAGMENT`]): the power of
+/// two in `1..=per_pass` where it is least.
+pub fn auto_intervals(motion_px: f32, coc_px: f32, per_pass: u32) -> u32 {
+    if motion_px.is_nan() || motion_px <= 0.0 || per_pass <= 1 {
+        return 1;
+    }
+    let m = motion_px.min(1e6);
+    let a = 2.0 * coc_px.max(0.0) + 8.0;
+    let cost =
+        |k: u32| (k as f32 * a + m) * (1.0 + SAMPLE_TEST_COST_PER_FRAGMENT * per_pass as f32 / k as f32);
+    let mut best = 1;
+    let mut k = 2;
+    while k <= per_pass {
+        if cost(k) < cost(best) {
+            best = k;
+        }
+        k *= 2;
+    }
+    best
 }
 
 impl Default for StochasticOptions {
@@ -115,6 +188,7 @@ impl Default for StochasticOptions {
             instrumented: false,
             per_pass: None,
             expansion: HullExpansion::GeometryShader,
+            intervals: Intervals::Auto,
         }
     }
 }
@@ -155,6 +229,10 @@ pub struct StochasticPush {
     pub spp: u32,
     pub per_pass: u32,
     pub dilate: f32,
+    pub sample_first: u32,
+    pub sample_count: u32,
+    pub t0: f32,
+    pub t1: f32,
 }
 
 /// Push constants of `triangles.comp`.
@@ -200,7 +278,11 @@ pub const VISIBILITY_BUDGET_BYTES: u64 = 256 << 20;
 
 /// For the reflection test.
 pub const STOCHASTIC_STRUCTS: &[SharedStruct] = &[
-    shared_struct!("Push", StochasticPush, [object, bound, pass_index, spp, per_pass, dilate]),
+    shared_struct!(
+        "Push",
+        StochasticPush,
+        [object, bound, pass_index, spp, per_pass, dilate, sample_first, sample_count, t0, t1]
+    ),
     shared_struct!("Push", TrianglesPush, [object, triangle_count]),
 ];
 
@@ -277,6 +359,10 @@ pub struct StochasticDraws {
     pipelines: Vec<(Effects, Pipeline)>,
     shade_pipelines: Vec<(Effects, Pipeline)>,
     object_effects: Vec<Effects>,
+    /// Interval bounds per object and pass ([`Intervals`]; 1 on the still and defocus-only paths).
+    object_intervals: Vec<u32>,
+    /// The camera's shutter curve: run k of K covers the warped times of `[k/K, (k+1)/K)`.
+    shutter: ShutterCurve,
     layout: PipelineLayout,
     shade_layout: PipelineLayout,
     push_stages: vk::ShaderStageFlags,
@@ -382,6 +468,25 @@ impl StochasticDraws {
             });
         }
         let (per_pass, passes) = samples_per_pass(spp, options.per_pass, width as u64 * height as u64)?;
+        // Interval bounds need the geometry shader (the compute hull expands once per frame) and a
+        // moving object; the bound debug output compares whole-shutter bounds.
+        let plan = crate::plan::Plan::for_view(ctx.scene, ctx.camera, 0.0);
+        let object_intervals: Vec<u32> = object_effects
+            .iter()
+            .zip(&plan.objects)
+            .map(|(e, o)| {
+                // Unbounded motion (a vertex at or behind the near plane at some end): the clipped
+                // box of such triangles does not shrink with the interval; one bound.
+                let moving = o.max_motion_px > 0.0 && o.max_motion_px.is_finite() && !o.crosses_near;
+                if compute || debug.bound_debug_triangles > 0 || !e.motion() || !moving {
+                    return 1;
+                }
+                match options.intervals {
+                    Intervals::Auto => auto_intervals(o.max_motion_px, o.max_coc_px, per_pass),
+                    Intervals::Fixed(k) => k.min(per_pass),
+                }
+            })
+            .collect();
 
         let object_set_layout = DescriptorSetLayout::from_table(
             device,
@@ -567,6 +672,8 @@ impl StochasticDraws {
             pipelines,
             shade_pipelines,
             object_effects: object_effects.to_vec(),
+            object_intervals,
+            shutter,
             layout,
             shade_layout,
             push_stages,
@@ -713,7 +820,24 @@ impl StochasticDraws {
         }
     }
 
-    fn push(&self, object: u32, pass: u32) -> StochasticPush {
+    /// Interval count of each object (1: bounded over the whole shutter).
+    pub fn object_intervals(&self) -> &[u32] {
+        &self.object_intervals
+    }
+
+    /// Push constants of the draw of run `run` of `runs` of object `object` in pass `pass` (the
+    /// shading pass: run 0 of 1).
+    fn push(&self, object: u32, pass: u32, run: u32, runs: u32) -> StochasticPush {
+        let count = self.per_pass / runs;
+        let first = run * count;
+        // The run's samples' shutter times: [ξ0, ξ1) of the unwarped time, through the shutter curve
+        // (monotone, the very function that warped the samples).
+        let xi = |i: u32| (pass * self.per_pass + i) as f32 / self.spp as f32;
+        let (t0, t1) = if runs == 1 && self.passes == 1 {
+            (0.0, 1.0)
+        } else {
+            (self.shutter.warp(xi(first)), self.shutter.warp(xi(first + count).min(1.0)))
+        };
         StochasticPush {
             object,
             bound: self.options.bound.id(),
@@ -721,6 +845,10 @@ impl StochasticDraws {
             spp: self.spp,
             per_pass: self.per_pass,
             dilate: self.dilate,
+            sample_first: first,
+            sample_count: count,
+            t0,
+            t1: if first + count == self.per_pass && pass + 1 == self.passes { 1.0 } else { t1 },
         }
     }
 
@@ -835,8 +963,8 @@ impl StochasticDraws {
     fn record_coverage(&self, ctx: &mut PassContext<'_>, inputs: &FrameInputs<'_>, pass: u32) {
         let (d, cmd) = (ctx.device, ctx.cmd);
         let bind = vk::PipelineBindPoint::GRAPHICS;
-        let push = |i: usize| self.push(i as u32, pass);
         let world = inputs.world;
+        let max_runs = self.object_intervals.iter().copied().max().unwrap_or(1);
         for (effects, pipeline) in &self.pipelines {
             unsafe {
                 d.raw.cmd_bind_pipeline(cmd, bind, pipeline.raw);
@@ -851,18 +979,22 @@ impl StochasticDraws {
             }
             let include = |i: usize| self.object_effects[i] == *effects;
             if self.hull.is_none() {
-                world.record_object_draws(
-                    d,
-                    cmd,
-                    inputs.camera,
-                    &self.layout,
-                    self.push_stages,
-                    include,
-                    push,
-                    |i| Some(self.object_sets[i]),
-                );
+                // One draw per run of every object with that many runs or more.
+                for run in 0..max_runs {
+                    world.record_object_draws(
+                        d,
+                        cmd,
+                        inputs.camera,
+                        &self.layout,
+                        self.push_stages,
+                        |i| include(i) && run < self.object_intervals[i],
+                        |i| self.push(i as u32, pass, run, self.object_intervals[i]),
+                        |i| Some(self.object_sets[i]),
+                    );
+                }
                 continue;
             }
+            let push = |i: usize| self.push(i as u32, pass, 0, 1);
             // Compute-expanded hull: each object's triangle list, no vertex input.
             unsafe {
                 d.raw.cmd_bind_descriptor_sets(
@@ -941,7 +1073,7 @@ impl StochasticDraws {
                 if let Some(sets) = sets {
                     d.raw.cmd_bind_descriptor_sets(cmd, bind, layout, OBJECT_SET_INDEX, &sets, &[]);
                 }
-                let push = self.push(object, pass);
+                let push = self.push(object, pass, 0, 1);
                 d.raw.cmd_push_constants(
                     cmd,
                     layout,
@@ -1039,3 +1171,36 @@ pub const SHADER_INTERFACES: &[crate::gpu::layout::ShaderInterface] = &[
         Some(super::compute_hull::EXPAND_STRUCTS[0]),
     ),
 ];
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn auto_intervals_split_long_motion_only() {
+        assert_eq!(auto_intervals(0.0, 5.0, 16), 1);
+        assert_eq!(auto_intervals(f32::NAN, 0.0, 16), 1);
+        assert_eq!(auto_intervals(100.0, 0.0, 1), 1);
+        // Short motion under a large blur: one bound over the shutter.
+        assert_eq!(auto_intervals(4.0, 20.0, 16), 1);
+        // Long motion, sharp: several runs, more for more samples per pass, never past them.
+        let k16 = auto_intervals(200.0, 0.0, 16);
+        let k64 = auto_intervals(200.0, 0.0, 64);
+        assert!(k16 >= 2 && k64 >= k16 && k16 <= 16, "{k16} {k64}");
+        assert!(auto_intervals(1e9, 0.0, 8) <= 8);
+        for m in [1.0f32, 10.0, 100.0, 1000.0] {
+            assert!(auto_intervals(m, 0.0, 16).is_power_of_two());
+        }
+    }
+
+    #[test]
+    fn samples_per_pass_fits_the_budget() {
+        assert_eq!(samples_per_pass(16, None, 320 * 180).unwrap(), (16, 1));
+        let pixels = 1920 * 1080;
+        let (m, p) = samples_per_pass(256, None, pixels).unwrap();
+        assert!(m * p == 256 && pixels * m as u64 * 8 <= VISIBILITY_BUDGET_BYTES && m >= 1, "{m} {p}");
+        assert_eq!(samples_per_pass(16, Some(4), 100).unwrap(), (4, 4));
+        assert!(samples_per_pass(16, Some(3), 100).is_err());
+        assert!(samples_per_pass(16, Some(0), 100).is_err());
+    }
+}
