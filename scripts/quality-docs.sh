@@ -32,8 +32,8 @@ echo "== the planner on one-mover: blur paid only where it is"
 $S bench one-mover --size 320x180 --spp 16 -c pinhole -c auto -c stochastic --frames 5 --warmup 1 \
   --json docs/quality/bench-one-mover.json | tee docs/quality/bench-one-mover.md
 
-echo "== hardware experiments: MSAA per pass, mask loop vs sample-rate shading, GS vs compute hull"
-$S bench default --size 320x180 --spp 16 -c stochastic -c stochastic:msaa=1 \
+echo "== experiments: samples per pass, shading rate, GS vs compute hull"
+$S bench default --size 320x180 --spp 16 -c stochastic -c stochastic:per-pass=4 \
   -c stochastic:shading=per-sample -c stochastic:hull=compute --frames 3 --warmup 1 \
   --json docs/quality/bench-experiments-default.json | tee docs/quality/bench-experiments-default.md
 $S bench focus-sweep --size 96x54 --spp 4 -c stochastic -c stochastic:hull=compute -c auto \

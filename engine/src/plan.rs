@@ -263,7 +263,7 @@ impl fmt::Display for Plan {
             "\ntriangles by path: {}; frame: {}",
             by_path.join(", "),
             if self.needs_stochastic() {
-                "stochastic passes (pinhole objects drawn by the plain pipeline into the same targets)"
+                "the stochastic frame (pinhole objects on its still permutation, in the same visibility buffer)"
             } else {
                 "the pinhole technique (one MSAA pass): nothing to simulate"
             }

@@ -102,23 +102,16 @@ impl ForwardPipeline {
     }
 }
 
-/// The forward path of a set of objects: one [`PassSample`] per pass of the frame.
+/// The forward path of every object: one [`PassSample`] per pass of the frame.
 pub struct ForwardDraws {
     pipeline: ForwardPipeline,
     samples: Vec<PassSample>,
-    include: Vec<bool>,
 }
 
 impl ForwardDraws {
-    /// Objects `i` with `include[i]`, pass p drawn with `samples[p]`, at `msaa` samples.
-    pub fn new(
-        device: &Device,
-        world: &GpuWorld,
-        msaa: u32,
-        samples: Vec<PassSample>,
-        include: Vec<bool>,
-    ) -> Result<Self> {
-        Ok(ForwardDraws { pipeline: ForwardPipeline::new(device, world, msaa)?, samples, include })
+    /// Pass p drawn with `samples[p]`, at `msaa` samples.
+    pub fn new(device: &Device, world: &GpuWorld, msaa: u32, samples: Vec<PassSample>) -> Result<Self> {
+        Ok(ForwardDraws { pipeline: ForwardPipeline::new(device, world, msaa)?, samples })
     }
 }
 
@@ -133,8 +126,7 @@ impl PassDraws for ForwardDraws {
     }
     fn record(&self, ctx: &mut PassContext<'_>, inputs: &FrameInputs<'_>, pass: u32) {
         let sample = &self.samples[pass as usize];
-        self.pipeline
-            .record_draws(ctx.device, ctx.cmd, inputs.world, inputs.camera, sample, |i| self.include[i]);
+        self.pipeline.record_draws(ctx.device, ctx.cmd, inputs.world, inputs.camera, sample, |_| true);
     }
 }
 
@@ -148,8 +140,7 @@ impl ForwardTechnique {
     /// `samples.len()` passes at `msaa` samples per pass, every object drawn.
     pub fn new(ctx: &PrepareContext<'_>, msaa: u32, samples: Vec<PassSample>) -> Result<Self> {
         let passes = samples.len() as u32;
-        let include = vec![true; ctx.world.objects.len()];
-        let draws = ForwardDraws::new(ctx.device, ctx.world, msaa, samples, include)?;
+        let draws = ForwardDraws::new(ctx.device, ctx.world, msaa, samples)?;
         let frame = MultipassFrame::new(ctx.device, ctx.world, ctx.camera.size(), msaa, passes, "forward")?;
         Ok(ForwardTechnique { frame, draws })
     }

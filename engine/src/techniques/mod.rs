@@ -2,12 +2,12 @@
 //!
 //! - `auto` (the default): the effect planner ([`crate::plan`]) decides per object; with nothing to
 //!   simulate it is `pinhole`, otherwise the stochastic frame with each object on the shader
-//!   permutation of its effects and the still, sharp objects drawn by the plain pipeline in the same
-//!   passes (`auto.rs` composes the two paths)
+//!   permutation of its effects (the still, sharp ones on the `still` permutation)
 //! - `pinhole`: one pass at mid-shutter through the lens centre (no effect), MSAA 4×
 //! - `accumulation`: P full-scene passes, one (x,y,u,v,t) each, averaged
-//! - `stochastic`: stochastic rasterization, S = M MSAA samples × P passes per pixel, each sample its
-//!   own (x,y,u,v,t), tested per triangle inside a conservative bound (`stochastic.rs`)
+//! - `stochastic`: stochastic rasterization, visibility first: S samples per pixel, each its own
+//!   (x,y,u,v,t), tested per triangle inside a conservative bound into a per-sample visibility buffer,
+//!   then shaded (`stochastic.rs`)
 //!
 //! A technique is one file (plus one shader folder) exposing a [`TechniqueInfo`], listed once in
 //! [`registry`]. Its `prepare` function builds a [`FrameTechnique`] — pipelines and persistent

@@ -4,8 +4,8 @@
 //!
 //! As a graph: `clear accumulation` → repeat P × { `<name>` (raster: every [`PassDraws`]' draws) →
 //! `accumulate` (compute) } → `readback`. What goes into the passes comes from one or more
-//! [`PassDraws`] — a per-object path (the plain forward pipeline, a stochastic permutation) — so
-//! `auto` composes its paths into one frame. Shader: `shaders-glsl/accumulation/accumulate.comp`.
+//! [`PassDraws`] (the forward path of `pinhole` and `accumulation`; `stochastic` and `auto` have a
+//! frame of their own, `StochasticDraws::render`). Shader: `shaders-glsl/accumulation/accumulate.comp`.
 
 use ash::vk;
 use bytemuck::{Pod, Zeroable};
@@ -54,11 +54,6 @@ pub struct FrameUse {
 
 /// The draws of one per-object path, composed into the passes of a [`MultipassFrame`].
 pub trait PassDraws {
-    /// Work that must finish before the frame's graph is built: graphs of the path's own, run to
-    /// completion, and CPU decisions on their results (the compute hull's overflow check).
-    fn before_frame(&mut self, _inputs: &FrameInputs<'_>, _frame: &mut FrameContext<'_>) -> Result<()> {
-        Ok(())
-    }
     /// Adds the path's once-per-frame passes ahead of the P passes (e.g. the view's camera-space
     /// triangles) and says what its draws use.
     fn add_frame_passes<'a>(&'a self, g: &mut FrameGraph<'a>, inputs: &FrameInputs<'a>) -> Result<FrameUse>;

@@ -48,8 +48,8 @@ use crate::vk::{
 /// The registry entry.
 pub const INFO: TechniqueInfo = TechniqueInfo {
     name: "stochastic",
-    summary: "stochastic rasterization: a conservative bound per triangle, the 5D inside test per sample, \
-              gl_SampleMask (McGuire et al. 2010; Toth & Linder 2008)",
+    summary: "stochastic rasterization, visibility first: a conservative bound per triangle, the 5D inside \
+              test per sample into a visibility buffer, then shading (McGuire et al. 2010; Toth & Linder 2008)",
     prepare,
 };
 
