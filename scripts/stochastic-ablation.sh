@@ -5,7 +5,9 @@
 #   2. OLD_BIN's `stochastic` and `accumulation` on the same scenes and sizes (bench);
 #   3. what accuracy costs in time with both binaries: `shutter quality` sweeps of accumulation and
 #      stochastic (both shading rates) on default, one-mover and focus-sweep against one cached
-#      4096-spp reference per scene; the ratio at equal FLIP is the `quality` table's.
+#      4096-spp reference per scene; the ratio at equal FLIP is the `quality` table's;
+#   4. the device's calibrated bound against `adaptive` (NEW_BIN; sections 1-3 ran before the device
+#      default existed, with `adaptive`, so pass `:bound=adaptive` there to reproduce them exactly).
 # About 40 minutes on a 2-core machine, most of it OLD_BIN on focus-sweep.
 # Usage: scripts/stochastic-ablation.sh OLD_BIN NEW_BIN
 #   e.g. git worktree add /tmp/prev 45be632 && (cd /tmp/prev && cargo build --release --bin shutter)
@@ -55,4 +57,12 @@ for bin in NEW OLD; do
     -s accumulation@4,16,64,256 -s stochastic@4,16 -s stochastic:shading=per-sample@4 \
     --frames 1 --warmup 0 --out "$OUT/quality-focus-sweep-$bin"
 done
+echo "== 4. the device's calibrated bound (bbox on llvmpipe) against adaptive, NEW_BIN"
+for c in "${CASES[@]}"; do
+  read -r scene size spp frames <<<"$c"
+  $NEW bench "$scene" --size "$size" --spp "$spp" --frames "$frames" --warmup 1 --no-counters \
+    -c accumulation -c stochastic:bound=adaptive -c stochastic \
+    --json "$OUT/device-bound-$scene.json" | tee "$OUT/device-bound-$scene.md"
+done
+$NEW calibrate | tee "$OUT/calibrate.md"
 $NEW probe | tee "$OUT/probe.txt"

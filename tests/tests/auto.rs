@@ -40,7 +40,7 @@ fn reference(scene: &Scene, w: u32, h: u32, spp: u32, seed: u64) -> LinearImage 
 }
 
 fn options(shading: ShadingRate, instrumented: bool) -> StochasticOptions {
-    StochasticOptions { bound: BoundKind::Adaptive, shading, instrumented, ..Default::default() }
+    StochasticOptions { bound: BoundKind::Adaptive.into(), shading, instrumented, ..Default::default() }
 }
 
 fn scene(name: &str) -> Scene {

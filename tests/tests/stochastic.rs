@@ -22,7 +22,7 @@ use shutter::techniques::{
 use shutter_tests::{camera, renderer, same_sample_reference, save_comparison, single_object_scene, square};
 
 fn options(bound: BoundKind, shading: ShadingRate) -> StochasticOptions {
-    StochasticOptions { bound, shading, instrumented: false, ..Default::default() }
+    StochasticOptions { bound: bound.into(), shading, instrumented: false, ..Default::default() }
 }
 
 fn render(

@@ -67,8 +67,12 @@ pub fn run(renderer: &mut Renderer, scene: &Scene, a: &BoundsTableArgs) -> Resul
         eprintln!("S={spp} accumulation {ms:.1} ms");
         let mut bbox_ste = None;
         for &bound in &a.bounds {
-            let opts =
-                StochasticOptions { bound, shading: a.shading, instrumented: true, ..Default::default() };
+            let opts = StochasticOptions {
+                bound: bound.into(),
+                shading: a.shading,
+                instrumented: true,
+                ..Default::default()
+            };
             let counted = renderer.render(scene, Technique::STOCHASTIC, &base.with_stochastic(opts))?;
             let c = counted.stats.counters.expect("instrumented render has counters");
             let ste = c.sample_test_efficiency();

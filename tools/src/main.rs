@@ -10,6 +10,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
 
+use shutter::bounds::BoundKind;
 use shutter::image_io::{load_image, save_image};
 use shutter::metrics::{compare, write_flip_diff_png};
 use shutter::reference::{render_reference, ReferenceSettings, ReferenceShading};
@@ -43,9 +44,10 @@ enum Command {
         /// scene's [image] spp.
         #[arg(long)]
         spp: Option<u32>,
-        /// Stochastic bound: bbox, 2d-hexagon, parallel-edge-triangle, variable-radius-triangle,
-        /// 3d-hexagon, wedge, reduced-wedge, convex-hull, adaptive.
-        #[arg(long, default_value = "adaptive")]
+        /// Stochastic bound: device (the one calibrated fastest on the device, `shutter probe` says
+        /// which), bbox, 2d-hexagon, parallel-edge-triangle, variable-radius-triangle, 3d-hexagon,
+        /// wedge, reduced-wedge, convex-hull, adaptive. The image does not depend on it.
+        #[arg(long, default_value = "device")]
         bound: String,
         /// Stochastic shading rate: per-pixel | per-sample.
         #[arg(long, default_value = "per-pixel")]
@@ -226,6 +228,21 @@ enum Command {
     },
     /// Print the device, driver and capabilities.
     Probe,
+    /// Measure which stochastic bound is cheapest on this device (the images do not depend on it):
+    /// bbox, convex-hull and adaptive benched interleaved; prints the table and the calibration entry
+    /// (engine/src/techniques/stochastic.rs, BOUND_CALIBRATIONS) that `--bound device` would use.
+    Calibrate {
+        #[arg(default_value = "default")]
+        scene: String,
+        #[arg(long, value_parser = parse_size, default_value = "320x180")]
+        size: (u32, u32),
+        #[arg(long, default_value_t = 16)]
+        spp: u32,
+        #[arg(long, default_value_t = 3)]
+        frames: usize,
+        #[arg(long, default_value_t = 1)]
+        warmup: usize,
+    },
     /// List the built-in scenes.
     Scenes,
     /// List the techniques (the registry, engine/src/techniques/registry.rs) with one line each.
@@ -605,6 +622,44 @@ fn run() -> Result<()> {
             for p in shutter::techniques::feature_paths(&device.caps) {
                 println!("  {:<34} {:<5} {}", p.feature, if p.available { "yes" } else { "no" }, p.path);
             }
+        }
+        Command::Calibrate { scene, size, spp, frames, warmup } => {
+            let sc = load_scene(&scene)?;
+            let mut defaults = RenderSettings::from_scene(&sc);
+            (defaults.width, defaults.height) = size;
+            defaults.spp = spp;
+            let kinds = [BoundKind::BoundingBox, BoundKind::ConvexHull, BoundKind::Adaptive];
+            let configs = kinds
+                .iter()
+                .map(|k| bench::Config::parse(&format!("stochastic:bound={}", k.name()), &defaults))
+                .collect::<Result<Vec<_>>>()?;
+            let mut renderer = Renderer::new(shutter::vk::create_device()?)?;
+            let args = bench::BenchArgs { configs, frames: frames.max(1), warmup, counters: false };
+            let report = bench::run(&mut renderer, &sc, &args)?;
+            println!("{}", report.markdown());
+            let ms: Vec<f64> = report.results.iter().map(|r| r.gpu_ms.median).collect();
+            let best = (0..kinds.len()).min_by(|&a, &b| ms[a].total_cmp(&ms[b])).expect("three kinds");
+            let adaptive = ms[2];
+            let caps = &renderer.device().caps;
+            let (shipped, why) = shutter::techniques::stochastic::device_bound(caps);
+            println!(
+                "fastest: `{}` ({:.2}x adaptive); `--bound device` now draws `{}` ({why})",
+                kinds[best].name(),
+                ms[best] / adaptive,
+                shipped.name()
+            );
+            println!(
+                "calibration entry for this device:\n    BoundCalibration {{ driver_id: \"{}\", bound: BoundKind::{:?}, \
+                 measured: \"`shutter calibrate` ({scene}, {}x{}, S = {spp}, {frames} interleaved frames): {} \
+                 ({}, {})\" }}",
+                caps.driver_id,
+                kinds[best],
+                size.0,
+                size.1,
+                kinds.iter().zip(&ms).map(|(k, m)| format!("{} {:.2}x", k.name(), m / adaptive)).collect::<Vec<_>>().join(", "),
+                caps.device_name,
+                caps.driver_info
+            );
         }
         Command::Scenes => {
             for s in BUILTIN_SCENES {

@@ -49,6 +49,16 @@ fn probe_and_scenes_work() {
     let (code, out, err) = shutter(&["probe"]);
     assert_eq!(code, 0, "{err}");
     assert!(out.contains("device") && out.contains("MSAA counts"), "{out}");
+    if out.contains("MESA_LLVMPIPE") {
+        assert!(out.contains("draws `bbox`: calibrated for MESA_LLVMPIPE"), "{out}");
+    }
+    let (code, out, err) =
+        shutter(&["calibrate", "static", "--size", "32x18", "--spp", "4", "--frames", "1", "--warmup", "0"]);
+    assert_eq!(code, 0, "{err}");
+    assert!(
+        out.contains("| stochastic:bound=bbox |") && out.contains("calibration entry for this device"),
+        "{out}"
+    );
     let (code, out, _) = shutter(&["scenes"]);
     assert_eq!(code, 0);
     for s in ["default", "static", "focus-sweep"] {

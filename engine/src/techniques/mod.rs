@@ -36,7 +36,7 @@ use std::time::Instant;
 pub use compute_hull::HullExpansion;
 pub use forward::PassSample;
 pub use registry::Technique;
-pub use stochastic::{Intervals, SampleCounters, ShadingRate, StochasticOptions};
+pub use stochastic::{BoundChoice, Intervals, SampleCounters, ShadingRate, StochasticOptions};
 
 use crate::error::{Error, Result};
 use crate::gpu::{GpuView, GpuWorld};
@@ -414,6 +414,10 @@ pub fn feature_paths(caps: &crate::vk::Capabilities) -> Vec<FeaturePath> {
              sample (--shading)"
                 .into(),
         ),
+        f("stochastic bound", true, {
+            let (kind, why) = stochastic::device_bound(caps);
+            format!("`--bound device` (the default) draws `{}`: {why}", kind.name())
+        }),
         f(
             "fragmentStoresAndAtomics",
             caps.fragment_stores_and_atomics,
