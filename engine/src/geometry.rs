@@ -37,8 +37,11 @@ impl MovingTriangle {
     /// Camera-space vertices at shutter time `t ∈ [0, 1]`, interpolated as the GPU does: GLSL
     /// `mix(p0, p1, t)`, which the GLSL spec defines as `p0·(1 − t) + p1·t` — glam's `lerp`.
     #[inline(always)]
+    /// The triangle at shutter time `t`: `v0 + (v1 − v0)·t`, which is exactly `v0` for a vertex that
+    /// does not move (the `(1 − t)·v0 + t·v1` form is not: a face exactly on the near plane then rounded
+    /// out of `[near, far]` for some t). `shutter_lerp` in `inside.glsl` is the same expression.
     pub fn at(&self, t: f32) -> [Vec3; 3] {
-        [self.v0[0].lerp(self.v1[0], t), self.v0[1].lerp(self.v1[1], t), self.v0[2].lerp(self.v1[2], t)]
+        std::array::from_fn(|i| self.v0[i] + (self.v1[i] - self.v0[i]) * t)
     }
     /// The six end vertices (open then close); their convex hull contains the triangle at every time.
     pub fn end_vertices(&self) -> [Vec3; 6] {

@@ -19,6 +19,11 @@ vec4 thin_lens_clip(vec3 p, vec2 lens_unit, vec2 jitter_px) {
     clip.x = (2.0 * s * qz.x - 2.0 * jitter_px.x * z) / W;
     clip.y = (-2.0 * s * qz.y - 2.0 * jitter_px.y * z) / H;
     clip.z = near_z * (far_z - z) / (far_z - near_z);
+    // Exactly, 0 <= clip.z <= w on [near, far]; rounding could push a vertex lying exactly on the near
+    // (or far) plane out of the clip volume and drop a face the reference keeps. Kept 2^-20 inside:
+    // the rasterizer's interpolated depth of a face at exactly 1 also rounds above 1 here and there.
+    if (z >= near_z) clip.z = min(clip.z, z * (1.0 - 1.0 / 1048576.0));
+    if (z <= far_z) clip.z = max(clip.z, z * (1.0 / 1048576.0));
     clip.w = z;
     return clip;
 }

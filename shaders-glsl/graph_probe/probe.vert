@@ -24,7 +24,7 @@ void main() {
     ObjectView o = object_views[pc.object];
     vec3 p0 = (o.model_view[0] * vec4(in_position, 1.0)).xyz;
     vec3 p1 = (o.model_view[1] * vec4(in_position, 1.0)).xyz;
-    vec3 p = mix(p0, p1, pc.time);
+    vec3 p = p0 + (p1 - p0) * pc.time;  // exact for a still vertex (MovingTriangle::at)
     v_position = p;
     v_normal = mix(mat3(o.normal_matrix[0]) * in_normal, mat3(o.normal_matrix[1]) * in_normal, pc.time);
     v_uv = in_uv;

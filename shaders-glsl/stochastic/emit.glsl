@@ -6,6 +6,7 @@
 // writes them to a buffer as triangles.)
 #ifndef SHUTTER_EMIT_GLSL
 #define SHUTTER_EMIT_GLSL
+#include "stochastic/inside.glsl"
 
 // A sample can lie anywhere in its pixel square; the rasterizer's sample points sit at fixed offsets.
 // pc.dilate (bounds::dilation_px) covers every sample point of every pixel whose square meets the bound.
@@ -87,12 +88,14 @@ bool emit_dilated(vec2 pts[BOUND_MAX_POINTS], int first, int n) {
 // (NO_MOTION) the triangle at mid-shutter at both ends (the fragment stage tests it there).
 vec3[6] bound_vertices(vec3 open[3], vec3 close[3], float t0, float t1) {
 #ifdef NO_MOTION
-    vec3 m0 = mix(open[0], close[0], 0.5), m1 = mix(open[1], close[1], 0.5), m2 = mix(open[2], close[2], 0.5);
+    vec3 m0 = shutter_lerp(open[0], close[0], 0.5), m1 = shutter_lerp(open[1], close[1], 0.5);
+    vec3 m2 = shutter_lerp(open[2], close[2], 0.5);
     return vec3[6](m0, m1, m2, m0, m1, m2);
 #else
     if (t0 == 0.0 && t1 == 1.0) return vec3[6](open[0], open[1], open[2], close[0], close[1], close[2]);
-    return vec3[6](mix(open[0], close[0], t0), mix(open[1], close[1], t0), mix(open[2], close[2], t0),
-                   mix(open[0], close[0], t1), mix(open[1], close[1], t1), mix(open[2], close[2], t1));
+    return vec3[6](shutter_lerp(open[0], close[0], t0), shutter_lerp(open[1], close[1], t0),
+                   shutter_lerp(open[2], close[2], t0), shutter_lerp(open[0], close[0], t1),
+                   shutter_lerp(open[1], close[1], t1), shutter_lerp(open[2], close[2], t1));
 #endif
 }
 

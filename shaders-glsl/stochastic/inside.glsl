@@ -9,6 +9,11 @@
 
 const float PARALLEL_EPS = 1e-7;
 
+// MovingTriangle::at's interpolation: exact for a vertex that does not move (mix's (1-t)a + tb is not).
+vec3 shutter_lerp(vec3 a, vec3 b, float t) {
+    return a + (b - a) * t;
+}
+
 // Intrinsics::primary_ray: origin on the lens, direction through the focus-plane point of the pixel.
 void primary_ray(vec2 pixel, vec2 lens, out vec3 o, out vec3 d) {
     float W = view.viewport.x, H = view.viewport.y, s = view.viewport.z;

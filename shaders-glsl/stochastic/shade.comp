@@ -77,9 +77,9 @@ SampleHit sample_at(uint prim, uint tile_index, uvec2 pix) {
 #else
     h.t = sample_time[tile_index];
 #endif
-    h.a = mix(p_open[0], p_close[0], h.t);
-    h.b = mix(p_open[1], p_close[1], h.t);
-    h.c = mix(p_open[2], p_close[2], h.t);
+    h.a = shutter_lerp(p_open[0], p_close[0], h.t);
+    h.b = shutter_lerp(p_open[1], p_close[1], h.t);
+    h.c = shutter_lerp(p_open[2], p_close[2], h.t);
     return h;
 }
 

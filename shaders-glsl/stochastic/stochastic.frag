@@ -52,7 +52,7 @@ void main() {
         p_close[k] = vec3(triangles[at + 9u], triangles[at + 10u], triangles[at + 11u]);
     }
 #ifdef NO_MOTION
-    for (uint k = 0u; k < 3u; k++) p_open[k] = mix(p_open[k], p_close[k], 0.5);
+    for (uint k = 0u; k < 3u; k++) p_open[k] = shutter_lerp(p_open[k], p_close[k], 0.5);
 #endif
     uvec2 pix = uvec2(gl_FragCoord.xy);
     uint base = ((pix.y % SAMPLE_TILE_SIZE) * SAMPLE_TILE_SIZE + pix.x % SAMPLE_TILE_SIZE) * pc.spp
@@ -70,9 +70,9 @@ void main() {
         vec3 a = p_open[0], b = p_open[1], c = p_open[2];
 #else
         float t = sample_time[base + i];
-        vec3 a = mix(p_open[0], p_close[0], t);
-        vec3 b = mix(p_open[1], p_close[1], t);
-        vec3 c = mix(p_open[2], p_close[2], t);
+        vec3 a = shutter_lerp(p_open[0], p_close[0], t);
+        vec3 b = shutter_lerp(p_open[1], p_close[1], t);
+        vec3 c = shutter_lerp(p_open[2], p_close[2], t);
 #endif
         float z;
         vec3 w;
