@@ -237,17 +237,26 @@ mod tests {
     }
 
     #[test]
-    fn moving_triangle_interpolates_like_glsl_mix() {
+    fn moving_triangle_interpolates_like_shutter_lerp() {
         let tri = MovingTriangle {
             v0: [Vec3::new(0.1, 0.2, -1.0), Vec3::new(1.0, 0.0, -2.0), Vec3::new(0.0, 3.0, -1.5)],
             v1: [Vec3::new(0.7, -0.2, -4.0), Vec3::new(1.0, 0.5, -2.0), Vec3::new(-1.0, 3.0, -0.5)],
         };
         for t in [0.0f32, 0.1, 0.5, 0.9, 1.0] {
-            let p = tri.at(t);
-            // GLSL: mix(x, y, a) = x·(1 − a) + y·a.
-            assert_eq!(p, [0, 1, 2].map(|i| tri.v0[i] * (1.0 - t) + tri.v1[i] * t));
+            // `shutter_lerp` in inside.glsl: a + (b − a)·t.
+            assert_eq!(tri.at(t), [0, 1, 2].map(|i| tri.v0[i] + (tri.v1[i] - tri.v0[i]) * t));
         }
-        assert_eq!((tri.at(0.0), tri.at(1.0)), (tri.v0, tri.v1));
+        assert_eq!(tri.at(0.0), tri.v0);
+        for (p, q) in tri.at(1.0).iter().zip(&tri.v1) {
+            assert!((*p - *q).abs().max_element() <= 1e-6, "{p} vs {q}");
+        }
+        // A vertex that does not move stays exactly put (the near-plane hard case): 1.0 stays, and
+        // 0.1 — not exact in binary — stays the same f32 at every t.
+        let still = MovingTriangle { v0: [Vec3::new(0.3, 0.2, -0.1); 3], v1: [Vec3::new(0.3, 0.2, -0.1); 3] };
+        for i in 0..1000 {
+            let t = i as f32 / 1000.0;
+            assert_eq!(still.at(t), still.v0, "t = {t}");
+        }
         assert!(tri.is_finite() && !tri.is_degenerate());
     }
 }

@@ -454,9 +454,11 @@ fn check_hard_case_at(name: &str, scene: &Scene, spp: u32) {
 // a spurious hit or a misordered sample shows at once; only f32 rounding remains.
 const HARD_RMSE_MAX: f64 = 1e-4;
 
-/// A scene from scene-file text (lights and materials the single-object helper does not have).
-fn scene_from_toml(text: &str) -> Scene {
-    shutter::scene::file::parse_scene(text, std::path::Path::new("."), "hard").expect("scene")
+/// A scene of `docs/scenes/` (the hard cases docs/STOCHASTIC.md shows), with lights and materials the
+/// single-object helper does not have.
+fn doc_scene(name: &str) -> Scene {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("../docs/scenes/{name}.toml"));
+    shutter::scene::file::load_scene_file(&path).expect("scene")
 }
 
 /// Issue 10, hard case 1: a lens wider than the camera's height above a big two-triangle ground plane
@@ -466,37 +468,7 @@ fn scene_from_toml(text: &str) -> Scene {
 /// 0.0088). Visibility per sample and shading groups split by side get it exact.
 #[test]
 fn hard_lens_wider_than_the_height_above_a_big_plane() {
-    let scene = scene_from_toml(
-        r#"
-[image]
-width = 64
-height = 36
-[camera]
-position = [0.0, 1.0, 0.0]
-look_at = [0.0, 0.7, -5.0]
-vfov_deg = 50.0
-aperture_radius = 2.0
-focus_distance = 5.0
-near = 0.05
-far = 100.0
-[[object]]
-name = "ground"
-mesh = "plane"
-detail = 1
-[object.transform]
-scale = [10.0, 1.0, 10.0]
-[object.material]
-albedo = [0.6, 0.6, 0.55]
-[[light]]
-type = "directional"
-direction = [-0.3, -1.0, -0.4]
-color = [1.5, 1.5, 1.5]
-[environment]
-ambient = [0.05, 0.05, 0.05]
-background = [0.1, 0.12, 0.2]
-"#,
-    );
-    check_hard_case_at("lens-wider-than-height", &scene, 64);
+    check_hard_case_at("lens-wider-than-height", &doc_scene("lens-wider-than-height"), 64);
 }
 
 /// Issue 10, hard case 3: one depth per pixel for all covered samples misorders samples even on a
@@ -505,48 +477,7 @@ background = [0.1, 0.12, 0.2]
 /// (not the ambient-only helper) makes misordered faces visible.
 #[test]
 fn hard_box_moving_in_depth_keeps_per_sample_depth() {
-    let scene = scene_from_toml(
-        r#"
-[image]
-width = 64
-height = 48
-[camera]
-position = [0.0, 0.0, 0.0]
-look_at = [0.0, 0.0, -1.0]
-vfov_deg = 40.0
-aperture_radius = 0.05
-focus_distance = 3.0
-near = 0.05
-far = 100.0
-[[object]]
-name = "box"
-mesh = "box"
-[object.transform]
-translate = [0.0, 0.0, -2.2]
-rotate_deg = [25.0, 35.0, 0.0]
-scale = 0.5
-[object.transform_close]
-translate = [0.15, 0.0, -3.6]
-rotate_deg = [25.0, 35.0, 0.0]
-scale = 0.5
-[object.material]
-albedo = [0.8, 0.5, 0.3]
-specular = 0.3
-roughness = 0.4
-[[light]]
-type = "directional"
-direction = [-0.5, -1.0, -0.6]
-color = [1.6, 1.5, 1.35]
-[[light]]
-type = "point"
-position = [1.0, 1.0, 0.0]
-color = [2.0, 2.0, 2.0]
-[environment]
-ambient = [0.06, 0.065, 0.08]
-background = [0.12, 0.14, 0.18]
-"#,
-    );
-    check_hard_case_at("box-moving-in-depth", &scene, 64);
+    check_hard_case_at("box-moving-in-depth", &doc_scene("box-moving-in-depth"), 64);
 }
 
 fn hard_scene(aperture: f32, focus: f32, mesh: Arc<Mesh>, open: Mat4, close: Option<Mat4>) -> Scene {

@@ -452,6 +452,25 @@ impl<'a> FrameGraph<'a> {
         Ok(())
     }
 
+    /// A pass named `name` that clears all of colour image `image` to `value` (a transfer write: the
+    /// image needs `TRANSFER_DST` usage).
+    pub fn clear_color(&mut self, name: &str, image: ImageHandle, value: [f32; 4]) {
+        self.pass(name).overwrite(image, Access::TransferWrite).record(move |ctx| {
+            let target = ctx.image(image);
+            let clear = vk::ClearColorValue { float32: value };
+            unsafe {
+                ctx.device.raw.cmd_clear_color_image(
+                    ctx.cmd,
+                    target.raw,
+                    vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+                    &clear,
+                    &[target.full_range()],
+                )
+            };
+            Ok(())
+        });
+    }
+
     /// Makes the GPU's writes to `buffer` visible to the host once [`FrameGraph::execute`] returns
     /// (the device→host memory dependency), for a host-visible buffer the CPU then maps.
     pub fn host_read(&mut self, buffer: BufferHandle) {

@@ -55,10 +55,12 @@ use crate::shading::{shade, ShadingLight};
 /// different pixels (intersection, shading, sampling). `shutter quality` puts it in the key of its
 /// cached references, so a reference rendered by an older version is never reused.
 ///
-/// 2: hits from the shared [`crate::geometry::intersect_triangle`] (the GPU's inside test), nearest by
-/// barycentric view depth, shaded at the barycentric point. (1: a Möller–Trumbore of its own, nearest
-/// by ray parameter, shaded at `o + t·d`.)
-pub const REFERENCE_VERSION: u32 = 2;
+/// 3: a pixel's samples in shutter-time order (`sampling::pixel_sample_set`), the hit depth clamped
+/// to the triangle's depth range, triangles interpolated over the shutter as `a + (b − a)·t` (exact for
+/// still vertices). (2: hits from the shared [`crate::geometry::intersect_triangle`] (the GPU's inside
+/// test), nearest by barycentric view depth, shaded at the barycentric point. 1: a Möller–Trumbore of
+/// its own, nearest by ray parameter, shaded at `o + t·d`.)
+pub const REFERENCE_VERSION: u32 = 3;
 /// Side of the square pixel tiles rendered in parallel.
 pub const TILE: u32 = 16;
 

@@ -194,20 +194,7 @@ impl MultipassFrame {
             None
         };
 
-        g.pass("clear accumulation").overwrite(accum, Access::TransferWrite).record(move |ctx| {
-            let image = ctx.image(accum);
-            let zero = vk::ClearColorValue { float32: [0.0; 4] };
-            unsafe {
-                ctx.device.raw.cmd_clear_color_image(
-                    ctx.cmd,
-                    image.raw,
-                    vk::ImageLayout::TRANSFER_DST_OPTIMAL,
-                    &zero,
-                    &[image.full_range()],
-                )
-            };
-            Ok(())
-        });
+        g.clear_color("clear accumulation", accum, [0.0; 4]);
         let background = inputs.world.background;
         let weight = 1.0 / self.passes.max(1) as f32;
         let inputs = *inputs;

@@ -985,20 +985,7 @@ impl StochasticDraws {
         let visibility = g.import_buffer("stochastic visibility", &self.visibility);
         let accum = g.import_image("stochastic accumulation", &self.accum);
 
-        g.pass("clear accumulation").overwrite(accum, Access::TransferWrite).record(move |ctx| {
-            let image = ctx.image(accum);
-            let zero = vk::ClearColorValue { float32: [0.0; 4] };
-            unsafe {
-                ctx.device.raw.cmd_clear_color_image(
-                    ctx.cmd,
-                    image.raw,
-                    vk::ImageLayout::TRANSFER_DST_OPTIMAL,
-                    &zero,
-                    &[image.full_range()],
-                )
-            };
-            Ok(())
-        });
+        g.clear_color("clear accumulation", accum, [0.0; 4]);
         let inputs = *inputs;
         let (w, h) = self.size;
         g.repeat(self.passes, |g| {
