@@ -7,7 +7,8 @@
 #      stochastic (both shading rates) on default, one-mover and focus-sweep against one cached
 #      4096-spp reference per scene; the ratio at equal FLIP is the `quality` table's;
 #   4. the device's calibrated bound against `adaptive` (NEW_BIN; sections 1-3 ran before the device
-#      default existed, with `adaptive`, so pass `:bound=adaptive` there to reproduce them exactly).
+#      default existed, with `adaptive`, so pass `:bound=adaptive` there to reproduce them exactly);
+#   5. the final state of NEW_BIN against accumulation.
 # About 40 minutes on a 2-core machine, most of it OLD_BIN on focus-sweep.
 # Usage: scripts/stochastic-ablation.sh OLD_BIN NEW_BIN
 #   e.g. git worktree add /tmp/prev 45be632 && (cd /tmp/prev && cargo build --release --bin shutter)
@@ -65,4 +66,11 @@ for c in "${CASES[@]}"; do
     --json "$OUT/device-bound-$scene.json" | tee "$OUT/device-bound-$scene.md"
 done
 $NEW calibrate | tee "$OUT/calibrate.md"
+echo "== 5. the final state (device bound, shading dispatch over each object's screen box), NEW_BIN"
+for c in "${CASES[@]}"; do
+  read -r scene size spp frames <<<"$c"
+  $NEW bench "$scene" --size "$size" --spp "$spp" --frames "$frames" --warmup 1 \
+    -c accumulation -c stochastic -c stochastic:shading=per-sample \
+    --json "$OUT/final-$scene.json" | tee "$OUT/final-$scene.md"
+done
 $NEW probe | tee "$OUT/probe.txt"

@@ -103,6 +103,10 @@ pub struct ObjectPlan {
     /// Entirely before the near plane or beyond the far plane at both ends: nothing to draw.
     pub culled: bool,
     pub effects: Effects,
+    /// Pixel-space box (min, max) holding every circle of confusion of every vertex at both shutter
+    /// ends — the `bbox` bound of the whole object, so it holds every pixel any of its triangles can
+    /// cover — or `None` when a vertex reaches the near plane (the projection is unbounded there).
+    pub screen_box: Option<(Vec2, Vec2)>,
 }
 
 /// Per-object decisions for one frame and image size.
@@ -170,7 +174,16 @@ pub fn plan_object(
 ) -> ObjectPlan {
     let (mut z_lo, mut z_hi) = (f32::INFINITY, f32::NEG_INFINITY);
     let mut max_motion = 0.0f32;
+    let (mut box_lo, mut box_hi) = (Vec2::INFINITY, Vec2::NEG_INFINITY);
     for &[p0, p1] in ends {
+        for p in [p0, p1] {
+            let z = -p.z;
+            if z > k.near {
+                let (c, r) = (k.project(p, Vec2::ZERO), k.circle_of_confusion_px(z).abs());
+                box_lo = box_lo.min(c - Vec2::splat(r));
+                box_hi = box_hi.max(c + Vec2::splat(r));
+            }
+        }
         let (z0, z1) = (-p0.z, -p1.z);
         z_lo = z_lo.min(z0.min(z1));
         z_hi = z_hi.max(z0.max(z1));
@@ -200,9 +213,11 @@ pub fn plan_object(
     } else {
         Effects::new(max_coc >= threshold_px, max_motion >= threshold_px)
     };
+    let screen_box = (!crosses_near && box_lo.is_finite() && box_hi.is_finite()).then_some((box_lo, box_hi));
     ObjectPlan {
         name: name.to_string(),
         triangles,
+        screen_box,
         depth_range: (z_lo, z_hi),
         max_coc_px: max_coc,
         max_motion_px: max_motion,

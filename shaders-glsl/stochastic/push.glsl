@@ -17,6 +17,9 @@ layout(push_constant) uniform Push {
     uint sample_count;
     float t0;
     float t1;
+    // The shading pass' dispatch covers the object's screen box from this pixel on.
+    uint origin_x;
+    uint origin_y;
 } pc;
 
 #endif

@@ -127,7 +127,7 @@ uint pick(uvec4 lo, uvec4 hi, uint g) {
 }
 
 void main() {
-    uvec2 pix = gl_GlobalInvocationID.xy;
+    uvec2 pix = gl_GlobalInvocationID.xy + uvec2(pc.origin_x, pc.origin_y);
     if (any(greaterThanEqual(pix, uvec2(view.viewport.xy)))) return;
     float inv_spp = 1.0 / float(pc.spp);
     if (pc.object == SHADE_BACKGROUND) {

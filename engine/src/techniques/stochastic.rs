@@ -306,6 +306,8 @@ pub struct StochasticPush {
     pub sample_count: u32,
     pub t0: f32,
     pub t1: f32,
+    pub origin_x: u32,
+    pub origin_y: u32,
 }
 
 /// Push constants of `triangles.comp`.
@@ -354,7 +356,20 @@ pub const STOCHASTIC_STRUCTS: &[SharedStruct] = &[
     shared_struct!(
         "Push",
         StochasticPush,
-        [object, bound, pass_index, spp, per_pass, dilate, sample_first, sample_count, t0, t1]
+        [
+            object,
+            bound,
+            pass_index,
+            spp,
+            per_pass,
+            dilate,
+            sample_first,
+            sample_count,
+            t0,
+            t1,
+            origin_x,
+            origin_y
+        ]
     ),
     shared_struct!("Push", TrianglesPush, [object, triangle_count]),
 ];
@@ -405,6 +420,25 @@ impl ShadingRate {
     }
 }
 
+/// The pixels (x, y, width, height) an object's shading dispatch covers: its planned screen box (every
+/// circle of confusion of every vertex at both shutter ends, `ObjectPlan::screen_box`) widened by a
+/// pixel and by the f32 slack between the CPU's and the GPU's camera-space vertices, clamped to the
+/// image; the whole image when the box is unbounded (a vertex at the near plane). Every sample the
+/// object can cover lies in the pixels of its bounds, which lie in that box, so the dispatch scans only
+/// those pixels of the visibility buffer.
+pub fn shading_rect(screen_box: Option<(glam::Vec2, glam::Vec2)>, (w, h): (u32, u32)) -> [u32; 4] {
+    let Some((lo, hi)) = screen_box else { return [0, 0, w, h] };
+    let size = glam::Vec2::new(w as f32, h as f32);
+    let slack = |v: glam::Vec2| glam::Vec2::splat(1.0) + v.abs() * 1e-4 + size * 1e-4;
+    let (lo, hi) = ((lo - slack(lo)).floor(), (hi + slack(hi)).ceil());
+    if !(lo.is_finite() && hi.is_finite()) {
+        return [0, 0, w, h];
+    }
+    let (x0, y0) = (lo.x.clamp(0.0, w as f32) as u32, lo.y.clamp(0.0, h as f32) as u32);
+    let (x1, y1) = (hi.x.clamp(0.0, w as f32) as u32, hi.y.clamp(0.0, h as f32) as u32);
+    [x0, y0, x1.saturating_sub(x0), y1.saturating_sub(y0)]
+}
+
 /// Bytes per camera-space triangle record (`triangles.comp`): 3 vertices × xyz at open and close.
 const TRIANGLE_RECORD_BYTES: u64 = 18 * 4;
 
@@ -434,6 +468,8 @@ pub struct StochasticDraws {
     object_effects: Vec<Effects>,
     /// Interval bounds per object and pass ([`Intervals`]; 1 on the still and defocus-only paths).
     object_intervals: Vec<u32>,
+    /// Pixels (x, y, width, height) each object's shading dispatch covers ([`shading_rect`]).
+    shade_rects: Vec<[u32; 4]>,
     /// The camera's shutter curve: run k of K covers the warped times of `[k/K, (k+1)/K)`.
     shutter: ShutterCurve,
     layout: PipelineLayout,
@@ -562,6 +598,7 @@ impl StochasticDraws {
                 }
             })
             .collect();
+        let shade_rects = plan.objects.iter().map(|o| shading_rect(o.screen_box, (width, height))).collect();
 
         let object_set_layout = DescriptorSetLayout::from_table(
             device,
@@ -748,6 +785,7 @@ impl StochasticDraws {
             shade_pipelines,
             object_effects: object_effects.to_vec(),
             object_intervals,
+            shade_rects,
             shutter,
             layout,
             shade_layout,
@@ -930,6 +968,8 @@ impl StochasticDraws {
             sample_count: count,
             t0,
             t1: if first + count == self.per_pass && pass + 1 == self.passes { 1.0 } else { t1 },
+            origin_x: 0,
+            origin_y: 0,
         }
     }
 
@@ -1131,41 +1171,52 @@ impl StochasticDraws {
             );
         }
         let mut first = true;
-        let mut dispatch = |pipeline: &Pipeline, object: u32, sets: Option<[vk::DescriptorSet; 2]>| {
-            if !first {
-                barrier();
-            }
-            first = false;
-            unsafe {
-                d.raw.cmd_bind_pipeline(cmd, bind, pipeline.raw);
-                if let Some(sets) = sets {
-                    d.raw.cmd_bind_descriptor_sets(cmd, bind, layout, OBJECT_SET_INDEX, &sets, &[]);
+        let full = [0, 0, w, h];
+        let mut dispatch =
+            |pipeline: &Pipeline, object: u32, sets: Option<[vk::DescriptorSet; 2]>, rect: [u32; 4]| {
+                let [x0, y0, rw, rh] = rect;
+                if rw == 0 || rh == 0 {
+                    return;
                 }
-                let push = self.push(object, pass, 0, 1);
-                d.raw.cmd_push_constants(
-                    cmd,
-                    layout,
-                    vk::ShaderStageFlags::COMPUTE,
-                    0,
-                    bytemuck::bytes_of(&push),
-                );
-                d.raw.cmd_dispatch(cmd, w.div_ceil(8), h.div_ceil(8), 1);
-            }
-        };
+                if !first {
+                    barrier();
+                }
+                first = false;
+                unsafe {
+                    d.raw.cmd_bind_pipeline(cmd, bind, pipeline.raw);
+                    if let Some(sets) = sets {
+                        d.raw.cmd_bind_descriptor_sets(cmd, bind, layout, OBJECT_SET_INDEX, &sets, &[]);
+                    }
+                    let push = StochasticPush { origin_x: x0, origin_y: y0, ..self.push(object, pass, 0, 1) };
+                    d.raw.cmd_push_constants(
+                        cmd,
+                        layout,
+                        vk::ShaderStageFlags::COMPUTE,
+                        0,
+                        bytemuck::bytes_of(&push),
+                    );
+                    d.raw.cmd_dispatch(cmd, rw.div_ceil(8), rh.div_ceil(8), 1);
+                }
+            };
         // The background dispatch binds no object sets; any permutation does it. Set 1 and 2 of the
         // first drawn object keep the layout's sets valid.
         let Some(first_drawn) = (0..world.objects.len()).find(|&i| self.is_drawn(i, world)) else {
             let (_, p) = &self.shade_pipelines[0];
             let o = &world.objects[0];
-            dispatch(p, SHADE_BACKGROUND, Some([o.set, self.object_sets[0]]));
+            dispatch(p, SHADE_BACKGROUND, Some([o.set, self.object_sets[0]]), full);
             return;
         };
         let o = &world.objects[first_drawn];
-        dispatch(&self.shade_pipelines[0].1, SHADE_BACKGROUND, Some([o.set, self.object_sets[first_drawn]]));
+        dispatch(
+            &self.shade_pipelines[0].1,
+            SHADE_BACKGROUND,
+            Some([o.set, self.object_sets[first_drawn]]),
+            full,
+        );
         for (effects, pipeline) in &self.shade_pipelines {
             for (i, o) in world.objects.iter().enumerate() {
                 if self.object_effects[i] == *effects && self.is_drawn(i, world) {
-                    dispatch(pipeline, i as u32, Some([o.set, self.object_sets[i]]));
+                    dispatch(pipeline, i as u32, Some([o.set, self.object_sets[i]]), self.shade_rects[i]);
                 }
             }
         }
@@ -1275,6 +1326,21 @@ mod tests {
             assert!(known.iter().any(|d| format!("{d:?}") == c.driver_id), "{}", c.driver_id);
             assert!(c.measured.contains("shutter calibrate"), "{}", c.measured);
         }
+    }
+
+    #[test]
+    fn shading_rects_hold_the_box_and_stay_in_the_image() {
+        use glam::Vec2;
+        assert_eq!(shading_rect(None, (320, 180)), [0, 0, 320, 180]);
+        let [x, y, w, h] = shading_rect(Some((Vec2::new(10.2, 20.7), Vec2::new(30.5, 40.0))), (320, 180));
+        assert!(x <= 9 && y <= 19 && x + w >= 32 && y + h >= 41 && x + w <= 320, "{x} {y} {w} {h}");
+        assert_eq!(
+            shading_rect(Some((Vec2::new(-50.0, -50.0), Vec2::new(1e4, 1e4))), (320, 180)),
+            [0, 0, 320, 180]
+        );
+        let off = shading_rect(Some((Vec2::new(400.0, 10.0), Vec2::new(500.0, 20.0))), (320, 180));
+        assert!(off[2] == 0, "{off:?}");
+        assert_eq!(shading_rect(Some((Vec2::NAN, Vec2::ZERO)), (320, 180)), [0, 0, 320, 180]);
     }
 
     #[test]
