@@ -301,6 +301,44 @@ mod tests {
         p.objects.iter().find(|o| o.name == object).unwrap().effects
     }
 
+    /// The screen box holds every triangle's bound (the shading pass scans only its pixels): on every
+    /// built-in scene, each object's triangles that stay in front of the near plane have their
+    /// `bbox` bound inside the box; an object reaching the near plane has no box (the whole image).
+    #[test]
+    fn screen_box_holds_every_triangle_bound() {
+        use crate::bounds::{bound, BoundKind};
+        use crate::geometry::MovingTriangle;
+        use crate::scene::CameraSpaceScene;
+        for name in ["default", "one-mover", "static"] {
+            let s = builtin_scene(name).unwrap().unwrap();
+            let (w, h) = (s.image.width, s.image.height);
+            let plan = Plan::new(&s, w, h);
+            let k = s.camera.intrinsics(w, h);
+            let space = CameraSpaceScene::new(&s);
+            for ((o, motion), op) in s.objects.iter().zip(&space.objects).zip(&plan.objects) {
+                let Some((lo, hi)) = op.screen_box else {
+                    assert!(op.crosses_near, "{name}/{}: no box but in front of near", o.name);
+                    continue;
+                };
+                let ends: Vec<[Vec3; 2]> = o.mesh.positions.iter().map(|&p| motion.positions(p)).collect();
+                for t in o.mesh.indices.chunks_exact(3) {
+                    let idx = [t[0], t[1], t[2]].map(|i| i as usize);
+                    let tri = MovingTriangle { v0: idx.map(|i| ends[i][0]), v1: idx.map(|i| ends[i][1]) };
+                    let Some((blo, bhi)) = bound(&tri, &k, BoundKind::BoundingBox).aabb() else { continue };
+                    let tol = 1e-3 * (1.0 + blo.abs().max(bhi.abs()).max_element());
+                    assert!(
+                        blo.x >= lo.x - tol
+                            && blo.y >= lo.y - tol
+                            && bhi.x <= hi.x + tol
+                            && bhi.y <= hi.y + tol,
+                        "{name}/{}: bound {blo}..{bhi} outside the box {lo}..{hi}",
+                        o.name
+                    );
+                }
+            }
+        }
+    }
+
     #[test]
     fn static_scene_needs_nothing() {
         let p = plan_of("static");
