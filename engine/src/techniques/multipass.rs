@@ -27,6 +27,14 @@ pub const COLOR_FORMAT: vk::Format = vk::Format::R16G16B16A16_SFLOAT;
 pub const DEPTH_FORMAT: vk::Format = vk::Format::D32_SFLOAT;
 pub const ACCUM_FORMAT: vk::Format = vk::Format::R32G32B32A32_SFLOAT;
 
+/// An RGBA32F accumulation image (storage, cleared and read back by transfers): the multipass frame's
+/// and the stochastic frame's.
+pub fn accumulation_image(device: &Device, name: &str, (width, height): (u32, u32)) -> Result<Image> {
+    let usage =
+        vk::ImageUsageFlags::STORAGE | vk::ImageUsageFlags::TRANSFER_SRC | vk::ImageUsageFlags::TRANSFER_DST;
+    Image::new(device, name, ImageDesc::new_2d(width, height, ACCUM_FORMAT, usage))
+}
+
 /// Set 3 of `accumulate.comp`.
 pub const ACCUMULATE_SET: [Binding; 2] = [
     Binding { binding: 0, ty: vk::DescriptorType::STORAGE_IMAGE, block: "resolved_pass" },
@@ -107,18 +115,7 @@ impl MultipassFrame {
             "pass resolved",
             ImageDesc::new_2d(width, height, COLOR_FORMAT, attach | vk::ImageUsageFlags::STORAGE),
         )?);
-        let accum = Tracked::new(Image::new(
-            device,
-            "accumulation",
-            ImageDesc::new_2d(
-                width,
-                height,
-                ACCUM_FORMAT,
-                vk::ImageUsageFlags::STORAGE
-                    | vk::ImageUsageFlags::TRANSFER_SRC
-                    | vk::ImageUsageFlags::TRANSFER_DST,
-            ),
-        )?);
+        let accum = Tracked::new(accumulation_image(device, "accumulation", (width, height))?);
         let pool = DescriptorPool::for_tables(device, 1, &[(&ACCUMULATE_SET, 1)])?;
         let accumulate_set = pool.allocate(&set_layout)?;
         write_descriptors(

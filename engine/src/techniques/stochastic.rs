@@ -26,7 +26,7 @@ use bytemuck::{Pod, Zeroable};
 use gpu_allocator::MemoryLocation;
 
 use super::compute_hull::{ComputeHull, HullExpansion, INITIAL_VERTICES_PER_TRIANGLE};
-use super::multipass::ACCUM_FORMAT;
+use super::multipass::accumulation_image;
 use super::{FrameContext, FrameInputs, FrameTechnique, PrepareContext, TechniqueFrame, TechniqueInfo};
 use crate::bounds::BoundKind;
 use crate::error::{Error, Result};
@@ -42,7 +42,7 @@ use crate::sampling::{ApertureShape, SampleTile, ShutterCurve, SAMPLE_TILE_SIZE}
 use crate::shaders::{self, axes, ShadeComp, StochasticFrag, StochasticGeom};
 use crate::vk::{
     write_descriptors, Buffer, DescriptorPool, DescriptorSetLayout, DescriptorWrite, Feature, GraphicsDesc,
-    Image, ImageDesc, Pipeline, PipelineLayout, ShaderModule,
+    Image, Pipeline, PipelineLayout, ShaderModule,
 };
 
 /// The registry entry.
@@ -720,18 +720,7 @@ impl StochasticDraws {
             storage | vk::BufferUsageFlags::TRANSFER_DST,
             MemoryLocation::GpuOnly,
         )?);
-        let accum = Tracked::new(Image::new(
-            device,
-            "stochastic accumulation",
-            ImageDesc::new_2d(
-                width,
-                height,
-                ACCUM_FORMAT,
-                vk::ImageUsageFlags::STORAGE
-                    | vk::ImageUsageFlags::TRANSFER_SRC
-                    | vk::ImageUsageFlags::TRANSFER_DST,
-            ),
-        )?);
+        let accum = Tracked::new(accumulation_image(device, "stochastic accumulation", (width, height))?);
 
         let n_objects = world.objects.len() as u32;
         let pool = DescriptorPool::for_tables(
