@@ -56,7 +56,7 @@ enum Command {
         #[arg(long)]
         instrumented: bool,
         /// Stochastic: force M samples per pixel and pass (S = M × passes; M must divide S). Default:
-        /// all S in one pass where the visibility buffer fits 256 MiB.
+        /// all S in one pass where the visibility buffer fits 256 MiB and the device's largest storage buffer.
         #[arg(long)]
         per_pass: Option<u32>,
         /// Stochastic: expand the bounds in a geometry shader (gs) or a compute pass (compute).

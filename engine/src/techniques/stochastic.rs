@@ -374,18 +374,30 @@ pub const STOCHASTIC_STRUCTS: &[SharedStruct] = &[
     shared_struct!("Push", TrianglesPush, [object, triangle_count]),
 ];
 
-/// Samples per pixel and pass M and passes P (S = M × P) for `pixels` pixels: `forced` when given (it
-/// must divide S), else the largest divisor of S whose visibility buffer (8 bytes per pixel and
-/// sample) fits [`VISIBILITY_BUDGET_BYTES`].
-pub fn samples_per_pass(spp: u32, forced: Option<u32>, pixels: u64) -> Result<(u32, u32)> {
+/// Samples per pixel and pass M and passes P (S = M × P) for `pixels` pixels, the visibility buffer
+/// (8 bytes per pixel and sample of a pass) at most `max_bytes` — [`VISIBILITY_BUDGET_BYTES`] or the
+/// device's `maxStorageBufferRange`, whichever is less: `forced` when given (it must divide S and
+/// fit), else the largest divisor of S that fits.
+pub fn samples_per_pass(spp: u32, forced: Option<u32>, pixels: u64, max_bytes: u64) -> Result<(u32, u32)> {
+    let fits = |m: u32| pixels * m as u64 * 8 <= max_bytes;
     match forced {
-        Some(m) if m > 0 && spp.is_multiple_of(m) => Ok((m, spp / m)),
+        Some(m) if m > 0 && spp.is_multiple_of(m) && fits(m) => Ok((m, spp / m)),
+        Some(m) if m > 0 && spp.is_multiple_of(m) => Err(Error::Limit {
+            what: "samples per pass",
+            value: m.to_string(),
+            limit: format!("a visibility buffer of {pixels} pixels × M × 8 bytes within {max_bytes} bytes"),
+        }),
         Some(m) => Err(Error::Unsupported(format!("{m} samples per pass for S = {spp}: it must divide S"))),
-        None => {
-            let fits = |m: u32| pixels * m as u64 * 8 <= VISIBILITY_BUDGET_BYTES;
-            let m = (1..=spp).rev().find(|&m| spp.is_multiple_of(m) && fits(m)).unwrap_or(1);
-            Ok((m, spp / m))
-        }
+        None => match (1..=spp).rev().find(|&m| spp.is_multiple_of(m) && fits(m)) {
+            Some(m) => Ok((m, spp / m)),
+            None => Err(Error::Limit {
+                what: "image size",
+                value: format!("{pixels} pixels"),
+                limit: format!(
+                    "a visibility buffer of one sample per pixel (8 bytes each) within {max_bytes} bytes"
+                ),
+            }),
+        },
     }
 }
 
@@ -578,7 +590,9 @@ impl StochasticDraws {
                 limit: format!("below {} for technique `stochastic`", 1u32 << PAYLOAD_TRIANGLE_BITS),
             });
         }
-        let (per_pass, passes) = samples_per_pass(spp, options.per_pass, width as u64 * height as u64)?;
+        let max_bytes = VISIBILITY_BUDGET_BYTES.min(caps.max_storage_buffer_range as u64);
+        let pixels = width as u64 * height as u64;
+        let (per_pass, passes) = samples_per_pass(spp, options.per_pass, pixels, max_bytes)?;
         // Interval bounds need the geometry shader (the compute hull expands once per frame) and a
         // moving object; the bound debug output compares whole-shutter bounds.
         let plan = crate::plan::Plan::for_view(ctx.scene, ctx.camera, 0.0);
@@ -1334,12 +1348,18 @@ mod tests {
 
     #[test]
     fn samples_per_pass_fits_the_budget() {
-        assert_eq!(samples_per_pass(16, None, 320 * 180).unwrap(), (16, 1));
+        let budget = VISIBILITY_BUDGET_BYTES;
+        assert_eq!(samples_per_pass(16, None, 320 * 180, budget).unwrap(), (16, 1));
         let pixels = 1920 * 1080;
-        let (m, p) = samples_per_pass(256, None, pixels).unwrap();
-        assert!(m * p == 256 && pixels * m as u64 * 8 <= VISIBILITY_BUDGET_BYTES && m >= 1, "{m} {p}");
-        assert_eq!(samples_per_pass(16, Some(4), 100).unwrap(), (4, 4));
-        assert!(samples_per_pass(16, Some(3), 100).is_err());
-        assert!(samples_per_pass(16, Some(0), 100).is_err());
+        for max in [budget, 128 << 20] {
+            let (m, p) = samples_per_pass(256, None, pixels, max).unwrap();
+            assert!(m * p == 256 && pixels * m as u64 * 8 <= max && m >= 1, "{m} {p}");
+        }
+        assert_eq!(samples_per_pass(16, Some(4), 100, budget).unwrap(), (4, 4));
+        assert!(samples_per_pass(16, Some(3), 100, budget).is_err());
+        assert!(samples_per_pass(16, Some(0), 100, budget).is_err());
+        // Forced past the device's range, or not even one sample per pass fits: refused, not clipped.
+        assert!(samples_per_pass(16, Some(16), pixels, 128 << 20).is_err());
+        assert!(samples_per_pass(16, None, 1 << 30, 128 << 20).is_err());
     }
 }
