@@ -20,6 +20,9 @@ layout(push_constant) uniform Push {
     // The shading pass' dispatch covers the object's screen box from this pixel on.
     uint origin_x;
     uint origin_y;
+    // The object's first triangle in the frame's numbering (visibility payloads) and its count.
+    uint triangle_base;
+    uint triangle_count;
 } pc;
 
 #endif

@@ -119,6 +119,15 @@ vec3 shade_hit(uint prim, SampleHit h) {
     return shade(position, n, -h.rd, albedo, object_material.albedo_specular.w, object_material.params.x, h.t);
 }
 
+// Whether a visibility payload names a triangle of this dispatch's object, and which (object-local).
+bool is_object_key(uint key) {
+    return (key >> 1) - pc.triangle_base < pc.triangle_count;  // unsigned: below the base wraps high
+}
+
+uint triangle_of(uint key) {
+    return (key >> 1) - pc.triangle_base;
+}
+
 // Component g (0..8) of the pair (lo, hi), by selects rather than a variable index.
 uint pick(uvec4 lo, uvec4 hi, uint g) {
     uvec4 v = g < 4u ? lo : hi;
@@ -155,14 +164,14 @@ void main() {
         uint n = min(32u, pc.per_pass - chunk);
         for (uint j = 0u; j < n; j++) {
             uint64_t v = visibility[visibility_index(pix, chunk + j, pc.per_pass)];
-            bool is_mine = v != 0UL && (visibility_payload(v) >> PAYLOAD_OBJECT_SHIFT) == pc.object;
+            bool is_mine = v != 0UL && is_object_key(visibility_payload(v));
             mine |= is_mine ? 1u << j : 0u;
         }
         count += uint(bitCount(mine));
         while (mine != 0u) {
             uint i = chunk + uint(findLSB(mine));
             mine &= mine - 1u;
-            uint prim = (visibility_payload(visibility[visibility_index(pix, i, pc.per_pass)]) & PAYLOAD_KEY_MASK) >> 1;
+            uint prim = triangle_of(visibility_payload(visibility[visibility_index(pix, i, pc.per_pass)]));
             sum += shade_hit(prim, sample_at(prim, base + i, pix));
             shaded++;
         }
@@ -183,8 +192,8 @@ void main() {
     for (uint i = 0u; i < pc.per_pass; i++) {
         uint64_t v = visibility[visibility_index(pix, i, pc.per_pass)];
         uint payload = visibility_payload(v);
-        bool mine = v != 0UL && (payload >> PAYLOAD_OBJECT_SHIFT) == pc.object;
-        uint key = payload & PAYLOAD_KEY_MASK;  // the group: the triangle and the side its ray sees
+        bool mine = v != 0UL && is_object_key(payload);
+        uint key = payload;  // the group: the triangle and the side its ray sees
         uvec4 m = uvec4(mine ? 1u : 0u);
         uvec4 in_lo = uvec4(equal(key_lo, uvec4(key))) & m, in_hi = uvec4(equal(key_hi, uvec4(key))) & m;
         bool found = any(bvec4(in_lo | in_hi));
@@ -207,16 +216,16 @@ void main() {
     for (uint i = 0u; overflow && i < pc.per_pass; i++) {
         uint64_t v = visibility[visibility_index(pix, i, pc.per_pass)];
         uint payload = visibility_payload(v);
-        uint key = payload & PAYLOAD_KEY_MASK;
+        uint key = payload;
         bool grouped = any(equal(key_lo, uvec4(key))) || any(equal(key_hi, uvec4(key)));
-        if (v != 0UL && (payload >> PAYLOAD_OBJECT_SHIFT) == pc.object && !grouped) {
-            uint prim = key >> 1;
+        if (v != 0UL && is_object_key(payload) && !grouped) {
+            uint prim = triangle_of(key);
             sum += shade_hit(prim, sample_at(prim, base + i, pix));
             shaded++;
         }
     }
     for (uint g = 0u; g < groups; g++) {
-        uint prim = pick(key_lo, key_hi, g) >> 1;
+        uint prim = triangle_of(pick(key_lo, key_hi, g));
         uint first = pick(first_lo, first_hi, g);
         sum += float(pick(count_lo, count_hi, g)) * shade_hit(prim, sample_at(prim, base + first, pix));
         shaded++;

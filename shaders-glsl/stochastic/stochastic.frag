@@ -78,7 +78,7 @@ void main() {
         vec3 w;
         bool back;
         if (sample_hit(a, b, c, ro, rd, z, w, back)) {
-            atomicMax(visibility[visibility_index(pix, i, pc.per_pass)], visibility_pack(z, pc.object, prim, back));
+            atomicMax(visibility[visibility_index(pix, i, pc.per_pass)], visibility_pack(z, pc.triangle_base + prim, back));
             hits++;
         }
     }

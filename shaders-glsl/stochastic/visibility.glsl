@@ -2,9 +2,10 @@
 // word per pixel and sample of the current pass, cleared to 0 (no hit). The coverage pass packs each
 // hit as (~bits(view depth) << 32) | payload and keeps the largest with atomicMax, i.e. the nearest hit
 // by view depth (positive floats order like their bit patterns; ~ turns "nearest" into "largest"),
-// ties going to the larger payload. The payload is object << 24 | triangle << 1 | back (the side the
-// ray sees: the key of per-pixel shading groups with the triangle); the shading pass recomputes
-// everything else (barycentrics, time, lens point) from the sample itself.
+// ties going to the larger payload. The payload is triangle << 1 | back, the triangle numbered across
+// the frame's objects (object i's triangles from pc.triangle_base on) and `back` the side the ray sees
+// (the key of per-pixel shading groups with the triangle); the shading pass recomputes everything else
+// (barycentrics, time, lens point) from the sample itself.
 #ifndef SHUTTER_VISIBILITY_GLSL
 #define SHUTTER_VISIBILITY_GLSL
 #extension GL_EXT_shader_explicit_arithmetic_types_int64 : require
@@ -12,11 +13,8 @@
 
 layout(set = 3, binding = 5, std430) buffer Visibility { uint64_t visibility[]; };
 
-const uint PAYLOAD_OBJECT_SHIFT = 24u;
-const uint PAYLOAD_KEY_MASK = (1u << PAYLOAD_OBJECT_SHIFT) - 1u;  // triangle << 1 | back
-
-uint64_t visibility_pack(float depth_z, uint object, uint triangle, bool back) {
-    uint payload = (object << PAYLOAD_OBJECT_SHIFT) | (triangle << 1) | (back ? 1u : 0u);
+uint64_t visibility_pack(float depth_z, uint triangle, bool back) {
+    uint payload = (triangle << 1) | (back ? 1u : 0u);
     return (uint64_t(~floatBitsToUint(depth_z)) << 32) | uint64_t(payload);
 }
 

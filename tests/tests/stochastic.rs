@@ -401,6 +401,42 @@ fn interval_bounds_and_passes_change_the_cost_never_the_image() {
     }
 }
 
+/// 300 objects (more than a byte of object index): the visibility payload numbers triangles across the
+/// frame, so every object meets the others in one buffer; each gets its own colour, so a sample credited
+/// to the wrong object would show. Exact against the same-sample reference.
+#[test]
+fn many_objects_share_one_visibility_buffer() {
+    let mut scene =
+        hard_scene(0.03, 3.0, square(0.12), Mat4::from_translation(Vec3::new(0.0, 0.0, -3.0)), None);
+    let template = scene.objects[0].clone();
+    let mut rng = Pcg32::new(11, 3);
+    scene.objects = (0..300)
+        .map(|i| {
+            let mut o = template.clone();
+            o.name = format!("square-{i}");
+            let p = Vec3::new(
+                rng.next_f32() * 2.4 - 1.2,
+                rng.next_f32() * 1.8 - 0.9,
+                -2.0 - 2.0 * rng.next_f32(),
+            );
+            o.transform_open = Mat4::from_translation(p);
+            o.transform_close = Some(Mat4::from_translation(p + Vec3::new(0.1 * rng.next_f32(), 0.0, 0.0)));
+            o.material.albedo = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
+            o
+        })
+        .collect();
+    let (w, h) = (scene.image.width, scene.image.height);
+    let mut r = renderer();
+    for shading in ShadingRate::ALL {
+        let out = render(&mut r, &scene, w, h, 8, 5, options(BoundKind::Adaptive, shading));
+        let same = reference_like(&scene, w, h, 8, 5, shading, &out);
+        let m = compare(&same, &out.image).unwrap();
+        println!("300 objects {}: RMSE {:.6}", shading.name(), m.rmse);
+        save_comparison(&format!("many-objects-{}", shading.name()), &same, &out.image);
+        assert!(m.rmse < HARD_RMSE_MAX, "300 objects {}: RMSE {}", shading.name(), m.rmse);
+    }
+}
+
 // ---------------------------------------------------------------------------------------------------
 // Hard cases: each its own small scene, every bound family, against the reference at the same samples.
 

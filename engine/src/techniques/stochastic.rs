@@ -308,6 +308,8 @@ pub struct StochasticPush {
     pub t1: f32,
     pub origin_x: u32,
     pub origin_y: u32,
+    pub triangle_base: u32,
+    pub triangle_count: u32,
 }
 
 /// Push constants of `triangles.comp`.
@@ -341,11 +343,9 @@ pub const STOCHASTIC_SET: [Binding; 7] = [
 /// without a hit (`SHADE_BACKGROUND` in `shade.comp`).
 pub const SHADE_BACKGROUND: u32 = u32::MAX;
 
-/// Bits below the object index in the visibility payload (`PAYLOAD_OBJECT_SHIFT` in
-/// `visibility.glsl`): payload = object << 24 | triangle << 1 | back, so at most 256 objects and 2^23
-/// triangles per object.
-pub const PAYLOAD_TRIANGLE_BITS: u32 = 23;
-const PAYLOAD_OBJECT_SHIFT: u32 = PAYLOAD_TRIANGLE_BITS + 1;
+/// Triangles a frame may hold: the visibility payload is triangle << 1 | back with the triangles
+/// numbered across all objects (`visibility.glsl`), and the shading pass' empty group key is all ones.
+pub const MAX_FRAME_TRIANGLES: u64 = (1 << 31) - 1;
 
 /// Largest visibility buffer (8 bytes per pixel and sample of a pass) before S is split into more
 /// passes.
@@ -368,7 +368,9 @@ pub const STOCHASTIC_STRUCTS: &[SharedStruct] = &[
             t0,
             t1,
             origin_x,
-            origin_y
+            origin_y,
+            triangle_base,
+            triangle_count
         ]
     ),
     shared_struct!("Push", TrianglesPush, [object, triangle_count]),
@@ -482,6 +484,9 @@ pub struct StochasticDraws {
     object_intervals: Vec<u32>,
     /// Pixels (x, y, width, height) each object's shading dispatch covers ([`shading_rect`]).
     shade_rects: Vec<[u32; 4]>,
+    /// Each object's first triangle in the frame's numbering (the visibility payload), and its count.
+    triangle_bases: Vec<u32>,
+    triangle_counts: Vec<u32>,
     /// The camera's shutter curve: run k of K covers the warped times of `[k/K, (k+1)/K)`.
     shutter: ShutterCurve,
     layout: PipelineLayout,
@@ -576,19 +581,19 @@ impl StochasticDraws {
                 limit: format!("1..={MAX_STOCHASTIC_SPP} for technique `stochastic`"),
             });
         }
-        if world.objects.len() > 1 << (32 - PAYLOAD_OBJECT_SHIFT) {
-            return Err(Error::Limit {
-                what: "objects",
-                value: world.objects.len().to_string(),
-                limit: format!("at most {} for technique `stochastic`", 1u32 << (32 - PAYLOAD_OBJECT_SHIFT)),
-            });
-        }
-        if let Some(o) = world.objects.iter().find(|o| o.triangle_count() >= 1 << PAYLOAD_TRIANGLE_BITS) {
-            return Err(Error::Limit {
-                what: "triangles per object",
-                value: format!("{} ({})", o.triangle_count(), o.name),
-                limit: format!("below {} for technique `stochastic`", 1u32 << PAYLOAD_TRIANGLE_BITS),
-            });
+        // Object i's triangles are numbered from triangle_bases[i] on in the visibility payloads.
+        let mut triangle_bases = Vec::with_capacity(world.objects.len());
+        let mut total: u64 = 0;
+        for o in &world.objects {
+            triangle_bases.push(total as u32);
+            total += o.triangle_count() as u64;
+            if total >= MAX_FRAME_TRIANGLES {
+                return Err(Error::Limit {
+                    what: "triangles",
+                    value: format!("more than {MAX_FRAME_TRIANGLES}"),
+                    limit: format!("below {MAX_FRAME_TRIANGLES} in one frame of technique `stochastic`"),
+                });
+            }
         }
         let max_bytes = VISIBILITY_BUDGET_BYTES.min(caps.max_storage_buffer_range as u64);
         let pixels = width as u64 * height as u64;
@@ -789,6 +794,8 @@ impl StochasticDraws {
             object_effects: object_effects.to_vec(),
             object_intervals,
             shade_rects,
+            triangle_bases,
+            triangle_counts: world.objects.iter().map(|o| o.triangle_count()).collect(),
             shutter,
             layout,
             shade_layout,
@@ -973,6 +980,8 @@ impl StochasticDraws {
             t1: if first + count == self.per_pass && pass + 1 == self.passes { 1.0 } else { t1 },
             origin_x: 0,
             origin_y: 0,
+            triangle_base: self.triangle_bases.get(object as usize).copied().unwrap_or(0),
+            triangle_count: self.triangle_counts.get(object as usize).copied().unwrap_or(0),
         }
     }
 
