@@ -5,7 +5,7 @@
 //! * nothing to simulate anywhere → exactly the `pinhole` technique (same passes, same image, same
 //!   cost);
 //! * otherwise every object on the stochastic path with one shader permutation per effect set
-//!   ([`StochasticDraws`]): the still, sharp objects with the `still` permutation (bounded and tested
+//!   ([`StochasticTechnique`]): the still, sharp objects with the `still` permutation (bounded and tested
 //!   at mid-shutter through the lens centre: no blur, but the very same samples), the others with the
 //!   defocus-only, motion-only or full one; all meet in one visibility buffer, so occlusion between
 //!   paths is per sample. Without a geometry shader the stochastic path takes the compute-expanded
@@ -13,7 +13,7 @@
 
 use super::forward::ForwardTechnique;
 use super::pinhole::{pinhole_passes, PINHOLE_MSAA};
-use super::stochastic::{DebugOptions, StochasticDraws};
+use super::stochastic::{DebugOptions, StochasticTechnique};
 use super::{
     FrameContext, FrameInputs, FrameTechnique, HullExpansion, PrepareContext, TechniqueFrame, TechniqueInfo,
 };
@@ -40,7 +40,7 @@ fn prepare(ctx: &PrepareContext<'_>) -> Result<Box<dyn FrameTechnique>> {
     if !ctx.device.caps.geometry_shader {
         options.expansion = HullExpansion::Compute;
     }
-    let stochastic = StochasticDraws::new(ctx, options, DebugOptions::default(), &effects)?;
+    let stochastic = StochasticTechnique::planned(ctx, options, DebugOptions::default(), &plan, &effects)?;
     Ok(Box::new(Auto { plan, path: AutoPath::Stochastic(Box::new(stochastic)) }))
 }
 
@@ -48,7 +48,7 @@ enum AutoPath {
     /// Nothing to simulate: the `pinhole` technique itself.
     Pinhole(Box<ForwardTechnique>),
     /// Every object on the stochastic path, each with its planned permutation.
-    Stochastic(Box<StochasticDraws>),
+    Stochastic(Box<StochasticTechnique>),
 }
 
 struct Auto {
@@ -60,11 +60,7 @@ impl FrameTechnique for Auto {
     fn render(&mut self, inputs: &FrameInputs<'_>, frame: &mut FrameContext<'_>) -> Result<TechniqueFrame> {
         match &mut self.path {
             AutoPath::Pinhole(t) => t.render(inputs, frame),
-            AutoPath::Stochastic(s) => {
-                s.before_frame(inputs, frame)?;
-                let image = s.render(frame, inputs)?;
-                s.technique_frame(image)
-            }
+            AutoPath::Stochastic(s) => s.render(inputs, frame),
         }
     }
 

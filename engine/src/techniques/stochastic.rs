@@ -37,7 +37,7 @@ use crate::gpu::layout::{
 use crate::gpu::{GpuView, GpuWorld};
 use crate::graph::{Access, FrameGraph, PassContext, ResourceHandle, Tracked};
 use crate::image::LinearImage;
-use crate::plan::Effects;
+use crate::plan::{Effects, Plan};
 use crate::sampling::{ApertureShape, SampleTile, ShutterCurve, SAMPLE_TILE_SIZE};
 use crate::shaders::{self, axes, ShadeComp, StochasticFrag, StochasticGeom};
 use crate::vk::{
@@ -527,11 +527,13 @@ pub struct StochasticDraws {
 
 impl StochasticDraws {
     /// The path for `object_effects` (one per object of the world) at the settings' samples per pixel
-    /// and seed, through the scene camera's aperture shape and shutter curve.
-    pub fn new(
+    /// and seed, through the scene camera's aperture shape and shutter curve; `plan` (of the same view)
+    /// gives each object's motion, blur and screen box.
+    fn new(
         ctx: &PrepareContext<'_>,
         options: StochasticOptions,
         debug: DebugOptions,
+        plan: &Plan,
         object_effects: &[Effects],
     ) -> Result<Self> {
         let (device, world) = (ctx.device, ctx.world);
@@ -600,7 +602,6 @@ impl StochasticDraws {
         let (per_pass, passes) = samples_per_pass(spp, options.per_pass, pixels, max_bytes)?;
         // Interval bounds need the geometry shader (the compute hull expands once per frame) and a
         // moving object; the bound debug output compares whole-shutter bounds.
-        let plan = crate::plan::Plan::for_view(ctx.scene, ctx.camera, 0.0);
         let object_intervals: Vec<u32> = object_effects
             .iter()
             .zip(&plan.objects)
@@ -912,7 +913,7 @@ impl StochasticDraws {
     /// Work before the frame's graph: the counters reset and, with the compute-expanded hull, the
     /// triangles and the expansion in a graph of their own, their counts read back; an overflowed
     /// buffer grows and the expansion runs again, so no bound is ever dropped.
-    pub fn before_frame(&mut self, inputs: &FrameInputs<'_>, frame: &mut FrameContext<'_>) -> Result<()> {
+    fn before_frame(&mut self, inputs: &FrameInputs<'_>, frame: &mut FrameContext<'_>) -> Result<()> {
         self.counters.get_mut().write(&[0u32; 4])?;
         if self.hull.is_none() {
             return Ok(());
@@ -960,13 +961,10 @@ impl StochasticDraws {
         let count = self.per_pass / runs;
         let first = run * count;
         // The run's samples' shutter times: [ξ0, ξ1) of the unwarped time, through the shutter curve
-        // (monotone, the very function that warped the samples).
+        // (monotone, the very function that warped the samples; it maps 0 to 0 and 1 to 1 exactly, so
+        // a whole-shutter draw gets (0, 1), which emit.glsl bounds from the end vertices themselves).
         let xi = |i: u32| (pass * self.per_pass + i) as f32 / self.spp as f32;
-        let (t0, t1) = if runs == 1 && self.passes == 1 {
-            (0.0, 1.0)
-        } else {
-            (self.shutter.warp(xi(first)), self.shutter.warp(xi(first + count).min(1.0)))
-        };
+        let (t0, t1) = (self.shutter.warp(xi(first)), self.shutter.warp(xi(first + count)));
         StochasticPush {
             object,
             bound: self.bound.id(),
@@ -977,7 +975,7 @@ impl StochasticDraws {
             sample_first: first,
             sample_count: count,
             t0,
-            t1: if first + count == self.per_pass && pass + 1 == self.passes { 1.0 } else { t1 },
+            t1,
             origin_x: 0,
             origin_y: 0,
             triangle_base: self.triangle_bases.get(object as usize).copied().unwrap_or(0),
@@ -987,11 +985,7 @@ impl StochasticDraws {
 
     /// The frame as a graph: `triangles` → `clear accumulation` → repeat P × { `clear visibility` →
     /// `stochastic coverage` (raster, no attachments) → `stochastic shading` (compute) } → readback.
-    pub fn render<'a>(
-        &'a self,
-        frame: &mut FrameContext<'_>,
-        inputs: &FrameInputs<'a>,
-    ) -> Result<LinearImage> {
+    fn render<'a>(&'a self, frame: &mut FrameContext<'_>, inputs: &FrameInputs<'a>) -> Result<LinearImage> {
         let mut g = frame.graph();
         if self.hull.is_none() {
             self.add_triangles_pass(&mut g, inputs);
@@ -1185,7 +1179,7 @@ impl StochasticDraws {
         let mut first = true;
         let full = [0, 0, w, h];
         let mut dispatch =
-            |pipeline: &Pipeline, object: u32, sets: Option<[vk::DescriptorSet; 2]>, rect: [u32; 4]| {
+            |pipeline: &Pipeline, object: u32, sets: [vk::DescriptorSet; 2], rect: [u32; 4]| {
                 let [x0, y0, rw, rh] = rect;
                 if rw == 0 || rh == 0 {
                     return;
@@ -1196,9 +1190,7 @@ impl StochasticDraws {
                 first = false;
                 unsafe {
                     d.raw.cmd_bind_pipeline(cmd, bind, pipeline.raw);
-                    if let Some(sets) = sets {
-                        d.raw.cmd_bind_descriptor_sets(cmd, bind, layout, OBJECT_SET_INDEX, &sets, &[]);
-                    }
+                    d.raw.cmd_bind_descriptor_sets(cmd, bind, layout, OBJECT_SET_INDEX, &sets, &[]);
                     let push = StochasticPush { origin_x: x0, origin_y: y0, ..self.push(object, pass, 0, 1) };
                     d.raw.cmd_push_constants(
                         cmd,
@@ -1210,32 +1202,26 @@ impl StochasticDraws {
                     d.raw.cmd_dispatch(cmd, rw.div_ceil(8), rh.div_ceil(8), 1);
                 }
             };
-        // The background dispatch binds no object sets; any permutation does it. Set 1 and 2 of the
-        // first drawn object keep the layout's sets valid.
-        let Some(first_drawn) = (0..world.objects.len()).find(|&i| self.is_drawn(i, world)) else {
-            let (_, p) = &self.shade_pipelines[0];
-            let o = &world.objects[0];
-            dispatch(p, SHADE_BACKGROUND, Some([o.set, self.object_sets[0]]), full);
-            return;
-        };
-        let o = &world.objects[first_drawn];
+        // The background dispatch reads no object's data; any permutation does it. Set 1 and 2 of the
+        // first drawn object (or of the first object) keep the layout's sets valid.
+        let i = (0..world.objects.len()).find(|&i| self.is_drawn(i, world)).unwrap_or(0);
         dispatch(
             &self.shade_pipelines[0].1,
             SHADE_BACKGROUND,
-            Some([o.set, self.object_sets[first_drawn]]),
+            [world.objects[i].set, self.object_sets[i]],
             full,
         );
         for (effects, pipeline) in &self.shade_pipelines {
             for (i, o) in world.objects.iter().enumerate() {
                 if self.object_effects[i] == *effects && self.is_drawn(i, world) {
-                    dispatch(pipeline, i as u32, Some([o.set, self.object_sets[i]]), self.shade_rects[i]);
+                    dispatch(pipeline, i as u32, [o.set, self.object_sets[i]], self.shade_rects[i]);
                 }
             }
         }
     }
 
     /// This frame's result.
-    pub fn technique_frame(&self, image: LinearImage) -> Result<TechniqueFrame> {
+    fn technique_frame(&self, image: LinearImage) -> Result<TechniqueFrame> {
         Ok(TechniqueFrame { image, passes: self.passes, msaa_samples: 1, counters: self.counters()? })
     }
 }
@@ -1253,7 +1239,20 @@ impl StochasticTechnique {
         debug: DebugOptions,
         object_effects: &[Effects],
     ) -> Result<Self> {
-        Ok(StochasticTechnique { draws: StochasticDraws::new(ctx, options, debug, object_effects)? })
+        let plan = Plan::for_view(ctx.scene, ctx.camera, 0.0);
+        Self::planned(ctx, options, debug, &plan, object_effects)
+    }
+
+    /// The same with the view's plan already made (`auto` plans the frame first): its per-object
+    /// motion, blur and screen boxes set the interval bounds and the shading dispatches.
+    pub fn planned(
+        ctx: &PrepareContext<'_>,
+        options: StochasticOptions,
+        debug: DebugOptions,
+        plan: &Plan,
+        object_effects: &[Effects],
+    ) -> Result<Self> {
+        Ok(StochasticTechnique { draws: StochasticDraws::new(ctx, options, debug, plan, object_effects)? })
     }
 
     /// The stochastic path (for its diagnostics: bound debug output, hull usage).
@@ -1270,7 +1269,7 @@ impl FrameTechnique for StochasticTechnique {
     }
 }
 
-/// What the stochastic rasterizer's shaders expect of the layouts [`StochasticDraws::new`] builds:
+/// What the stochastic rasterizer's shaders expect of the layouts [`StochasticTechnique::new`] builds:
 /// sets 2 and 3 from [`STOCHASTIC_OBJECT_SET`] and [`STOCHASTIC_SET`], and [`StochasticPush`] for the
 /// raster pipelines (`hull.vert` pushes nothing) and the shading pass, [`TrianglesPush`] for
 /// `triangles.comp`. Also `expand.comp`'s: [`ComputeHull`] builds its pipeline with these two sets'
