@@ -7,11 +7,11 @@
 // same fragment shader (COMPUTE_HULL). Past the buffer's capacity nothing is written but the count
 // still grows: the renderer reads it back, grows the buffer and expands again, so no bound is lost.
 #include "stochastic/bounds.glsl"
+#include "stochastic/camera_triangles.glsl"
 
 layout(local_size_x = 64) in;
 
-// Camera-space triangles at shutter open and close, 18 floats each (triangles.comp).
-layout(set = 2, binding = 0, std430) readonly buffer Triangles { float triangles[]; };
+// The expanded hull: triangle-list vertices and the source triangle of each.
 layout(set = 2, binding = 1, std430) writeonly buffer Hull { vec2 hull[]; };
 layout(set = 2, binding = 2, std430) writeonly buffer HullTriangles { uint hull_triangle[]; };
 layout(set = 3, binding = 4, std430) buffer HullCounts { uint hull_vertices[]; };
@@ -44,11 +44,7 @@ void main() {
     uint t = gl_GlobalInvocationID.x;
     if (t >= pc.triangle_count) return;
     vec3 open[3], close[3];
-    for (uint k = 0u; k < 3u; k++) {
-        uint at = 18u * t + 3u * k;
-        open[k] = vec3(triangles[at], triangles[at + 1u], triangles[at + 2u]);
-        close[k] = vec3(triangles[at + 9u], triangles[at + 10u], triangles[at + 11u]);
-    }
+    load_triangle(t, open, close);
     vec2 pts[BOUND_MAX_POINTS];
     int piece_len[BOUND_MAX_PIECES];
     int pieces = compute_bound(pc.bound, bound_vertices(open, close, 0.0, 1.0), pts, piece_len);

@@ -17,10 +17,10 @@
 #include "stochastic/inside.glsl"
 #include "stochastic/push.glsl"
 #include "stochastic/visibility.glsl"
+#include "stochastic/camera_triangles.glsl"
 
 layout(local_size_x = 8, local_size_y = 8) in;
 
-layout(set = 2, binding = 0, std430) readonly buffer Triangles { float triangles[]; };
 layout(set = 3, binding = 0, std430) readonly buffer SamplesXyLens { vec4 sample_xy_lens[]; };
 layout(set = 3, binding = 1, std430) readonly buffer SamplesTime { float sample_time[]; };
 layout(set = 3, binding = 2, std430) buffer Counters {
@@ -67,11 +67,7 @@ SampleHit sample_at(uint prim, uint tile_index, uvec2 pix) {
 #endif
     primary_ray(vec2(pix) + xl.xy, xl.zw, h.ro, h.rd);
     vec3 p_open[3], p_close[3];
-    for (uint k = 0u; k < 3u; k++) {
-        uint at = 18u * prim + 3u * k;
-        p_open[k] = vec3(triangles[at], triangles[at + 1u], triangles[at + 2u]);
-        p_close[k] = vec3(triangles[at + 9u], triangles[at + 10u], triangles[at + 11u]);
-    }
+    load_triangle(prim, p_open, p_close);
 #ifdef NO_MOTION
     h.t = 0.5;
 #else

@@ -17,9 +17,7 @@
 #include "stochastic/inside.glsl"
 #include "stochastic/push.glsl"
 #include "stochastic/visibility.glsl"
-
-// Camera-space triangles at shutter open and close, 18 floats each (written by triangles.comp).
-layout(set = 2, binding = 0, std430) readonly buffer Triangles { float triangles[]; };
+#include "stochastic/camera_triangles.glsl"
 
 // The sample tile (sampling::SampleTile): 64 x 64 pixels x S samples; xy in [0,1) within the pixel,
 // lens already mapped to the aperture shape, time already warped by the shutter curve.
@@ -46,11 +44,7 @@ void main() {
     uint prim = uint(gl_PrimitiveID);
 #endif
     vec3 p_open[3], p_close[3];
-    for (uint k = 0u; k < 3u; k++) {
-        uint at = 18u * prim + 3u * k;
-        p_open[k] = vec3(triangles[at], triangles[at + 1u], triangles[at + 2u]);
-        p_close[k] = vec3(triangles[at + 9u], triangles[at + 10u], triangles[at + 11u]);
-    }
+    load_triangle(prim, p_open, p_close);
 #ifdef NO_MOTION
     for (uint k = 0u; k < 3u; k++) p_open[k] = shutter_lerp(p_open[k], p_close[k], 0.5);
 #endif
