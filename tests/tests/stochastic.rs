@@ -46,18 +46,6 @@ fn reference(scene: &Scene, w: u32, h: u32, spp: u32, seed: u64) -> LinearImage 
     .expect("reference")
 }
 
-fn reference_like(
-    scene: &Scene,
-    w: u32,
-    h: u32,
-    spp: u32,
-    seed: u64,
-    shading: ShadingRate,
-    out: &RenderOutput,
-) -> LinearImage {
-    same_sample_reference(scene, (w, h), spp, seed, shading, out)
-}
-
 fn assert_finite(name: &str, img: &LinearImage) {
     let bad = img.pixels.iter().filter(|p| p.iter().any(|c| !c.is_finite())).count();
     assert_eq!(bad, 0, "{name}: {bad} pixels with NaN/Inf");
@@ -252,7 +240,7 @@ fn stochastic_converges_to_reference_for_each_effect() {
                 save_comparison(&format!("stochastic-{effect}-{}-{spp}", shading.name()), &truth, &out.image);
                 rmse.push(m.rmse);
                 if spp == 16 {
-                    let same = reference_like(&scene, w, h, spp, seed, shading, &out);
+                    let same = same_sample_reference(&scene, (w, h), spp, seed, shading, &out);
                     let m = compare(&same, &out.image).unwrap();
                     println!(
                         "  vs the reference with the same samples and shading rate: RMSE {:.6} FLIP {:.5}",
@@ -389,7 +377,7 @@ fn interval_bounds_and_passes_change_the_cost_never_the_image() {
                 b.samples_hit,
                 "{name}: 4 passes change the hits"
             );
-            let same = reference_like(&scene, w, h, spp, 4, shading, &out);
+            let same = same_sample_reference(&scene, (w, h), spp, 4, shading, &out);
             let m = compare(&same, &out.image).unwrap();
             println!(
                 "{name} 4 passes {}: RMSE {:.6} vs the same samples and grouping",
@@ -429,7 +417,7 @@ fn many_objects_share_one_visibility_buffer() {
     let mut r = renderer();
     for shading in ShadingRate::ALL {
         let out = render(&mut r, &scene, w, h, 8, 5, options(BoundKind::Adaptive, shading));
-        let same = reference_like(&scene, w, h, 8, 5, shading, &out);
+        let same = same_sample_reference(&scene, (w, h), 8, 5, shading, &out);
         let m = compare(&same, &out.image).unwrap();
         println!("300 objects {}: RMSE {:.6}", shading.name(), m.rmse);
         save_comparison(&format!("many-objects-{}", shading.name()), &same, &out.image);
@@ -455,7 +443,7 @@ fn check_hard_case_at(name: &str, scene: &Scene, spp: u32) {
         let out = render(&mut r, scene, w, h, spp, 5, options(kind, ShadingRate::PerPixel));
         assert_finite(name, &out.image);
         let same = same.get_or_insert_with(|| {
-            let same = reference_like(scene, w, h, spp, 5, ShadingRate::PerPixel, &out);
+            let same = same_sample_reference(scene, (w, h), spp, 5, ShadingRate::PerPixel, &out);
             assert_finite(&format!("{name} reference"), &same);
             same
         });
