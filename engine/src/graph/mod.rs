@@ -784,6 +784,11 @@ impl<'a> PassBuilder<'_, 'a> {
         self.add_use(h.into(), access, false)
     }
 
+    /// The pass accesses each `(handle, access)` of `uses` ([`PassBuilder::access`] for each).
+    pub fn accesses(self, uses: impl IntoIterator<Item = (ResourceHandle, Access)>) -> Self {
+        uses.into_iter().fold(self, |pass, (h, access)| pass.access(h, access))
+    }
+
     /// The pass writes all of `h` without reading it: earlier contents may be discarded.
     pub fn overwrite(self, h: impl Into<ResourceHandle>, access: Access) -> Self {
         self.add_use(h.into(), access, true)

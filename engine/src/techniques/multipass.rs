@@ -201,10 +201,9 @@ impl MultipassFrame {
                 Some(ms) => pass.color(ms, Load::Clear(background), Store::DontCare).resolve(resolved),
                 None => pass.color(resolved, Load::Clear(background), Store::Store),
             };
-            pass = pass.depth(depth, Load::Clear(0.0), Store::DontCare);
-            for &(handle, access) in uses.iter().flat_map(|u| &u.pass_accesses) {
-                pass = pass.access(handle, access);
-            }
+            pass = pass
+                .depth(depth, Load::Clear(0.0), Store::DontCare)
+                .accesses(uses.iter().flat_map(|u| u.pass_accesses.iter().copied()));
             pass.record(move |ctx| {
                 for d in draws {
                     d.record(ctx, &inputs, ctx.iteration);

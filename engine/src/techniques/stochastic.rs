@@ -1040,29 +1040,23 @@ impl StochasticDraws {
                 unsafe { ctx.device.raw.cmd_fill_buffer(ctx.cmd, b.raw, 0, vk::WHOLE_SIZE, 0) };
                 Ok(())
             });
-            let mut pass = g
-                .pass("stochastic coverage")
+            g.pass("stochastic coverage")
                 .render_area(w, h)
                 .access(visibility, Access::FragmentShaderReadOther)
-                .access(visibility, Access::FragmentShaderWrite);
-            for &(handle, access) in &coverage_uses {
-                pass = pass.access(handle, access);
-            }
-            pass.record(move |ctx| {
-                self.record_coverage(ctx, &inputs, ctx.iteration);
-                Ok(())
-            });
-            let mut pass = g
-                .pass("stochastic shading")
+                .access(visibility, Access::FragmentShaderWrite)
+                .accesses(coverage_uses.iter().copied())
+                .record(move |ctx| {
+                    self.record_coverage(ctx, &inputs, ctx.iteration);
+                    Ok(())
+                });
+            g.pass("stochastic shading")
                 .access(visibility, Access::ComputeShaderReadOther)
-                .access(accum, Access::ComputeShaderReadWrite);
-            for &(handle, access) in &shading_uses {
-                pass = pass.access(handle, access);
-            }
-            pass.record(move |ctx| {
-                self.record_shading(ctx, &inputs, ctx.iteration);
-                Ok(())
-            });
+                .access(accum, Access::ComputeShaderReadWrite)
+                .accesses(shading_uses.iter().copied())
+                .record(move |ctx| {
+                    self.record_shading(ctx, &inputs, ctx.iteration);
+                    Ok(())
+                });
             Ok(())
         })?;
         for b in host_reads {
