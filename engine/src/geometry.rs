@@ -69,6 +69,69 @@ impl MovingTriangle {
     }
 }
 
+/// The shutter times of an object's motion keys (strictly increasing, the first 0 and the last 1, at
+/// least two) and the one rule, shared by the reference and every GPU path, that maps a shutter time to
+/// the key segment holding it and the time within it:
+///
+/// - segment `j` holds `t` when `times[j] ≤ t < times[j + 1]`; `t` below 0 goes to the first segment
+///   and `t ≥ 1` to the last;
+/// - the local time is `min((t − times[j]) · inv_len[j], 1)` with `inv_len[j] = 1 / (times[j+1] −
+///   times[j])` rounded once to `f32` (on the CPU, and handed to the GPU as is): one subtraction and
+///   one multiplication, exactly rounded on both sides. With the two keys (0, 1) it is `t` itself, so
+///   two-key scenes render exactly as before keys existed.
+#[derive(Clone, Debug, PartialEq)]
+pub struct KeyTimes {
+    times: Vec<f32>,
+    inv_len: Vec<f32>,
+}
+
+impl KeyTimes {
+    /// The keys at `times`; `None` unless there are at least two, strictly increasing, the first 0
+    /// and the last 1.
+    pub fn new(times: Vec<f32>) -> Option<KeyTimes> {
+        let ok = times.len() >= 2
+            && times[0] == 0.0
+            && *times.last().expect("two") == 1.0
+            && times.windows(2).all(|w| w[0] < w[1]);
+        if !ok {
+            return None;
+        }
+        let inv_len = times.windows(2).map(|w| 1.0 / (w[1] - w[0])).collect();
+        Some(KeyTimes { times, inv_len })
+    }
+    /// The two keys of linear motion over the whole shutter.
+    pub fn ends() -> KeyTimes {
+        KeyTimes { times: vec![0.0, 1.0], inv_len: vec![1.0] }
+    }
+    pub fn times(&self) -> &[f32] {
+        &self.times
+    }
+    /// `1 / (times[j+1] − times[j])` per segment.
+    pub fn inv_len(&self) -> &[f32] {
+        &self.inv_len
+    }
+    pub fn segments(&self) -> usize {
+        self.times.len() - 1
+    }
+    /// The segment holding shutter time `t`.
+    #[inline(always)]
+    pub fn segment_of(&self, t: f32) -> usize {
+        // Interior keys at or below t (a NaN t goes to the first segment).
+        self.times[1..self.times.len() - 1].partition_point(|&k| k <= t)
+    }
+    /// The time within segment `j` of shutter time `t` (see the type's docs).
+    #[inline(always)]
+    pub fn local_time(&self, j: usize, t: f32) -> f32 {
+        ((t - self.times[j]) * self.inv_len[j]).min(1.0)
+    }
+    /// The segment holding `t` and the time within it.
+    #[inline(always)]
+    pub fn locate(&self, t: f32) -> (usize, f32) {
+        let j = self.segment_of(t);
+        (j, self.local_time(j, t))
+    }
+}
+
 /// Where a ray meets a triangle.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct TriangleHit {
@@ -258,5 +321,43 @@ mod tests {
             assert_eq!(still.at(t), still.v0, "t = {t}");
         }
         assert!(tri.is_finite() && !tri.is_degenerate());
+    }
+
+    #[test]
+    fn key_times_locate_every_time_in_one_segment() {
+        assert!(KeyTimes::new(vec![0.0]).is_none());
+        assert!(KeyTimes::new(vec![0.0, 0.5, 0.5, 1.0]).is_none());
+        assert!(KeyTimes::new(vec![0.1, 1.0]).is_none());
+        assert!(KeyTimes::new(vec![0.0, 0.9]).is_none());
+        // Two keys: the local time is t itself, bit for bit.
+        let ends = KeyTimes::ends();
+        assert_eq!(KeyTimes::new(vec![0.0, 1.0]).unwrap(), ends);
+        let mut r = Pcg32::new(3, 1);
+        for _ in 0..10_000 {
+            let t = r.next_f32();
+            assert_eq!(ends.locate(t), (0, t));
+        }
+        let k = KeyTimes::new(vec![0.0, 0.25, 0.3, 1.0]).unwrap();
+        assert_eq!(k.segments(), 3);
+        assert_eq!(k.locate(0.0), (0, 0.0));
+        assert_eq!(k.segment_of(0.25), 1);
+        assert_eq!(k.local_time(1, 0.25), 0.0);
+        assert_eq!(k.segment_of(0.2999), 1);
+        assert_eq!(k.segment_of(0.3), 2);
+        assert_eq!(k.locate(1.0), (2, 1.0));
+        assert_eq!(k.segment_of(-1.0), 0);
+        assert_eq!(k.segment_of(f32::NAN), 0);
+        // Local times stay in [0, 1] and grow with t within a segment.
+        let mut last = (0usize, 0.0f32);
+        for i in 0..=100_000 {
+            let t = i as f32 / 100_000.0;
+            let (j, s) = k.locate(t);
+            assert!((0.0..=1.0).contains(&s), "t {t}: s {s}");
+            assert!(k.times()[j] <= t && (t < k.times()[j + 1] || j == 2), "t {t} in segment {j}");
+            if j == last.0 {
+                assert!(s >= last.1, "t {t}");
+            }
+            last = (j, s);
+        }
     }
 }

@@ -14,3 +14,8 @@ pub const MAX_SPP: u32 = 65536;
 
 /// Largest S the stochastic technique accepts (the sample tile is 64·64·S·20 bytes: 84 MB at 1024).
 pub const MAX_STOCHASTIC_SPP: u32 = 1024;
+
+/// Most transform keys an object's motion may have (the scene file's `motion_keys` and
+/// `[[object.transform_key]]` together, plus the shutter ends): each key adds a camera-space copy of
+/// every triangle for the stochastic rasterizer and a bounding-volume hierarchy for the reference.
+pub const MAX_MOTION_KEYS: usize = 64;

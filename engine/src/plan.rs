@@ -93,11 +93,14 @@ pub struct ObjectPlan {
     pub depth_range: (f32, f32),
     /// Largest |circle of confusion| radius in pixels over the visible depth range (0 without aperture).
     pub max_coc_px: f32,
-    /// Largest screen motion of a vertex between shutter open and close, pixels; infinite when a moving
-    /// vertex is at or behind the near plane at either end (its projection is unbounded).
+    /// Largest screen path of a vertex over the shutter (through its motion keys), pixels; infinite when
+    /// a moving vertex is at or behind the near plane at some key (its projection is unbounded).
     pub max_motion_px: f32,
     /// Some vertex is at or in front of the near plane (z ≤ near) at some time.
     pub crosses_near: bool,
+    /// Motion keys (2: open and close; more for an object with transform keys), each key segment
+    /// drawn and bounded on its own by the stochastic rasterizer.
+    pub motion_keys: usize,
     /// The depth range straddles the plane of focus (the object is sharp somewhere, blurred elsewhere).
     pub crosses_focus: bool,
     /// Entirely before the near plane or beyond the far plane at both ends: nothing to draw.
@@ -139,7 +142,7 @@ impl Plan {
             .iter()
             .zip(&camera.space.objects)
             .map(|(o, motion)| {
-                let ends: Vec<[glam::Vec3; 2]> =
+                let ends: Vec<Vec<glam::Vec3>> =
                     o.mesh.positions.iter().map(|&p| motion.positions(p)).collect();
                 plan_object(&o.name, o.mesh.triangle_count(), &ends, &k, threshold_px)
             })
@@ -164,38 +167,44 @@ impl Plan {
     }
 }
 
-/// The decision for one object from its vertices' camera-space positions at open and close.
-pub fn plan_object(
+/// The decision for one object from its vertices' camera-space positions at its motion keys (each
+/// vertex's positions in key order: open and close, and any keys between). A vertex's motion is the
+/// length of its screen path through the keys.
+pub fn plan_object<K: AsRef<[glam::Vec3]>>(
     name: &str,
     triangles: usize,
-    ends: &[[glam::Vec3; 2]],
+    ends: &[K],
     k: &Intrinsics,
     threshold_px: f32,
 ) -> ObjectPlan {
     let (mut z_lo, mut z_hi) = (f32::INFINITY, f32::NEG_INFINITY);
     let mut max_motion = 0.0f32;
     let (mut box_lo, mut box_hi) = (Vec2::INFINITY, Vec2::NEG_INFINITY);
-    for &[p0, p1] in ends {
-        for p in [p0, p1] {
+    for keys in ends {
+        let keys = keys.as_ref();
+        for &p in keys {
             let z = -p.z;
             if z > k.near {
                 let (c, r) = (k.project(p, Vec2::ZERO), k.circle_of_confusion_px(z).abs());
                 box_lo = box_lo.min(c - Vec2::splat(r));
                 box_hi = box_hi.max(c + Vec2::splat(r));
             }
+            z_lo = z_lo.min(z);
+            z_hi = z_hi.max(z);
         }
-        let (z0, z1) = (-p0.z, -p1.z);
-        z_lo = z_lo.min(z0.min(z1));
-        z_hi = z_hi.max(z0.max(z1));
-        if p0 == p1 {
-            continue;
+        let mut path = 0.0f32;
+        for w in keys.windows(2) {
+            let (p0, p1) = (w[0], w[1]);
+            if p0 == p1 {
+                continue;
+            }
+            path += if (-p0.z).min(-p1.z) <= k.near {
+                f32::INFINITY
+            } else {
+                (k.project(p1, Vec2::ZERO) - k.project(p0, Vec2::ZERO)).length()
+            };
         }
-        let m = if z0.min(z1) <= k.near {
-            f32::INFINITY
-        } else {
-            (k.project(p1, Vec2::ZERO) - k.project(p0, Vec2::ZERO)).length()
-        };
-        max_motion = max_motion.max(m);
+        max_motion = max_motion.max(path);
     }
     let empty = ends.is_empty() || triangles == 0;
     let culled = empty || z_hi < k.near || z_lo > k.far;
@@ -216,6 +225,7 @@ pub fn plan_object(
     let screen_box = (!crosses_near && box_lo.is_finite() && box_hi.is_finite()).then_some((box_lo, box_hi));
     ObjectPlan {
         name: name.to_string(),
+        motion_keys: ends.first().map_or(2, |k| k.as_ref().len()),
         triangles,
         screen_box,
         depth_range: (z_lo, z_hi),
@@ -236,8 +246,11 @@ impl fmt::Display for Plan {
             "{}x{}, threshold {} px (circle-of-confusion radius and screen motion)\n",
             self.width, self.height, self.threshold_px
         )?;
-        writeln!(f, "| object | triangles | depth range | max CoC px | max motion px | crosses | path |")?;
-        writeln!(f, "|---|---:|---|---:|---:|---|---|")?;
+        writeln!(
+            f,
+            "| object | triangles | depth range | max CoC px | max motion px | motion keys | crosses | path |"
+        )?;
+        writeln!(f, "|---|---:|---|---:|---:|---:|---|---|")?;
         for o in &self.objects {
             let mut crosses = Vec::new();
             if o.crosses_near {
@@ -256,13 +269,14 @@ impl fmt::Display for Plan {
             };
             writeln!(
                 f,
-                "| {} | {} | {:.2}..{:.2} | {:.2} | {} | {} | {} |",
+                "| {} | {} | {:.2}..{:.2} | {:.2} | {} | {} | {} | {} |",
                 o.name,
                 o.triangles,
                 o.depth_range.0,
                 o.depth_range.1,
                 o.max_coc_px,
                 motion,
+                o.motion_keys,
                 if crosses.is_empty() { "-".into() } else { crosses.join(", ") },
                 o.effects.name()
             )?;
@@ -320,20 +334,25 @@ mod tests {
                     assert!(op.crosses_near, "{name}/{}: no box but in front of near", o.name);
                     continue;
                 };
-                let ends: Vec<[Vec3; 2]> = o.mesh.positions.iter().map(|&p| motion.positions(p)).collect();
+                let ends: Vec<Vec<Vec3>> = o.mesh.positions.iter().map(|&p| motion.positions(p)).collect();
                 for t in o.mesh.indices.chunks_exact(3) {
                     let idx = [t[0], t[1], t[2]].map(|i| i as usize);
-                    let tri = MovingTriangle { v0: idx.map(|i| ends[i][0]), v1: idx.map(|i| ends[i][1]) };
-                    let Some((blo, bhi)) = bound(&tri, &k, BoundKind::BoundingBox).aabb() else { continue };
-                    let tol = 1e-3 * (1.0 + blo.abs().max(bhi.abs()).max_element());
-                    assert!(
-                        blo.x >= lo.x - tol
-                            && blo.y >= lo.y - tol
-                            && bhi.x <= hi.x + tol
-                            && bhi.y <= hi.y + tol,
-                        "{name}/{}: bound {blo}..{bhi} outside the box {lo}..{hi}",
-                        o.name
-                    );
+                    for j in 0..motion.segments() {
+                        let tri =
+                            MovingTriangle { v0: idx.map(|i| ends[i][j]), v1: idx.map(|i| ends[i][j + 1]) };
+                        let Some((blo, bhi)) = bound(&tri, &k, BoundKind::BoundingBox).aabb() else {
+                            continue;
+                        };
+                        let tol = 1e-3 * (1.0 + blo.abs().max(bhi.abs()).max_element());
+                        assert!(
+                            blo.x >= lo.x - tol
+                                && blo.y >= lo.y - tol
+                                && bhi.x <= hi.x + tol
+                                && bhi.y <= hi.y + tol,
+                            "{name}/{}: bound {blo}..{bhi} outside the box {lo}..{hi}",
+                            o.name
+                        );
+                    }
                 }
             }
         }
@@ -377,8 +396,8 @@ mod tests {
     fn one_mover_in_the_static_scene_is_the_only_stochastic_object() {
         let mut s = builtin_scene("static").unwrap().unwrap();
         let i = s.objects.iter().position(|o| o.name == "blue-sphere").unwrap();
-        s.objects[i].transform_close =
-            Some(Mat4::from_translation(Vec3::new(0.3, 0.0, 0.0)) * s.objects[i].transform_open);
+        let close = Mat4::from_translation(Vec3::new(0.3, 0.0, 0.0)) * s.objects[i].transform_open();
+        s.objects[i].set_close(close);
         let p = Plan::new(&s, 320, 180);
         for (j, o) in p.objects.iter().enumerate() {
             assert_eq!(o.effects, if j == i { Effects::Motion } else { Effects::Pinhole }, "{p}");
@@ -444,8 +463,8 @@ mod tests {
         let mut sharp = s.clone();
         sharp.camera.aperture_radius = 0.0;
         let shift = blur_px * z / k.pixel_scale;
-        s.objects[0].transform_close =
-            Some(Mat4::from_translation(Vec3::new(shift, 0.0, 0.0)) * s.objects[0].transform_open);
+        let close = Mat4::from_translation(Vec3::new(shift, 0.0, 0.0)) * s.objects[0].transform_open();
+        s.objects[0].set_close(close);
         let settings = ReferenceSettings {
             width: w,
             height: h,

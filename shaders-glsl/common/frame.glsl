@@ -22,10 +22,17 @@ struct Material {
     vec4 params;           // roughness, has_texture, alpha, unused
 };
 
+// One key segment of an object's motion (an object's segments are consecutive).
 struct ObjectView {
-    mat4 model_view[2];     // object -> view space at shutter open, close
+    mat4 model_view[2];     // object -> view space at the segment's first and last key
     mat4 normal_matrix[2];  // inverse transpose of the upper 3x3 (in a mat4 for std430 alignment)
+    vec4 time;              // the keys' shutter times t0, t1, then 1 / (t1 - t0), unused
 };
+
+// The time within segment `s` of shutter time `t` (geometry::KeyTimes::local_time).
+float segment_time(ObjectView s, float t) {
+    return min((t - s.time.x) * s.time.z, 1.0);
+}
 
 layout(set = 0, binding = 0, std140) uniform WorldUniforms {
     vec4 ambient;     // rgb

@@ -8,6 +8,8 @@ layout(push_constant) uniform Push {
     float time;
     vec2 lens;
     vec2 jitter;
+    uint segment;
+    float segment_time;
 } pc;
 
 layout(location = 0) in vec3 v_position;

@@ -12,6 +12,8 @@ layout(push_constant) uniform Push {
     float time;
     vec2 lens;    // unit aperture coordinates (already mapped to the aperture shape)
     vec2 jitter;  // subpixel offset of this pass, pixels
+    uint segment;        // the object's key segment holding `time` (index into object_views)
+    float segment_time;  // the time within it
 } pc;
 
 layout(location = 0) out vec3 v_position;  // camera space at t
@@ -19,12 +21,12 @@ layout(location = 1) out vec3 v_normal;
 layout(location = 2) out vec2 v_uv;
 
 void main() {
-    ObjectView o = object_views[pc.object];
+    ObjectView o = object_views[pc.segment];
     vec3 p0 = (o.model_view[0] * vec4(in_position, 1.0)).xyz;
     vec3 p1 = (o.model_view[1] * vec4(in_position, 1.0)).xyz;
-    vec3 p = p0 + (p1 - p0) * pc.time;  // exact for a still vertex (MovingTriangle::at)
+    vec3 p = p0 + (p1 - p0) * pc.segment_time;  // exact for a still vertex (MovingTriangle::at)
     v_position = p;
-    v_normal = mix(mat3(o.normal_matrix[0]) * in_normal, mat3(o.normal_matrix[1]) * in_normal, pc.time);
+    v_normal = mix(mat3(o.normal_matrix[0]) * in_normal, mat3(o.normal_matrix[1]) * in_normal, pc.segment_time);
     v_uv = in_uv;
     gl_Position = thin_lens_clip(p, pc.lens, pc.jitter);
 }

@@ -14,6 +14,8 @@ layout(push_constant) uniform Push {
     float time;
     vec2 lens;
     vec2 jitter;
+    uint segment;
+    float segment_time;
 } pc;
 
 layout(location = 0) out vec3 v_position;
@@ -21,12 +23,12 @@ layout(location = 1) out vec3 v_normal;
 layout(location = 2) out vec2 v_uv;
 
 void main() {
-    ObjectView o = object_views[pc.object];
+    ObjectView o = object_views[pc.segment];
     vec3 p0 = (o.model_view[0] * vec4(in_position, 1.0)).xyz;
     vec3 p1 = (o.model_view[1] * vec4(in_position, 1.0)).xyz;
-    vec3 p = p0 + (p1 - p0) * pc.time;  // exact for a still vertex (MovingTriangle::at)
+    vec3 p = p0 + (p1 - p0) * pc.segment_time;  // exact for a still vertex (MovingTriangle::at)
     v_position = p;
-    v_normal = mix(mat3(o.normal_matrix[0]) * in_normal, mat3(o.normal_matrix[1]) * in_normal, pc.time);
+    v_normal = mix(mat3(o.normal_matrix[0]) * in_normal, mat3(o.normal_matrix[1]) * in_normal, pc.segment_time);
     v_uv = in_uv;
     gl_Position = view_clip(p, pc.lens, pc.jitter);
 }

@@ -1,6 +1,7 @@
 #version 460
 // The compute-expanded hull (a hardware-feature experiment: lavapipe runs compute on every core but its
-// geometry stage on one): once per frame and object, each invocation bounds one triangle exactly as
+// geometry stage on one): once per frame and object, each invocation bounds one triangle over one key
+// segment of its object's motion exactly as
 // stochastic.geom does (compute_bound, emit.glsl's dilation) and appends the strips as a triangle list
 // to the object's hull buffer — NDC x, y per vertex, and the source triangle's index per hull triangle
 // in a second buffer (8 + 4/3 bytes per vertex) — reserving its vertices with one atomicAdd. A plain draw of that buffer (hull.vert) then feeds the
@@ -22,6 +23,11 @@ layout(push_constant) uniform Push {
     uint bound;           // bound kind id
     uint capacity;        // vertices the hull buffer holds
     float dilate;         // box half-size, pixels (emit.glsl reads pc.dilate)
+    uint segment_count;   // the object's motion key segments
+    uint segment_begin;   // bounds are made for segments [segment_begin, segment_begin + segments)
+    uint segments;        // (NO_MOTION: the one segment holding mid-shutter)
+    float t0;             // over local times [t0, t1] of each (NO_MOTION: t0 = t1, mid-shutter's)
+    float t1;
 } pc;
 
 // The strips of this invocation's bound, gathered before they are written as triangles.
@@ -41,13 +47,16 @@ void end_strip() {
 #include "stochastic/emit.glsl"
 
 void main() {
-    uint t = gl_GlobalInvocationID.x;
-    if (t >= pc.triangle_count) return;
+    uint id = gl_GlobalInvocationID.x;
+    if (id >= pc.triangle_count * pc.segments) return;
+    // One bound per triangle and key segment.
+    uint t = id / pc.segments;
+    uint seg = pc.segment_begin + id % pc.segments;
     vec3 open[3], close[3];
-    load_triangle(t, open, close);
+    load_triangle(t, seg, pc.segment_count + 1u, open, close);
     vec2 pts[BOUND_MAX_POINTS];
     int piece_len[BOUND_MAX_PIECES];
-    int pieces = compute_bound(pc.bound, bound_vertices(open, close, 0.0, 1.0), pts, piece_len);
+    int pieces = compute_bound(pc.bound, bound_vertices(open, close, pc.t0, pc.t1), pts, piece_len);
     emit_bound(pieces, pts, piece_len);
     uint n = 0u;
     int begin = 0;
@@ -63,7 +72,7 @@ void main() {
     for (int s = 0; s < strips; s++) {
         // Strip triangle k is (k, k + 1, k + 2); winding does not matter (nothing is culled).
         for (int k = begin; k + 2 < strip_end[s]; k++) {
-            hull_triangle[w / 3u] = t;
+            hull_triangle[w / 3u] = t * pc.segment_count + seg;  // stochastic.frag splits it
             for (int j = 0; j < 3; j++) hull[w + uint(j)] = strip_pts[k + j];
             w += 3u;
         }

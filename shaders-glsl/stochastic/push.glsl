@@ -10,9 +10,10 @@ layout(push_constant) uniform Push {
     uint spp;         // S: samples per pixel over all passes (the sample tile's depth)
     uint per_pass;    // samples per pixel and pass (the visibility buffer's depth)
     float dilate;     // box half-size the bound is dilated by, pixels (bounds::dilation_px)
-    // Interval bounds: this draw tests the pass' samples [sample_first, sample_first + sample_count),
-    // whose shutter times all lie in [t0, t1] (samples come in time order), and bounds the triangle
-    // over [t0, t1] only. The shading pass ignores them.
+    // Interval bounds: this draw tests the pass' samples [sample_first, sample_first + sample_count)
+    // that lie in key segment `segment` of the object's motion (samples come in time order), and
+    // bounds the triangle over [t0, t1] of the segment's local time, which holds all of theirs.
+    // NO_MOTION: t0 = t1 is the local time of mid-shutter in `segment`. The shading pass ignores them.
     uint sample_first;
     uint sample_count;
     float t0;
@@ -23,6 +24,11 @@ layout(push_constant) uniform Push {
     // The object's first triangle in the frame's numbering (visibility payloads) and its count.
     uint triangle_base;
     uint triangle_count;
+    // The object's motion: its first key segment in object_views and its segment count; this draw's
+    // segment (0 .. segment_count).
+    uint segment_first;
+    uint segment_count;
+    uint segment;
 } pc;
 
 #endif

@@ -56,7 +56,9 @@ vec3 texture_bilinear(vec2 uv) {
 struct SampleHit {
     vec3 a, b, c;  // camera space at t
     vec3 ro, rd;
-    float t;
+    float t;       // shutter time (the lights')
+    uint seg;      // the object's key segment holding t (its index in object_views)
+    float s;       // the time within it
 };
 
 SampleHit sample_at(uint prim, uint tile_index, uvec2 pix) {
@@ -66,21 +68,27 @@ SampleHit sample_at(uint prim, uint tile_index, uvec2 pix) {
     xl.zw = vec2(0.0);
 #endif
     primary_ray(vec2(pix) + xl.xy, xl.zw, h.ro, h.rd);
-    vec3 p_open[3], p_close[3];
-    load_triangle(prim, p_open, p_close);
 #ifdef NO_MOTION
     h.t = 0.5;
 #else
     h.t = sample_time[tile_index];
 #endif
-    h.a = shutter_lerp(p_open[0], p_close[0], h.t);
-    h.b = shutter_lerp(p_open[1], p_close[1], h.t);
-    h.c = shutter_lerp(p_open[2], p_close[2], h.t);
+    // KeyTimes::segment_of: the interior keys at or below t.
+    uint seg = 0u;
+    for (uint j = 1u; j < pc.segment_count; j++) {
+        if (object_views[pc.segment_first + j].time.x <= h.t) seg = j;
+    }
+    h.seg = pc.segment_first + seg;
+    h.s = segment_time(object_views[h.seg], h.t);
+    vec3 p_open[3], p_close[3];
+    load_triangle(prim, seg, pc.segment_count + 1u, p_open, p_close);
+    h.a = shutter_lerp(p_open[0], p_close[0], h.s);
+    h.b = shutter_lerp(p_open[1], p_close[1], h.s);
+    h.c = shutter_lerp(p_open[2], p_close[2], h.s);
     return h;
 }
 
-// The object's transforms and material, loaded once per invocation.
-ObjectView object_view;
+// The object's material, loaded once per invocation.
 Material object_material;
 
 // Radiance of the sample hitting triangle `prim` (the reference's Tracer::shade_hit).
@@ -97,9 +105,10 @@ vec3 shade_hit(uint prim, SampleHit h) {
     for (uint k = 0u; k < 3u; k++) tv[k] = vertices[indices[3u * prim + k]];
     vec3 geometric = cross(h.b - h.a, h.c - h.a);
     vec3 n = vec3(0.0);
+    mat3 n0 = mat3(object_views[h.seg].normal_matrix[0]), n1 = mat3(object_views[h.seg].normal_matrix[1]);
     for (int k = 0; k < 3; k++) {
         vec3 nk = vec3(tv[k].normal[0], tv[k].normal[1], tv[k].normal[2]);
-        n += w[k] * mix(mat3(object_view.normal_matrix[0]) * nk, mat3(object_view.normal_matrix[1]) * nk, h.t);
+        n += w[k] * mix(n0 * nk, n1 * nk, h.s);
     }
     if (dot(n, n) > 0.0) n = normalize(n);
     else if (dot(geometric, geometric) > 0.0) n = normalize(geometric);
@@ -146,7 +155,6 @@ void main() {
         }
         return;
     }
-    object_view = object_views[pc.object];
     object_material = materials[pc.object];
     uint base = ((pix.y % SAMPLE_TILE_SIZE) * SAMPLE_TILE_SIZE + pix.x % SAMPLE_TILE_SIZE) * pc.spp
               + pc.pass_index * pc.per_pass;

@@ -1,6 +1,7 @@
 #version 460
-// Stochastic rasterization, coverage stage ("visibility first"): for every sample of this pass in the
-// pixel, the 5D inside test of its (x, y, u, v, t) against the moving, defocused triangle; each hit
+// Stochastic rasterization, coverage stage ("visibility first"): for every sample of this draw in the
+// pixel whose time lies in the draw's motion key segment, the 5D inside test of its (x, y, u, v, t)
+// against the moving, defocused triangle (linear within the segment); each hit
 // goes into the visibility buffer (stochastic/visibility.glsl) with its own view depth by one 64-bit
 // atomicMax, so occlusion is resolved per sample, exactly, and nothing is shaded here: shade.comp
 // shades the surviving hits afterwards. The pass has no attachments and no depth test; a pixel that
@@ -39,14 +40,23 @@ const uint SAMPLE_TILE_SIZE = 64u;
 
 void main() {
 #ifdef COMPUTE_HULL
-    uint prim = v_triangle;
+    // expand.comp numbers its bounds triangle × segment.
+    uint prim = v_triangle / pc.segment_count;
+    uint seg = v_triangle % pc.segment_count;
 #else
     uint prim = uint(gl_PrimitiveID);
+    uint seg = pc.segment;
 #endif
     vec3 p_open[3], p_close[3];
-    load_triangle(prim, p_open, p_close);
+    load_triangle(prim, seg, pc.segment_count + 1u, p_open, p_close);
 #ifdef NO_MOTION
-    for (uint k = 0u; k < 3u; k++) p_open[k] = shutter_lerp(p_open[k], p_close[k], 0.5);
+    for (uint k = 0u; k < 3u; k++) p_open[k] = shutter_lerp(p_open[k], p_close[k], pc.t0);
+#else
+    // The segment's samples: times in [t_a, t_b) (the first segment from -inf, the last to +inf).
+    vec4 seg_time = object_views[pc.segment_first + seg].time;
+    const float INF = uintBitsToFloat(0x7f800000u);
+    float t_a = seg == 0u ? -INF : seg_time.x;
+    float t_b = seg + 1u == pc.segment_count ? INF : seg_time.y;
 #endif
     uvec2 pix = uvec2(gl_FragCoord.xy);
     uint base = ((pix.y % SAMPLE_TILE_SIZE) * SAMPLE_TILE_SIZE + pix.x % SAMPLE_TILE_SIZE) * pc.spp
@@ -62,16 +72,19 @@ void main() {
         primary_ray(vec2(pix) + xl.xy, xl.zw, ro, rd);
 #ifdef NO_MOTION
         vec3 a = p_open[0], b = p_open[1], c = p_open[2];
+        bool in_segment = true;
 #else
         float t = sample_time[base + i];
-        vec3 a = shutter_lerp(p_open[0], p_close[0], t);
-        vec3 b = shutter_lerp(p_open[1], p_close[1], t);
-        vec3 c = shutter_lerp(p_open[2], p_close[2], t);
+        bool in_segment = t >= t_a && t < t_b;
+        float s = min((t - seg_time.x) * seg_time.z, 1.0);  // segment_time (common/frame.glsl)
+        vec3 a = shutter_lerp(p_open[0], p_close[0], s);
+        vec3 b = shutter_lerp(p_open[1], p_close[1], s);
+        vec3 c = shutter_lerp(p_open[2], p_close[2], s);
 #endif
         float z;
         vec3 w;
         bool back;
-        if (sample_hit(a, b, c, ro, rd, z, w, back)) {
+        if (sample_hit(a, b, c, ro, rd, z, w, back) && in_segment) {
             atomicMax(visibility[visibility_index(pix, i, pc.per_pass)], visibility_pack(z, pc.triangle_base + prim, back));
             hits++;
         }

@@ -1,6 +1,7 @@
 #version 460
-// Stochastic rasterization, vertex stage: the vertex in camera space at shutter open and close. The
-// geometry stage bounds the triangle over the whole shutter and lens; nothing is projected here.
+// Stochastic rasterization, vertex stage: the vertex in camera space at the two keys of the draw's
+// motion segment. The geometry stage bounds the triangle over the draw's time and the lens; nothing is
+// projected here.
 #include "common/frame.glsl"
 #include "stochastic/push.glsl"
 
@@ -10,7 +11,7 @@ layout(location = 0) out vec3 v_open;
 layout(location = 1) out vec3 v_close;
 
 void main() {
-    ObjectView o = object_views[pc.object];
+    ObjectView o = object_views[pc.segment_first + pc.segment];
     v_open = (o.model_view[0] * vec4(in_position, 1.0)).xyz;
     v_close = (o.model_view[1] * vec4(in_position, 1.0)).xyz;
     gl_Position = vec4(v_open, 1.0);  // unused: the geometry stage writes the hull's positions

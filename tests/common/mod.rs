@@ -100,8 +100,10 @@ pub fn single_object_scene(
         objects: vec![Object {
             name: "object".into(),
             mesh,
-            transform_open: open,
-            transform_close: close,
+            transforms: match close {
+                Some(c) => vec![(0.0, open), (1.0, c)],
+                None => vec![(0.0, open)],
+            },
             material: Material { albedo: Vec3::ONE, ..Material::default() },
         }],
         lights: vec![],

@@ -154,7 +154,7 @@ fn still(s: &Scene) -> Scene {
     t.camera.aperture_radius = 0.0;
     t.camera.close = None;
     for o in &mut t.objects {
-        o.transform_close = None;
+        o.transforms.truncate(1);
     }
     t
 }

@@ -24,8 +24,7 @@ fn probe_scene(w: u32, h: u32) -> Scene {
     let object = |name: &str, mesh: Arc<Mesh>, m: Mat4| Object {
         name: name.into(),
         mesh,
-        transform_open: m,
-        transform_close: None,
+        transforms: vec![(0.0, m)],
         material: Material { albedo: Vec3::new(0.7, 0.6, 0.5), ..Material::default() },
     };
     let mut cam = camera(40.0, 0.0, 7.0);
@@ -62,7 +61,7 @@ fn world_triangles(scene: &Scene) -> Vec<[Vec3; 3]> {
     let mut out = vec![];
     for o in &scene.objects {
         for t in o.mesh.indices.chunks_exact(3) {
-            out.push([0, 1, 2].map(|i| o.transform_open.transform_point3(o.mesh.positions[t[i] as usize])));
+            out.push([0, 1, 2].map(|i| o.transform_open().transform_point3(o.mesh.positions[t[i] as usize])));
         }
     }
     out

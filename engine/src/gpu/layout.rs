@@ -103,14 +103,18 @@ pub struct ViewUniforms {
     pub lights: [GpuLight; MAX_LIGHTS],
 }
 
-/// `ObjectView` (std430): one object seen from one view.
+/// `ObjectView` (std430): one key segment of one object's motion seen from one view (an object with
+/// K motion keys has K − 1, consecutive in the buffer; [`super::GpuView::segment_at`]).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
 pub struct GpuObjectView {
-    /// Object → view space at shutter open, close (column-major).
+    /// Object → view space at the segment's first and last key (column-major).
     pub model_view: [[f32; 16]; 2],
     /// Inverse transpose of the upper 3×3, in a mat4 (std430 alignment).
     pub normal_matrix: [[f32; 16]; 2],
+    /// The segment's key times t0, t1, then 1 / (t1 − t0) as the CPU rounded it
+    /// ([`crate::geometry::KeyTimes`]), unused.
+    pub time: [f32; 4],
 }
 
 /// Interleaved vertex (vertex input and `Vertex` in `common/object.glsl`): position, normal, uv.
@@ -240,7 +244,7 @@ pub const SHARED_STRUCTS: &[SharedStruct] = &[
     shared_struct!("Material", GpuMaterial, [albedo_specular, params]),
     shared_struct!("Light", GpuLight, [at_open, at_close, color]),
     shared_struct!("ViewUniforms", ViewUniforms, [viewport, lens, projection, lights]),
-    shared_struct!("ObjectView", GpuObjectView, [model_view, normal_matrix]),
+    shared_struct!("ObjectView", GpuObjectView, [model_view, normal_matrix, time]),
     shared_struct!("Vertex", Vertex, [position, normal, uv]),
 ];
 

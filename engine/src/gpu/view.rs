@@ -1,6 +1,6 @@
 //! One view on the GPU: its uniforms (viewport, lens or orthographic extent, depth range, the
-//! lights in its space), every object's transform into it at shutter open and close, and the frame
-//! set (set 0) that binds them beside the world's.
+//! lights in its space), every object's transforms into it over each key segment of its motion, and
+//! the frame set (set 0) that binds them beside the world's.
 //!
 //! The object → view matrices are the CPU's products ([`crate::scene::CameraSpaceScene`]), the very
 //! values the CPU reference and the bounds mirror use, so every consumer moves vertices the same way
@@ -15,6 +15,7 @@ use super::layout::{
 };
 use super::GpuWorld;
 use crate::error::{Error, Result};
+use crate::geometry::KeyTimes;
 use crate::scene::{CameraSpaceLight, Projection, View};
 use crate::vk::{write_descriptors, Buffer, DescriptorPool, DescriptorWrite, Device};
 
@@ -25,6 +26,8 @@ pub struct GpuView {
     pub height: u32,
     /// Set 0: the world's uniforms and materials with this view's uniforms and object transforms.
     pub frame_set: vk::DescriptorSet,
+    /// Per object: its first segment in `ObjectViews` and its key times.
+    pub object_keys: Vec<(u32, KeyTimes)>,
     _uniforms: Buffer,
     _object_views: Buffer,
     _pool: DescriptorPool,
@@ -87,22 +90,26 @@ impl GpuView {
             vk::BufferUsageFlags::UNIFORM_BUFFER,
             &[view_uniforms(view)?],
         )?;
-        let mut object_views: Vec<GpuObjectView> = view
-            .space
-            .objects
-            .iter()
-            .map(|m| GpuObjectView {
-                model_view: [mat4(m.model_view[0]), mat4(m.model_view[1])],
-                normal_matrix: [mat3_padded(m.normal_matrix[0]), mat3_padded(m.normal_matrix[1])],
-            })
-            .collect();
-        if object_views.len() != world.objects.len() {
+        if view.space.objects.len() != world.objects.len() {
             return Err(Error::Unsupported(format!(
                 "view `{}` has {} objects, the world {}",
                 view.name,
-                object_views.len(),
+                view.space.objects.len(),
                 world.objects.len()
             )));
+        }
+        let mut object_views: Vec<GpuObjectView> = Vec::with_capacity(view.space.objects.len());
+        let mut object_keys = Vec::with_capacity(view.space.objects.len());
+        for m in &view.space.objects {
+            object_keys.push((object_views.len() as u32, m.keys.clone()));
+            let (t, inv) = (m.keys.times(), m.keys.inv_len());
+            for j in 0..m.segments() {
+                object_views.push(GpuObjectView {
+                    model_view: [mat4(m.model_view[j]), mat4(m.model_view[j + 1])],
+                    normal_matrix: [mat3_padded(m.normal_matrix[j]), mat3_padded(m.normal_matrix[j + 1])],
+                    time: [t[j], t[j + 1], inv[j], 0.0],
+                });
+            }
         }
         if object_views.is_empty() {
             object_views.push(bytemuck::Zeroable::zeroed());
@@ -131,9 +138,25 @@ impl GpuView {
             width,
             height,
             frame_set,
+            object_keys,
             _uniforms: uniforms,
             _object_views: object_views,
             _pool: pool,
         })
+    }
+}
+
+impl GpuView {
+    /// Object `object`'s segment holding shutter time `t` (its index in `ObjectViews`) and the time
+    /// within it: what a draw at one time (a forward pass) pushes.
+    pub fn segment_at(&self, object: usize, t: f32) -> (u32, f32) {
+        let (first, keys) = &self.object_keys[object];
+        let (j, s) = keys.locate(t);
+        (first + j as u32, s)
+    }
+    /// Object `object`'s first segment in `ObjectViews` and its segment count.
+    pub fn segments(&self, object: usize) -> (u32, u32) {
+        let (first, keys) = &self.object_keys[object];
+        (*first, keys.segments() as u32)
     }
 }

@@ -1,9 +1,13 @@
-//! A bounding volume hierarchy over **moving** triangles (camera space, linear vertex motion).
+//! A bounding volume hierarchy over **moving** triangles (camera space, linear vertex motion) for one
+//! interval `[t_a, t_b]` of the shutter in which every triangle moves linearly (the whole shutter for
+//! two-key motion; between two consecutive motion keys of the scene otherwise, one tree per interval).
 //!
-//! Every node stores its bounding box at shutter open and at shutter close; at ray time `t` the node
-//! is tested against `lerp(box0, box1, t)`. Because each vertex moves linearly, a vertex at time `t`
-//! lies inside the interpolated box of any box pair that contains it at both ends, so the test is
-//! conservative (boxes are padded by a few ulps to absorb rounding of the interpolation).
+//! Every node stores its bounding box at the interval's start and end; at ray time `t` the node is
+//! tested against `lerp(box0, box1, u)`, `u` the time's fraction of the interval. Because each vertex
+//! moves linearly, a vertex at time `t` lies inside the interpolated box of any box pair that contains
+//! it at both ends, so the test is conservative (boxes are padded by a few ulps to absorb rounding of
+//! the interpolation). The triangles themselves are evaluated exactly as every renderer does: each
+//! keeps its key segment ([`SegmentTriangle`]), so a hit is bit-identical to the GPU's.
 //!
 //! Built top-down with binned SAH on the mid-shutter centroids (cost = open + close surface area),
 //! flattened depth-first (left child follows its parent), traversed iteratively, nearest child first.
@@ -13,6 +17,39 @@
 use glam::Vec3;
 
 use crate::geometry::{intersect_triangle, MovingTriangle, TriangleHit};
+
+/// A triangle over one key segment of its object's motion: its vertices at the segment's keys, and the
+/// segment's start time and inverse length ([`crate::geometry::KeyTimes`]), so that at shutter time
+/// `t` it is `tri.at(min((t − t0)·inv_len, 1))`, exactly as the GPU evaluates it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SegmentTriangle {
+    pub tri: MovingTriangle,
+    pub t0: f32,
+    pub inv_len: f32,
+}
+
+impl SegmentTriangle {
+    /// The triangle moving over the whole shutter (two keys, 0 and 1).
+    pub fn whole_shutter(tri: MovingTriangle) -> Self {
+        SegmentTriangle { tri, t0: 0.0, inv_len: 1.0 }
+    }
+    /// The vertices at shutter time `t`.
+    #[inline(always)]
+    pub fn at(&self, t: f32) -> [Vec3; 3] {
+        self.tri.at(((t - self.t0) * self.inv_len).min(1.0))
+    }
+    /// The vertices at shutter time `t`, exact at the segment's keys.
+    fn at_exact(&self, t: f32) -> [Vec3; 3] {
+        let s = ((t - self.t0) * self.inv_len).min(1.0);
+        if s <= 0.0 {
+            self.tri.v0
+        } else if s >= 1.0 {
+            self.tri.v1
+        } else {
+            self.tri.at(s)
+        }
+    }
+}
 
 /// Axis-aligned box.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -80,7 +117,10 @@ fn depth_grows_within(d: Vec3, near: f32, far: f32) -> bool {
 pub struct Bvh {
     nodes: Vec<Node>,
     /// Triangles in BVH (leaf) order.
-    tris: Vec<MovingTriangle>,
+    tris: Vec<SegmentTriangle>,
+    /// The shutter interval the node boxes span: start and inverse length.
+    t0: f32,
+    inv_len: f32,
     /// For each triangle in BVH order, its index in the input list.
     ids: Vec<u32>,
 }
@@ -246,12 +286,23 @@ fn pad(bounds: [Aabb; 2]) -> [Aabb; 2] {
 }
 
 impl Bvh {
-    /// Builds the tree. Triangles with non-finite vertices are left out (they can never be hit).
+    /// Builds the tree over triangles moving linearly over the whole shutter. Triangles with
+    /// non-finite vertices are left out (they can never be hit).
     pub fn build(triangles: &[MovingTriangle]) -> Bvh {
-        let boxes: Vec<[Aabb; 2]> = triangles.iter().map(|t| [Aabb::of(&t.v0), Aabb::of(&t.v1)]).collect();
+        let tris: Vec<SegmentTriangle> =
+            triangles.iter().map(|&t| SegmentTriangle::whole_shutter(t)).collect();
+        Bvh::build_interval(&tris, 0.0, 1.0)
+    }
+
+    /// Builds the tree for shutter times `[t_a, t_b]`, in which each triangle stays in its one key
+    /// segment (`t_a`, `t_b` consecutive keys of the union of all objects' keys). Triangles with
+    /// non-finite vertices are left out.
+    pub fn build_interval(triangles: &[SegmentTriangle], t_a: f32, t_b: f32) -> Bvh {
+        let boxes: Vec<[Aabb; 2]> =
+            triangles.iter().map(|t| [Aabb::of(&t.at_exact(t_a)), Aabb::of(&t.at_exact(t_b))]).collect();
         let centres: Vec<Vec3> = boxes.iter().map(|b| 0.5 * (b[0].centre() + b[1].centre())).collect();
         let mut prims: Vec<u32> =
-            (0..triangles.len() as u32).filter(|&i| triangles[i as usize].is_finite()).collect();
+            (0..triangles.len() as u32).filter(|&i| triangles[i as usize].tri.is_finite()).collect();
         let mut builder = Builder { boxes: &boxes, centres: &centres, nodes: Vec::new() };
         if !prims.is_empty() {
             builder.nodes.reserve(2 * prims.len());
@@ -262,7 +313,7 @@ impl Bvh {
             n.bounds = pad(n.bounds);
         }
         let tris = prims.iter().map(|&i| triangles[i as usize]).collect();
-        Bvh { nodes, tris, ids: prims }
+        Bvh { nodes, tris, ids: prims, t0: t_a, inv_len: 1.0 / (t_b - t_a) }
     }
 
     pub fn node_count(&self) -> usize {
@@ -338,11 +389,13 @@ impl Bvh {
         let s_min = ray_parameter(near - DEPTH_SLACK * near.abs());
         let s_bound = |depth: f32| ray_parameter(depth + DEPTH_SLACK * depth.abs());
         let inv_d = d.recip();
+        // The nodes' time: the fraction of the tree's interval (exactly `time` for the whole shutter).
+        let box_time = ((time - self.t0) * self.inv_len).clamp(0.0, 1.0);
         let mut best = f32::INFINITY;
         let mut s_max = s_bound(far);
         let mut hit: Option<Hit> = None;
         let mut stack = [(0u32, 0.0f32); STACK];
-        let root = Self::enter(&self.nodes[0], time, o, inv_d, s_min, s_max);
+        let root = Self::enter(&self.nodes[0], box_time, o, inv_d, s_min, s_max);
         if root == f32::INFINITY {
             return None;
         }
@@ -372,8 +425,8 @@ impl Bvh {
                     break;
                 }
                 let (l, r) = (ni + 1, node.first);
-                let tl = Self::enter(&self.nodes[l as usize], time, o, inv_d, s_min, s_max);
-                let tr = Self::enter(&self.nodes[r as usize], time, o, inv_d, s_min, s_max);
+                let tl = Self::enter(&self.nodes[l as usize], box_time, o, inv_d, s_min, s_max);
+                let tr = Self::enter(&self.nodes[r as usize], box_time, o, inv_d, s_min, s_max);
                 let (near_child, far_child, tn, tf) = if tl <= tr { (l, r, tl, tr) } else { (r, l, tr, tl) };
                 if tn == f32::INFINITY {
                     break;

@@ -6,9 +6,11 @@
 //! model:
 //!
 //! * **Camera space.** Everything happens in camera space (+Y up, looking down −Z, view depth
-//!   `z = −p.z`). At shutter time `t` a vertex is at `mix(P0, P1, t)` with `[P0, P1]` its camera-space
-//!   positions at open and close ([`ObjectMotion::positions`]); vertex normals are `mix(N0, N1, t)` of
-//!   [`ObjectMotion::normals`]; lights are [`CameraSpaceLight::at`]`(t)`.
+//!   `z = −p.z`). At shutter time `t` in key segment `j` of its object's motion, at local time `s`
+//!   ([`KeyTimes::locate`]), a vertex is at `Pj + (Pj+1 − Pj)·s` with `Pj` its camera-space positions
+//!   at the keys ([`ObjectMotion::positions`]; two keys, open and close, unless the object has more);
+//!   vertex normals are `mix(Nj, Nj+1, s)` of [`ObjectMotion::normals`]; lights are
+//!   [`CameraSpaceLight::at`]`(t)`.
 //! * **Rays.** Sample `s` of pixel `(px, py)` is the thin-lens ray [`Intrinsics::primary_ray`] through
 //!   `(px + s.xy.x, py + s.xy.y)` from lens point `aperture.map(s.lens)` at time `shutter.warp(s.time)`.
 //!   The pixel value is the plain mean of its samples (box filter); alpha is 1.
@@ -28,7 +30,8 @@
 //!   probability alpha and passes through it otherwise, decided by a hash of (seed, pixel, sample,
 //!   triangle) so renders are reproducible.
 //!
-//! Geometry lives in a [`Bvh`] over [`MovingTriangle`]s (boxes at both shutter ends, interpolated at
+//! Geometry lives in [`Bvh`]s over [`SegmentTriangle`]s, one per interval between consecutive motion
+//! keys of the whole scene (one tree for two-key scenes; boxes at the interval's ends, interpolated at
 //! ray time). Rendering is parallel over 16×16-pixel tiles with rayon; every pixel depends only on its
 //! own samples, so images are bit-identical for any thread count. Image size and sample count are
 //! checked against [`crate::limits`].
@@ -41,10 +44,10 @@ use glam::{DVec3, Vec2, Vec3};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use rayon::prelude::*;
 
-pub use bvh::{Bvh, Hit};
+pub use bvh::{Bvh, Hit, SegmentTriangle};
 
 use crate::error::{Error, Result};
-use crate::geometry::MovingTriangle;
+use crate::geometry::{KeyTimes, MovingTriangle};
 use crate::image::LinearImage;
 use crate::limits::{MAX_IMAGE_DIMENSION, MAX_SPP};
 use crate::sampling::{pixel_sample_set, Pcg32, Sample5, SAMPLE_TILE_SIZE};
@@ -166,8 +169,8 @@ pub fn render_reference_with_stats(
         }
     }
     let stats = ReferenceStats {
-        triangles: tracer.bvh.triangle_count(),
-        bvh_nodes: tracer.bvh.node_count(),
+        triangles: tracer.bvhs[0].triangle_count(),
+        bvh_nodes: tracer.bvhs.iter().map(|b| b.node_count()).sum(),
         rays: w as u64 * h as u64 * settings.spp as u64,
         seconds: start.elapsed().as_secs_f64(),
         build_seconds,
@@ -218,10 +221,10 @@ pub fn pixel_samples(spp: u32, seed: u64, x: u32, y: u32) -> Vec<Sample5> {
 /// Per-triangle shading data, in build (scene) order.
 #[derive(Clone, Copy, Debug)]
 struct SurfaceTri {
-    /// Camera-space vertex normals (unnormalised) at open `[0]` and close `[1]`.
-    n: [[Vec3; 3]; 2],
     uv: [Vec2; 3],
     object: u32,
+    /// Where the triangle's vertices and normals at its object's keys start in `Tracer::keyed`.
+    key_base: u32,
 }
 
 struct SurfaceMaterial<'a> {
@@ -233,10 +236,20 @@ struct SurfaceMaterial<'a> {
     alpha: f32,
 }
 
+/// A triangle's camera-space vertices and (unnormalised) vertex normals at one motion key.
+type KeyedTriangle = ([Vec3; 3], [Vec3; 3]);
+
 struct Tracer<'a> {
-    bvh: Bvh,
-    geometry: Vec<MovingTriangle>,
+    /// One tree per interval of `intervals`.
+    bvhs: Vec<Bvh>,
+    /// The union of every object's key times: within one interval every triangle moves linearly.
+    intervals: KeyTimes,
+    /// Per triangle (from `SurfaceTri::key_base`), its camera-space vertices and (unnormalised)
+    /// vertex normals at each key of its object.
+    keyed: Vec<KeyedTriangle>,
     surface: Vec<SurfaceTri>,
+    /// Each object's key times.
+    object_keys: Vec<KeyTimes>,
     materials: Vec<SurfaceMaterial<'a>>,
     camera: &'a Camera,
     intrinsics: Intrinsics,
@@ -253,22 +266,24 @@ impl<'a> Tracer<'a> {
     fn new(scene: &'a Scene, s: &ReferenceSettings) -> Tracer<'a> {
         let scene_space = CameraSpaceScene::new(scene);
         let n = scene.triangle_count();
-        let mut geometry = Vec::with_capacity(n);
+        let mut keyed = Vec::with_capacity(2 * n);
         let mut surface = Vec::with_capacity(n);
         let mut materials = Vec::with_capacity(scene.objects.len());
+        let mut all_times: Vec<f32> = vec![];
         for (oi, (object, motion)) in scene.objects.iter().zip(&scene_space.objects).enumerate() {
             let mesh = &object.mesh;
-            let positions: Vec<[Vec3; 2]> = mesh.positions.iter().map(|&p| motion.positions(p)).collect();
-            let normals: Vec<[Vec3; 2]> = mesh.normals.iter().map(|&n| motion.normals(n)).collect();
+            all_times.extend_from_slice(motion.keys.times());
+            let positions: Vec<Vec<Vec3>> = mesh.positions.iter().map(|&p| motion.positions(p)).collect();
+            let normals: Vec<Vec<Vec3>> = mesh.normals.iter().map(|&n| motion.normals(n)).collect();
             for tri in mesh.indices.chunks_exact(3) {
                 let idx = [tri[0] as usize, tri[1] as usize, tri[2] as usize];
-                geometry.push(MovingTriangle {
-                    v0: idx.map(|i| positions[i][0]),
-                    v1: idx.map(|i| positions[i][1]),
-                });
-                let normal_at = |end: usize| idx.map(|i| normals.get(i).map_or(Vec3::ZERO, |n| n[end]));
+                let key_base = keyed.len() as u32;
+                for k in 0..motion.keys.times().len() {
+                    let normal = idx.map(|i| normals.get(i).map_or(Vec3::ZERO, |n| n[k]));
+                    keyed.push((idx.map(|i| positions[i][k]), normal));
+                }
                 let uv = if mesh.has_uvs() { idx.map(|i| mesh.uvs[i]) } else { [Vec2::ZERO; 3] };
-                surface.push(SurfaceTri { n: [normal_at(0), normal_at(1)], uv, object: oi as u32 });
+                surface.push(SurfaceTri { uv, object: oi as u32, key_base });
             }
             let m = &object.material;
             materials.push(SurfaceMaterial {
@@ -279,11 +294,40 @@ impl<'a> Tracer<'a> {
                 alpha: m.alpha,
             });
         }
-        let bvh = Bvh::build(&geometry);
+        let object_keys: Vec<KeyTimes> = scene_space.objects.iter().map(|m| m.keys.clone()).collect();
+        all_times.push(0.0);
+        all_times.push(1.0);
+        all_times.sort_by(f32::total_cmp);
+        all_times.dedup();
+        let intervals = KeyTimes::new(all_times).expect("key times in [0, 1] with both ends");
+        // Per interval, each triangle over the key segment of its object holding the interval.
+        let bvhs = intervals
+            .times()
+            .windows(2)
+            .map(|w| {
+                let mid = 0.5 * (w[0] + w[1]);
+                let tris: Vec<SegmentTriangle> = surface
+                    .iter()
+                    .map(|t| {
+                        let keys = &object_keys[t.object as usize];
+                        let j = keys.segment_of(mid);
+                        let base = t.key_base as usize + j;
+                        SegmentTriangle {
+                            tri: MovingTriangle { v0: keyed[base].0, v1: keyed[base + 1].0 },
+                            t0: keys.times()[j],
+                            inv_len: keys.inv_len()[j],
+                        }
+                    })
+                    .collect();
+                Bvh::build_interval(&tris, w[0], w[1])
+            })
+            .collect();
         Tracer {
-            bvh,
-            geometry,
+            bvhs,
+            intervals,
+            keyed,
             surface,
+            object_keys,
             materials,
             camera: &scene.camera,
             intrinsics: scene.camera.intrinsics(s.width, s.height),
@@ -295,6 +339,15 @@ impl<'a> Tracer<'a> {
             seed: s.seed,
             shading: s.shading,
         }
+    }
+
+    /// Triangle `id`'s key segment at shutter time `time` (its vertices and normals at the segment's
+    /// keys) and the time within it.
+    fn segment_at(&self, id: u32, time: f32) -> ([KeyedTriangle; 2], f32) {
+        let tri = &self.surface[id as usize];
+        let (j, s) = self.object_keys[tri.object as usize].locate(time);
+        let base = tri.key_base as usize + j;
+        ([self.keyed[base], self.keyed[base + 1]], s)
     }
 
     /// Renders pixels `[x0, x1) × [y0, y1)`, row-major.
@@ -362,7 +415,8 @@ impl<'a> Tracer<'a> {
     /// The nearest hit along one primary ray whose view depth lies in `[near, far]`, as the GPU's
     /// visibility keeps it.
     fn nearest_hit(&self, o: Vec3, d: Vec3, time: f32, pixel: u64, sample: u32) -> Option<Hit> {
-        self.bvh.intersect(o, d, time, self.camera.near, self.camera.far, |id| {
+        let bvh = &self.bvhs[self.intervals.segment_of(time)];
+        bvh.intersect(o, d, time, self.camera.near, self.camera.far, |id| {
             let alpha = self.materials[self.surface[id as usize].object as usize].alpha;
             alpha >= 1.0 || coverage_hash(self.seed, pixel, sample, id) < alpha
         })
@@ -375,11 +429,12 @@ impl<'a> Tracer<'a> {
         let material = &self.materials[tri.object as usize];
         let w = hit.barycentrics.to_array();
 
-        let p = self.geometry[id as usize].at(time);
+        let ([(p0, n0), (p1, n1)], s) = self.segment_at(id, time);
+        let p = MovingTriangle { v0: p0, v1: p1 }.at(s);
         let geometric = (p[1] - p[0]).cross(p[2] - p[0]);
         let mut n = Vec3::ZERO;
         for (i, &wi) in w.iter().enumerate() {
-            n += wi * tri.n[0][i].lerp(tri.n[1][i], time);
+            n += wi * n0[i].lerp(n1[i], s);
         }
         let mut n = n.try_normalize().or_else(|| geometric.try_normalize()).unwrap_or(-d);
         if geometric.dot(d) > 0.0 {

@@ -48,8 +48,7 @@ fn object(mesh: Arc<Mesh>, albedo: Vec3, alpha: f32) -> Object {
     Object {
         name: "quad".into(),
         mesh,
-        transform_open: Mat4::IDENTITY,
-        transform_close: None,
+        transforms: vec![(0.0, Mat4::IDENTITY)],
         material: Material { albedo, alpha, ..Material::default() },
     }
 }
@@ -149,7 +148,8 @@ fn renders_are_deterministic_across_thread_counts() {
     let a = pixel_quad(&cam, 40, 30, [5.0, 30.0, 5.0, 25.0], 3.0);
     let b = pixel_quad(&cam, 40, 30, [15.0, 38.0, 2.0, 20.0], 6.0);
     let mut moving = object(a, Vec3::new(0.9, 0.5, 0.2), 0.6);
-    moving.transform_close = Some(Mat4::from_translation(Vec3::new(0.5, 0.2, -0.3)));
+    let close = Mat4::from_translation(Vec3::new(0.5, 0.2, -0.3));
+    moving.set_close(close);
     let mut sc = scene(cam, vec![moving, object(b, Vec3::new(0.2, 0.7, 0.9), 1.0)], Vec3::new(0.0, 0.0, 0.1));
     sc.lights = vec![
         Light::Directional { direction: Vec3::new(-1.0, -1.0, -1.0), color: Vec3::ONE },
@@ -196,7 +196,8 @@ fn motion_streak_ramp_matches_motion_length() {
     let quad = pixel_quad(&cam, w, h, [10.0, 40.0, 4.0, 20.0], z);
     let shift = m * z / cam.intrinsics(w, h).pixel_scale;
     let mut o = object(quad, Vec3::ONE, 1.0);
-    o.transform_close = Some(Mat4::from_translation(Vec3::new(shift, 0.0, 0.0)));
+    let close = Mat4::from_translation(Vec3::new(shift, 0.0, 0.0));
+    o.set_close(close);
     let sc = scene(cam, vec![o], Vec3::ZERO);
     let img = render(&sc, settings(w, h, 64));
     let row: Vec<f32> = (0..w).map(|x| img.get(x, 12)[0]).collect();
@@ -303,7 +304,8 @@ fn triangle_crossing_camera_plane_is_finite() {
         .unwrap(),
     );
     let mut crossing = object(tri, Vec3::ONE, 1.0);
-    crossing.transform_close = Some(Mat4::from_translation(Vec3::new(0.0, 0.0, 3.0)));
+    let close = Mat4::from_translation(Vec3::new(0.0, 0.0, 3.0));
+    crossing.set_close(close);
     let mut sc = scene(cam, vec![crossing, object(straddle, Vec3::X, 1.0)], Vec3::ZERO);
     sc.lights = vec![Light::Point { position: Vec3::ZERO, color: Vec3::ONE }];
     let img = render(&sc, settings(48, 32, 16));
@@ -365,4 +367,85 @@ fn progress_bar_without_terminal_is_harmless() {
     let quiet = render(&sc, settings(40, 40, 4));
     let loud = render(&sc, ReferenceSettings { progress: true, ..settings(40, 40, 4) });
     assert_eq!(quiet, loud);
+}
+
+/// Motion keys: objects with different key times split the shutter into several intervals, each with
+/// its own tree; every ray at every time finds exactly the hit a brute-force test of every triangle
+/// over its own key segment finds.
+#[test]
+fn keyed_motion_finds_the_brute_force_hit_in_every_interval() {
+    let mut cam = camera(0.2, 4.0);
+    cam.close = Some(CameraPose { position: Vec3::new(0.3, 0.1, 0.0), look_at: -Vec3::Z, up: Vec3::Y });
+    let a = pixel_quad(&cam, W, H, [4.0, 40.0, 6.0, 50.0], 3.0);
+    let b = pixel_quad(&cam, W, H, [20.0, 60.0, 10.0, 60.0], 5.0);
+    let spin = |k: usize, angle: f32, times: &[f32]| -> Vec<(f32, Mat4)> {
+        times
+            .iter()
+            .enumerate()
+            .map(|(i, &t)| {
+                let r = Mat4::from_translation(Vec3::new(0.0, 0.0, -3.0 - 0.1 * k as f32))
+                    * Mat4::from_rotation_z(angle * t)
+                    * Mat4::from_translation(Vec3::new(0.0, 0.0, 3.0 + 0.1 * k as f32));
+                (t, if i == 0 { Mat4::IDENTITY } else { r })
+            })
+            .collect()
+    };
+    let mut oa = object(a, Vec3::ONE, 1.0);
+    oa.transforms = spin(0, 2.0, &[0.0, 0.3, 0.55, 1.0]);
+    let mut ob = object(b, Vec3::new(0.3, 0.6, 0.9), 1.0);
+    ob.transforms = spin(1, -1.5, &[0.0, 0.3, 0.8, 1.0]);
+    let sc = scene(cam, vec![oa, ob], Vec3::ZERO);
+    let s = settings(W, H, 4);
+    let tracer = Tracer::new(&sc, &s);
+    assert_eq!(tracer.intervals.times(), &[0.0, 0.3, 0.55, 0.8, 1.0]);
+    assert_eq!(tracer.bvhs.len(), 4);
+    let mut rng = Pcg32::new(5, 9);
+    let k = sc.camera.intrinsics(W, H);
+    let mut hits = 0;
+    for i in 0..20_000 {
+        let pos = Vec2::new(rng.next_f32() * W as f32, rng.next_f32() * H as f32);
+        let lens = sc.camera.aperture.map(Vec2::new(rng.next_f32(), rng.next_f32()));
+        // Every tenth ray exactly at a key time.
+        let time = if i % 10 == 0 { [0.0, 0.3, 0.55, 0.8, 1.0][i / 10 % 5] } else { rng.next_f32() };
+        let (o, d) = k.primary_ray(pos, lens);
+        let got = tracer.nearest_hit(o, d, time, 0, 0);
+        let mut want: Option<Hit> = None;
+        for id in 0..tracer.surface.len() as u32 {
+            let ([(p0, _), (p1, _)], st) = tracer.segment_at(id, time);
+            let Some(h) =
+                crate::geometry::intersect_triangle(&MovingTriangle { v0: p0, v1: p1 }.at(st), o, d)
+            else {
+                continue;
+            };
+            let best = want.map_or(f32::INFINITY, |w| w.hit.depth_z);
+            if h.depth_z >= sc.camera.near && h.depth_z <= sc.camera.far && h.depth_z < best {
+                want = Some(Hit { id, hit: h });
+            }
+        }
+        assert_eq!(got, want, "ray {i} at t = {time}");
+        hits += got.is_some() as u32;
+    }
+    assert!(hits > 4000, "{hits} hits: the test should exercise hits");
+}
+
+/// Keys on the straight line an object already moves along change nothing: the motion between them
+/// is the same linear motion (up to the rounding of the interior keys' positions).
+#[test]
+fn keys_on_a_linear_path_leave_the_image_unchanged() {
+    let cam = camera(0.1, 4.0);
+    let quad = pixel_quad(&cam, 48, 32, [8.0, 30.0, 6.0, 24.0], 4.0);
+    let mut two = object(quad, Vec3::new(0.8, 0.6, 0.3), 1.0);
+    let shift = Vec3::new(0.6, 0.2, -0.5);
+    two.set_close(Mat4::from_translation(shift));
+    let mut many = two.clone();
+    many.transforms =
+        (0..6).map(|i| i as f32 / 5.0).map(|t| (t, Mat4::from_translation(shift * t))).collect();
+    let s = settings(48, 32, 32);
+    let a = render(&scene(cam.clone(), vec![two], Vec3::ZERO), s);
+    let b = render(&scene(cam, vec![many], Vec3::ZERO), s);
+    let diff = a.pixels.iter().zip(&b.pixels).map(|(p, q)| (p[0] - q[0]).abs()).fold(0.0f32, f32::max);
+    // One sample of 32 flipping at an edge by rounding would be 1/32.
+    assert!(diff <= 1.0 / 32.0 + 1e-6, "max difference {diff}");
+    let changed = a.pixels.iter().zip(&b.pixels).filter(|(p, q)| p != q).count();
+    assert!(changed <= 3, "{changed} pixels changed");
 }

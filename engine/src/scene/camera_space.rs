@@ -1,36 +1,69 @@
-//! The scene in camera space at shutter open and close — the form every technique and the CPU
-//! reference consume, so they all move geometry the same way.
+//! The scene in camera space at its motion keys — the form every technique and the CPU reference
+//! consume, so they all move geometry the same way.
 //!
-//! DESIGN.md "Shutter": a vertex's camera-space position at time t is the *linear interpolation* of its
-//! camera-space positions at t = 0 and t = 1 (so clip-space positions are linear in t, as McGuire'10,
-//! AAS and ATSS assume). Normals and light directions are interpolated the same way and renormalised;
-//! point-light positions are interpolated. Both the camera and the objects may move; only their
-//! combination (model-view) matters.
+//! DESIGN.md "Shutter": between two motion keys, a vertex's camera-space position at time t is the
+//! *linear interpolation* of its camera-space positions at the keys (so clip-space positions are
+//! piecewise linear in t, and linear within a key segment as McGuire'10, AAS and ATSS assume). Normals
+//! are interpolated the same way and renormalised. An object's keys are the shutter ends plus its own
+//! transform keys ([`super::Object::transforms`]); with only the ends it moves linearly over the whole
+//! shutter. The camera moves linearly in camera space: a world point's camera-space position is the
+//! interpolation of its positions seen from the open and close poses, so an object's model-view at an
+//! interior key is `lerp(view_open, view_close, t) · model(t)` (an affine map, exactly what the
+//! interpolation of a still point gives), and lights — which have no keys — are interpolated between
+//! the ends alike.
 
 use glam::{Mat3, Mat4, Vec3};
 
 use super::{Light, Scene};
+use crate::geometry::{KeyTimes, MovingTriangle};
 use crate::shading::ShadingLight;
 
-/// An object's model-view transform at shutter open `[0]` and close `[1]`.
-#[derive(Clone, Copy, Debug, PartialEq)]
+/// An object's model-view transforms at its motion keys.
+#[derive(Clone, Debug, PartialEq)]
 pub struct ObjectMotion {
-    pub model_view: [Mat4; 2],
+    /// The keys' shutter times (at least 0 and 1).
+    pub keys: KeyTimes,
+    /// Object → view space at each key.
+    pub model_view: Vec<Mat4>,
     /// Inverse-transpose of the upper 3×3 of `model_view`, for normals.
-    pub normal_matrix: [Mat3; 2],
+    pub normal_matrix: Vec<Mat3>,
 }
 
 impl ObjectMotion {
+    /// The motion through `model_view` at `keys` (one matrix per key).
+    pub fn new(keys: KeyTimes, model_view: Vec<Mat4>) -> ObjectMotion {
+        assert_eq!(keys.times().len(), model_view.len(), "one model-view per key");
+        let normal_matrix = model_view.iter().map(|m| Mat3::from_mat4(*m).inverse().transpose()).collect();
+        ObjectMotion { keys, model_view, normal_matrix }
+    }
     pub fn is_moving(&self) -> bool {
-        self.model_view[0] != self.model_view[1]
+        self.model_view.iter().any(|m| *m != self.model_view[0])
     }
-    /// Camera-space position of object-space point `p` at both shutter ends.
-    pub fn positions(&self, p: Vec3) -> [Vec3; 2] {
-        [self.model_view[0].transform_point3(p), self.model_view[1].transform_point3(p)]
+    /// Key segments (keys − 1).
+    pub fn segments(&self) -> usize {
+        self.keys.segments()
     }
-    /// Camera-space (unnormalised) normal at both shutter ends.
-    pub fn normals(&self, n: Vec3) -> [Vec3; 2] {
-        [self.normal_matrix[0] * n, self.normal_matrix[1] * n]
+    /// Camera-space position of object-space point `p` at every key.
+    pub fn positions(&self, p: Vec3) -> Vec<Vec3> {
+        self.model_view.iter().map(|m| m.transform_point3(p)).collect()
+    }
+    /// Camera-space (unnormalised) normal at every key.
+    pub fn normals(&self, n: Vec3) -> Vec<Vec3> {
+        self.normal_matrix.iter().map(|m| *m * n).collect()
+    }
+    /// Camera-space position of `p` at shutter time `t` (through its key segment, as every renderer).
+    pub fn position_at(&self, p: Vec3, t: f32) -> Vec3 {
+        let (j, s) = self.keys.locate(t);
+        let (a, b) = (self.model_view[j].transform_point3(p), self.model_view[j + 1].transform_point3(p));
+        a + (b - a) * s
+    }
+    /// The triangle with object-space vertices `v` over key segment `j` (its vertices at keys `j` and
+    /// `j + 1`; [`MovingTriangle::at`] takes the segment's local time).
+    pub fn segment_triangle(&self, v: [Vec3; 3], j: usize) -> MovingTriangle {
+        MovingTriangle {
+            v0: v.map(|p| self.model_view[j].transform_point3(p)),
+            v1: v.map(|p| self.model_view[j + 1].transform_point3(p)),
+        }
     }
 }
 
@@ -86,14 +119,21 @@ impl CameraSpaceScene {
             .objects
             .iter()
             .map(|o| {
-                let mv = [views[0] * o.transform_open, views[1] * o.transform_at_close()];
-                ObjectMotion {
-                    model_view: mv,
-                    normal_matrix: [
-                        Mat3::from_mat4(mv[0]).inverse().transpose(),
-                        Mat3::from_mat4(mv[1]).inverse().transpose(),
-                    ],
+                // The ends, and the object's interior keys (validated by the scene file; a key outside
+                // (0, 1) or out of order is skipped here rather than trusted).
+                let mut times = vec![0.0f32];
+                let mut model_view = vec![views[0] * o.transform_open()];
+                for &(t, m) in &o.transforms[1..] {
+                    if t > *times.last().expect("one") && t < 1.0 {
+                        let view = views[0] + (views[1] - views[0]) * t;
+                        times.push(t);
+                        model_view.push(view * m);
+                    }
                 }
+                times.push(1.0);
+                model_view.push(views[1] * o.transform_at_close());
+                let keys = KeyTimes::new(times).expect("increasing times from 0 to 1");
+                ObjectMotion::new(keys, model_view)
             })
             .collect();
         let lights = scene

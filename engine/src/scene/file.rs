@@ -39,6 +39,13 @@
 //! rotate_deg = [0, 0, 0]        # degrees about X, then Y, then Z
 //! scale = 1.0                   # a number or [x, y, z]; no component 0
 //! [object.transform_close]      # optional: same keys, the transform at shutter close
+//! motion_keys = 8               # optional, 2..=64 (MAX_MOTION_KEYS), needs transform_close: the motion
+//!                               # sampled at this many evenly spaced times, translate, rotate_deg and
+//!                               # scale each interpolated linearly, so a rotation turns instead of
+//!                               # collapsing through its centre (default 2: linear in camera space)
+//! [[object.transform_key]]      # optional, any number (not with motion_keys): a key between the ends
+//! time = 0.5                    # in (0, 1), increasing from key to key
+//! translate = [0, 0, 0]         # rotate_deg, scale as in [object.transform]
 //! [object.material]             # optional
 //! albedo = [0.8, 0.8, 0.8]      # linear RGB ≥ 0; default 0.8, or 1 when there is a texture
 //! texture = "spot.png"          # PNG path, or "spot" for the embedded Spot texture
@@ -71,7 +78,7 @@ use super::{Camera, CameraPose, Environment, ImageSettings, Light, Material, Obj
 use crate::error::{Error, Result};
 use crate::sampling::{ApertureShape, ShutterCurve};
 
-use crate::limits::{MAX_IMAGE_DIMENSION, MAX_SPP};
+use crate::limits::{MAX_IMAGE_DIMENSION, MAX_MOTION_KEYS, MAX_SPP};
 
 type V3 = [f32; 3];
 
@@ -132,7 +139,19 @@ struct FileObject {
     normalize: bool,
     transform: Option<FileTransform>,
     transform_close: Option<FileTransform>,
+    motion_keys: Option<u32>,
+    #[serde(default)]
+    transform_key: Vec<FileTransformKey>,
     material: Option<FileMaterial>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FileTransformKey {
+    time: f32,
+    translate: Option<V3>,
+    rotate_deg: Option<V3>,
+    scale: Option<FileScale>,
 }
 
 #[derive(Deserialize, Default)]
@@ -306,14 +325,7 @@ fn parse_with_source(text: &str, base_dir: &Path, default_name: &str, source: &s
                 m
             }
         };
-        let transform_open = match &o.transform {
-            Some(t) => resolve_transform(&cx, &format!("{field}.transform"), t)?,
-            None => Mat4::IDENTITY,
-        };
-        let transform_close = match &o.transform_close {
-            Some(t) => Some(resolve_transform(&cx, &format!("{field}.transform_close"), t)?),
-            None => None,
-        };
+        let transforms = resolve_motion(&cx, &field, o)?;
         let material = resolve_material(
             &cx,
             &format!("{field}.material"),
@@ -321,7 +333,7 @@ fn parse_with_source(text: &str, base_dir: &Path, default_name: &str, source: &s
             o.material.as_ref().unwrap_or(&FileMaterial::default()),
             &mut textures,
         )?;
-        objects.push(Object { name, mesh, transform_open, transform_close, material });
+        objects.push(Object { name, mesh, transforms, material });
     }
 
     let mut lights = Vec::with_capacity(file.light.len());
@@ -442,21 +454,95 @@ fn resolve_mesh(cx: &Ctx, field: &str, base_dir: &Path, o: &FileObject) -> Resul
     load_obj(&path, o.normalize)
 }
 
-fn resolve_transform(cx: &Ctx, field: &str, t: &FileTransform) -> Result<Mat4> {
-    let translate = cx.vec3(&format!("{field}.translate"), t.translate.unwrap_or([0.0; 3]))?;
-    let rot = cx.vec3(&format!("{field}.rotate_deg"), t.rotate_deg.unwrap_or([0.0; 3]))?;
-    let scale = match t.scale {
+/// Translation, rotation (degrees about X, Y, Z) and scale of a transform table, validated.
+fn resolve_trs(
+    cx: &Ctx,
+    field: &str,
+    translate: Option<V3>,
+    rotate_deg: Option<V3>,
+    scale: Option<&FileScale>,
+) -> Result<[Vec3; 3]> {
+    let translate = cx.vec3(&format!("{field}.translate"), translate.unwrap_or([0.0; 3]))?;
+    let rot = cx.vec3(&format!("{field}.rotate_deg"), rotate_deg.unwrap_or([0.0; 3]))?;
+    let scale = match scale {
         None => Vec3::ONE,
-        Some(FileScale::Uniform(s)) => Vec3::splat(cx.finite(&format!("{field}.scale"), s)?),
-        Some(FileScale::PerAxis(s)) => cx.vec3(&format!("{field}.scale"), s)?,
+        Some(FileScale::Uniform(s)) => Vec3::splat(cx.finite(&format!("{field}.scale"), *s)?),
+        Some(FileScale::PerAxis(s)) => cx.vec3(&format!("{field}.scale"), *s)?,
     };
     if scale.abs().min_element() == 0.0 {
         return Err(cx.err(&format!("{field}.scale"), format!("{scale} has a zero component")));
     }
+    Ok([translate, rot, scale])
+}
+
+/// The matrix T · Rz · Ry · Rx · S.
+fn trs_matrix([translate, rot, scale]: [Vec3; 3]) -> Mat4 {
     let r = Mat4::from_rotation_z(rot.z.to_radians())
         * Mat4::from_rotation_y(rot.y.to_radians())
         * Mat4::from_rotation_x(rot.x.to_radians());
-    Ok(Mat4::from_translation(translate) * r * Mat4::from_scale(scale))
+    Mat4::from_translation(translate) * r * Mat4::from_scale(scale)
+}
+
+fn resolve_trs_of(cx: &Ctx, field: &str, t: Option<&FileTransform>) -> Result<[Vec3; 3]> {
+    match t {
+        Some(t) => resolve_trs(cx, field, t.translate, t.rotate_deg, t.scale.as_ref()),
+        None => Ok([Vec3::ZERO, Vec3::ZERO, Vec3::ONE]),
+    }
+}
+
+/// An object's transform keys ([`Object::transforms`]) from `transform`, `transform_close`,
+/// `motion_keys` and `[[object.transform_key]]`.
+fn resolve_motion(cx: &Ctx, field: &str, o: &FileObject) -> Result<Vec<(f32, Mat4)>> {
+    let open = resolve_trs_of(cx, &format!("{field}.transform"), o.transform.as_ref())?;
+    let close = match &o.transform_close {
+        Some(t) => Some(resolve_trs_of(cx, &format!("{field}.transform_close"), Some(t))?),
+        None => None,
+    };
+    let max = MAX_MOTION_KEYS as u32;
+    if let Some(k) = o.motion_keys {
+        let f = format!("{field}.motion_keys");
+        cx.range(&f, k as f32, (2..=max).contains(&k), &format!("in 2..={max} (MAX_MOTION_KEYS)"))?;
+        if !o.transform_key.is_empty() {
+            return Err(cx.err(&f, "give motion_keys or [[object.transform_key]] tables, not both"));
+        }
+        let Some(close) = close else {
+            return Err(cx.err(&f, "needs [object.transform_close] (the motion it samples)"));
+        };
+        // Evenly spaced keys; translate, rotation angles and scale each interpolated linearly.
+        return Ok((0..k)
+            .map(|i| {
+                let t = if i + 1 == k { 1.0 } else { i as f32 / (k - 1) as f32 };
+                let trs = [0, 1, 2].map(|c| open[c] + (close[c] - open[c]) * t);
+                (t, trs_matrix(trs))
+            })
+            .collect());
+    }
+    let mut keys = vec![(0.0, trs_matrix(open))];
+    for (i, key) in o.transform_key.iter().enumerate() {
+        let f = format!("{field}.transform_key[{i}]");
+        let last = keys.last().expect("one").0;
+        cx.range(
+            &format!("{f}.time"),
+            key.time,
+            key.time > last && key.time < 1.0,
+            &format!("in ({last}, 1): after the previous key, before shutter close"),
+        )?;
+        let trs = resolve_trs(cx, &f, key.translate, key.rotate_deg, key.scale.as_ref())?;
+        keys.push((key.time, trs_matrix(trs)));
+    }
+    if keys.len() + 1 > MAX_MOTION_KEYS {
+        return Err(cx.err(
+            &format!("{field}.transform_key"),
+            format!("{} keys with the ends; at most {MAX_MOTION_KEYS} (MAX_MOTION_KEYS)", keys.len() + 1),
+        ));
+    }
+    match close {
+        Some(c) => keys.push((1.0, trs_matrix(c))),
+        // Interior keys without a close transform: the object returns to where it opened.
+        None if keys.len() > 1 => keys.push((1.0, keys[0].1)),
+        None => {}
+    }
+    Ok(keys)
 }
 
 fn resolve_material(
@@ -518,7 +604,7 @@ mod tests {
         let o = scene.objects.iter().find(|o| o.name == name).unwrap();
         let k = scene.camera.intrinsics(scene.image.width, scene.image.height);
         let p0 =
-            scene.camera.open.view_matrix().transform_point3(o.transform_open.transform_point3(Vec3::ZERO));
+            scene.camera.open.view_matrix().transform_point3(o.transform_open().transform_point3(Vec3::ZERO));
         let p1 = scene
             .camera
             .pose_at_close()
@@ -571,7 +657,7 @@ mod tests {
         assert_eq!((s.image.width, s.image.height), (640, 360));
         assert_eq!(s.camera.aperture_radius, 0.0);
         assert!(s.camera.close.is_none());
-        assert!(s.objects.iter().all(|o| o.transform_close.is_none()));
+        assert!(s.objects.iter().all(|o| !o.is_moving() && o.transforms.len() == 1));
         assert!(s.objects.iter().any(|o| o.material.texture.is_some()));
         assert!(s.objects.iter().any(|o| o.material.specular > 0.0));
     }
@@ -609,17 +695,77 @@ mod tests {
              rotate_deg = [90, 90, 0]\nscale = [2, 1, 1]\n[object.transform_close]\nscale = 3\n"
         );
         let s = parse(&text).unwrap();
-        let m = s.objects[0].transform_open;
+        let m = s.objects[0].transform_open();
         // X: scale 2 → (2,0,0); Rx(90) keeps it; Ry(90) takes +X to −Z; then translate.
         assert!((m.transform_point3(Vec3::X) - Vec3::new(1.0, 2.0, 1.0)).length() < 1e-5);
         // Y: Rx(90) takes +Y to +Z, Ry(90) takes +Z to +X.
         assert!((m.transform_point3(Vec3::Y) - Vec3::new(2.0, 2.0, 3.0)).length() < 1e-5);
-        let c = s.objects[0].transform_close.unwrap();
+        let c = s.objects[0].transform_at_close();
         assert!((c.transform_point3(Vec3::ONE) - Vec3::splat(3.0)).length() < 1e-6);
         // Meshes are shared between objects.
         let text = format!("{CAMERA}[[object]]\nmesh = \"sphere\"\n[[object]]\nmesh = \"sphere\"\n");
         let s = parse(&text).unwrap();
         assert!(Arc::ptr_eq(&s.objects[0].mesh, &s.objects[1].mesh));
+    }
+
+    #[test]
+    fn motion_keys_sample_the_rotation_and_keys_are_validated() {
+        let spin = |extra: &str| {
+            format!(
+                "{CAMERA}[[object]]\nmesh = \"box\"\n{extra}[object.transform]\ntranslate = [1, 0, 0]\n\
+                 [object.transform_close]\ntranslate = [1, 0, 0]\nrotate_deg = [0, 0, 180]\nscale = 2\n"
+            )
+        };
+        // Two keys by default: the vertex at +X goes straight through the centre.
+        let two = parse(&spin("")).unwrap();
+        assert_eq!(two.objects[0].transforms.len(), 2);
+        // Five keys: 0°, 45°, …, 180° about Z, scale 1 → 2, each evaluated exactly.
+        let five = parse(&spin("motion_keys = 5\n")).unwrap();
+        let keys = &five.objects[0].transforms;
+        assert_eq!(keys.iter().map(|k| k.0).collect::<Vec<_>>(), [0.0, 0.25, 0.5, 0.75, 1.0]);
+        for (i, &(t, m)) in keys.iter().enumerate() {
+            let angle = std::f32::consts::PI * t;
+            let scale = 1.0 + t;
+            let want = Vec3::new(1.0 + scale * angle.cos(), scale * angle.sin(), 0.0);
+            let got = m.transform_point3(Vec3::X);
+            assert!((got - want).length() < 1e-5, "key {i}: {got} vs {want}");
+        }
+        assert_eq!(keys[0].1, two.objects[0].transforms[0].1);
+        assert!((keys[4].1 - two.objects[0].transforms[1].1).abs_diff_eq(Mat4::ZERO, 1e-6));
+        // Explicit keys.
+        let explicit = parse(&spin(
+            "[[object.transform_key]]\ntime = 0.25\nrotate_deg = [0, 0, 10]\n\
+             [[object.transform_key]]\ntime = 0.6\ntranslate = [0, 1, 0]\n",
+        ))
+        .unwrap();
+        let times: Vec<f32> = explicit.objects[0].transforms.iter().map(|k| k.0).collect();
+        assert_eq!(times, [0.0, 0.25, 0.6, 1.0]);
+        assert!(explicit.objects[0].is_moving());
+        // Keys without a close transform come back to the open one.
+        let back = parse(&format!(
+            "{CAMERA}[[object]]\nmesh = \"box\"\n[[object.transform_key]]\ntime = 0.5\ntranslate = [0, 1, 0]\n"
+        ))
+        .unwrap();
+        let b = &back.objects[0].transforms;
+        assert_eq!((b.len(), b[2].1), (3, b[0].1));
+        // Errors name the field.
+        for (extra, needle) in [
+            ("motion_keys = 1\n", "motion_keys"),
+            ("motion_keys = 65\n", "motion_keys"),
+            ("motion_keys = 3\n[[object.transform_key]]\ntime = 0.5\n", "not both"),
+            (
+                "[[object.transform_key]]\ntime = 0.5\n[[object.transform_key]]\ntime = 0.4\n",
+                "transform_key[1].time",
+            ),
+            ("[[object.transform_key]]\ntime = 1.0\n", "transform_key[0].time"),
+            ("[[object.transform_key]]\ntime = 0.5\nscale = 0\n", "transform_key[0].scale"),
+            ("[[object.transform_key]]\ntime = 0.5\nspin = 1\n", "spin"),
+        ] {
+            let e = err(&spin(extra));
+            assert!(e.contains(needle), "{extra}: {e}");
+        }
+        let e = err(&format!("{CAMERA}[[object]]\nmesh = \"box\"\nmotion_keys = 4\n"));
+        assert!(e.contains("transform_close"), "{e}");
     }
 
     #[test]

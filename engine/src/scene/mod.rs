@@ -55,19 +55,40 @@ impl Default for Material {
     }
 }
 
-/// One placed mesh. `transform_close` is the object-to-world transform at shutter close (None: still).
+/// One placed mesh and how it moves over the shutter.
 #[derive(Clone, Debug)]
 pub struct Object {
     pub name: String,
     pub mesh: Arc<Mesh>,
-    pub transform_open: Mat4,
-    pub transform_close: Option<Mat4>,
+    /// Object → world transform keys `(shutter time, transform)`: times strictly increasing from 0;
+    /// one key (at 0) for an object that does not move, otherwise the last at 1. Between keys the
+    /// motion is linear in camera space (DESIGN.md "Shutter"), so a rotation takes several keys
+    /// (`motion_keys` in the scene file) not to collapse through its centre.
+    pub transforms: Vec<(f32, Mat4)>,
     pub material: Material,
 }
 
 impl Object {
+    /// An object that does not move.
+    pub fn still(name: impl Into<String>, mesh: Arc<Mesh>, transform: Mat4, material: Material) -> Self {
+        Object { name: name.into(), mesh, transforms: vec![(0.0, transform)], material }
+    }
+    /// The transform at shutter open.
+    pub fn transform_open(&self) -> Mat4 {
+        self.transforms[0].1
+    }
+    /// The transform at shutter close.
     pub fn transform_at_close(&self) -> Mat4 {
-        self.transform_close.unwrap_or(self.transform_open)
+        self.transforms.last().expect("an object has a transform").1
+    }
+    /// Two keys: `transform_open()` at open and `close` at close (replacing any others).
+    pub fn set_close(&mut self, close: Mat4) {
+        let open = self.transform_open();
+        self.transforms = vec![(0.0, open), (1.0, close)];
+    }
+    /// Does the object move (relative to the world)?
+    pub fn is_moving(&self) -> bool {
+        self.transforms.iter().any(|k| k.1 != self.transforms[0].1)
     }
 }
 
@@ -116,10 +137,21 @@ impl Scene {
         h.text(&format!("{:?}|{:?}|{:?}", self.camera, self.lights, self.environment));
         for o in &self.objects {
             let m = &o.material;
+            // Open and close as before keys existed (so cached references of two-key scenes stay
+            // valid), then any interior keys.
+            let close = (o.transforms.len() > 1).then(|| o.transform_at_close());
             h.text(&format!(
                 "{:?}|{:?}|{:?}|{}|{}|{}",
-                o.transform_open, o.transform_close, m.albedo, m.specular, m.roughness, m.alpha
+                o.transform_open(),
+                close,
+                m.albedo,
+                m.specular,
+                m.roughness,
+                m.alpha
             ));
+            if o.transforms.len() > 2 {
+                h.text(&format!("{:?}", &o.transforms[1..o.transforms.len() - 1]));
+            }
             let mesh = &o.mesh;
             h.floats(mesh.positions.iter().flat_map(|p| p.to_array()));
             h.floats(mesh.normals.iter().flat_map(|p| p.to_array()));

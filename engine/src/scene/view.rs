@@ -60,13 +60,13 @@ impl View {
     }
 
     /// An orthographic view along `direction` (from the light into the scene) that frames every
-    /// vertex of the scene at both shutter ends, for a directional light's `size × size` shadow map.
+    /// vertex of the scene at every motion key, for a directional light's `size × size` shadow map.
     /// `None` when the scene has no geometry or the direction is not finite and non-zero.
     pub fn directional_light(scene: &Scene, name: &str, direction: Vec3, size: u32) -> Option<View> {
         let dir = direction.try_normalize()?;
         let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
         for o in &scene.objects {
-            for m in [o.transform_open, o.transform_at_close()] {
+            for &(_, m) in &o.transforms {
                 for &p in &o.mesh.positions {
                     let w = m.transform_point3(p);
                     (lo, hi) = (lo.min(w), hi.max(w));

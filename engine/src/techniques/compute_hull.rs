@@ -25,6 +25,7 @@ use gpu_allocator::MemoryLocation;
 
 use super::FrameInputs;
 use crate::error::{Error, Result};
+use crate::geometry::KeyTimes;
 use crate::gpu::layout::{
     shared_struct, SharedStruct, FRAME_SET_INDEX, OBJECT_SET_INDEX, TECHNIQUE_SET_INDEX,
 };
@@ -94,11 +95,23 @@ pub struct ExpandPush {
     pub bound: u32,
     pub capacity: u32,
     pub dilate: f32,
+    /// The object's motion key segments.
+    pub segment_count: u32,
+    /// Bounds are made for segments `[segment_begin, segment_begin + segments)`, over local times
+    /// `[t0, t1]` of each: all segments over (0, 1) for an object that moves, the one holding
+    /// mid-shutter at its local time (t0 = t1) for one that does not (NO_MOTION).
+    pub segment_begin: u32,
+    pub segments: u32,
+    pub t0: f32,
+    pub t1: f32,
 }
 
 /// For the reflection test.
-pub const EXPAND_STRUCTS: &[SharedStruct] =
-    &[shared_struct!("Push", ExpandPush, [object, triangle_count, bound, capacity, dilate])];
+pub const EXPAND_STRUCTS: &[SharedStruct] = &[shared_struct!(
+    "Push",
+    ExpandPush,
+    [object, triangle_count, bound, capacity, dilate, segment_count, segment_begin, segments, t0, t1]
+)];
 
 /// Expansion pipelines and the per-object hull buffers.
 pub struct ComputeHull {
@@ -198,7 +211,8 @@ impl ComputeHull {
     }
 
     /// Adds the expansion of every object on a stochastic path (after the triangles pass that writes
-    /// `triangles`) and the host read of the counts. `sets`: each object's set 2 and the set 3.
+    /// `triangles`) and the host read of the counts. `sets`: each object's set 2 and the set 3; each
+    /// object's path and motion key times.
     pub fn add_expand_pass<'a>(
         &'a self,
         g: &mut FrameGraph<'a>,
@@ -208,7 +222,7 @@ impl ComputeHull {
             &'a [vk::DescriptorSet],
             vk::DescriptorSet,
         ),
-        object_effects: &'a [Effects],
+        (object_effects, object_keys): (&'a [Effects], &'a [KeyTimes]),
         bound: u32,
         dilate: f32,
     ) {
@@ -248,12 +262,25 @@ impl ComputeHull {
                         }
                         let sets = [o.set, object_sets[i]];
                         d.raw.cmd_bind_descriptor_sets(cmd, bind, layout, OBJECT_SET_INDEX, &sets, &[]);
+                        let keys = &object_keys[i];
+                        let segment_count = keys.segments() as u32;
+                        let (segment_begin, segments, t0, t1) = if effects.motion() {
+                            (0, segment_count, 0.0, 1.0)
+                        } else {
+                            let (j, s) = keys.locate(0.5);
+                            (j as u32, 1, s, s)
+                        };
                         let push = ExpandPush {
                             object: i as u32,
                             triangle_count: o.triangle_count(),
                             bound,
                             capacity: self.capacity[i],
                             dilate,
+                            segment_count,
+                            segment_begin,
+                            segments,
+                            t0,
+                            t1,
                         };
                         d.raw.cmd_push_constants(
                             cmd,
@@ -262,7 +289,7 @@ impl ComputeHull {
                             0,
                             bytemuck::bytes_of(&push),
                         );
-                        d.raw.cmd_dispatch(cmd, o.triangle_count().div_ceil(64), 1, 1);
+                        d.raw.cmd_dispatch(cmd, (o.triangle_count() * segments).div_ceil(64), 1, 1);
                     }
                 }
             }

@@ -30,15 +30,36 @@ pub struct PassSample {
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
 pub struct ForwardPush {
+    /// The object (its material).
     pub object: u32,
+    /// Shutter time (the lights').
     pub time: f32,
     pub lens: [f32; 2],
     pub jitter: [f32; 2],
+    /// The object's key segment holding `time` (its `ObjectViews` index) and the time within it
+    /// ([`GpuView::segment_at`]).
+    pub segment: u32,
+    pub segment_time: f32,
+}
+
+impl ForwardPush {
+    /// Object `object` of `view` at `pass`'s time, lens point and jitter.
+    pub fn new(view: &GpuView, object: usize, pass: &PassSample) -> Self {
+        let (segment, segment_time) = view.segment_at(object, pass.time);
+        ForwardPush {
+            object: object as u32,
+            time: pass.time,
+            lens: pass.lens.to_array(),
+            jitter: pass.jitter.to_array(),
+            segment,
+            segment_time,
+        }
+    }
 }
 
 /// For the reflection test.
 pub const FORWARD_STRUCTS: &[SharedStruct] =
-    &[shared_struct!("Push", ForwardPush, [object, time, lens, jitter])];
+    &[shared_struct!("Push", ForwardPush, [object, time, lens, jitter, segment, segment_time])];
 
 /// The forward pipeline for one MSAA count.
 pub struct ForwardPipeline {
@@ -91,12 +112,7 @@ impl ForwardPipeline {
         include: impl Fn(usize) -> bool,
     ) {
         unsafe { d.raw.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, self.pipeline.raw) };
-        let push = |i: usize| ForwardPush {
-            object: i as u32,
-            time: pass.time,
-            lens: pass.lens.to_array(),
-            jitter: pass.jitter.to_array(),
-        };
+        let push = |i: usize| ForwardPush::new(view, i, pass);
         let stages = vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT;
         world.record_object_draws(d, cmd, view, &self.layout, stages, include, push, |_| None);
     }

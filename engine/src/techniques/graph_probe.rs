@@ -290,8 +290,9 @@ impl GraphProbe {
             unsafe {
                 ctx.device.raw.cmd_bind_pipeline(ctx.cmd, vk::PipelineBindPoint::GRAPHICS, pipeline.raw)
             };
-            let push =
-                |i: usize| ForwardPush { object: i as u32, time: 0.0, lens: [0.0; 2], jitter: [0.0; 2] };
+            let still =
+                super::forward::PassSample { time: 0.0, lens: glam::Vec2::ZERO, jitter: glam::Vec2::ZERO };
+            let push = |i: usize| ForwardPush::new(view, i, &still);
             let stages = vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT;
             world.record_object_draws(
                 ctx.device,

@@ -30,6 +30,7 @@ use super::multipass::accumulation_image;
 use super::{FrameContext, FrameInputs, FrameTechnique, PrepareContext, TechniqueFrame, TechniqueInfo};
 use crate::bounds::BoundKind;
 use crate::error::{Error, Result};
+use crate::geometry::KeyTimes;
 use crate::gpu::layout::{
     shared_struct, vertex_input, Binding, SharedStruct, FRAME_SET_INDEX, OBJECT_SET_INDEX,
     TECHNIQUE_SET_INDEX,
@@ -310,13 +311,17 @@ pub struct StochasticPush {
     pub origin_y: u32,
     pub triangle_base: u32,
     pub triangle_count: u32,
+    pub segment_first: u32,
+    pub segment_count: u32,
+    pub segment: u32,
 }
 
 /// Push constants of `triangles.comp`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
 pub struct TrianglesPush {
-    pub object: u32,
+    pub segment_first: u32,
+    pub keys: u32,
     pub triangle_count: u32,
 }
 
@@ -370,10 +375,13 @@ pub const STOCHASTIC_STRUCTS: &[SharedStruct] = &[
             origin_x,
             origin_y,
             triangle_base,
-            triangle_count
+            triangle_count,
+            segment_first,
+            segment_count,
+            segment
         ]
     ),
-    shared_struct!("Push", TrianglesPush, [object, triangle_count]),
+    shared_struct!("Push", TrianglesPush, [segment_first, keys, triangle_count]),
 ];
 
 /// Samples per pixel and pass M and passes P (S = M × P) for `pixels` pixels, the visibility buffer
@@ -453,8 +461,8 @@ pub fn shading_rect(screen_box: Option<(glam::Vec2, glam::Vec2)>, (w, h): (u32, 
     [x0, y0, x1.saturating_sub(x0), y1.saturating_sub(y0)]
 }
 
-/// Bytes per camera-space triangle record (`triangles.comp`): 3 vertices × xyz at open and close.
-const TRIANGLE_RECORD_BYTES: u64 = 18 * 4;
+/// Bytes per camera-space triangle and motion key (`triangles.comp`): 3 vertices × xyz.
+const TRIANGLE_KEY_BYTES: u64 = 9 * 4;
 
 /// Extra knobs for tests: the geometry shader's debug output of every triangle's bound.
 #[derive(Clone, Copy, Debug, Default)]
@@ -487,6 +495,8 @@ pub struct StochasticDraws {
     /// Each object's first triangle in the frame's numbering (the visibility payload), and its count.
     triangle_bases: Vec<u32>,
     triangle_counts: Vec<u32>,
+    /// Each object's motion key times (its segments are drawn and bounded one by one).
+    object_keys: Vec<KeyTimes>,
     /// The camera's shutter curve: run k of K covers the warped times of `[k/K, (k+1)/K)`.
     shutter: ShutterCurve,
     layout: PipelineLayout,
@@ -762,8 +772,9 @@ impl StochasticDraws {
         write_descriptors(device, technique_set, &writes);
         let mut object_sets = Vec::with_capacity(world.objects.len());
         let mut triangles = Vec::with_capacity(world.objects.len());
-        for o in &world.objects {
-            let bytes = (o.index_count as u64 / 3).max(1) * TRIANGLE_RECORD_BYTES;
+        for (o, motion) in world.objects.iter().zip(&ctx.camera.space.objects) {
+            let keys = motion.keys.times().len() as u64;
+            let bytes = (o.index_count as u64 / 3).max(1) * keys * TRIANGLE_KEY_BYTES;
             let t = Buffer::new(
                 device,
                 &format!("camera-space triangles:{}", o.name),
@@ -797,6 +808,7 @@ impl StochasticDraws {
             shade_rects,
             triangle_bases,
             triangle_counts: world.objects.iter().map(|o| o.triangle_count()).collect(),
+            object_keys: ctx.camera.space.objects.iter().map(|m| m.keys.clone()).collect(),
             shutter,
             layout,
             shade_layout,
@@ -897,7 +909,9 @@ impl StochasticDraws {
                 let o = &world.objects[i];
                 let sets = [o.set, self.object_sets[i]];
                 d.raw.cmd_bind_descriptor_sets(cmd, bind, layout, OBJECT_SET_INDEX, &sets, &[]);
-                let push = TrianglesPush { object: i as u32, triangle_count: o.triangle_count() };
+                let (segment_first, segments) = view.segments(i);
+                let push =
+                    TrianglesPush { segment_first, keys: segments + 1, triangle_count: o.triangle_count() };
                 d.raw.cmd_push_constants(
                     cmd,
                     layout,
@@ -930,7 +944,7 @@ impl StochasticDraws {
                     &mut g,
                     inputs,
                     (&this.triangles, &this.object_sets, this.technique_set),
-                    &this.object_effects,
+                    (&this.object_effects, &this.object_keys),
                     this.bound.id(),
                     this.dilate,
                 );
@@ -955,16 +969,12 @@ impl StochasticDraws {
         &self.object_intervals
     }
 
-    /// Push constants of the draw of run `run` of `runs` of object `object` in pass `pass` (the
-    /// shading pass: run 0 of 1).
-    fn push(&self, object: u32, pass: u32, run: u32, runs: u32) -> StochasticPush {
-        let count = self.per_pass / runs;
-        let first = run * count;
-        // The run's samples' shutter times: [ξ0, ξ1) of the unwarped time, through the shutter curve
-        // (monotone, the very function that warped the samples; it maps 0 to 0 and 1 to 1 exactly, so
-        // a whole-shutter draw gets (0, 1), which emit.glsl bounds from the end vertices themselves).
-        let xi = |i: u32| (pass * self.per_pass + i) as f32 / self.spp as f32;
-        let (t0, t1) = (self.shutter.warp(xi(first)), self.shutter.warp(xi(first + count)));
+    /// Push constants of object `object` in pass `pass` for the shading pass (and the fields every
+    /// coverage draw shares): the whole pass' samples.
+    fn base_push(&self, view: &GpuView, object: u32, pass: u32) -> StochasticPush {
+        let o = object as usize;
+        let (segment_first, segment_count) =
+            if o < self.object_keys.len() { view.segments(o) } else { (0, 1) };
         StochasticPush {
             object,
             bound: self.bound.id(),
@@ -972,15 +982,63 @@ impl StochasticDraws {
             spp: self.spp,
             per_pass: self.per_pass,
             dilate: self.dilate,
-            sample_first: first,
-            sample_count: count,
-            t0,
-            t1,
+            sample_first: 0,
+            sample_count: self.per_pass,
+            t0: 0.0,
+            t1: 1.0,
             origin_x: 0,
             origin_y: 0,
-            triangle_base: self.triangle_bases.get(object as usize).copied().unwrap_or(0),
-            triangle_count: self.triangle_counts.get(object as usize).copied().unwrap_or(0),
+            triangle_base: self.triangle_bases.get(o).copied().unwrap_or(0),
+            triangle_count: self.triangle_counts.get(o).copied().unwrap_or(0),
+            segment_first,
+            segment_count,
+            segment: 0,
         }
+    }
+
+    /// Push constants of the coverage draw of run `run` of `runs` of object `object` in pass `pass`
+    /// over key segment `seg` of its motion, or `None` when none of the run's samples lies in it.
+    /// Objects that do not move (NO_MOTION) have one draw per run, over the segment holding
+    /// mid-shutter (`seg` 0 stands for it).
+    fn coverage_push(
+        &self,
+        view: &GpuView,
+        object: usize,
+        pass: u32,
+        run: u32,
+        runs: u32,
+        seg: usize,
+    ) -> Option<StochasticPush> {
+        let count = self.per_pass / runs;
+        let first = run * count;
+        let base = StochasticPush {
+            sample_first: first,
+            sample_count: count,
+            ..self.base_push(view, object as u32, pass)
+        };
+        let keys = &self.object_keys[object];
+        if !self.object_effects[object].motion() {
+            if seg != 0 {
+                return None;
+            }
+            let (j, s) = keys.locate(0.5);
+            return Some(StochasticPush { t0: s, t1: s, segment: j as u32, ..base });
+        }
+        // The run's samples' shutter times: [ξ0, ξ1) of the unwarped time, through the shutter curve
+        // (monotone, the very function that warped the samples; it maps 0 to 0 and 1 to 1 exactly, so
+        // a whole-shutter draw gets (0, 1), which emit.glsl bounds from the end vertices themselves).
+        let xi = |i: u32| (pass * self.per_pass + i) as f32 / self.spp as f32;
+        let (t0, t1) = (self.shutter.warp(xi(first)), self.shutter.warp(xi(first + count)));
+        // Segment `seg` holds times [t_a, t_b) (the first from −∞, the last to +∞: KeyTimes).
+        let last = keys.segments() - 1;
+        let (t_a, t_b) = (keys.times()[seg], keys.times()[seg + 1]);
+        if seg > last || (seg > 0 && t1 < t_a) || (seg < last && t0 >= t_b) {
+            return None;
+        }
+        // The samples' local times: monotone in t, so those of [max(t0, t_a), min(t1, t_b)] bound them
+        // (the same rounded arithmetic as the shaders'; (0, 1) for two keys and the whole shutter).
+        let (s0, s1) = (keys.local_time(seg, t0.max(t_a)), keys.local_time(seg, t1.min(t_b)));
+        Some(StochasticPush { t0: s0, t1: s1, segment: seg as u32, ..base })
     }
 
     /// The frame as a graph: `triangles` → `clear accumulation` → repeat P × { `clear visibility` →
@@ -1073,6 +1131,7 @@ impl StochasticDraws {
         let bind = vk::PipelineBindPoint::GRAPHICS;
         let world = inputs.world;
         let max_runs = self.object_intervals.iter().copied().max().unwrap_or(1);
+        let max_segments = self.object_keys.iter().map(|k| k.segments()).max().unwrap_or(1);
         for (effects, pipeline) in &self.pipelines {
             unsafe {
                 d.raw.cmd_bind_pipeline(cmd, bind, pipeline.raw);
@@ -1086,23 +1145,31 @@ impl StochasticDraws {
                 );
             }
             let include = |i: usize| self.object_effects[i] == *effects;
+            let view = inputs.camera;
             if self.hull.is_none() {
-                // One draw per run of every object with that many runs or more.
+                // One draw per run and key segment of every object with that many runs or more whose
+                // samples of the run can lie in the segment.
                 for run in 0..max_runs {
-                    world.record_object_draws(
-                        d,
-                        cmd,
-                        inputs.camera,
-                        &self.layout,
-                        self.push_stages,
-                        |i| include(i) && run < self.object_intervals[i],
-                        |i| self.push(i as u32, pass, run, self.object_intervals[i]),
-                        |i| Some(self.object_sets[i]),
-                    );
+                    for seg in 0..max_segments {
+                        let piece =
+                            |i: usize| self.coverage_push(view, i, pass, run, self.object_intervals[i], seg);
+                        world.record_object_draws(
+                            d,
+                            cmd,
+                            view,
+                            &self.layout,
+                            self.push_stages,
+                            |i| include(i) && run < self.object_intervals[i] && piece(i).is_some(),
+                            |i| piece(i).expect("included"),
+                            |i| Some(self.object_sets[i]),
+                        );
+                    }
                 }
                 continue;
             }
-            let push = |i: usize| self.push(i as u32, pass, 0, 1);
+            // The compute-expanded hull bounds every segment (fragments name theirs); NO_MOTION: the
+            // segment holding mid-shutter and its local time.
+            let push = |i: usize| self.coverage_push(view, i, pass, 0, 1, 0).expect("segment 0 always draws");
             // Compute-expanded hull: each object's triangle list, no vertex input.
             unsafe {
                 d.raw.cmd_bind_descriptor_sets(
@@ -1140,6 +1207,7 @@ impl StochasticDraws {
         let layout = self.shade_layout.raw;
         let (w, h) = self.size;
         let world = inputs.world;
+        let view = inputs.camera;
         let barrier = || {
             // Read-modify-write of the accumulation image by consecutive dispatches.
             let b = vk::MemoryBarrier2::default()
@@ -1185,7 +1253,8 @@ impl StochasticDraws {
                 unsafe {
                     d.raw.cmd_bind_pipeline(cmd, bind, pipeline.raw);
                     d.raw.cmd_bind_descriptor_sets(cmd, bind, layout, OBJECT_SET_INDEX, &sets, &[]);
-                    let push = StochasticPush { origin_x: x0, origin_y: y0, ..self.push(object, pass, 0, 1) };
+                    let push =
+                        StochasticPush { origin_x: x0, origin_y: y0, ..self.base_push(view, object, pass) };
                     d.raw.cmd_push_constants(
                         cmd,
                         layout,
