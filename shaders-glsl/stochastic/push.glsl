@@ -29,6 +29,8 @@ layout(push_constant) uniform Push {
     uint segment_first;
     uint segment_count;
     uint segment;
+    // Cluster bounds (CLUSTER_BOUNDS): triangles per cluster.
+    uint cluster_size;
 } pc;
 
 #endif

@@ -35,11 +35,35 @@ layout(set = 3, binding = 2, std430) buffer Counters {
 // The compute-expanded hull (expand.comp, hull.vert) passes the triangle's index instead of a primitive ID.
 layout(location = 0) flat in uint v_triangle;
 #endif
+#ifdef CLUSTER_BOUNDS
+// Cluster bounds (clusters.comp, cluster.vert): the cluster of primitive p (two per cluster) is p / 2.
+layout(set = 2, binding = 3, std430) readonly buffer Clusters { vec4 clusters[]; };
+
+// Can the sample at pixel position q through lens point `lens` (unit aperture) see the cluster whose
+// lens-centre pixel box is pin (x0, y0, x1, y1) and circle-of-confusion range phi (min, max, unbounded)?
+// Through the lens a point lands at its lens-centre position moved by phi(z) * (lens.x, -lens.y) px
+// (Intrinsics::project), phi in the range: the box so moved, padded for rounding (bounds::cluster).
+bool sample_sees_cluster(vec2 q, vec2 lens, vec4 pin, vec4 phi) {
+    vec2 l = vec2(lens.x, -lens.y);
+    vec2 a = phi.x * l, b = phi.y * l;
+    vec2 lo = pin.xy + min(a, b), hi = pin.zw + max(a, b);
+    vec2 pad = 0.01 + 1e-4 * max(abs(lo), abs(hi));
+    return phi.z > 0.5 || (all(greaterThanEqual(q, lo - pad)) && all(lessThanEqual(q, hi + pad)));
+}
+#endif
 
 const uint SAMPLE_TILE_SIZE = 64u;
 
 void main() {
-#ifdef COMPUTE_HULL
+#if defined(CLUSTER_BOUNDS)
+    uint seg = pc.segment;
+    uint clusters_n = (pc.triangle_count + pc.cluster_size - 1u) / pc.cluster_size;
+    uint cluster = uint(gl_PrimitiveID) / 2u;
+    uint cluster_at = 3u * (seg * clusters_n + cluster);
+    vec4 pin = clusters[cluster_at + 1u], phi = clusters[cluster_at + 2u];
+    uint first = cluster * pc.cluster_size;
+    uint last = min(first + pc.cluster_size, pc.triangle_count);
+#elif defined(COMPUTE_HULL)
     // expand.comp numbers its bounds triangle × segment.
     uint prim = v_triangle / pc.segment_count;
     uint seg = v_triangle % pc.segment_count;
@@ -48,9 +72,13 @@ void main() {
     uint seg = pc.segment;
 #endif
     vec3 p_open[3], p_close[3];
+#ifndef CLUSTER_BOUNDS
     load_triangle(prim, seg, pc.segment_count + 1u, p_open, p_close);
+#endif
 #ifdef NO_MOTION
+#ifndef CLUSTER_BOUNDS
     for (uint k = 0u; k < 3u; k++) p_open[k] = shutter_lerp(p_open[k], p_close[k], pc.t0);
+#endif
 #else
     // The segment's samples: times in [t_a, t_b) (the first segment from -inf, the last to +inf).
     vec4 seg_time = object_views[pc.segment_first + seg].time;
@@ -61,8 +89,9 @@ void main() {
     uvec2 pix = uvec2(gl_FragCoord.xy);
     uint base = ((pix.y % SAMPLE_TILE_SIZE) * SAMPLE_TILE_SIZE + pix.x % SAMPLE_TILE_SIZE) * pc.spp
               + pc.pass_index * pc.per_pass;
-    uint hits = 0u;
+    uint hits = 0u, tested = 0u;
     uint end = pc.sample_first + pc.sample_count;
+#ifndef CLUSTER_BOUNDS
     for (uint i = pc.sample_first; i < end; i++) {
         vec4 xl = sample_xy_lens[base + i];
 #ifdef NO_DEFOCUS
@@ -71,27 +100,87 @@ void main() {
         vec3 ro, rd;
         primary_ray(vec2(pix) + xl.xy, xl.zw, ro, rd);
 #ifdef NO_MOTION
-        vec3 a = p_open[0], b = p_open[1], c = p_open[2];
         bool in_segment = true;
+        float s = pc.t0;
 #else
         float t = sample_time[base + i];
         bool in_segment = t >= t_a && t < t_b;
         float s = min((t - seg_time.x) * seg_time.z, 1.0);  // segment_time (common/frame.glsl)
-        vec3 a = shutter_lerp(p_open[0], p_close[0], s);
-        vec3 b = shutter_lerp(p_open[1], p_close[1], s);
-        vec3 c = shutter_lerp(p_open[2], p_close[2], s);
 #endif
         float z;
         vec3 w;
         bool back;
+#ifdef NO_MOTION
+        vec3 a = p_open[0], b = p_open[1], c = p_open[2];
+#else
+        vec3 a = shutter_lerp(p_open[0], p_close[0], s);
+        vec3 b = shutter_lerp(p_open[1], p_close[1], s);
+        vec3 c = shutter_lerp(p_open[2], p_close[2], s);
+#endif
         if (sample_hit(a, b, c, ro, rd, z, w, back) && in_segment) {
             atomicMax(visibility[visibility_index(pix, i, pc.per_pass)], visibility_pack(z, pc.triangle_base + prim, back));
             hits++;
         }
+        tested++;
     }
+#else
+    // Per 32 samples: first which samples can see the cluster (cheap), then the cluster's triangles
+    // for those samples only — llvmpipe runs the lanes of 8 pixels together, so this loop runs as many
+    // times as the busiest lane has such samples, not once per sample that any lane has. The nearest
+    // hit among the triangles goes in with one atomicMax: the max of the per-triangle packs, the same
+    // result as one atomicMax each.
+    for (uint chunk = pc.sample_first; chunk < end; chunk += 32u) {
+        uint bits = 0u;
+        for (uint j = 0u; j < min(32u, end - chunk); j++) {
+            uint i = chunk + j;
+            vec4 xl = sample_xy_lens[base + i];
+#ifdef NO_DEFOCUS
+            xl.zw = vec2(0.0);
+#endif
+#ifdef NO_MOTION
+            bool in_segment = true;
+#else
+            float t = sample_time[base + i];
+            bool in_segment = t >= t_a && t < t_b;
+#endif
+            bits |= in_segment && sample_sees_cluster(vec2(pix) + xl.xy, xl.zw, pin, phi) ? 1u << j : 0u;
+        }
+        if (bits == 0u) continue;
+        for (uint prim = first; prim < last; prim++) {
+            load_triangle(prim, seg, pc.segment_count + 1u, p_open, p_close);
+            uint todo = bits;
+            while (todo != 0u) {
+                uint i = chunk + uint(findLSB(todo));
+                todo &= todo - 1u;
+                vec4 xl = sample_xy_lens[base + i];
+#ifdef NO_DEFOCUS
+                xl.zw = vec2(0.0);
+#endif
+                vec3 ro, rd;
+                primary_ray(vec2(pix) + xl.xy, xl.zw, ro, rd);
+#ifdef NO_MOTION
+                float s = pc.t0;
+#else
+                float s = min((sample_time[base + i] - seg_time.x) * seg_time.z, 1.0);
+#endif
+                vec3 a = shutter_lerp(p_open[0], p_close[0], s);
+                vec3 b = shutter_lerp(p_open[1], p_close[1], s);
+                vec3 c = shutter_lerp(p_open[2], p_close[2], s);
+                float z;
+                vec3 w;
+                bool back;
+                if (sample_hit(a, b, c, ro, rd, z, w, back)) {
+                    atomicMax(visibility[visibility_index(pix, i, pc.per_pass)], visibility_pack(z, pc.triangle_base + prim, back));
+                    hits++;
+                }
+                tested++;
+            }
+        }
+    }
+#endif
 #ifdef INSTRUMENTED
     atomicAdd(counters.fragments, 1u);
-    atomicAdd(counters.samples_tested, pc.sample_count);
+    atomicAdd(counters.samples_tested, tested);
     atomicAdd(counters.samples_hit, hits);
 #endif
 }

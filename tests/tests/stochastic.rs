@@ -16,8 +16,8 @@ use shutter::scene::camera_space::CameraSpaceScene;
 use shutter::scene::{CameraPose, Mesh, Scene};
 use shutter::techniques::stochastic::{DebugOptions, StochasticTechnique, BOUND_DEBUG_STRIDE};
 use shutter::techniques::{
-    FrameTechnique, HullExpansion, Intervals, PreparedFrame, RenderOutput, RenderSettings, Renderer,
-    ShadingRate, StochasticOptions, Technique,
+    Clusters, FrameTechnique, HullExpansion, Intervals, PreparedFrame, RenderOutput, RenderSettings,
+    Renderer, ShadingRate, StochasticOptions, Technique,
 };
 use shutter_tests::{camera, renderer, same_sample_reference, save_comparison, single_object_scene, square};
 
@@ -323,6 +323,71 @@ fn bounds_agree_on_focus_sweep() {
     assert_bounds_agree("focus-sweep", &scene, 96, 54, 4, &BoundKind::ALL);
 }
 
+/// Cluster bounds (one bound per cluster of triangles, a per-sample test of whether the sample can see
+/// the cluster before its triangles are tested) change the cost, never the image: on `focus-sweep`
+/// (a dense, strongly defocused sphere: far fewer fragments), `default` (clusters on some objects under
+/// `auto`) and the spinning bar (33 motion keys: clusters per key segment), against one bound per
+/// triangle, and exact against the same-sample reference.
+#[test]
+fn cluster_bounds_change_the_cost_never_the_image() {
+    let mut r = renderer();
+    let scenes = [
+        ("focus-sweep", builtin_scene("focus-sweep").unwrap().unwrap(), (96, 54), 4),
+        ("default", builtin_scene("default").unwrap().unwrap(), (160, 90), 8),
+        ("spinning-bar", doc_scene("spinning-bar"), (96, 72), 16),
+    ];
+    for (name, scene, (w, h), spp) in scenes {
+        let run = |r: &mut Renderer, clusters: Clusters| {
+            let o = StochasticOptions {
+                instrumented: true,
+                clusters,
+                ..options(BoundKind::Adaptive, ShadingRate::PerPixel)
+            };
+            render(r, &scene, w, h, spp, 6, o)
+        };
+        let off = run(&mut r, Clusters::Off);
+        assert!(off.stats.clusters.iter().all(|&n| n == 0));
+        let base = off.stats.counters.unwrap();
+        for clusters in [Clusters::Fixed(4), Clusters::Fixed(16), Clusters::Auto] {
+            let out = run(&mut r, clusters);
+            let c = out.stats.counters.unwrap();
+            let d = max_abs_diff(&off.image, &out.image);
+            println!(
+                "{name} clusters {} ({:?}): max |Δ| {d:e}; fragments {} (off: {}), tested {} (off: {})",
+                clusters.name(),
+                out.stats.clusters,
+                c.fragments,
+                base.fragments,
+                c.samples_tested,
+                base.samples_tested
+            );
+            assert!(d <= 1e-6, "{name}: clusters {} change the image by {d}", clusters.name());
+            if let Clusters::Fixed(n) = clusters {
+                assert!(out.stats.clusters.iter().all(|&k| k == n || k == 0));
+            }
+            if name == "focus-sweep" && clusters != Clusters::Fixed(4) {
+                assert!(
+                    c.fragments * 4 < base.fragments,
+                    "{name}: clusters {} save no fragments",
+                    clusters.name()
+                );
+            }
+        }
+        if name == "focus-sweep" {
+            // auto clusters the dense sphere and nothing else.
+            let auto = run(&mut r, Clusters::Auto);
+            let sphere = scene.objects.iter().position(|o| o.name == "displaced-sphere").unwrap();
+            for (i, &n) in auto.stats.clusters.iter().enumerate() {
+                assert_eq!(n > 0, i == sphere, "{}: {n}", scene.objects[i].name);
+            }
+            let same = same_sample_reference(&scene, (w, h), spp, 6, ShadingRate::PerPixel, &auto);
+            let m = compare(&same, &auto.image).unwrap();
+            println!("{name} auto clusters: RMSE {:.6} vs the same-sample reference", m.rmse);
+            assert!(m.rmse < HARD_RMSE_MAX, "{name}: RMSE {}", m.rmse);
+        }
+    }
+}
+
 /// Interval bounds (a moving object's samples split into K runs of shutter time, each bounded over its
 /// own sub-interval) and passes (S split into P visibility buffers, each over its own part of the
 /// shutter) change the cost, never the result: the same hits, the same image — and with K > 1 the
@@ -466,6 +531,16 @@ fn check_hard_case_at(name: &str, scene: &Scene, spp: u32) {
             ),
         }
     }
+    // Cluster bounds (two triangles per cluster: every hard case has a handful of triangles) bound the
+    // same samples.
+    let o = StochasticOptions {
+        clusters: Clusters::Fixed(2),
+        ..options(BoundKind::Adaptive, ShadingRate::PerPixel)
+    };
+    let clustered = render(&mut r, scene, w, h, spp, 5, o);
+    let d = max_abs_diff(first.as_ref().expect("rendered"), &clustered.image);
+    println!("{name} clusters: max |Δ| {d:e}");
+    assert!(d <= 1e-6, "{name}: cluster bounds change the image by {d}");
     let ps = render(&mut r, scene, w, h, spp, 5, options(BoundKind::Adaptive, ShadingRate::PerSample));
     assert_finite(name, &ps.image);
     let same = reference(scene, w, h, spp, 5);

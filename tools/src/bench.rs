@@ -17,7 +17,7 @@ use serde::{Deserialize, Serialize};
 use shutter::scene::Scene;
 use shutter::techniques::{RenderSettings, Renderer, SampleCounters, StochasticOptions, Technique};
 
-/// One configuration: `technique[:key=value...]` with keys spp, bound, shading, per-pass, intervals, hull; unset keys
+/// One configuration: `technique[:key=value...]` with keys spp, bound, shading, per-pass, intervals, clusters, hull; unset keys
 /// take the command's defaults.
 #[derive(Clone, Debug)]
 pub struct Config {
@@ -50,7 +50,8 @@ pub fn apply_option(s: &mut RenderSettings, key: &str, value: &str) -> Result<()
         "per-pass" => o.per_pass = Some(value.parse().with_context(|| format!("per-pass `{value}`"))?),
         "hull" => o.expansion = value.parse()?,
         "intervals" => o.intervals = value.parse()?,
-        _ => bail!("unknown setting `{key}` (spp, bound, shading, per-pass, intervals, hull)"),
+        "clusters" => o.clusters = value.parse()?,
+        _ => bail!("unknown setting `{key}` (spp, bound, shading, per-pass, intervals, clusters, hull)"),
     }
     Ok(())
 }

@@ -67,6 +67,11 @@ enum Command {
         /// 1: off).
         #[arg(long, default_value = "auto")]
         intervals: String,
+        /// Cluster bounds (stochastic/auto): `auto` (per object: dense meshes whose triangles are small
+        /// next to their blur), `off` (one bound per triangle), or N triangles per cluster for every
+        /// object.
+        #[arg(long, default_value = "auto")]
+        clusters: String,
         #[command(flatten)]
         image: ImageArgs,
     },
@@ -146,7 +151,7 @@ enum Command {
     Bench {
         #[arg(default_value = "default")]
         scene: String,
-        /// A configuration `technique[:spp=N][:bound=B][:shading=per-pixel|per-sample][:per-pass=M][:intervals=auto|K][:hull=gs|compute]`; repeat for
+        /// A configuration `technique[:spp=N][:bound=B][:shading=per-pixel|per-sample][:per-pass=M][:intervals=auto|K][:clusters=auto|off|N][:hull=gs|compute]`; repeat for
         /// more. The first is the baseline of the ratios.
         #[arg(short = 'c', long = "config", default_values_t = ["auto".to_string(), "pinhole".to_string()])]
         configs: Vec<String>,
@@ -181,7 +186,7 @@ enum Command {
     Quality {
         #[arg(default_value = "default")]
         scene: String,
-        /// A series `technique[:key=value...]@S1,S2,...` (keys: bound, shading, per-pass, intervals, hull); repeat for more.
+        /// A series `technique[:key=value...]@S1,S2,...` (keys: bound, shading, per-pass, intervals, clusters, hull); repeat for more.
         #[arg(short = 's', long = "series", default_values_t = [
             "accumulation@4,16,64,256".to_string(),
             "stochastic@4,16,64".to_string(),
@@ -306,6 +311,7 @@ fn run() -> Result<()> {
             per_pass,
             hull,
             intervals,
+            clusters,
             image: ImageArgs { size, seed, out },
         } => {
             let technique: Technique = technique.parse()?;
@@ -316,6 +322,7 @@ fn run() -> Result<()> {
                 per_pass,
                 expansion: hull.parse()?,
                 intervals: intervals.parse()?,
+                clusters: clusters.parse()?,
             };
             let sc = load_scene(&scene)?;
             let mut settings = RenderSettings::from_scene(&sc).with_stochastic(stochastic);
@@ -368,6 +375,17 @@ fn run() -> Result<()> {
                     stochastic.shading.name(),
                     stochastic.expansion.name()
                 );
+                let clustered: Vec<String> = output
+                    .stats
+                    .clusters
+                    .iter()
+                    .zip(&sc.objects)
+                    .filter(|(n, _)| **n > 0)
+                    .map(|(n, o)| format!("{} ({n} triangles per cluster)", o.name))
+                    .collect();
+                if !clustered.is_empty() {
+                    println!("  cluster bounds: {}", clustered.join(", "));
+                }
             }
             if let Some(c) = output.stats.counters {
                 println!(

@@ -61,6 +61,7 @@
 //! Not implemented: a tighter hull (instead of a box) of the clipped polytope, per-time-interval bounds
 //! (interleaved/tiled time slices), and viewport clipping/culling of off-screen bounds.
 
+pub mod cluster;
 mod dilate;
 mod hull;
 mod inside;

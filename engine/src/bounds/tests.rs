@@ -467,6 +467,77 @@ fn check_sample_hit(case: &Case, seed: u64, samples: usize, st: &mut Stats) -> R
     Ok(())
 }
 
+/// Cluster bounds: for a cluster of this case's triangle and three random neighbours, every sample
+/// the inside test says hits one of them (aimed at a point on it, through a random lens point and
+/// time) passes the cluster's per-sample test, and its pixel lies in the cluster's screen box (or off
+/// screen when the box is clamped to the viewport).
+fn check_cluster(case: &Case, seed: u64, samples: usize) -> Result<u64, TestCaseError> {
+    use super::cluster::{cluster_bound, sample_sees_cluster};
+    let Case { k, tri } = case;
+    let mut rng = Pcg32::new(seed, 7);
+    let mut tris = vec![*tri];
+    for _ in 0..3 {
+        let shift = |r: &mut Pcg32| Vec3::new(r.next_f32() - 0.5, r.next_f32() - 0.5, r.next_f32() - 0.5);
+        let (d0, d1) = (shift(&mut rng), shift(&mut rng));
+        let scale = tri.end_vertices().iter().map(|v| v.abs().max_element()).fold(0.0, f32::max) * 0.1;
+        tris.push(MovingTriangle { v0: tri.v0.map(|v| v + d0 * scale), v1: tri.v1.map(|v| v + d1 * scale) });
+    }
+    let c = cluster_bound(&tris, k);
+    let mut checked = 0u64;
+    for _ in 0..samples {
+        let which = &tris[rng.below(4) as usize];
+        let (lens, t, w) = (lens_sample(k, &mut rng), time_sample(&mut rng), barycentric_sample(&mut rng));
+        let q = k.project(point_on(which, t, w), lens);
+        if !q.is_finite() {
+            continue;
+        }
+        // Only samples on screen exist.
+        if !in_viewport(k, q) {
+            continue;
+        }
+        let Some(_) = sample_hit(which, k, q, lens, t) else { continue };
+        // The property: the cluster keeps every sample the triangle's own bound keeps. (The inside
+        // test can report hits no bound holds — a ray from a camera lying in the plane of a triangle
+        // that crosses z = 0 — which the per-triangle path misses alike.)
+        let own = bound(which, k, BoundKind::BoundingBox);
+        if !own.contains(q, tolerance(&own, q)) {
+            continue;
+        }
+        prop_assert!(
+            sample_sees_cluster(&c, q, lens),
+            "sample {q} through {lens} t {t} rejected by {c:?}; triangle {which:?} bound {own:?} k {k:?}"
+        );
+        let Some((lo, hi)) = c.screen else {
+            prop_assert!(false, "a hit in a culled cluster at {q} t {t} lens {lens}: {which:?} {own:?}");
+            continue;
+        };
+        let tol = 1e-3 + 2e-5 * lo.abs().max(hi.abs()).max(q.abs()).max_element();
+        let inside = q.x >= lo.x - tol && q.y >= lo.y - tol && q.x <= hi.x + tol && q.y <= hi.y + tol;
+        checked += 1;
+        prop_assert!(
+            inside,
+            "hit at {q} (t {t}, lens {lens}) outside the cluster's box {lo}..{hi}; {which:?} bound {own:?}"
+        );
+    }
+    Ok(checked)
+}
+
+/// Cluster bounds over random cases (`check_cluster`); the hits it checks are counted so the test
+/// cannot pass vacuously.
+#[test]
+fn cluster_bounds_hold_every_hit() {
+    let mut runner = proptest::test_runner::TestRunner::new(config(2000));
+    let checked = std::cell::Cell::new(0u64);
+    runner
+        .run(&(any_case(), any::<u64>()), |(case, seed)| {
+            checked.set(checked.get() + check_cluster(&case, seed, 48)?);
+            Ok(())
+        })
+        .unwrap();
+    println!("{} hits checked", checked.get());
+    assert!(checked.get() > 10_000, "{} hits checked", checked.get());
+}
+
 proptest! {
     #![proptest_config(config(2000))]
 
@@ -474,6 +545,7 @@ proptest! {
     fn bounds_are_conservative(case in any_case(), seed in any::<u64>()) {
         check_conservative(&case, seed, 24, &mut Stats::default())?;
     }
+
 
     #[test]
     fn sample_hit_agrees_with_projection_and_bounds(case in any_case(), seed in any::<u64>()) {

@@ -442,7 +442,13 @@ impl FrameTechnique for GraphProbe {
             bytes[..(w * h) as usize * 8].chunks_exact(8).map(|c| [f(c), f(&c[4..])]).collect();
         self.results =
             ProbeResults { loaded: result.take_image(loaded), cleared: result.take_image(cleared), mask };
-        Ok(TechniqueFrame { image: self.results.loaded.clone(), passes: 1, msaa_samples: 1, counters: None })
+        Ok(TechniqueFrame {
+            image: self.results.loaded.clone(),
+            passes: 1,
+            msaa_samples: 1,
+            counters: None,
+            clusters: vec![],
+        })
     }
 }
 

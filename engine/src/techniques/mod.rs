@@ -36,7 +36,7 @@ use std::time::Instant;
 pub use compute_hull::HullExpansion;
 pub use forward::PassSample;
 pub use registry::Technique;
-pub use stochastic::{BoundChoice, Intervals, SampleCounters, ShadingRate, StochasticOptions};
+pub use stochastic::{BoundChoice, Clusters, Intervals, SampleCounters, ShadingRate, StochasticOptions};
 
 use crate::error::{Error, Result};
 use crate::gpu::{GpuView, GpuWorld};
@@ -102,6 +102,9 @@ pub struct RenderStats {
     pub upload_ms: f64,
     /// Sample counters of an instrumented `stochastic` (or stochastic `auto`) render.
     pub counters: Option<SampleCounters>,
+    /// Triangles per cluster of each object's cluster bounds (0: one bound per triangle) of a
+    /// `stochastic` (or stochastic `auto`) render; empty otherwise.
+    pub clusters: Vec<u32>,
     /// The effect plan of an `auto` render.
     pub plan: Option<Plan>,
 }
@@ -148,6 +151,9 @@ pub struct TechniqueFrame {
     pub passes: u32,
     pub msaa_samples: u32,
     pub counters: Option<SampleCounters>,
+    /// Stochastic rasterization: triangles per cluster of each object's cluster bounds (0: one bound
+    /// per triangle); empty for other techniques.
+    pub clusters: Vec<u32>,
 }
 
 /// A technique prepared for one scene and settings: it owns its pipelines and persistent targets.
@@ -340,6 +346,7 @@ impl Renderer {
                 process_cpu_ms,
                 upload_ms: prepared.upload_ms,
                 counters: out.counters,
+                clusters: out.clusters,
                 plan: prepared.technique.plan().cloned(),
             },
         })

@@ -157,7 +157,13 @@ impl MultipassFrame {
         image: LinearImage,
         counters: Option<super::SampleCounters>,
     ) -> super::TechniqueFrame {
-        super::TechniqueFrame { image, passes: self.passes, msaa_samples: self.samples, counters }
+        super::TechniqueFrame {
+            image,
+            passes: self.passes,
+            msaa_samples: self.samples,
+            counters,
+            clusters: vec![],
+        }
     }
 
     /// Renders the P passes with every path of `draws` (in order) in each, averages them and reads the

@@ -40,7 +40,7 @@ use crate::graph::{Access, FrameGraph, PassContext, ResourceHandle, Tracked};
 use crate::image::LinearImage;
 use crate::plan::{Effects, Plan};
 use crate::sampling::{ApertureShape, SampleTile, ShutterCurve, SAMPLE_TILE_SIZE};
-use crate::shaders::{self, axes, ShadeComp, StochasticFrag, StochasticGeom};
+use crate::shaders::{self, axes, ClustersComp, ShadeComp, StochasticFrag, StochasticGeom};
 use crate::vk::{
     write_descriptors, Buffer, DescriptorPool, DescriptorSetLayout, DescriptorWrite, Feature, GraphicsDesc,
     Image, Pipeline, PipelineLayout, ShaderModule,
@@ -110,6 +110,75 @@ pub struct StochasticOptions {
     /// Interval bounds: into how many runs of time-ordered samples each object's draw is split, each
     /// bounded over its own sub-interval of the shutter ([`Intervals`]).
     pub intervals: Intervals,
+    /// Cluster bounds: objects drawn one bound per cluster of triangles ([`Clusters`]).
+    pub clusters: Clusters,
+}
+
+/// Cluster bounds: an object is drawn with one bound per cluster of N consecutive triangles (the union
+/// of their `bbox` bounds, `clusters.comp`) instead of one per triangle; the fragment stage first
+/// rejects each sample whose ray misses the cluster's camera-space box, then tests the cluster's
+/// triangles. Same samples, same hits, same image: only the cost changes. It pays where many small
+/// triangles share one blur disc (a dense, defocused mesh: the bounds of neighbouring triangles are
+/// nearly the same disc, so one bound does the work of N), and costs where triangles are large or
+/// sharp (each covered pixel then tests N triangles instead of the few whose bounds cover it).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum Clusters {
+    /// Per object ([`auto_clusters`]), clusters of [`DEFAULT_CLUSTER_TRIANGLES`].
+    #[default]
+    Auto,
+    /// One bound per triangle for every object.
+    Off,
+    /// Clusters of N triangles (a power of two up to [`MAX_CLUSTER_TRIANGLES`]) for every object.
+    Fixed(u32),
+}
+
+/// Triangles per cluster of [`Clusters::Auto`] (`shutter bench focus-sweep -c stochastic:clusters=8
+/// -c stochastic:clusters=16 -c stochastic:clusters=32`, docs/STOCHASTIC.md).
+pub const DEFAULT_CLUSTER_TRIANGLES: u32 = 16;
+/// Largest cluster: the fragment stage loops over the cluster's triangles per sample.
+pub const MAX_CLUSTER_TRIANGLES: u32 = 256;
+
+impl std::str::FromStr for Clusters {
+    type Err = Error;
+    fn from_str(s: &str) -> Result<Self> {
+        match s {
+            "auto" => return Ok(Clusters::Auto),
+            "off" => return Ok(Clusters::Off),
+            _ => {}
+        }
+        match s.parse::<u32>() {
+            Ok(n) if n.is_power_of_two() && n <= MAX_CLUSTER_TRIANGLES => Ok(Clusters::Fixed(n)),
+            _ => Err(Error::Unsupported(format!(
+                "clusters `{s}`: `auto`, `off` or a power of two up to {MAX_CLUSTER_TRIANGLES} (triangles per cluster)"
+            ))),
+        }
+    }
+}
+
+impl Clusters {
+    pub fn name(&self) -> String {
+        match self {
+            Clusters::Auto => "auto".into(),
+            Clusters::Off => "off".into(),
+            Clusters::Fixed(n) => n.to_string(),
+        }
+    }
+}
+
+/// Does an object of `triangles` triangles whose screen box (blur included) is `box_px` (width,
+/// height) and whose blur radius is up to `coc_px` pay off drawn in clusters of `n`? When the
+/// triangles are small next to their blur: a cluster's own area (n × the mean triangle area, taken
+/// from the box shrunk by the blur) fits in the blur disc, so its bound is barely larger than one
+/// triangle's while replacing n of them. Objects with fewer than 2n triangles, a blur under a pixel
+/// or no box (reaching the near plane) keep per-triangle bounds.
+pub fn auto_clusters(triangles: usize, box_px: Option<(f32, f32)>, coc_px: f32, n: u32) -> bool {
+    let Some((w, h)) = box_px else { return false };
+    if triangles < 2 * n as usize || coc_px.is_nan() || coc_px < 1.0 {
+        return false;
+    }
+    let area = (w - 2.0 * coc_px).max(1.0) * (h - 2.0 * coc_px).max(1.0);
+    let mean = area / triangles as f32;
+    n as f32 * mean <= std::f32::consts::PI * coc_px * coc_px
 }
 
 /// How many shutter sub-intervals an object's samples are bounded in, per pass. The samples of a pixel
@@ -191,6 +260,7 @@ impl Default for StochasticOptions {
             per_pass: None,
             expansion: HullExpansion::GeometryShader,
             intervals: Intervals::Auto,
+            clusters: Clusters::Auto,
         }
     }
 }
@@ -314,7 +384,23 @@ pub struct StochasticPush {
     pub segment_first: u32,
     pub segment_count: u32,
     pub segment: u32,
+    pub cluster_size: u32,
 }
+
+/// Push constants of `clusters.comp`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct ClustersPush {
+    pub triangle_count: u32,
+    pub cluster_size: u32,
+    pub segment_count: u32,
+    pub segment: u32,
+    pub t0: f32,
+    pub t1: f32,
+}
+
+/// Bytes per cluster and key segment (`clusters.comp`): screen box, camera-space box min and max.
+const CLUSTER_BYTES: u64 = 3 * 16;
 
 /// Push constants of `triangles.comp`.
 #[repr(C)]
@@ -326,10 +412,11 @@ pub struct TrianglesPush {
 }
 
 /// Set 2 of the stochastic rasterizer, per object: the view's triangles and the compute-expanded hull.
-pub const STOCHASTIC_OBJECT_SET: [Binding; 3] = [
+pub const STOCHASTIC_OBJECT_SET: [Binding; 4] = [
     Binding { binding: 0, ty: vk::DescriptorType::STORAGE_BUFFER, block: "Triangles" },
     Binding { binding: 1, ty: vk::DescriptorType::STORAGE_BUFFER, block: "Hull" },
     Binding { binding: 2, ty: vk::DescriptorType::STORAGE_BUFFER, block: "HullTriangles" },
+    Binding { binding: 3, ty: vk::DescriptorType::STORAGE_BUFFER, block: "Clusters" },
 ];
 
 /// Set 3 of the stochastic rasterizer: the sample tile, counters, bound debug output, hull counts, the
@@ -378,10 +465,12 @@ pub const STOCHASTIC_STRUCTS: &[SharedStruct] = &[
             triangle_count,
             segment_first,
             segment_count,
-            segment
+            segment,
+            cluster_size
         ]
     ),
     shared_struct!("Push", TrianglesPush, [segment_first, keys, triangle_count]),
+    shared_struct!("Push", ClustersPush, [triangle_count, cluster_size, segment_count, segment, t0, t1]),
 ];
 
 /// Samples per pixel and pass M and passes P (S = M × P) for `pixels` pixels, the visibility buffer
@@ -490,6 +579,14 @@ pub struct StochasticDraws {
     object_effects: Vec<Effects>,
     /// Interval bounds per object and pass ([`Intervals`]; 1 on the still and defocus-only paths).
     object_intervals: Vec<u32>,
+    /// Triangles per cluster of each object's cluster bounds (0: one bound per triangle; [`Clusters`]).
+    object_clusters: Vec<u32>,
+    /// Each clustered object's cluster bounds (`clusters.comp`: per key segment and cluster).
+    cluster_buffers: Vec<Option<Tracked<Buffer>>>,
+    /// Coverage pipelines behind the cluster bounds, and the `clusters.comp` pipelines, per path.
+    cluster_pipelines: Vec<(Effects, Pipeline)>,
+    clusters_pipelines: Vec<(Effects, Pipeline)>,
+    clusters_layout: PipelineLayout,
     /// Pixels (x, y, width, height) each object's shading dispatch covers ([`shading_rect`]).
     shade_rects: Vec<[u32; 4]>,
     /// Each object's first triangle in the frame's numbering (the visibility payload), and its count.
@@ -610,16 +707,43 @@ impl StochasticDraws {
         let max_bytes = VISIBILITY_BUDGET_BYTES.min(caps.max_storage_buffer_range as u64);
         let pixels = width as u64 * height as u64;
         let (per_pass, passes) = samples_per_pass(spp, options.per_pass, pixels, max_bytes)?;
+        // Cluster bounds: with the geometry-shader path (the compute hull and the bound debug output
+        // are per triangle), per object (0: one bound per triangle).
+        let object_clusters: Vec<u32> = plan
+            .objects
+            .iter()
+            .zip(&world.objects)
+            .map(|(o, g)| {
+                if compute || debug.bound_debug_triangles > 0 || g.triangle_count() == 0 {
+                    return 0;
+                }
+                match options.clusters {
+                    Clusters::Off => 0,
+                    Clusters::Fixed(n) => n,
+                    Clusters::Auto => {
+                        let n = DEFAULT_CLUSTER_TRIANGLES;
+                        let size = o.screen_box.map(|(lo, hi)| (hi.x - lo.x, hi.y - lo.y));
+                        if auto_clusters(o.triangles, size, o.max_coc_px, n) {
+                            n
+                        } else {
+                            0
+                        }
+                    }
+                }
+            })
+            .collect();
         // Interval bounds need the geometry shader (the compute hull expands once per frame) and a
-        // moving object; the bound debug output compares whole-shutter bounds.
+        // moving object; the bound debug output compares whole-shutter bounds; clusters are bounded
+        // over whole key segments.
         let object_intervals: Vec<u32> = object_effects
             .iter()
             .zip(&plan.objects)
-            .map(|(e, o)| {
+            .zip(&object_clusters)
+            .map(|((e, o), &clusters)| {
                 // Unbounded motion (a vertex at or behind the near plane at some end): the clipped
                 // box of such triangles does not shrink with the interval; one bound.
                 let moving = o.max_motion_px > 0.0 && o.max_motion_px.is_finite() && !o.crosses_near;
-                if compute || debug.bound_debug_triangles > 0 || !e.motion() || !moving {
+                if compute || debug.bound_debug_triangles > 0 || !e.motion() || !moving || clusters > 0 {
                     return 1;
                 }
                 match options.intervals {
@@ -728,7 +852,53 @@ impl StochasticDraws {
             shade_pipelines.push((effects, Pipeline::compute(device, &name, &shade_layout, &shade)?));
             shader_modules.push(shade);
         }
-        shader_modules.extend([vert, hull_vert, comp]);
+        // Cluster bounds: a coverage pipeline behind cluster.vert and a clusters.comp pipeline for each
+        // path with a clustered object.
+        let clusters_layout = world.pipeline_layout(
+            device,
+            &sets,
+            std::mem::size_of::<ClustersPush>() as u32,
+            vk::ShaderStageFlags::COMPUTE,
+        )?;
+        let mut cluster_pipelines = Vec::new();
+        let mut clusters_pipelines = Vec::new();
+        let cluster_vert = ShaderModule::new(device, shaders::STOCHASTIC_CLUSTER_VERT)?;
+        for &effects in &paths {
+            if !(0..object_effects.len()).any(|i| object_effects[i] == effects && object_clusters[i] > 0) {
+                continue;
+            }
+            let frag = StochasticFrag {
+                hull: axes::Hull::Cluster,
+                instrumented: options.instrumented,
+                effects: effects.shader_axis(),
+            };
+            let frag = ShaderModule::new(device, frag.source())?;
+            let pipeline = Pipeline::graphics(
+                device,
+                &layout,
+                &GraphicsDesc {
+                    name: &format!("stochastic coverage ({}, clusters)", effects.name()),
+                    stages: &[&cluster_vert, &frag],
+                    vertex_bindings: &[],
+                    vertex_attributes: &[],
+                    color_formats: &[],
+                    depth_format: None,
+                    samples: 1,
+                    sample_shading: None,
+                    cull_mode: vk::CullModeFlags::NONE,
+                    front_face: vk::FrontFace::COUNTER_CLOCKWISE,
+                    depth_compare: vk::CompareOp::ALWAYS,
+                    depth_write: false,
+                },
+            )?;
+            cluster_pipelines.push((effects, pipeline));
+            shader_modules.push(frag);
+            let comp = ShaderModule::new(device, ClustersComp { effects: effects.shader_axis() }.source())?;
+            let name = format!("cluster bounds ({})", effects.name());
+            clusters_pipelines.push((effects, Pipeline::compute(device, &name, &clusters_layout, &comp)?));
+            shader_modules.push(comp);
+        }
+        shader_modules.extend([vert, hull_vert, comp, cluster_vert]);
 
         let storage = vk::BufferUsageFlags::STORAGE_BUFFER;
         let (xy_lens, time) = gpu_samples(spp, seed, aperture, shutter);
@@ -772,6 +942,7 @@ impl StochasticDraws {
         write_descriptors(device, technique_set, &writes);
         let mut object_sets = Vec::with_capacity(world.objects.len());
         let mut triangles = Vec::with_capacity(world.objects.len());
+        let mut cluster_buffers = Vec::with_capacity(world.objects.len());
         for (o, motion) in world.objects.iter().zip(&ctx.camera.space.objects) {
             let keys = motion.keys.times().len() as u64;
             let bytes = (o.index_count as u64 / 3).max(1) * keys * TRIANGLE_KEY_BYTES;
@@ -784,6 +955,22 @@ impl StochasticDraws {
             )?;
             let set = pool.allocate(&object_set_layout)?;
             write_descriptors(device, set, &[DescriptorWrite::storage_buffer(0, &t)]);
+            let n = object_clusters[object_sets.len()];
+            let cluster_buffer = if n > 0 {
+                let per_segment = (o.triangle_count() as u64).div_ceil(n as u64);
+                let c = Buffer::new(
+                    device,
+                    &format!("cluster bounds:{}", o.name),
+                    per_segment * (keys - 1) * CLUSTER_BYTES,
+                    storage,
+                    MemoryLocation::GpuOnly,
+                )?;
+                write_descriptors(device, set, &[DescriptorWrite::storage_buffer(3, &c)]);
+                Some(Tracked::new(c))
+            } else {
+                None
+            };
+            cluster_buffers.push(cluster_buffer);
             object_sets.push(set);
             triangles.push(Tracked::new(t));
         }
@@ -805,6 +992,11 @@ impl StochasticDraws {
             shade_pipelines,
             object_effects: object_effects.to_vec(),
             object_intervals,
+            object_clusters,
+            cluster_buffers,
+            cluster_pipelines,
+            clusters_pipelines,
+            clusters_layout,
             shade_rects,
             triangle_bases,
             triangle_counts: world.objects.iter().map(|o| o.triangle_count()).collect(),
@@ -892,10 +1084,77 @@ impl StochasticDraws {
             pass = pass.overwrite(h, Access::ComputeShaderWrite);
         }
         let (world, view) = (inputs.world, inputs.camera);
+        let clustered: Vec<usize> = drawn.iter().copied().filter(|&i| self.object_clusters[i] > 0).collect();
         pass.record(move |ctx| {
             self.record_triangles(ctx, world, view, &drawn);
             Ok(())
         });
+        if clustered.is_empty() {
+            return;
+        }
+        // The cluster bounds, from the triangles.
+        let handles: Vec<_> = clustered
+            .iter()
+            .map(|&i| {
+                let t = g.import_buffer("camera-space triangles", &self.triangles[i]);
+                let c =
+                    g.import_buffer("cluster bounds", self.cluster_buffers[i].as_ref().expect("clustered"));
+                (t, c)
+            })
+            .collect();
+        let mut pass = g.pass("cluster bounds");
+        for (t, c) in handles {
+            pass = pass.access(t, Access::ComputeShaderReadOther).overwrite(c, Access::ComputeShaderWrite);
+        }
+        pass.record(move |ctx| {
+            self.record_clusters(ctx, world, view, &clustered);
+            Ok(())
+        });
+    }
+
+    /// `clusters.comp` for each clustered object (`objects`) and key segment (the segment holding
+    /// mid-shutter for an object that does not move).
+    fn record_clusters(&self, ctx: &PassContext<'_>, world: &GpuWorld, view: &GpuView, objects: &[usize]) {
+        let (d, cmd) = (ctx.device, ctx.cmd);
+        let bind = vk::PipelineBindPoint::COMPUTE;
+        let layout = self.clusters_layout.raw;
+        unsafe {
+            d.raw.cmd_bind_descriptor_sets(cmd, bind, layout, FRAME_SET_INDEX, &[view.frame_set], &[]);
+            for (effects, pipeline) in &self.clusters_pipelines {
+                d.raw.cmd_bind_pipeline(cmd, bind, pipeline.raw);
+                for &i in objects.iter().filter(|&&i| self.object_effects[i] == *effects) {
+                    let o = &world.objects[i];
+                    let sets = [o.set, self.object_sets[i]];
+                    d.raw.cmd_bind_descriptor_sets(cmd, bind, layout, OBJECT_SET_INDEX, &sets, &[]);
+                    let keys = &self.object_keys[i];
+                    let segments: Vec<(u32, f32, f32)> = if effects.motion() {
+                        (0..keys.segments() as u32).map(|j| (j, 0.0, 1.0)).collect()
+                    } else {
+                        let (j, s) = keys.locate(0.5);
+                        vec![(j as u32, s, s)]
+                    };
+                    let n = self.object_clusters[i];
+                    for (segment, t0, t1) in segments {
+                        let push = ClustersPush {
+                            triangle_count: o.triangle_count(),
+                            cluster_size: n,
+                            segment_count: keys.segments() as u32,
+                            segment,
+                            t0,
+                            t1,
+                        };
+                        d.raw.cmd_push_constants(
+                            cmd,
+                            layout,
+                            vk::ShaderStageFlags::COMPUTE,
+                            0,
+                            bytemuck::bytes_of(&push),
+                        );
+                        d.raw.cmd_dispatch(cmd, o.triangle_count().div_ceil(n).div_ceil(64), 1, 1);
+                    }
+                }
+            }
+        }
     }
 
     fn record_triangles(&self, ctx: &PassContext<'_>, world: &GpuWorld, view: &GpuView, objects: &[usize]) {
@@ -993,6 +1252,7 @@ impl StochasticDraws {
             segment_first,
             segment_count,
             segment: 0,
+            cluster_size: self.object_clusters.get(o).copied().unwrap_or(0).max(1),
         }
     }
 
@@ -1059,6 +1319,13 @@ impl StochasticDraws {
                 shading_uses.push((h, Access::ComputeShaderReadOther));
             }
         }
+        for (i, c) in self.cluster_buffers.iter().enumerate() {
+            if let (Some(c), true) = (c, self.is_drawn(i, world)) {
+                let h: ResourceHandle = g.import_buffer("cluster bounds", c).into();
+                coverage_uses.push((h, Access::VertexShaderReadOther));
+                coverage_uses.push((h, Access::FragmentShaderReadOther));
+            }
+        }
         if let Some(hull) = &self.hull {
             for (i, [vertices, sources]) in hull.buffers().iter().enumerate() {
                 if self.is_drawn(i, world) {
@@ -1105,6 +1372,7 @@ impl StochasticDraws {
                 .accesses(coverage_uses.iter().copied())
                 .record(move |ctx| {
                     self.record_coverage(ctx, &inputs, ctx.iteration);
+                    self.record_cluster_coverage(ctx, &inputs, ctx.iteration);
                     Ok(())
                 });
             g.pass("stochastic shading")
@@ -1144,7 +1412,7 @@ impl StochasticDraws {
                     &[],
                 );
             }
-            let include = |i: usize| self.object_effects[i] == *effects;
+            let include = |i: usize| self.object_effects[i] == *effects && self.object_clusters[i] == 0;
             let view = inputs.camera;
             if self.hull.is_none() {
                 // One draw per run and key segment of every object with that many runs or more whose
@@ -1194,6 +1462,64 @@ impl StochasticDraws {
                     let sets = [o.set, self.object_sets[i]];
                     d.raw.cmd_bind_descriptor_sets(cmd, bind, self.layout.raw, OBJECT_SET_INDEX, &sets, &[]);
                     d.raw.cmd_draw(cmd, self.hull_counts[i], 1, 0, 0);
+                }
+            }
+        }
+    }
+
+    /// The coverage draws of the clustered objects in pass `pass`: per object and key segment (the
+    /// one holding mid-shutter for an object that does not move), six vertices per cluster.
+    fn record_cluster_coverage(&self, ctx: &mut PassContext<'_>, inputs: &FrameInputs<'_>, pass: u32) {
+        let (d, cmd) = (ctx.device, ctx.cmd);
+        let bind = vk::PipelineBindPoint::GRAPHICS;
+        let (world, view) = (inputs.world, inputs.camera);
+        for (effects, pipeline) in &self.cluster_pipelines {
+            unsafe {
+                d.raw.cmd_bind_pipeline(cmd, bind, pipeline.raw);
+                d.raw.cmd_bind_descriptor_sets(
+                    cmd,
+                    bind,
+                    self.layout.raw,
+                    FRAME_SET_INDEX,
+                    &[view.frame_set],
+                    &[],
+                );
+                d.raw.cmd_bind_descriptor_sets(
+                    cmd,
+                    bind,
+                    self.layout.raw,
+                    TECHNIQUE_SET_INDEX,
+                    &[self.technique_set],
+                    &[],
+                );
+            }
+            for (i, o) in world.objects.iter().enumerate() {
+                let n = self.object_clusters[i];
+                if n == 0 || self.object_effects[i] != *effects || !self.is_drawn(i, world) {
+                    continue;
+                }
+                let sets = [o.set, self.object_sets[i]];
+                let clusters = o.triangle_count().div_ceil(n);
+                for seg in 0..self.object_keys[i].segments() {
+                    let Some(push) = self.coverage_push(view, i, pass, 0, 1, seg) else { continue };
+                    unsafe {
+                        d.raw.cmd_push_constants(
+                            cmd,
+                            self.layout.raw,
+                            self.push_stages,
+                            0,
+                            bytemuck::bytes_of(&push),
+                        );
+                        d.raw.cmd_bind_descriptor_sets(
+                            cmd,
+                            bind,
+                            self.layout.raw,
+                            OBJECT_SET_INDEX,
+                            &sets,
+                            &[],
+                        );
+                        d.raw.cmd_draw(cmd, 6 * clusters, 1, 0, 0);
+                    }
                 }
             }
         }
@@ -1285,7 +1611,13 @@ impl StochasticDraws {
 
     /// This frame's result.
     fn technique_frame(&self, image: LinearImage) -> Result<TechniqueFrame> {
-        Ok(TechniqueFrame { image, passes: self.passes, msaa_samples: 1, counters: self.counters()? })
+        Ok(TechniqueFrame {
+            image,
+            passes: self.passes,
+            msaa_samples: 1,
+            counters: self.counters()?,
+            clusters: self.object_clusters.clone(),
+        })
     }
 }
 
@@ -1344,6 +1676,7 @@ pub const SHADER_INTERFACES: &[crate::gpu::layout::ShaderInterface] = &[
             "stochastic/stochastic.vert",
             "stochastic/stochastic.geom",
             "stochastic/hull.vert",
+            "stochastic/cluster.vert",
             "stochastic/stochastic.frag",
             "stochastic/shade.comp",
         ],
@@ -1358,6 +1691,12 @@ pub const SHADER_INTERFACES: &[crate::gpu::layout::ShaderInterface] = &[
         Some(STOCHASTIC_STRUCTS[1]),
     ),
     crate::gpu::layout::ShaderInterface::technique(
+        &["stochastic/clusters.comp"],
+        Some(&STOCHASTIC_OBJECT_SET),
+        Some(&STOCHASTIC_SET),
+        Some(STOCHASTIC_STRUCTS[2]),
+    ),
+    crate::gpu::layout::ShaderInterface::technique(
         &["stochastic/expand.comp"],
         Some(&STOCHASTIC_OBJECT_SET),
         Some(&STOCHASTIC_SET),
@@ -1368,6 +1707,23 @@ pub const SHADER_INTERFACES: &[crate::gpu::layout::ShaderInterface] = &[
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn auto_clusters_take_dense_blurred_meshes_only() {
+        // focus-sweep's sphere at 160×90: 327,680 triangles in ~60×60 px, blur 9 px.
+        assert!(auto_clusters(327_680, Some((78.0, 78.0)), 9.3, 16));
+        // Large triangles (a 128-triangle floor over the whole image) or no blur: one per triangle.
+        assert!(!auto_clusters(128, Some((320.0, 180.0)), 30.0, 16));
+        assert!(!auto_clusters(327_680, Some((78.0, 78.0)), 0.5, 16));
+        assert!(!auto_clusters(327_680, Some((78.0, 78.0)), f32::NAN, 16));
+        // Too few triangles for two clusters, or no box (a vertex at the near plane).
+        assert!(!auto_clusters(31, Some((10.0, 10.0)), 20.0, 16));
+        assert!(!auto_clusters(327_680, None, 9.3, 16));
+        // Clusters parse as the CLI gives them.
+        assert_eq!("16".parse::<Clusters>().unwrap(), Clusters::Fixed(16));
+        assert_eq!("off".parse::<Clusters>().unwrap(), Clusters::Off);
+        assert!("12".parse::<Clusters>().is_err() && "512".parse::<Clusters>().is_err());
+    }
 
     #[test]
     fn auto_intervals_split_long_motion_only() {
