@@ -221,10 +221,11 @@ fn each_file_has_the_product_of_its_axes() {
             assert!(seen.insert(p.permutation), "{} [{}] twice", f.file, p.permutation);
         }
     }
-    assert_eq!(d.count("stochastic/stochastic.frag"), 16);
+    assert_eq!(d.count("stochastic/stochastic.frag"), 24);
     assert_eq!(d.count("stochastic/shade.comp"), 16);
     assert_eq!(d.count("stochastic/stochastic.geom"), 8);
     assert_eq!(d.count("stochastic/expand.comp"), 4);
+    assert_eq!(d.count("stochastic/clusters.comp"), 4);
     assert_eq!(d.count("stochastic/stochastic.vert"), 1);
 
     // `ALL` is every permutation of every file, once.

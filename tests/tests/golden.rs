@@ -19,8 +19,8 @@ use shutter::image::LinearImage;
 use shutter::scene::builtin::builtin_scene;
 use shutter::scene::Scene;
 use shutter::techniques::{
-    HullExpansion, RenderOutput, RenderSettings, Renderer, SampleCounters, ShadingRate, StochasticOptions,
-    Technique,
+    Clusters, HullExpansion, RenderOutput, RenderSettings, Renderer, SampleCounters, ShadingRate,
+    StochasticOptions, Technique,
 };
 use shutter_tests::{output_dir, renderer};
 
@@ -63,6 +63,10 @@ fn config(scene: &'static str, technique: &'static str, spp: u32, o: StochasticO
         if let Some(m) = o.per_pass {
             let _ = write!(label, "/per-pass={m}");
         }
+        // Rows recorded before cluster bounds pin one bound per triangle (`opts`).
+        if o.clusters != Clusters::Off {
+            let _ = write!(label, "/clusters={}", o.clusters.name());
+        }
         if o.instrumented {
             label.push_str("/instrumented");
         }
@@ -72,8 +76,14 @@ fn config(scene: &'static str, technique: &'static str, spp: u32, o: StochasticO
 }
 
 fn opts(bound: BoundKind, shading: ShadingRate, expansion: HullExpansion) -> StochasticOptions {
-    // Not instrumented, one pass, intervals as the policy picks.
-    StochasticOptions { bound: bound.into(), shading, expansion, ..Default::default() }
+    // Not instrumented, one pass, intervals as the policy picks, one bound per triangle.
+    StochasticOptions {
+        bound: bound.into(),
+        shading,
+        expansion,
+        clusters: Clusters::Off,
+        ..Default::default()
+    }
 }
 
 /// THE table. Labels are keys into the golden file: add rows freely (then re-record), but never change
@@ -128,6 +138,23 @@ fn configs() -> Vec<Config> {
         StochasticOptions { instrumented: true, ..opts(BoundKind::Adaptive, PerSample, Gs) },
     ));
     c.push(config("one-mover", "auto", 16, base));
+    // Cluster bounds: `auto` as it ships (clusters where they pay: default's spheres, focus-sweep's
+    // displaced sphere), and every object in clusters of 4, instrumented (the counters pin the
+    // clusters' screen boxes and per-sample tests).
+    let auto_clusters = StochasticOptions { clusters: Clusters::Auto, ..base };
+    c.push(config("default", "auto", 4, auto_clusters));
+    c.push(config(
+        "focus-sweep",
+        "auto",
+        4,
+        StochasticOptions { bound: BoundKind::BoundingBox.into(), ..auto_clusters },
+    ));
+    c.push(config(
+        "default",
+        "stochastic",
+        4,
+        StochasticOptions { instrumented: true, clusters: Clusters::Fixed(4), ..base },
+    ));
     // Left out: `stochastic` on `focus-sweep` (measured 15 s a frame even at 32×18, lavapipe bounding
     // 327,680 triangles: one row took the test from about 50 s to 65 s, past 90 s on a busy machine).
     // `auto` above already runs the stochastic renderer on that mesh, and the both-effects permutation
