@@ -165,20 +165,49 @@ impl Clusters {
     }
 }
 
-/// Does an object of `triangles` triangles whose screen box (blur included) is `box_px` (width,
-/// height) and whose blur radius is up to `coc_px` pay off drawn in clusters of `n`? When the
-/// triangles are small next to their blur: a cluster's own area (n × the mean triangle area, taken
-/// from the box shrunk by the blur) fits in the blur disc, so its bound is barely larger than one
-/// triangle's while replacing n of them. Objects with fewer than 2n triangles, a blur under a pixel
-/// or no box (reaching the near plane) keep per-triangle bounds.
-pub fn auto_clusters(triangles: usize, box_px: Option<(f32, f32)>, coc_px: f32, n: u32) -> bool {
-    let Some((w, h)) = box_px else { return false };
+/// Does an object of `triangles` triangles whose clusters of `n` cover `cluster_area_px` pixels each
+/// on average (their lens-centre screen boxes, [`mean_cluster_area_px`]) and whose blur radius is up
+/// to `coc_px` pay off drawn in clusters? When a cluster fits in the blur disc: its bound is then
+/// barely larger than one triangle's while replacing n of them. Objects with fewer than 2n triangles,
+/// a blur under a pixel, no measured area (a vertex at the near plane) or clusters spread wider than
+/// their blur (large triangles, or a mesh whose consecutive triangles are not neighbours) keep one
+/// bound per triangle.
+pub fn auto_clusters(triangles: usize, cluster_area_px: Option<f32>, coc_px: f32, n: u32) -> bool {
+    let Some(area) = cluster_area_px else { return false };
     if triangles < 2 * n as usize || coc_px.is_nan() || coc_px < 1.0 {
         return false;
     }
-    let area = (w - 2.0 * coc_px).max(1.0) * (h - 2.0 * coc_px).max(1.0);
-    let mean = area / triangles as f32;
-    n as f32 * mean <= std::f32::consts::PI * coc_px * coc_px
+    area <= std::f32::consts::PI * coc_px * coc_px
+}
+
+/// Mean area in pixels of the lens-centre screen boxes of `mesh`'s clusters of `n` consecutive
+/// triangles through `model_view` (the object at shutter open) — how compact its clusters are on
+/// screen; `None` when a vertex is at or behind the near plane of `k`.
+pub fn mean_cluster_area_px(
+    mesh: &crate::scene::Mesh,
+    model_view: glam::Mat4,
+    k: &crate::scene::Intrinsics,
+    n: usize,
+) -> Option<f32> {
+    let projected: Vec<Option<glam::Vec2>> = mesh
+        .positions
+        .iter()
+        .map(|&p| {
+            let v = model_view.transform_point3(p);
+            (-v.z > k.near).then(|| k.project(v, glam::Vec2::ZERO))
+        })
+        .collect();
+    let (mut sum, mut count) = (0.0f64, 0usize);
+    for cluster in mesh.indices.chunks(3 * n.max(1)) {
+        let (mut lo, mut hi) = (glam::Vec2::INFINITY, glam::Vec2::NEG_INFINITY);
+        for &i in cluster {
+            let p = projected[i as usize]?;
+            (lo, hi) = (lo.min(p), hi.max(p));
+        }
+        sum += ((hi.x - lo.x) * (hi.y - lo.y)).max(0.0) as f64;
+        count += 1;
+    }
+    (count > 0).then(|| (sum / count as f64) as f32)
 }
 
 /// How many shutter sub-intervals an object's samples are bounded in, per pass. The samples of a pixel
@@ -709,11 +738,13 @@ impl StochasticDraws {
         let (per_pass, passes) = samples_per_pass(spp, options.per_pass, pixels, max_bytes)?;
         // Cluster bounds: with the geometry-shader path (the compute hull and the bound debug output
         // are per triangle), per object (0: one bound per triangle).
+        let intrinsics = ctx.scene.camera.intrinsics(width, height);
         let object_clusters: Vec<u32> = plan
             .objects
             .iter()
             .zip(&world.objects)
-            .map(|(o, g)| {
+            .enumerate()
+            .map(|(i, (o, g))| {
                 if compute || debug.bound_debug_triangles > 0 || g.triangle_count() == 0 {
                     return 0;
                 }
@@ -722,8 +753,15 @@ impl StochasticDraws {
                     Clusters::Fixed(n) => n,
                     Clusters::Auto => {
                         let n = DEFAULT_CLUSTER_TRIANGLES;
-                        let size = o.screen_box.map(|(lo, hi)| (hi.x - lo.x, hi.y - lo.y));
-                        if auto_clusters(o.triangles, size, o.max_coc_px, n) {
+                        // Worth measuring only for an object with a blur and triangles to spare.
+                        let area = (o.max_coc_px >= 1.0 && o.triangles >= 2 * n as usize && !o.crosses_near)
+                            .then(|| {
+                                let mesh = &ctx.scene.objects[i].mesh;
+                                let mv = ctx.camera.space.objects[i].model_view[0];
+                                mean_cluster_area_px(mesh, mv, &intrinsics, n as usize)
+                            })
+                            .flatten();
+                        if auto_clusters(o.triangles, area, o.max_coc_px, n) {
                             n
                         } else {
                             0
@@ -1710,14 +1748,28 @@ mod tests {
 
     #[test]
     fn auto_clusters_take_dense_blurred_meshes_only() {
-        // focus-sweep's sphere at 160×90: 327,680 triangles in ~60×60 px, blur 9 px.
-        assert!(auto_clusters(327_680, Some((78.0, 78.0)), 9.3, 16));
-        // Large triangles (a 128-triangle floor over the whole image) or no blur: one per triangle.
-        assert!(!auto_clusters(128, Some((320.0, 180.0)), 30.0, 16));
-        assert!(!auto_clusters(327_680, Some((78.0, 78.0)), 0.5, 16));
-        assert!(!auto_clusters(327_680, Some((78.0, 78.0)), f32::NAN, 16));
-        // Too few triangles for two clusters, or no box (a vertex at the near plane).
-        assert!(!auto_clusters(31, Some((10.0, 10.0)), 20.0, 16));
+        use crate::scene::builtin::builtin_scene;
+        use crate::scene::View;
+        // focus-sweep's sphere at 160×90: clusters of 16 of its 327,680 triangles are far inside its
+        // 9 px blur; the same triangles in scrambled order are not.
+        let scene = builtin_scene("focus-sweep").unwrap().unwrap();
+        let view = View::camera(&scene, 160, 90);
+        let k = scene.camera.intrinsics(160, 90);
+        let i = scene.objects.iter().position(|o| o.name == "displaced-sphere").unwrap();
+        let mv = view.space.objects[i].model_view[0];
+        let mesh = &scene.objects[i].mesh;
+        let area = mean_cluster_area_px(mesh, mv, &k, 16).unwrap();
+        assert!(area < 1.0, "{area}");
+        assert!(auto_clusters(327_680, Some(area), 9.3, 16));
+        let mut scrambled = (**mesh).clone();
+        let tris: Vec<[u32; 3]> = mesh.indices.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect();
+        scrambled.indices = (0..tris.len()).flat_map(|j| tris[(j * 7919) % tris.len()]).collect();
+        let far = mean_cluster_area_px(&scrambled, mv, &k, 16).unwrap();
+        assert!(far > 100.0 * area && !auto_clusters(327_680, Some(far), 9.3, 16), "{far}");
+        // No blur, too few triangles, or no area (a vertex at the near plane): one per triangle.
+        assert!(!auto_clusters(327_680, Some(area), 0.5, 16));
+        assert!(!auto_clusters(327_680, Some(area), f32::NAN, 16));
+        assert!(!auto_clusters(31, Some(1.0), 20.0, 16));
         assert!(!auto_clusters(327_680, None, 9.3, 16));
         // Clusters parse as the CLI gives them.
         assert_eq!("16".parse::<Clusters>().unwrap(), Clusters::Fixed(16));
