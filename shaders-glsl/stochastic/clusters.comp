@@ -1,7 +1,7 @@
 #version 460
 // Cluster bounds (engine/src/techniques/stochastic.rs, `Clusters`; CPU mirror bounds::cluster): once
-// per frame, per cluster of `cluster_size` consecutive triangles of an object and key segment of its
-// motion:
+// per frame, per cluster of `cluster_size` triangles consecutive in the object's cluster order (a
+// Morton order of their centroids, so neighbours) and key segment of its motion:
 //  * the union of its triangles' bounding-box bounds over the segment (compute_bound(BOUND_BBOX),
 //    exactly the per-triangle `bbox` bound, so the union is conservative wherever each is), which
 //    cluster.vert rasterizes once for the whole cluster;
@@ -22,6 +22,8 @@ layout(local_size_x = 64) in;
 // Per (segment, cluster): screen box (x0, y0, x1, y1) in pixels, undilated (empty: x0 > x1); pinhole
 // box (x0, y0, x1, y1) in pixels; (phi_min, phi_max, unbounded 0/1, unused).
 layout(set = 2, binding = 3, std430) writeonly buffer Clusters { vec4 clusters[]; };
+// The triangles in cluster order (bounds::cluster_order): cluster c is entries [c n, c n + n).
+layout(set = 2, binding = 4, std430) readonly buffer ClusterTriangles { uint cluster_triangles[]; };
 
 layout(push_constant) uniform Push {
     uint triangle_count;
@@ -42,7 +44,8 @@ void main() {
     float z_lo = INF, z_hi = -INF;
     bool viewport = false;
     uint end = min(c * pc.cluster_size + pc.cluster_size, pc.triangle_count);
-    for (uint t = c * pc.cluster_size; t < end; t++) {
+    for (uint k = c * pc.cluster_size; k < end; k++) {
+        uint t = cluster_triangles[k];
         vec3 open[3], close[3];
         load_triangle(t, pc.segment, pc.segment_count + 1u, open, close);
         vec3 v[6] = bound_vertices(open, close, pc.t0, pc.t1);

@@ -38,6 +38,7 @@ layout(location = 0) flat in uint v_triangle;
 #ifdef CLUSTER_BOUNDS
 // Cluster bounds (clusters.comp, cluster.vert): the cluster of primitive p (two per cluster) is p / 2.
 layout(set = 2, binding = 3, std430) readonly buffer Clusters { vec4 clusters[]; };
+layout(set = 2, binding = 4, std430) readonly buffer ClusterTriangles { uint cluster_triangles[]; };
 
 // Can the sample at pixel position q through lens point `lens` (unit aperture) see the cluster whose
 // lens-centre pixel box is pin (x0, y0, x1, y1) and circle-of-confusion range phi (min, max, unbounded)?
@@ -146,7 +147,8 @@ void main() {
             bits |= in_segment && sample_sees_cluster(vec2(pix) + xl.xy, xl.zw, pin, phi) ? 1u << j : 0u;
         }
         if (bits == 0u) continue;
-        for (uint prim = first; prim < last; prim++) {
+        for (uint k = first; k < last; k++) {
+            uint prim = cluster_triangles[k];
             load_triangle(prim, seg, pc.segment_count + 1u, p_open, p_close);
             uint todo = bits;
             while (todo != 0u) {

@@ -70,3 +70,37 @@ pub fn sample_sees_cluster(c: &ClusterBound, q: Vec2, lens: Vec2) -> bool {
     let pad = Vec2::splat(0.01) + 1e-4 * lo.abs().max(hi.abs());
     q.cmpge(lo - pad).all() && q.cmple(hi + pad).all()
 }
+
+/// The order in which `mesh`'s triangles form clusters: sorted along a Morton (Z-order) curve through
+/// their centroids in object space (10 bits per axis over the mesh's box), so consecutive triangles of
+/// the order are neighbours whatever order the file stored them in. The clusters are runs of this
+/// order; the triangles keep their own indices (the visibility payload, and so the image, does not
+/// depend on it). Ties keep the stored order.
+pub fn cluster_order(mesh: &crate::scene::Mesh) -> Vec<u32> {
+    let tris: Vec<glam::Vec3> = mesh
+        .indices
+        .chunks_exact(3)
+        .map(|t| {
+            (mesh.positions[t[0] as usize] + mesh.positions[t[1] as usize] + mesh.positions[t[2] as usize])
+                / 3.0
+        })
+        .collect();
+    let (lo, hi) =
+        tris.iter().fold((glam::Vec3::INFINITY, glam::Vec3::NEG_INFINITY), |(l, h), &c| (l.min(c), h.max(c)));
+    let scale = 1023.0 / (hi - lo).max(glam::Vec3::splat(1e-30));
+    let spread = |v: u32| -> u64 {
+        // The 10 bits of v at every third bit.
+        let mut x = v as u64 & 0x3ff;
+        x = (x | (x << 16)) & 0x0300_00ff;
+        x = (x | (x << 8)) & 0x0300_f00f;
+        x = (x | (x << 4)) & 0x030c_30c3;
+        (x | (x << 2)) & 0x0924_9249
+    };
+    let code = |c: glam::Vec3| {
+        let q = ((c - lo) * scale).clamp(glam::Vec3::ZERO, glam::Vec3::splat(1023.0));
+        spread(q.x as u32) | (spread(q.y as u32) << 1) | (spread(q.z as u32) << 2)
+    };
+    let mut order: Vec<u32> = (0..tris.len() as u32).collect();
+    order.sort_by_key(|&i| code(tris[i as usize]));
+    order
+}

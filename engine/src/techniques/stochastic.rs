@@ -114,7 +114,8 @@ pub struct StochasticOptions {
     pub clusters: Clusters,
 }
 
-/// Cluster bounds: an object is drawn with one bound per cluster of N consecutive triangles (the union
+/// Cluster bounds: an object is drawn with one bound per cluster of N triangles, neighbours in a Morton
+/// order of their centroids ([`crate::bounds::cluster::cluster_order`]) (the union
 /// of their `bbox` bounds, `clusters.comp`) instead of one per triangle; the fragment stage first
 /// rejects each sample whose ray misses the cluster's camera-space box, then tests the cluster's
 /// triangles. Same samples, same hits, same image: only the cost changes. It pays where many small
@@ -170,8 +171,7 @@ impl Clusters {
 /// to `coc_px` pay off drawn in clusters? When a cluster fits in the blur disc: its bound is then
 /// barely larger than one triangle's while replacing n of them. Objects with fewer than 2n triangles,
 /// a blur under a pixel, no measured area (a vertex at the near plane) or clusters spread wider than
-/// their blur (large triangles, or a mesh whose consecutive triangles are not neighbours) keep one
-/// bound per triangle.
+/// their blur (large triangles) keep one bound per triangle.
 pub fn auto_clusters(triangles: usize, cluster_area_px: Option<f32>, coc_px: f32, n: u32) -> bool {
     let Some(area) = cluster_area_px else { return false };
     if triangles < 2 * n as usize || coc_px.is_nan() || coc_px < 1.0 {
@@ -180,11 +180,33 @@ pub fn auto_clusters(triangles: usize, cluster_area_px: Option<f32>, coc_px: f32
     area <= std::f32::consts::PI * coc_px * coc_px
 }
 
-/// Mean area in pixels of the lens-centre screen boxes of `mesh`'s clusters of `n` consecutive
-/// triangles through `model_view` (the object at shutter open) — how compact its clusters are on
+/// The order `mesh`'s triangles form clusters of `n` in, and the clusters' mean area in pixels
+/// ([`mean_cluster_area_px`]): the stored order or a Morton order of the centroids
+/// ([`crate::bounds::cluster::cluster_order`]), whichever gives the smaller clusters on screen (the
+/// built-in meshes are generated patch by patch, tighter than a Morton curve; an OBJ may store its
+/// triangles in any order). Without a measured area (a vertex at the near plane): the Morton order.
+pub fn choose_cluster_order(
+    mesh: &crate::scene::Mesh,
+    model_view: glam::Mat4,
+    k: &crate::scene::Intrinsics,
+    n: usize,
+) -> (Vec<u32>, Option<f32>) {
+    let stored: Vec<u32> = (0..mesh.triangle_count() as u32).collect();
+    let morton = crate::bounds::cluster::cluster_order(mesh);
+    let a = mean_cluster_area_px(mesh, &stored, model_view, k, n);
+    let b = mean_cluster_area_px(mesh, &morton, model_view, k, n);
+    match (a, b) {
+        (Some(a), Some(b)) if a <= b => (stored, Some(a)),
+        (_, b) => (morton, b),
+    }
+}
+
+/// Mean area in pixels of the lens-centre screen boxes of `mesh`'s clusters of `n` triangles (runs of
+/// `order`) through `model_view` (the object at shutter open) — how compact its clusters are on
 /// screen; `None` when a vertex is at or behind the near plane of `k`.
 pub fn mean_cluster_area_px(
     mesh: &crate::scene::Mesh,
+    order: &[u32],
     model_view: glam::Mat4,
     k: &crate::scene::Intrinsics,
     n: usize,
@@ -198,11 +220,13 @@ pub fn mean_cluster_area_px(
         })
         .collect();
     let (mut sum, mut count) = (0.0f64, 0usize);
-    for cluster in mesh.indices.chunks(3 * n.max(1)) {
+    for cluster in order.chunks(n.max(1)) {
         let (mut lo, mut hi) = (glam::Vec2::INFINITY, glam::Vec2::NEG_INFINITY);
-        for &i in cluster {
-            let p = projected[i as usize]?;
-            (lo, hi) = (lo.min(p), hi.max(p));
+        for &t in cluster {
+            for &i in &mesh.indices[3 * t as usize..3 * t as usize + 3] {
+                let p = projected[i as usize]?;
+                (lo, hi) = (lo.min(p), hi.max(p));
+            }
         }
         sum += ((hi.x - lo.x) * (hi.y - lo.y)).max(0.0) as f64;
         count += 1;
@@ -441,11 +465,12 @@ pub struct TrianglesPush {
 }
 
 /// Set 2 of the stochastic rasterizer, per object: the view's triangles and the compute-expanded hull.
-pub const STOCHASTIC_OBJECT_SET: [Binding; 4] = [
+pub const STOCHASTIC_OBJECT_SET: [Binding; 5] = [
     Binding { binding: 0, ty: vk::DescriptorType::STORAGE_BUFFER, block: "Triangles" },
     Binding { binding: 1, ty: vk::DescriptorType::STORAGE_BUFFER, block: "Hull" },
     Binding { binding: 2, ty: vk::DescriptorType::STORAGE_BUFFER, block: "HullTriangles" },
     Binding { binding: 3, ty: vk::DescriptorType::STORAGE_BUFFER, block: "Clusters" },
+    Binding { binding: 4, ty: vk::DescriptorType::STORAGE_BUFFER, block: "ClusterTriangles" },
 ];
 
 /// Set 3 of the stochastic rasterizer: the sample tile, counters, bound debug output, hull counts, the
@@ -612,6 +637,8 @@ pub struct StochasticDraws {
     object_clusters: Vec<u32>,
     /// Each clustered object's cluster bounds (`clusters.comp`: per key segment and cluster).
     cluster_buffers: Vec<Option<Tracked<Buffer>>>,
+    /// Each clustered object's triangles in cluster order ([`crate::bounds::cluster::cluster_order`]).
+    _cluster_orders: Vec<Buffer>,
     /// Coverage pipelines behind the cluster bounds, and the `clusters.comp` pipelines, per path.
     cluster_pipelines: Vec<(Effects, Pipeline)>,
     clusters_pipelines: Vec<(Effects, Pipeline)>,
@@ -739,6 +766,8 @@ impl StochasticDraws {
         // Cluster bounds: with the geometry-shader path (the compute hull and the bound debug output
         // are per triangle), per object (0: one bound per triangle).
         let intrinsics = ctx.scene.camera.intrinsics(width, height);
+        // Each object's cluster order and mean cluster area, measured where clusters may be drawn.
+        let mut cluster_orders_cpu: Vec<Option<(Vec<u32>, Option<f32>)>> = vec![None; world.objects.len()];
         let object_clusters: Vec<u32> = plan
             .objects
             .iter()
@@ -748,20 +777,26 @@ impl StochasticDraws {
                 if compute || debug.bound_debug_triangles > 0 || g.triangle_count() == 0 {
                     return 0;
                 }
+                let mut order = |n: u32| {
+                    let mesh = &ctx.scene.objects[i].mesh;
+                    let mv = ctx.camera.space.objects[i].model_view[0];
+                    let chosen = choose_cluster_order(mesh, mv, &intrinsics, n as usize);
+                    let area = chosen.1;
+                    cluster_orders_cpu[i] = Some(chosen);
+                    area
+                };
                 match options.clusters {
                     Clusters::Off => 0,
-                    Clusters::Fixed(n) => n,
+                    Clusters::Fixed(n) => {
+                        order(n);
+                        n
+                    }
                     Clusters::Auto => {
                         let n = DEFAULT_CLUSTER_TRIANGLES;
                         // Worth measuring only for an object with a blur and triangles to spare.
-                        let area = (o.max_coc_px >= 1.0 && o.triangles >= 2 * n as usize && !o.crosses_near)
-                            .then(|| {
-                                let mesh = &ctx.scene.objects[i].mesh;
-                                let mv = ctx.camera.space.objects[i].model_view[0];
-                                mean_cluster_area_px(mesh, mv, &intrinsics, n as usize)
-                            })
-                            .flatten();
-                        if auto_clusters(o.triangles, area, o.max_coc_px, n) {
+                        let candidate =
+                            o.max_coc_px >= 1.0 && o.triangles >= 2 * n as usize && !o.crosses_near;
+                        if candidate && auto_clusters(o.triangles, order(n), o.max_coc_px, n) {
                             n
                         } else {
                             0
@@ -981,6 +1016,7 @@ impl StochasticDraws {
         let mut object_sets = Vec::with_capacity(world.objects.len());
         let mut triangles = Vec::with_capacity(world.objects.len());
         let mut cluster_buffers = Vec::with_capacity(world.objects.len());
+        let mut cluster_orders = Vec::new();
         for (o, motion) in world.objects.iter().zip(&ctx.camera.space.objects) {
             let keys = motion.keys.times().len() as u64;
             let bytes = (o.index_count as u64 / 3).max(1) * keys * TRIANGLE_KEY_BYTES;
@@ -1003,7 +1039,15 @@ impl StochasticDraws {
                     storage,
                     MemoryLocation::GpuOnly,
                 )?;
-                write_descriptors(device, set, &[DescriptorWrite::storage_buffer(3, &c)]);
+                let (order, _) =
+                    cluster_orders_cpu[object_sets.len()].take().expect("measured with the decision");
+                let order = Buffer::with_data(device, &format!("cluster order:{}", o.name), storage, &order)?;
+                write_descriptors(
+                    device,
+                    set,
+                    &[DescriptorWrite::storage_buffer(3, &c), DescriptorWrite::storage_buffer(4, &order)],
+                );
+                cluster_orders.push(order);
                 Some(Tracked::new(c))
             } else {
                 None
@@ -1032,6 +1076,7 @@ impl StochasticDraws {
             object_intervals,
             object_clusters,
             cluster_buffers,
+            _cluster_orders: cluster_orders,
             cluster_pipelines,
             clusters_pipelines,
             clusters_layout,
@@ -1751,21 +1796,29 @@ mod tests {
         use crate::scene::builtin::builtin_scene;
         use crate::scene::View;
         // focus-sweep's sphere at 160×90: clusters of 16 of its 327,680 triangles are far inside its
-        // 9 px blur; the same triangles in scrambled order are not.
+        // 9 px blur — also when the mesh stores them scrambled (the cluster order sorts them).
         let scene = builtin_scene("focus-sweep").unwrap().unwrap();
         let view = View::camera(&scene, 160, 90);
         let k = scene.camera.intrinsics(160, 90);
         let i = scene.objects.iter().position(|o| o.name == "displaced-sphere").unwrap();
         let mv = view.space.objects[i].model_view[0];
         let mesh = &scene.objects[i].mesh;
-        let area = mean_cluster_area_px(mesh, mv, &k, 16).unwrap();
+        let (order, area) = choose_cluster_order(mesh, mv, &k, 16);
+        let area = area.unwrap();
         assert!(area < 1.0, "{area}");
+        assert!(order.iter().enumerate().all(|(j, &t)| j as u32 == t), "the stored order is tighter");
         assert!(auto_clusters(327_680, Some(area), 9.3, 16));
         let mut scrambled = (**mesh).clone();
         let tris: Vec<[u32; 3]> = mesh.indices.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect();
         scrambled.indices = (0..tris.len()).flat_map(|j| tris[(j * 7919) % tris.len()]).collect();
-        let far = mean_cluster_area_px(&scrambled, mv, &k, 16).unwrap();
-        assert!(far > 100.0 * area && !auto_clusters(327_680, Some(far), 9.3, 16), "{far}");
+        let stored: Vec<u32> = (0..tris.len() as u32).collect();
+        let as_stored = mean_cluster_area_px(&scrambled, &stored, mv, &k, 16).unwrap();
+        let (_, sorted) = choose_cluster_order(&scrambled, mv, &k, 16);
+        let sorted = sorted.unwrap();
+        assert!(as_stored > 100.0 * area && sorted < 4.0 * area, "{as_stored} and {sorted} vs {area}");
+        assert!(auto_clusters(327_680, Some(sorted), 9.3, 16));
+        // Clusters as wide as the object (what stored order gave a scrambled mesh) are refused.
+        assert!(!auto_clusters(327_680, Some(400.0), 9.3, 16));
         // No blur, too few triangles, or no area (a vertex at the near plane): one per triangle.
         assert!(!auto_clusters(327_680, Some(area), 0.5, 16));
         assert!(!auto_clusters(327_680, Some(area), f32::NAN, 16));
