@@ -27,7 +27,8 @@
 //! makes points fall outside by a few ulps of the pixel coordinates, so consumers test with a small
 //! tolerance ([`ScreenBound::contains`]'s `tol`; the GPU port should pad by about a pixel).
 //!
-//! # Hard cases (McGuire's z = 0 crossing; thesis §4.8)
+//! # Hard cases (McGuire et al.'s z = 0 crossing and clip-and-box; thesis §4.8 names the problem, its
+//! answer is the view-space volumes of [`volumes`])
 //! Let z range over the six end vertices (their convex hull contains every point at every time):
 //! * all `z < near` or all `z > far` → [`ScreenBound::Culled`] (no point is ever in the depth range);
 //! * otherwise some `z ≤ near` (behind the camera, or crossing the near plane during the shutter) →
@@ -68,6 +69,7 @@ mod inside;
 pub mod shapes;
 #[cfg(test)]
 mod tests;
+pub mod volumes;
 
 pub use crate::geometry::{MovingTriangle, TriangleHit};
 pub use dilate::{dilate_box, dilation_px, DILATE_MARGIN_PX};
@@ -323,7 +325,8 @@ pub fn adaptive_kind(tri: &MovingTriangle, k: &Intrinsics) -> BoundKind {
 /// Relative padding of the clip-and-box rectangle (64 ε of its largest coordinate before clamping).
 pub const CLIP_PAD_EPS: f32 = 64.0 * f32::EPSILON;
 
-/// "Clip and box" (thesis §4.8) for a triangle that reaches the near plane at some time: the end
+/// "Clip and box" (McGuire et al. 2010's treatment of the z = 0 crossing; thesis §4.8.1 answers the
+/// same problem with view-space volumes instead) for a triangle that reaches the near plane at some time: the end
 /// vertices' hull `K` clipped to `z ≥ z_clip` (its vertices are among the end vertices in front and the
 /// plane's intersections with the 15 segments between end vertices), each point widened by its circle
 /// of confusion, boxed, and the box clamped to the viewport. Every visible point has view depth

@@ -1,7 +1,14 @@
-//! The thesis' bound shapes (Toth & Linder 2008, §4), built from the six end-vertex discs.
+//! The image-space bound shapes, built from the six end-vertex discs.
 //!
-//! The thesis text is not available to us: the definitions below are **our reconstruction** from the
-//! shape names. Every shape bounds `conv(⋃ D_m)`, the convex hull of the six discs
+//! These were reconstructed from the thesis' shape names (Toth & Linder 2008, §4) before its text was
+//! at hand. Read against it (`../shared/seeds/`, §4.4–4.6): the **parallel-edge triangle**, **2D
+//! hexagon** and **variable-radius triangle** follow the thesis, with one generalisation — every
+//! offset is the support of all the discs, where the thesis takes the discs at the edge's endpoints —
+//! and they extend over the shutter through the six end discs. The shapes named **3D hexagon**,
+//! **wedge** and **reduced wedge** here are *not* the thesis' shapes: the thesis builds those as
+//! view-space prisms around the discs of confusion, in the triangle's plane, which the hardware clips
+//! (`super::volumes`, where they are being built; issue 11). The three below keep these names until
+//! the volumes replace them on the GPU. Every shape bounds `conv(⋃ D_m)`, the convex hull of the six discs
 //! `D_m = disc(c_m, r_m)` (pinhole projection and circle of confusion of end vertex m, open 0..2, close
 //! 3..5), which contains the triangle's image for every lens sample and time (module docs of
 //! [`super`]). So each shape is conservative by construction, whatever the directions it uses.
@@ -21,9 +28,9 @@
 //!   shape extends over the shutter); offsets are the support over all six true discs. Nested circles
 //!   (`|β| ≥ 1`) use the edge normal; diverging edges (normals not positively spanning) fall back to the
 //!   parallel-edge triangle.
-//! * **3D hexagon**: hull of the discs' circumscribed regular hexagons — the triangle seen from the six
-//!   corners of a hexagon circumscribing the lens.
-//! * **Wedge** (our "penumbra wedge" reading): the core mid triangle plus, per edge the blur spills
+//! * **3D hexagon** (not the thesis' shape, see above): hull of the discs' circumscribed regular
+//!   hexagons — the triangle seen from the six corners of a hexagon circumscribing the lens.
+//! * **Wedge** (our "penumbra wedge" reading, not the thesis' triangular prism): the core mid triangle plus, per edge the blur spills
 //!   over (`H > 0`), the slab rectangle between the edge line and the support line, limited along the
 //!   edge by the support in `±e`. A point of `conv(discs)` outside the core is beyond some edge line,
 //!   hence in that edge's slab.

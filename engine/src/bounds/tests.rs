@@ -522,6 +522,92 @@ fn check_cluster(case: &Case, seed: u64, samples: usize) -> Result<u64, TestCase
     Ok(checked)
 }
 
+/// The thesis' view-space volumes (`volumes.rs`) on a still case: every on-screen point of the
+/// triangle seen through any lens point lies in the pinhole image of each volume; the hexagonal prism
+/// lies inside the wedge; with a pinhole the wedge is the triangle itself. Returns the points checked.
+fn check_volumes(case: &Case, seed: u64, samples: usize) -> Result<u64, TestCaseError> {
+    use super::volumes::{prism, screen_region, VolumeShape};
+    let Case { k, tri } = case;
+    let mut rng = Pcg32::new(seed, 11);
+    let (Some(hex), Some(wedge)) =
+        (prism(&tri.v0, k, VolumeShape::Hexagon), prism(&tri.v0, k, VolumeShape::Wedge))
+    else {
+        return Ok(0);
+    };
+    let regions = [screen_region(&hex, k), screen_region(&wedge, k)];
+    let mut checked = 0;
+    for _ in 0..samples {
+        let (lens, w) = (lens_sample(k, &mut rng), barycentric_sample(&mut rng));
+        let p = point_on(tri, 0.0, w);
+        let z = -p.z;
+        if !(z >= k.near && z <= k.far) {
+            continue;
+        }
+        let q = k.project(p, lens);
+        if !q.is_finite() || !in_viewport(k, q) {
+            continue;
+        }
+        for (name, region) in ["3D hexagon", "wedge"].iter().zip(&regions) {
+            let tol = tolerance(region, q);
+            prop_assert!(region.contains(q, tol), "{name}: {q} (z {z}, lens {lens}) outside {region:?}");
+        }
+        checked += 1;
+    }
+    // The hexagon is the wedge cut by three more half-planes: no larger (compared where the area is
+    // well conditioned: a sliver's area moves by whole percents with the rounding of its projection).
+    if let (true, Some((lo, hi))) =
+        (hex.vertices.iter().chain(&wedge.vertices).all(|v| -v.z > k.near), regions[1].aabb())
+    {
+        let (ah, aw) = (regions[0].area(), regions[1].area());
+        let extent = (hi - lo).max_element() as f64;
+        if aw > 1e-2 * extent * extent && aw > 1.0 {
+            prop_assert!(ah <= aw * (1.0 + 1e-2), "hexagon {ah} larger than the wedge {aw}");
+        }
+    }
+    Ok(checked)
+}
+
+#[test]
+fn thesis_volumes_hold_every_visible_point() {
+    let mut runner = proptest::test_runner::TestRunner::new(config(3000));
+    let checked = std::cell::Cell::new(0u64);
+    runner
+        .run(&(still_case(), any::<u64>()), |(case, seed)| {
+            checked.set(checked.get() + check_volumes(&case, seed, 32)?);
+            Ok(())
+        })
+        .unwrap();
+    println!("{} points checked", checked.get());
+    assert!(checked.get() > 20_000, "{} points checked", checked.get());
+}
+
+/// With a pinhole the discs are points: both prisms are the triangle itself (flat), and their image is
+/// the projected triangle.
+#[test]
+fn thesis_volumes_of_a_sharp_triangle_are_the_triangle() {
+    use super::volumes::{prism, screen_region, VolumeShape};
+    let k = hd(0.0, 5.0);
+    let tri = [
+        at_pixel(&k, Vec2::new(100.0, 100.0), 4.0),
+        at_pixel(&k, Vec2::new(300.0, 120.0), 5.0),
+        at_pixel(&k, Vec2::new(180.0, 400.0), 6.0),
+    ];
+    let projected = convex_hull(&tri.map(|v| k.project(v, Vec2::ZERO)));
+    let want = ScreenBound::Polygon(projected).area();
+    for shape in [VolumeShape::Hexagon, VolumeShape::Wedge] {
+        let v = prism(&tri, &k, shape).unwrap();
+        let got = screen_region(&v, &k).area();
+        assert!((got / want - 1.0).abs() < 1e-3, "{shape:?}: {got} vs {want}");
+    }
+    // A blurred one: the hexagon is strictly tighter than the wedge.
+    let k = hd(0.2, 2.0);
+    let (h, w) = (
+        screen_region(&prism(&tri, &k, VolumeShape::Hexagon).unwrap(), &k).area(),
+        screen_region(&prism(&tri, &k, VolumeShape::Wedge).unwrap(), &k).area(),
+    );
+    assert!(h < 0.99 * w, "hexagon {h}, wedge {w}");
+}
+
 /// Cluster bounds over random cases (`check_cluster`); the hits it checks are counted so the test
 /// cannot pass vacuously.
 #[test]
