@@ -252,7 +252,7 @@ pub fn concentric_disk(sq: Vec2) -> Vec2 {
     r * Vec2::new(theta.cos(), theta.sin())
 }
 
-/// Shutter curve S(t): how the exposure is weighted over [0,1]. Applied by warping uniform time.
+/// Shutter curve S(t): how the exposure is weighted over `[0, 1]`. Applied by warping uniform time.
 #[derive(Clone, Copy, Debug, PartialEq, Deserialize, Default)]
 #[serde(rename_all = "kebab-case")]
 pub enum ShutterCurve {

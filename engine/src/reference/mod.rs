@@ -8,9 +8,9 @@
 //! * **Camera space.** Everything happens in camera space (+Y up, looking down −Z, view depth
 //!   `z = −p.z`). At shutter time `t` in key segment `j` of its object's motion, at local time `s`
 //!   ([`KeyTimes::locate`]), a vertex is at `Pj + (Pj+1 − Pj)·s` with `Pj` its camera-space positions
-//!   at the keys ([`ObjectMotion::positions`]; two keys, open and close, unless the object has more);
-//!   vertex normals are `mix(Nj, Nj+1, s)` of [`ObjectMotion::normals`]; lights are
-//!   [`CameraSpaceLight::at`]`(t)`.
+//!   at the keys ([`ObjectMotion::positions`](crate::scene::ObjectMotion::positions); two keys, open and close, unless the object has more);
+//!   vertex normals are `mix(Nj, Nj+1, s)` of [`ObjectMotion::normals`](crate::scene::ObjectMotion::normals); lights are
+//!   [`CameraSpaceLight::at`](crate::scene::CameraSpaceLight::at)`(t)`.
 //! * **Rays.** Sample `s` of pixel `(px, py)` is the thin-lens ray [`Intrinsics::primary_ray`] through
 //!   `(px + s.xy.x, py + s.xy.y)` from lens point `aperture.map(s.lens)` at time `shutter.warp(s.time)`.
 //!   The pixel value is the plain mean of its samples (box filter); alpha is 1.
