@@ -294,45 +294,83 @@ bool bound_triangle_shape_(int kind) {
     return bound_finish_(k);
 }
 
-// shapes.rs `edge_point`: p_i + e (s - e.p_i) + n a.
-vec2 bound_edge_point_(int i, float s, float a) {
-    vec2 n = bound_mn_[i], e = bound_md_[i], p = bound_mp_[i];
-    return p + e * (s - dot(e, p)) + n * a;
-}
-
-// wedge / reduced_wedge (still triangles only); false -> convex-hull fallback.
-bool bound_wedge_shape_(bool reduced) {
-    for (int i = 0; i < 3; ++i) {
-        if (!(length(bound_c_[i + 3] - bound_c_[i]) <= BOUND_STILL_EPS_PX
-              && abs(bound_r_[i + 3] - bound_r_[i]) <= BOUND_STILL_EPS_PX)) {
-            return false;
+// volumes.rs `prism` and bounds::volume_silhouette: the thesis' view-space prism (hexagonal, or the
+// wedge's triangular one) around the discs of confusion of the still triangle t, its vertices' pinhole
+// projections into bound_in_; returns their count, or 0 when there is none (degenerate triangle) or
+// it reaches the near plane (the caller falls back to the convex hull).
+int bound_volume_(vec3 t[3], bool hexagon) {
+    float A = bound_aperture_(), F = view.lens.y, near_z = view.lens.z;
+    float W = view.viewport.x, H = view.viewport.y, s = view.viewport.z;
+    vec3 n = cross(t[1] - t[0], t[2] - t[0]);
+    float scale = max(max(length(t[1] - t[0]), length(t[2] - t[0])), length(t[2] - t[1]));
+    float area2 = length(n);
+    if (isnan(area2) || area2 <= 1e-6 * scale * scale) return 0;
+    n = normalize(n);
+    float r[3];
+    for (int i = 0; i < 3; ++i) r[i] = A * abs(-t[i].z - F) / F * BOUND_RADIUS_ROUND_UP;
+    // Outward in-plane edge normals (edge i -> j, the third vertex o inside).
+    vec3 m[6];
+    int lines = 3;
+    for (int e = 0; e < 3; ++e) {
+        int i = e, j = (e + 1) % 3, o = (e + 2) % 3;
+        vec3 mm = normalize(cross(t[j] - t[i], n));
+        if (dot(mm, t[o] - t[i]) > 0.0) mm = -mm;
+        m[e] = mm;
+    }
+    if (hexagon) {
+        // The corner edges: the mean direction of the two edge normals meeting at each vertex.
+        vec3 p2[3] = vec3[3](m[2], m[0], m[1]), q2[3] = vec3[3](m[0], m[1], m[2]);
+        for (int c = 0; c < 3; ++c) {
+            vec3 sum = p2[c] + q2[c];
+            float len = length(sum);
+            if (len > 0.0 && !isinf(len) && !isnan(len)) m[lines++] = sum / len;
         }
     }
-    for (int i = 0; i < 3; ++i) bound_in_[i] = bound_mp_[i];
-    if (!bound_finish_(3)) return false;
-    for (int i = 0; i < 3; ++i) {
-        vec2 n = bound_mn_[i], e = bound_md_[i];
-        float height = bound_support_(n) - dot(n, bound_mp_[i]);
-        if (!(height > 0.0)) continue;
-        float lo = -bound_support_(-e);
-        float hi = bound_support_(e);
-        int count;
-        if (reduced) {
-            float w = hi - lo;
-            bound_in_[0] = bound_edge_point_(i, lo - 0.5 * w, 0.0);
-            bound_in_[1] = bound_edge_point_(i, hi + 0.5 * w, 0.0);
-            bound_in_[2] = bound_edge_point_(i, 0.5 * (lo + hi), 2.0 * height);
-            count = 3;
-        } else {
-            bound_in_[0] = bound_edge_point_(i, lo, 0.0);
-            bound_in_[1] = bound_edge_point_(i, lo, height);
-            bound_in_[2] = bound_edge_point_(i, hi, height);
-            bound_in_[3] = bound_edge_point_(i, hi, 0.0);
-            count = 4;
+    vec3 centre = (t[0] + t[1] + t[2]) / 3.0;
+    vec3 e1 = normalize(t[1] - t[0]);
+    vec3 e2 = cross(n, e1);
+    float rmax = max(max(r[0], r[1]), r[2]);
+    float half_side = 4.0 * (scale + rmax) + 1e-6;
+    // Sutherland-Hodgman from a big square: at most 4 + 6 vertices.
+    vec2 poly[10], next[10];
+    int count = 4;
+    poly[0] = vec2(-half_side, -half_side);
+    poly[1] = vec2(half_side, -half_side);
+    poly[2] = vec2(half_side, half_side);
+    poly[3] = vec2(-half_side, half_side);
+    for (int l = 0; l < lines; ++l) {
+        vec3 mm = m[l];
+        float d = -1.0 / 0.0;
+        for (int i = 0; i < 3; ++i) d = max(d, dot(mm, t[i]) + r[i] * sqrt(max(1.0 - mm.z * mm.z, 0.0)));
+        float pad = 1e-5 * (abs(d) + scale + rmax);
+        vec2 m2 = vec2(dot(mm, e1), dot(mm, e2));
+        float d2 = d - dot(mm, centre) + pad;
+        int k = 0;
+        for (int i = 0; i < count; ++i) {
+            vec2 p = poly[i], q = poly[(i + 1) % count];
+            float fp = dot(m2, p) - d2, fq = dot(m2, q) - d2;
+            if (fp <= 0.0 && k < 10) next[k++] = p;
+            if (((fp < 0.0 && fq > 0.0) || (fp > 0.0 && fq < 0.0)) && k < 10) next[k++] = p + (q - p) * (fp / (fp - fq));
         }
-        if (!bound_finish_(count)) return false;
+        count = k;
+        for (int i = 0; i < count; ++i) poly[i] = next[i];
+        if (count == 0) return 0;
     }
-    return true;
+    float lift = rmax * sqrt(max(1.0 - n.z * n.z, 0.0));
+    lift = lift * BOUND_RADIUS_ROUND_UP + 1e-6 * (scale + rmax);
+    int out_n = 0;
+    for (int side = 0; side < 2; ++side) {
+        float sgn = side == 0 ? -1.0 : 1.0;
+        for (int i = 0; i < count; ++i) {
+            vec3 p = centre + e1 * poly[i].x + e2 * poly[i].y + n * (sgn * lift);
+            float z = -p.z;
+            if (!(z > near_z)) return 0;
+            vec2 q = vec2(0.5 * W + s * (p.x / z), 0.5 * H - s * (p.y / z));
+            if (!bound_finite_(q)) return 0;
+            bound_in_[out_n++] = q;
+        }
+    }
+    return out_n;
 }
 
 // A rectangle as the single piece (ScreenBound::pieces order: min, (max.x, min.y), max, (min.x, max.y)).
@@ -415,8 +453,19 @@ int bound_compute_(int kind, vec3 v[6]) {
         bound_r_[m] = abs(A * s * (1.0 / F - 1.0 / z)) * BOUND_RADIUS_ROUND_UP;
         if (!bound_finite_(bound_c_[m]) || isnan(bound_r_[m]) || isinf(bound_r_[m])) return -1;
     }
+    // The thesis' volumes (still triangles, the prism in front of the near plane), else the hull.
+    if (kind == BOUND_3D_HEXAGON || kind == BOUND_WEDGE || kind == BOUND_REDUCED_WEDGE) {
+        if (v[0] == v[3] && v[1] == v[4] && v[2] == v[5]) {
+            int n = bound_volume_(vec3[3](v[0], v[1], v[2]), kind == BOUND_3D_HEXAGON);
+            if (n > 0) {
+                bound_emit_hull_(n);
+                return 1;
+            }
+        }
+        kind = BOUND_CONVEX_HULL;
+    }
     bool mid_ok = false;
-    if (kind != BOUND_BBOX && kind != BOUND_CONVEX_HULL && kind != BOUND_3D_HEXAGON) {
+    if (kind != BOUND_BBOX && kind != BOUND_CONVEX_HULL) {
         mid_ok = bound_mid_triangle_();
     }
     if (kind == BOUND_ADAPTIVE) kind = bound_adaptive_kind_(mid_ok);
@@ -425,8 +474,6 @@ int bound_compute_(int kind, vec3 v[6]) {
         if (kind == BOUND_PARALLEL_EDGE_TRIANGLE || kind == BOUND_2D_HEXAGON
             || kind == BOUND_VARIABLE_RADIUS_TRIANGLE) {
             built = bound_triangle_shape_(kind);
-        } else if (kind == BOUND_WEDGE || kind == BOUND_REDUCED_WEDGE) {
-            built = bound_wedge_shape_(kind == BOUND_REDUCED_WEDGE);
         }
         if (built) return bound_pieces_;
         bound_out_n_ = 0;
@@ -436,13 +483,8 @@ int bound_compute_(int kind, vec3 v[6]) {
     int n = 0;
     for (int m = 0; m < 6; ++m) {
         if (bound_r_[m] > 0.0) {
-            if (kind == BOUND_3D_HEXAGON) {
-                for (int j = 0; j < 6; ++j) bound_in_[n + j] = bound_c_[m] + BOUND_HEXAGON[j] * bound_r_[m];
-                n += 6;
-            } else {
-                for (int j = 0; j < 8; ++j) bound_in_[n + j] = bound_c_[m] + BOUND_OCTAGON[j] * bound_r_[m];
-                n += 8;
-            }
+            for (int j = 0; j < 8; ++j) bound_in_[n + j] = bound_c_[m] + BOUND_OCTAGON[j] * bound_r_[m];
+            n += 8;
         } else {
             bound_in_[n] = bound_c_[m];
             n += 1;

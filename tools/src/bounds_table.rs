@@ -67,10 +67,12 @@ pub fn run(renderer: &mut Renderer, scene: &Scene, a: &BoundsTableArgs) -> Resul
         eprintln!("S={spp} accumulation {ms:.1} ms");
         let mut bbox_ste = None;
         for &bound in &a.bounds {
+            // One bound per triangle: cluster bounds would replace the bound under test.
             let opts = StochasticOptions {
                 bound: bound.into(),
                 shading: a.shading,
                 instrumented: true,
+                clusters: shutter::techniques::Clusters::Off,
                 ..Default::default()
             };
             let counted = renderer.render(scene, Technique::STOCHASTIC, &base.with_stochastic(opts))?;

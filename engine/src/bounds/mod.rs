@@ -76,8 +76,8 @@ pub use dilate::{dilate_box, dilation_px, DILATE_MARGIN_PX};
 pub use hull::{convex_contains, convex_hull, orient, signed_area};
 pub use inside::{sample_hit, sample_test_efficiency_estimate};
 pub use shapes::{
-    adaptive_kind_of, hexagon_2d, parallel_edge_triangle, reduced_wedge, variable_radius_triangle, wedge,
-    EndDiscs, MidTriangle, RADIUS_ROUND_UP,
+    adaptive_kind_of, hexagon_2d, parallel_edge_triangle, variable_radius_triangle, EndDiscs, MidTriangle,
+    RADIUS_ROUND_UP,
 };
 
 use std::str::FromStr;
@@ -104,11 +104,14 @@ pub enum BoundKind {
     ParallelEdgeTriangle,
     /// Outer common tangents of per-vertex discs ([`shapes::variable_radius_triangle`]).
     VariableRadiusTriangle,
-    /// Hull of the circumscribed hexagons of the discs of confusion ([`disc_polygon_points`]).
+    /// The thesis' hexagonal prism around the discs of confusion ([`volumes`]), drawn as its pinhole
+    /// image; still triangles whose prism lies in front of the near plane, else the convex hull.
     Hexagon3d,
-    /// Core triangle plus slab rectangles, still triangles only ([`shapes::wedge`]).
+    /// The thesis' triangular prism (the wedge, [`volumes`]), drawn as its pinhole image; the same
+    /// fallback.
     Wedge,
-    /// Core triangle plus one triangle per slab, still triangles only ([`shapes::reduced_wedge`]).
+    /// The thesis' reduced wedge: the wedge's silhouette — the very region [`BoundKind::Wedge`] draws
+    /// (here every volume is drawn by its silhouette), kept as its own name for the thesis' table.
     ReducedWedge,
     /// McGuire'10 space-time convex hull of the six projected end vertices, each widened to a
     /// circumscribed [`DISC_SIDES`]-gon of its circle of confusion when the aperture is open.
@@ -289,16 +292,15 @@ pub fn bound(tri: &MovingTriangle, k: &Intrinsics, kind: BoundKind) -> ScreenBou
         BoundKind::Hexagon2d => hexagon_2d(&discs).map(ScreenBound::Polygon),
         BoundKind::ParallelEdgeTriangle => parallel_edge_triangle(&discs).map(ScreenBound::Polygon),
         BoundKind::VariableRadiusTriangle => variable_radius_triangle(&discs).map(ScreenBound::Polygon),
-        BoundKind::Wedge => wedge(&discs),
-        BoundKind::ReducedWedge => reduced_wedge(&discs),
+        BoundKind::Hexagon3d => volume_silhouette(tri, k, volumes::VolumeShape::Hexagon),
+        BoundKind::Wedge | BoundKind::ReducedWedge => volume_silhouette(tri, k, volumes::VolumeShape::Wedge),
         _ => None,
     };
     if let Some(shape) = shape {
         return shape;
     }
     // Hull-based kinds, and the fallback of the thesis shapes.
-    let sides = if kind == BoundKind::Hexagon3d { 6 } else { DISC_SIDES };
-    let points = disc_polygon_points(&verts, k, sides);
+    let points = disc_polygon_points(&verts, k, DISC_SIDES);
     if points.iter().any(|p| !p.is_finite()) {
         return ScreenBound::viewport(k);
     }
@@ -309,6 +311,29 @@ pub fn bound(tri: &MovingTriangle, k: &Intrinsics, kind: BoundKind) -> ScreenBou
         },
         _ => ScreenBound::Polygon(convex_hull(&points)),
     }
+}
+
+/// The pinhole image of the thesis volume `shape` around a still triangle (`volumes::prism`): the
+/// convex hull of its projected vertices, when the prism lies wholly in front of the near plane; `None`
+/// otherwise (a moving triangle, a degenerate one, or a prism reaching the near plane: the caller
+/// falls back to the convex hull). Mirrored by `bound_volume_` in bounds.glsl.
+fn volume_silhouette(
+    tri: &MovingTriangle,
+    k: &Intrinsics,
+    shape: volumes::VolumeShape,
+) -> Option<ScreenBound> {
+    if tri.v0 != tri.v1 {
+        return None;
+    }
+    let v = volumes::prism(&tri.v0, k, shape)?;
+    if !volumes::in_front_of_near(&v, k) {
+        return None;
+    }
+    let points: Vec<Vec2> = v.vertices.iter().map(|&p| k.project(p, Vec2::ZERO)).collect();
+    if points.iter().any(|p| !p.is_finite()) {
+        return None;
+    }
+    Some(ScreenBound::Polygon(convex_hull(&points)))
 }
 
 /// The concrete kind [`BoundKind::Adaptive`] resolves to for `tri` (see [`shapes::adaptive_kind_of`]

@@ -4,11 +4,9 @@
 //! at hand. Read against it (`../shared/seeds/`, §4.4–4.6): the **parallel-edge triangle**, **2D
 //! hexagon** and **variable-radius triangle** follow the thesis, with one generalisation — every
 //! offset is the support of all the discs, where the thesis takes the discs at the edge's endpoints —
-//! and they extend over the shutter through the six end discs. The shapes named **3D hexagon**,
-//! **wedge** and **reduced wedge** here are *not* the thesis' shapes: the thesis builds those as
-//! view-space prisms around the discs of confusion, in the triangle's plane, which the hardware clips
-//! (`super::volumes`, where they are being built; issue 11). The three below keep these names until
-//! the volumes replace them on the GPU. Every shape bounds `conv(⋃ D_m)`, the convex hull of the six discs
+//! and they extend over the shutter through the six end discs. The thesis' **3D hexagon**, **wedge**
+//! and **reduced wedge** are view-space prisms, defined in `super::volumes` (the reconstructions that
+//! carried those names here are gone). Every shape bounds `conv(⋃ D_m)`, the convex hull of the six discs
 //! `D_m = disc(c_m, r_m)` (pinhole projection and circle of confusion of end vertex m, open 0..2, close
 //! 3..5), which contains the triangle's image for every lens sample and time (module docs of
 //! [`super`]). So each shape is conservative by construction, whatever the directions it uses.
@@ -28,18 +26,8 @@
 //!   shape extends over the shutter); offsets are the support over all six true discs. Nested circles
 //!   (`|β| ≥ 1`) use the edge normal; diverging edges (normals not positively spanning) fall back to the
 //!   parallel-edge triangle.
-//! * **3D hexagon** (not the thesis' shape, see above): hull of the discs' circumscribed regular
-//!   hexagons — the triangle seen from the six corners of a hexagon circumscribing the lens.
-//! * **Wedge** (our "penumbra wedge" reading, not the thesis' triangular prism): the core mid triangle plus, per edge the blur spills
-//!   over (`H > 0`), the slab rectangle between the edge line and the support line, limited along the
-//!   edge by the support in `±e`. A point of `conv(discs)` outside the core is beyond some edge line,
-//!   hence in that edge's slab.
-//! * **Reduced wedge**: the core plus, per slab, one triangle containing it (base on the edge line,
-//!   twice the slab's length; apex at twice its height).
-//!
-//! Wedge and reduced wedge are built only for still triangles (the construction stays conservative
-//! for moving ones, but the slabs then span the whole sweep); for moving triangles they return `None`
-//! and the space-time hull is used. Shapes 1–4 extend over the shutter through `h` and `R_i`.
+//! * The **3D hexagon**, **wedge** and **reduced wedge** are the thesis' view-space volumes
+//!   (`super::volumes`), drawn by `super::bound` as their pinhole images.
 //!
 //! Numerics: everything is `f32`, in coordinates relative to the mid triangle's centroid (smaller
 //! numbers, better-conditioned line intersections), operation for operation as in
@@ -49,7 +37,7 @@
 
 use glam::{Vec2, Vec3};
 
-use super::{convex_hull, orient, BoundKind, ScreenBound};
+use super::{convex_hull, orient, BoundKind};
 use crate::scene::camera::Intrinsics;
 
 /// Relative round-up of every disc radius, so `f32` rounding of derived points cannot cut a disc.
@@ -272,65 +260,6 @@ pub fn variable_radius_triangle(d: &EndDiscs) -> Option<Vec<Vec2>> {
         return finish(&l, &triangle_of(&edge_lines(&m, &l)));
     }
     finish(&l, &triangle_of(&normals.map(|n| Line { n, h: l.support(n) })))
-}
-
-/// One slab of the wedge per edge the blur spills over: `(edge slot, H, lo, hi)` in local coordinates.
-fn slabs(m: &MidTriangle, l: &Local) -> Vec<(usize, f32, f32, f32)> {
-    let mut out = Vec::with_capacity(3);
-    for i in 0..3 {
-        let (n, e) = (m.normal[i], m.dir[i]);
-        let height = l.support(n) - n.dot(m.p[i]);
-        if height > 0.0 {
-            out.push((i, height, -l.support(-e), l.support(e)));
-        }
-    }
-    out
-}
-
-/// Point `p_i + e·(s − e·p_i) + n·a`: coordinate `s` along the edge, height `a` beyond it.
-fn edge_point(m: &MidTriangle, i: usize, s: f32, a: f32) -> Vec2 {
-    let (n, e, p) = (m.normal[i], m.dir[i], m.p[i]);
-    p + e * (s - e.dot(p)) + n * a
-}
-
-fn wedge_pieces(d: &EndDiscs, reduced: bool) -> Option<ScreenBound> {
-    if !d.is_still() {
-        return None;
-    }
-    let m = MidTriangle::new(d)?;
-    let l = m.local(d);
-    let mut pieces = vec![finish(&l, &m.p)?];
-    for (i, height, lo, hi) in slabs(&m, &l) {
-        let piece = if reduced {
-            let w = hi - lo;
-            [
-                edge_point(&m, i, lo - 0.5 * w, 0.0),
-                edge_point(&m, i, hi + 0.5 * w, 0.0),
-                edge_point(&m, i, 0.5 * (lo + hi), 2.0 * height),
-            ]
-            .to_vec()
-        } else {
-            [
-                edge_point(&m, i, lo, 0.0),
-                edge_point(&m, i, lo, height),
-                edge_point(&m, i, hi, height),
-                edge_point(&m, i, hi, 0.0),
-            ]
-            .to_vec()
-        };
-        pieces.push(finish(&l, &piece)?);
-    }
-    Some(ScreenBound::Union(pieces))
-}
-
-/// Wedge: the core mid triangle plus up to three slab rectangles (still triangles only).
-pub fn wedge(d: &EndDiscs) -> Option<ScreenBound> {
-    wedge_pieces(d, false)
-}
-
-/// Reduced wedge: the core mid triangle plus up to three triangles (still triangles only).
-pub fn reduced_wedge(d: &EndDiscs) -> Option<ScreenBound> {
-    wedge_pieces(d, true)
 }
 
 /// The adaptive policy (thesis §4.7 chooses per triangle; this policy is ours, set from the measured

@@ -707,16 +707,9 @@ fn polygon(b: &ScreenBound) -> &[Vec2] {
     }
 }
 
-fn union_pieces(b: &ScreenBound) -> &[Vec<Vec2>] {
-    match b {
-        ScreenBound::Union(p) => p,
-        _ => panic!("not a union: {b:?}"),
-    }
-}
-
 /// Vertex counts and inclusions that hold by construction for a still triangle whose mid triangle is
-/// not degenerate: 2D hexagon ⊆ parallel-edge triangle, wedge ⊆ reduced wedge, hull ⊆ box, each
-/// convex shape within its own box.
+/// not degenerate: 2D hexagon ⊆ parallel-edge triangle, the 3D hexagon's image ⊆ the wedge's, the
+/// reduced wedge = the wedge, hull ⊆ box, each convex shape within its own box.
 fn check_still_shapes(case: &Case) -> Result<(), TestCaseError> {
     let Case { k, tri } = case;
     let hull = bound(tri, k, BoundKind::ConvexHull);
@@ -725,9 +718,11 @@ fn check_still_shapes(case: &Case) -> Result<(), TestCaseError> {
     }
     let discs = EndDiscs::new(&tri.end_vertices(), k);
     prop_assert!(discs.is_still());
+    let volume =
+        |kind: BoundKind| matches!(kind, BoundKind::Hexagon3d | BoundKind::Wedge | BoundKind::ReducedWedge);
     if MidTriangle::new(&discs).is_none() {
         for kind in BoundKind::ALL {
-            if !matches!(kind, BoundKind::BoundingBox | BoundKind::Hexagon3d) {
+            if !volume(kind) && kind != BoundKind::BoundingBox {
                 prop_assert_eq!(&bound(tri, k, kind), &hull, "{:?} must fall back to the hull", kind);
             }
         }
@@ -742,11 +737,12 @@ fn check_still_shapes(case: &Case) -> Result<(), TestCaseError> {
     prop_assert!((min_corners..=3).contains(&polygon(pet).len()), "{pet:?}");
     prop_assert!((min_corners..=3).contains(&polygon(vrt).len()), "{vrt:?}");
     prop_assert!((min_corners..=6).contains(&polygon(hex2).len()), "{hex2:?}");
-    prop_assert!(polygon(hex3).len() <= 12, "{hex3:?}");
-    let (w, rw) = (union_pieces(wedge), union_pieces(rwedge));
-    prop_assert!(w.len() == rw.len() && (1..=4).contains(&w.len()));
-    prop_assert!((min_corners..=3).contains(&w[0].len()), "core triangle {w:?}");
-    prop_assert!(w.iter().skip(1).all(|p| p.len() <= 4) && rw.iter().all(|p| p.len() <= 3));
+    // The volumes' images: a hexagonal prism has 12 vertices, a triangular one 6 (clipping the big
+    // square can leave a near-duplicate vertex or four per cap: at most 2 (4 + lines)), or the hull
+    // when the prism reaches the near plane; the reduced wedge is the wedge's silhouette.
+    prop_assert!(polygon(hex3).len() <= 20.max(polygon(&hull).len()), "{hex3:?}");
+    prop_assert!(polygon(wedge).len() <= 14.max(polygon(&hull).len()), "{wedge:?}");
+    prop_assert_eq!(wedge, rwedge);
     let rel = |a: &ScreenBound, p: Vec2| tolerance(a, p);
     for &p in polygon(hex2) {
         prop_assert!(pet.contains(p, rel(pet, p)), "2D hexagon corner {p} outside {pet:?}");
@@ -757,12 +753,9 @@ fn check_still_shapes(case: &Case) -> Result<(), TestCaseError> {
         (tolerance(b, lo) * 2.0 * (hi - lo).element_sum()) as f64 * b.pieces().len() as f64
     };
     prop_assert!(hex2.area() <= pet.area() + area_tol(pet), "{hex2:?} vs {pet:?}");
-    for (slab, tri) in w.iter().zip(rw) {
-        for &p in slab {
-            prop_assert!(convex_contains(tri, p, rel(rwedge, p)), "wedge corner {p} outside {tri:?}");
-        }
+    if *hex3 != hull && *wedge != hull {
+        prop_assert!(hex3.area() <= wedge.area() * 1.01 + area_tol(wedge), "{hex3:?} vs {wedge:?}");
     }
-    prop_assert!(wedge.area() <= rwedge.area() + area_tol(rwedge), "{wedge:?} vs {rwedge:?}");
     for &p in polygon(&hull) {
         prop_assert!(bbox.contains(p, 0.0));
     }
@@ -845,7 +838,8 @@ fn random_cases_are_not_vacuous() {
         let own = st.own_shape[kind.id() as usize];
         match kind {
             BoundKind::ConvexHull => assert_eq!(own, 0),
-            BoundKind::Wedge | BoundKind::ReducedWedge => {
+            // The thesis' volumes: still triangles whose prism lies in front of the near plane.
+            BoundKind::Hexagon3d | BoundKind::Wedge | BoundKind::ReducedWedge => {
                 assert!(own * 20 > tight_per_kind, "{kind:?} {st:?}")
             }
             // Adaptive differs from the hull only where the blur is small against a still triangle
@@ -945,9 +939,13 @@ fn zero_motion_with_defocus() {
     ]);
     // Every thesis shape is built (the triangle is still), none falls back to the hull.
     let hull = bound(&tri, &k, BoundKind::ConvexHull);
-    for kind in
-        [BoundKind::ParallelEdgeTriangle, BoundKind::Hexagon2d, BoundKind::Wedge, BoundKind::ReducedWedge]
-    {
+    for kind in [
+        BoundKind::ParallelEdgeTriangle,
+        BoundKind::Hexagon2d,
+        BoundKind::Hexagon3d,
+        BoundKind::Wedge,
+        BoundKind::ReducedWedge,
+    ] {
         assert_ne!(bound(&tri, &k, kind), hull, "{kind:?}");
     }
     check_case(k, tri);
@@ -1328,17 +1326,12 @@ fn still_defocused_shapes_in_detail() {
     assert!((pet.area() - expect).abs() < 1e-3 * expect, "{} vs {expect}", pet.area());
     assert_eq!(polygon(hex2).len(), 6);
     assert!(hex2.area() < pet.area() && hex2.area() > tri_area);
-    // Three hexagons of one size: 6 edges + 3 bridges at most, here all of them.
-    assert!((9..=12).contains(&polygon(hex3).len()), "{hex3:?}");
-    // Wedge: the core and three slabs of height r (+ rounding) spanning the edge ± r.
-    let w = union_pieces(wedge);
-    assert_eq!(w.len(), 4);
-    for slab in &w[1..] {
-        assert_eq!(slab.len(), 4);
-        let (a, c) = ((slab[1] - slab[0]).length(), (slab[2] - slab[1]).length());
-        assert!((a.min(c) - 10.0).abs() < 1e-2, "{slab:?}");
-    }
-    assert!(rwedge.area() > wedge.area() && wedge.area() > hull.area());
+    // The thesis' volumes of a triangle facing the camera: its plane holds the discs, so the prisms
+    // are flat and their images are the image-space shapes — the wedge is the parallel-edge triangle,
+    // the 3D hexagon the 2D hexagon (the thesis' §4.4 "the 2D version is very similar").
+    assert!((wedge.area() / pet.area() - 1.0).abs() < 1e-3, "{wedge:?} vs {pet:?}");
+    assert!((hex3.area() / hex2.area() - 1.0).abs() < 1e-3, "{hex3:?} vs {hex2:?}");
+    assert_eq!(rwedge, wedge);
     assert!(hull.area() < bbox.area());
     // The adaptive choice: r = 10 px is under a quarter of the inradius (≈ 52 px).
     assert_eq!(adaptive_kind(&tri, &k), BoundKind::ParallelEdgeTriangle);
@@ -1376,10 +1369,12 @@ fn degenerate_mid_triangle_falls_back_to_the_hull() {
     for k in [hd(0.0, 4.0), hd(0.2, 4.0)] {
         let discs = EndDiscs::new(&tri.end_vertices(), &k);
         assert!(MidTriangle::new(&discs).is_none());
-        assert!(parallel_edge_triangle(&discs).is_none() && wedge(&discs).is_none());
+        assert!(parallel_edge_triangle(&discs).is_none());
         let hull = bound(&tri, &k, BoundKind::ConvexHull);
+        // The volumes are built in 3D, not from the (degenerate) image: they are not the hull.
         for kind in BoundKind::ALL {
-            if !matches!(kind, BoundKind::BoundingBox | BoundKind::Hexagon3d) {
+            let volume = matches!(kind, BoundKind::Hexagon3d | BoundKind::Wedge | BoundKind::ReducedWedge);
+            if !volume && kind != BoundKind::BoundingBox {
                 assert_eq!(bound(&tri, &k, kind), hull, "{kind:?}");
             }
         }
@@ -1407,9 +1402,11 @@ fn moving_wedges_fall_back_to_the_space_time_hull() {
         );
         check_case(k, tri);
     }
-    // Within rounding of still: still.
-    let tri = MovingTriangle { v0, v1: px.map(|p| at_pixel(&k, p + Vec2::new(1e-4, 0.0), z)) };
-    assert!(matches!(bound(&tri, &k, BoundKind::Wedge), ScreenBound::Union(_)));
+    // Still: the wedge's image, not the hull.
+    let tri = MovingTriangle::fixed(v0);
+    let wedge = bound(&tri, &k, BoundKind::Wedge);
+    assert!(matches!(&wedge, ScreenBound::Polygon(_)) && wedge != bound(&tri, &k, BoundKind::ConvexHull));
+    assert_eq!(bound(&tri, &k, BoundKind::ReducedWedge), wedge);
 }
 
 #[test]

@@ -1,9 +1,10 @@
 //! The thesis' view-space bounding volumes (Toth & Linder, §4.3–4.5 and §4.8.2), as the thesis builds
-//! them: closed volumes around the triangle's **discs of confusion** in view space, which the GPU will
-//! rasterize through the pinhole camera (hardware clipping instead of image-space special cases). This
-//! is the CPU definition and its proof (issue 11, step 1); the geometry-shader emission in clip space
-//! and the `BoundKind`s that draw them come next — until then `BoundKind::{ThreeDHexagon, Wedge,
-//! ReducedWedge}` still draw the earlier image-space reconstructions.
+//! them: closed volumes around the triangle's **discs of confusion** in view space, seen through the
+//! pinhole camera. [`super::BoundKind::Hexagon3d`], [`super::BoundKind::Wedge`] and
+//! [`super::BoundKind::ReducedWedge`] draw them (`super::bound`, `bound_volume_` in bounds.glsl).
+//! Departure: the thesis emits the prism as geometry and lets the hardware clip it; we draw its
+//! pinhole image — the convex hull of its projected vertices, the same region — when the prism lies
+//! in front of the near plane, and the space-time convex hull otherwise.
 //!
 //! **Disc of confusion.** Through lens point `L` (unit aperture) a point at view depth `z` lands
 //! `φ(z)·L` pixels from its pinhole projection; at depth `z` that is a lateral view-space offset of
