@@ -323,6 +323,38 @@ fn bounds_agree_on_focus_sweep() {
     assert_bounds_agree("focus-sweep", &scene, 96, 54, 4, &BoundKind::ALL);
 }
 
+/// The thesis' volumes (`3d-hexagon`, `wedge`, `reduced-wedge`: view-space prisms drawn by their
+/// pinhole image) bound the same samples as the box on still `focus-sweep` (327,680 strongly
+/// defocused triangles, one bound per triangle): identical images, and the same hits.
+#[test]
+fn thesis_volumes_change_the_cost_never_the_image() {
+    let mut r = renderer();
+    let scene = builtin_scene("focus-sweep").unwrap().unwrap();
+    let (w, h, spp) = (48, 27, 4);
+    let run = |r: &mut Renderer, kind: BoundKind| {
+        let o = StochasticOptions {
+            instrumented: true,
+            clusters: Clusters::Off,
+            ..options(kind, ShadingRate::PerPixel)
+        };
+        render(r, &scene, w, h, spp, 2, o)
+    };
+    let base = run(&mut r, BoundKind::BoundingBox);
+    for kind in [BoundKind::Hexagon3d, BoundKind::Wedge, BoundKind::ReducedWedge] {
+        let out = run(&mut r, kind);
+        let d = max_abs_diff(&base.image, &out.image);
+        let (a, b) = (base.stats.counters.unwrap(), out.stats.counters.unwrap());
+        println!(
+            "focus-sweep {}: max |Δ| {d:e}; tested {} (bbox {}), hit {}",
+            kind.name(),
+            b.samples_tested,
+            a.samples_tested,
+            b.samples_hit
+        );
+        assert!(d <= 1e-6, "{}: changes the image by {d}", kind.name());
+    }
+}
+
 /// Cluster bounds (one bound per cluster of triangles, a per-sample test of whether the sample can see
 /// the cluster before its triangles are tested) change the cost, never the image: on `focus-sweep`
 /// (a dense, strongly defocused sphere: far fewer fragments), `default` (clusters on some objects under
@@ -505,7 +537,13 @@ fn check_hard_case_at(name: &str, scene: &Scene, spp: u32) {
     let mut r = renderer();
     let mut same: Option<LinearImage> = None;
     let mut first: Option<LinearImage> = None;
-    for kind in [BoundKind::Adaptive, BoundKind::ConvexHull, BoundKind::BoundingBox, BoundKind::Wedge] {
+    for kind in [
+        BoundKind::Adaptive,
+        BoundKind::ConvexHull,
+        BoundKind::BoundingBox,
+        BoundKind::Wedge,
+        BoundKind::Hexagon3d,
+    ] {
         let out = render(&mut r, scene, w, h, spp, 5, options(kind, ShadingRate::PerPixel));
         assert_finite(name, &out.image);
         let same = same.get_or_insert_with(|| {
