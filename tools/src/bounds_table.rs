@@ -42,7 +42,82 @@ fn timed(
     Ok(median(out.iter().skip(a.warmup).map(|o| o.timings.total_ms()).collect()))
 }
 
+/// One measured configuration of [`run`]: samples per pixel, what was rendered, GPU ms, and for the
+/// stochastic bounds the sample test efficiency.
+pub struct Row {
+    pub spp: u32,
+    pub label: String,
+    pub ms: f64,
+    pub ste: Option<f64>,
+}
+
+/// [`run`] once per focus distance in `focus` (the scene's camera refocused, nothing else changed): a
+/// focus sweep like the thesis' §8 study. Markdown: per focus the full table, then one summary table
+/// per S — a row per focus distance, the GPU ms of every configuration and each bound's STE ÷ the box's.
+pub fn sweep(renderer: &mut Renderer, scene: &Scene, a: &BoundsTableArgs, focus: &[f32]) -> Result<String> {
+    let mut sections = String::new();
+    let mut all: Vec<(f32, Vec<Row>)> = vec![];
+    for &f in focus {
+        anyhow::ensure!(f.is_finite() && f > 0.0, "focus distance {f}: must be finite and > 0");
+        let mut s = scene.clone();
+        s.camera.focus_distance = f;
+        let (md, rows) = run_rows(renderer, &s, a)?;
+        sections.push_str(&format!("### focus distance {f}\n\n{md}\n"));
+        all.push((f, rows));
+    }
+    let mut md = String::new();
+    for &spp in &a.spp {
+        let labels: Vec<String> = all
+            .first()
+            .map(|(_, r)| r.iter().filter(|r| r.spp == spp).map(|r| r.label.clone()).collect())
+            .unwrap_or_default();
+        md.push_str(&format!("**S = {spp}: GPU ms per frame** (per focus distance)\n\n| focus |"));
+        for l in &labels {
+            md.push_str(&format!(" {l} |"));
+        }
+        md.push_str("\n|---:|");
+        md.push_str(&"---:|".repeat(labels.len()));
+        md.push('\n');
+        for (f, rows) in &all {
+            md.push_str(&format!("| {f} |"));
+            for r in rows.iter().filter(|r| r.spp == spp) {
+                md.push_str(&format!(" {:.1} |", r.ms));
+            }
+            md.push('\n');
+        }
+        md.push_str(&format!("\n**S = {spp}: STE ÷ the box's STE**\n\n| focus |"));
+        let bound_labels: Vec<&String> =
+            labels.iter().filter(|l| !l.starts_with("pinhole") && !l.starts_with("accumulation")).collect();
+        for l in &bound_labels {
+            md.push_str(&format!(" {l} |"));
+        }
+        md.push_str("\n|---:|");
+        md.push_str(&"---:|".repeat(bound_labels.len()));
+        md.push('\n');
+        for (f, rows) in &all {
+            md.push_str(&format!("| {f} |"));
+            let bbox = rows.iter().find(|r| r.spp == spp && r.label == "bbox").and_then(|r| r.ste);
+            for r in rows.iter().filter(|r| r.spp == spp && r.ste.is_some()) {
+                let rel = match (r.ste, bbox) {
+                    (Some(x), Some(b)) if b > 0.0 => format!("{:.2}", x / b),
+                    _ => "–".into(),
+                };
+                md.push_str(&format!(" {rel} |"));
+            }
+            md.push('\n');
+        }
+        md.push('\n');
+    }
+    md.push_str(&sections);
+    Ok(md)
+}
+
 pub fn run(renderer: &mut Renderer, scene: &Scene, a: &BoundsTableArgs) -> Result<String> {
+    Ok(run_rows(renderer, scene, a)?.0)
+}
+
+fn run_rows(renderer: &mut Renderer, scene: &Scene, a: &BoundsTableArgs) -> Result<(String, Vec<Row>)> {
+    let mut rows = vec![];
     let caps = &renderer.device().caps;
     let mut md = format!(
         "Scene `{}`, {}×{}, shading {}, device {} ({}), median of {} frame(s) after {} warm-up frame(s).\n\n",
@@ -61,9 +136,11 @@ pub fn run(renderer: &mut Renderer, scene: &Scene, a: &BoundsTableArgs) -> Resul
         let base = RenderSettings::new(a.width, a.height, spp, a.seed);
         let ms = timed(renderer, scene, Technique::PINHOLE, &base, a)?;
         md.push_str(&format!("| {spp} | pinhole (MSAA 4×, no blur) | – | {ms:.1} | | | | | |\n"));
+        rows.push(Row { spp, label: "pinhole".into(), ms, ste: None });
         eprintln!("S={spp} pinhole {ms:.1} ms");
         let ms = timed(renderer, scene, Technique::ACCUMULATION, &base, a)?;
         md.push_str(&format!("| {spp} | accumulation ({spp} passes) | – | {ms:.1} | | | | | |\n"));
+        rows.push(Row { spp, label: "accumulation".into(), ms, ste: None });
         eprintln!("S={spp} accumulation {ms:.1} ms");
         let mut bbox_ste = None;
         for &bound in &a.bounds {
@@ -94,7 +171,8 @@ pub fn run(renderer: &mut Renderer, scene: &Scene, a: &BoundsTableArgs) -> Resul
                 c.samples_hit
             ));
             eprintln!("S={spp} {} {ms:.1} ms STE {ste:.4}", bound.name());
+            rows.push(Row { spp, label: bound.name().into(), ms, ste: Some(ste) });
         }
     }
-    Ok(md)
+    Ok((md, rows))
 }

@@ -123,6 +123,10 @@ enum Command {
         /// Untimed frames first (lavapipe compiles shaders lazily, on the first frame: about 1 s).
         #[arg(long, default_value_t = 1)]
         warmup: usize,
+        /// A focus sweep: the table once per focus distance (comma-separated), the camera refocused,
+        /// with summary tables of ms and STE per focus distance (the thesis' §8 study).
+        #[arg(long, value_delimiter = ',')]
+        focus: Vec<f32>,
         #[command(flatten)]
         image: ImageArgs,
     },
@@ -450,6 +454,7 @@ fn run() -> Result<()> {
             shading,
             frames,
             warmup,
+            focus,
             image: ImageArgs { size, seed, out },
         } => {
             let sc = load_scene(&scene)?;
@@ -470,7 +475,11 @@ fn run() -> Result<()> {
                 seed: seed.unwrap_or(sc.image.seed),
             };
             let mut renderer = Renderer::new(shutter::vk::create_device()?)?;
-            let md = bounds_table::run(&mut renderer, &sc, &args)?;
+            let md = if focus.is_empty() {
+                bounds_table::run(&mut renderer, &sc, &args)?
+            } else {
+                bounds_table::sweep(&mut renderer, &sc, &args, &focus)?
+            };
             println!("{md}");
             if let Some(out) = out {
                 std::fs::write(&out, &md).with_context(|| format!("writing {}", out.display()))?;

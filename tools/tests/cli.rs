@@ -59,6 +59,33 @@ fn probe_and_scenes_work() {
         out.contains("| stochastic:bound=bbox |") && out.contains("calibration entry for this device"),
         "{out}"
     );
+    // A focus sweep of the bounds table: a section per focus distance and the summary tables.
+    let (code, out, err) = shutter(&[
+        "bounds",
+        "default",
+        "--size",
+        "32x18",
+        "--spp",
+        "2",
+        "--bounds",
+        "bbox,wedge",
+        "--frames",
+        "1",
+        "--warmup",
+        "0",
+        "--focus",
+        "3,12",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    assert!(
+        out.contains("### focus distance 3")
+            && out.contains("### focus distance 12")
+            && out.contains("**S = 2: STE ÷ the box's STE**")
+            && out.contains("| 12 |"),
+        "{out}"
+    );
+    let (code, _, err) = shutter(&["bounds", "default", "--size", "8x8", "--focus", "0"]);
+    assert!(code != 0 && err.contains("focus distance"), "{err}");
     let (code, out, _) = shutter(&["scenes"]);
     assert_eq!(code, 0);
     for s in ["default", "static", "focus-sweep"] {
