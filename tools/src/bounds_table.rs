@@ -67,49 +67,58 @@ pub fn sweep(renderer: &mut Renderer, scene: &Scene, a: &BoundsTableArgs, focus:
     }
     let mut md = String::new();
     for &spp in &a.spp {
-        let labels: Vec<String> = all
-            .first()
-            .map(|(_, r)| r.iter().filter(|r| r.spp == spp).map(|r| r.label.clone()).collect())
-            .unwrap_or_default();
-        md.push_str(&format!("**S = {spp}: GPU ms per frame** (per focus distance)\n\n| focus |"));
-        for l in &labels {
-            md.push_str(&format!(" {l} |"));
-        }
-        md.push_str("\n|---:|");
-        md.push_str(&"---:|".repeat(labels.len()));
-        md.push('\n');
-        for (f, rows) in &all {
-            md.push_str(&format!("| {f} |"));
-            for r in rows.iter().filter(|r| r.spp == spp) {
-                md.push_str(&format!(" {:.1} |", r.ms));
-            }
-            md.push('\n');
-        }
-        md.push_str(&format!("\n**S = {spp}: STE ÷ the box's STE**\n\n| focus |"));
-        let bound_labels: Vec<&String> =
-            labels.iter().filter(|l| !l.starts_with("pinhole") && !l.starts_with("accumulation")).collect();
-        for l in &bound_labels {
-            md.push_str(&format!(" {l} |"));
-        }
-        md.push_str("\n|---:|");
-        md.push_str(&"---:|".repeat(bound_labels.len()));
-        md.push('\n');
-        for (f, rows) in &all {
-            md.push_str(&format!("| {f} |"));
-            let bbox = rows.iter().find(|r| r.spp == spp && r.label == "bbox").and_then(|r| r.ste);
-            for r in rows.iter().filter(|r| r.spp == spp && r.ste.is_some()) {
-                let rel = match (r.ste, bbox) {
-                    (Some(x), Some(b)) if b > 0.0 => format!("{:.2}", x / b),
-                    _ => "–".into(),
-                };
-                md.push_str(&format!(" {rel} |"));
-            }
-            md.push('\n');
-        }
-        md.push('\n');
+        md.push_str(&summary_table(
+            &format!("**S = {spp}: GPU ms per frame** (per focus distance)"),
+            &all,
+            spp,
+            |r, _| Some(format!("{:.1}", r.ms)),
+        ));
+        md.push_str(&summary_table(&format!("**S = {spp}: STE ÷ the box's STE**"), &all, spp, |r, rows| {
+            let ste = r.ste?;
+            let bbox = rows.iter().find(|b| b.spp == spp && b.label == "bbox").and_then(|b| b.ste);
+            Some(match bbox {
+                Some(b) if b > 0.0 => format!("{:.2}", ste / b),
+                _ => "–".into(),
+            })
+        }));
     }
     md.push_str(&sections);
     Ok(md)
+}
+
+/// One summary table of a sweep under `heading`: a row per focus distance, a column per configuration
+/// of S = `spp` for which `cell(row, all rows of that focus)` gives a value.
+fn summary_table(
+    heading: &str,
+    all: &[(f32, Vec<Row>)],
+    spp: u32,
+    cell: impl Fn(&Row, &[Row]) -> Option<String>,
+) -> String {
+    let columns: Vec<&str> = all
+        .first()
+        .map(|(_, rows)| {
+            rows.iter()
+                .filter(|r| r.spp == spp && cell(r, rows).is_some())
+                .map(|r| r.label.as_str())
+                .collect()
+        })
+        .unwrap_or_default();
+    let mut md = format!("{heading}\n\n| focus |");
+    for c in &columns {
+        md.push_str(&format!(" {c} |"));
+    }
+    md.push_str(&format!("\n|---:|{}\n", "---:|".repeat(columns.len())));
+    for (f, rows) in all {
+        md.push_str(&format!("| {f} |"));
+        for r in rows.iter().filter(|r| r.spp == spp) {
+            if let Some(v) = cell(r, rows) {
+                md.push_str(&format!(" {v} |"));
+            }
+        }
+        md.push('\n');
+    }
+    md.push('\n');
+    md
 }
 
 pub fn run(renderer: &mut Renderer, scene: &Scene, a: &BoundsTableArgs) -> Result<String> {

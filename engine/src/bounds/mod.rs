@@ -329,11 +329,12 @@ fn volume_silhouette(
     if !volumes::in_front_of_near(&v, k) {
         return None;
     }
-    let points: Vec<Vec2> = v.vertices.iter().map(|&p| k.project(p, Vec2::ZERO)).collect();
-    if points.iter().any(|p| !p.is_finite()) {
-        return None;
+    // Wholly in front of the near plane, the image is the hull of the projected vertices (a
+    // non-finite projection makes it the viewport: fall back).
+    match volumes::screen_region(&v, k) {
+        b @ ScreenBound::Polygon(_) => Some(b),
+        _ => None,
     }
-    Some(ScreenBound::Polygon(convex_hull(&points)))
 }
 
 /// The concrete kind [`BoundKind::Adaptive`] resolves to for `tri` (see [`shapes::adaptive_kind_of`]

@@ -567,18 +567,29 @@ fn check_volumes(case: &Case, seed: u64, samples: usize) -> Result<u64, TestCase
     Ok(checked)
 }
 
-#[test]
-fn thesis_volumes_hold_every_visible_point() {
-    let mut runner = proptest::test_runner::TestRunner::new(config(3000));
+/// Runs `check` over `cases` random cases of `strategy` (each with a seed) and returns the sum of what
+/// it counted, so a property test can assert it did not pass vacuously.
+fn run_counted(
+    strategy: impl Strategy<Value = Case>,
+    cases: u32,
+    check: impl Fn(&Case, u64) -> Result<u64, TestCaseError>,
+) -> u64 {
+    let mut runner = proptest::test_runner::TestRunner::new(config(cases));
     let checked = std::cell::Cell::new(0u64);
     runner
-        .run(&(still_case(), any::<u64>()), |(case, seed)| {
-            checked.set(checked.get() + check_volumes(&case, seed, 32)?);
+        .run(&(strategy, any::<u64>()), |(case, seed)| {
+            checked.set(checked.get() + check(&case, seed)?);
             Ok(())
         })
         .unwrap();
-    println!("{} points checked", checked.get());
-    assert!(checked.get() > 20_000, "{} points checked", checked.get());
+    checked.get()
+}
+
+#[test]
+fn thesis_volumes_hold_every_visible_point() {
+    let checked = run_counted(still_case(), 3000, |case, seed| check_volumes(case, seed, 32));
+    println!("{checked} points checked");
+    assert!(checked > 20_000, "{checked} points checked");
 }
 
 /// With a pinhole the discs are points: both prisms are the triangle itself (flat), and their image is
@@ -612,16 +623,9 @@ fn thesis_volumes_of_a_sharp_triangle_are_the_triangle() {
 /// cannot pass vacuously.
 #[test]
 fn cluster_bounds_hold_every_hit() {
-    let mut runner = proptest::test_runner::TestRunner::new(config(2000));
-    let checked = std::cell::Cell::new(0u64);
-    runner
-        .run(&(any_case(), any::<u64>()), |(case, seed)| {
-            checked.set(checked.get() + check_cluster(&case, seed, 48)?);
-            Ok(())
-        })
-        .unwrap();
-    println!("{} hits checked", checked.get());
-    assert!(checked.get() > 10_000, "{} hits checked", checked.get());
+    let checked = run_counted(any_case(), 2000, |case, seed| check_cluster(case, seed, 48));
+    println!("{checked} hits checked");
+    assert!(checked > 10_000, "{checked} hits checked");
 }
 
 proptest! {

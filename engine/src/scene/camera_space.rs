@@ -15,7 +15,7 @@
 use glam::{Mat3, Mat4, Vec3};
 
 use super::{Light, Scene};
-use crate::geometry::{KeyTimes, MovingTriangle};
+use crate::geometry::KeyTimes;
 use crate::shading::ShadingLight;
 
 /// An object's model-view transforms at its motion keys.
@@ -50,20 +50,6 @@ impl ObjectMotion {
     /// Camera-space (unnormalised) normal at every key.
     pub fn normals(&self, n: Vec3) -> Vec<Vec3> {
         self.normal_matrix.iter().map(|m| *m * n).collect()
-    }
-    /// Camera-space position of `p` at shutter time `t` (through its key segment, as every renderer).
-    pub fn position_at(&self, p: Vec3, t: f32) -> Vec3 {
-        let (j, s) = self.keys.locate(t);
-        let (a, b) = (self.model_view[j].transform_point3(p), self.model_view[j + 1].transform_point3(p));
-        a + (b - a) * s
-    }
-    /// The triangle with object-space vertices `v` over key segment `j` (its vertices at keys `j` and
-    /// `j + 1`; [`MovingTriangle::at`] takes the segment's local time).
-    pub fn segment_triangle(&self, v: [Vec3; 3], j: usize) -> MovingTriangle {
-        MovingTriangle {
-            v0: v.map(|p| self.model_view[j].transform_point3(p)),
-            v1: v.map(|p| self.model_view[j + 1].transform_point3(p)),
-        }
     }
 }
 

@@ -69,10 +69,6 @@ pub struct Object {
 }
 
 impl Object {
-    /// An object that does not move.
-    pub fn still(name: impl Into<String>, mesh: Arc<Mesh>, transform: Mat4, material: Material) -> Self {
-        Object { name: name.into(), mesh, transforms: vec![(0.0, transform)], material }
-    }
     /// The transform at shutter open.
     pub fn transform_open(&self) -> Mat4 {
         self.transforms[0].1

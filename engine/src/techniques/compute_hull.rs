@@ -264,12 +264,8 @@ impl ComputeHull {
                         d.raw.cmd_bind_descriptor_sets(cmd, bind, layout, OBJECT_SET_INDEX, &sets, &[]);
                         let keys = &object_keys[i];
                         let segment_count = keys.segments() as u32;
-                        let (segment_begin, segments, t0, t1) = if effects.motion() {
-                            (0, segment_count, 0.0, 1.0)
-                        } else {
-                            let (j, s) = keys.locate(0.5);
-                            (j as u32, 1, s, s)
-                        };
+                        let (segment_begin, segments, t0, t1) =
+                            super::stochastic::bounded_segments(keys, effects.motion());
                         let push = ExpandPush {
                             object: i as u32,
                             triangle_count: o.triangle_count(),

@@ -147,12 +147,11 @@ impl std::str::FromStr for Clusters {
             "off" => return Ok(Clusters::Off),
             _ => {}
         }
-        match s.parse::<u32>() {
-            Ok(n) if n.is_power_of_two() && n <= MAX_CLUSTER_TRIANGLES => Ok(Clusters::Fixed(n)),
-            _ => Err(Error::Unsupported(format!(
+        power_of_two_at_most(s, MAX_CLUSTER_TRIANGLES).map(Clusters::Fixed).ok_or_else(|| {
+            Error::Unsupported(format!(
                 "clusters `{s}`: `auto`, `off` or a power of two up to {MAX_CLUSTER_TRIANGLES} (triangles per cluster)"
-            ))),
-        }
+            ))
+        })
     }
 }
 
@@ -193,32 +192,41 @@ pub fn choose_cluster_order(
 ) -> (Vec<u32>, Option<f32>) {
     let stored: Vec<u32> = (0..mesh.triangle_count() as u32).collect();
     let morton = crate::bounds::cluster::cluster_order(mesh);
-    let a = mean_cluster_area_px(mesh, &stored, model_view, k, n);
-    let b = mean_cluster_area_px(mesh, &morton, model_view, k, n);
+    // The vertices projected once for both orders.
+    let projected = project_vertices(mesh, model_view, k);
+    let a = mean_cluster_area(mesh, &projected, &stored, n);
+    let b = mean_cluster_area(mesh, &projected, &morton, n);
     match (a, b) {
         (Some(a), Some(b)) if a <= b => (stored, Some(a)),
         (_, b) => (morton, b),
     }
 }
 
-/// Mean area in pixels of the lens-centre screen boxes of `mesh`'s clusters of `n` triangles (runs of
-/// `order`) through `model_view` (the object at shutter open) — how compact its clusters are on
-/// screen; `None` when a vertex is at or behind the near plane of `k`.
-pub fn mean_cluster_area_px(
+/// Lens-centre pixel positions of `mesh`'s vertices through `model_view`; `None` for a vertex at or
+/// behind the near plane of `k`.
+fn project_vertices(
     mesh: &crate::scene::Mesh,
-    order: &[u32],
     model_view: glam::Mat4,
     k: &crate::scene::Intrinsics,
-    n: usize,
-) -> Option<f32> {
-    let projected: Vec<Option<glam::Vec2>> = mesh
-        .positions
+) -> Vec<Option<glam::Vec2>> {
+    mesh.positions
         .iter()
         .map(|&p| {
             let v = model_view.transform_point3(p);
             (-v.z > k.near).then(|| k.project(v, glam::Vec2::ZERO))
         })
-        .collect();
+        .collect()
+}
+
+/// Mean area of the pixel boxes of the clusters of `n` triangles (runs of `order`) of `mesh`, whose
+/// vertices project to `projected`; `None` when a clustered vertex has no projection or there is no
+/// cluster.
+fn mean_cluster_area(
+    mesh: &crate::scene::Mesh,
+    projected: &[Option<glam::Vec2>],
+    order: &[u32],
+    n: usize,
+) -> Option<f32> {
     let (mut sum, mut count) = (0.0f64, 0usize);
     for cluster in order.chunks(n.max(1)) {
         let (mut lo, mut hi) = (glam::Vec2::INFINITY, glam::Vec2::NEG_INFINITY);
@@ -232,6 +240,32 @@ pub fn mean_cluster_area_px(
         count += 1;
     }
     (count > 0).then(|| (sum / count as f64) as f32)
+}
+
+/// The key segments an object's bounds span over the whole shutter, as `(first segment, segment count,
+/// t0, t1)` with `[t0, t1]` the local times bounded in each: every segment over (0, 1) for an object
+/// drawn with motion, the one segment holding mid-shutter at its local time (t0 = t1) for one drawn
+/// without (NO_MOTION). Shared by the coverage draws, the cluster bounds and the compute-expanded hull.
+pub fn bounded_segments(keys: &KeyTimes, motion: bool) -> (u32, u32, f32, f32) {
+    if motion {
+        (0, keys.segments() as u32, 0.0, 1.0)
+    } else {
+        let (j, s) = keys.locate(0.5);
+        (j as u32, 1, s, s)
+    }
+}
+
+/// Mean area in pixels of the lens-centre screen boxes of `mesh`'s clusters of `n` triangles (runs of
+/// `order`) through `model_view` (the object at shutter open) — how compact its clusters are on
+/// screen; `None` when a vertex is at or behind the near plane of `k`.
+pub fn mean_cluster_area_px(
+    mesh: &crate::scene::Mesh,
+    order: &[u32],
+    model_view: glam::Mat4,
+    k: &crate::scene::Intrinsics,
+    n: usize,
+) -> Option<f32> {
+    mean_cluster_area(mesh, &project_vertices(mesh, model_view, k), order, n)
 }
 
 /// How many shutter sub-intervals an object's samples are bounded in, per pass. The samples of a pixel
@@ -249,18 +283,22 @@ pub enum Intervals {
     Fixed(u32),
 }
 
+/// `s` as a power of two no larger than `max` (the numeric values of [`Intervals`] and [`Clusters`]).
+fn power_of_two_at_most(s: &str, max: u32) -> Option<u32> {
+    s.parse::<u32>().ok().filter(|n| n.is_power_of_two() && *n <= max)
+}
+
 impl std::str::FromStr for Intervals {
     type Err = Error;
     fn from_str(s: &str) -> Result<Self> {
         if s == "auto" {
             return Ok(Intervals::Auto);
         }
-        match s.parse::<u32>() {
-            Ok(k) if k.is_power_of_two() && k <= MAX_STOCHASTIC_SPP => Ok(Intervals::Fixed(k)),
-            _ => Err(Error::Unsupported(format!(
+        power_of_two_at_most(s, MAX_STOCHASTIC_SPP).map(Intervals::Fixed).ok_or_else(|| {
+            Error::Unsupported(format!(
                 "intervals `{s}`: `auto` or a power of two up to {MAX_STOCHASTIC_SPP}"
-            ))),
-        }
+            ))
+        })
     }
 }
 
@@ -1210,14 +1248,9 @@ impl StochasticDraws {
                     let sets = [o.set, self.object_sets[i]];
                     d.raw.cmd_bind_descriptor_sets(cmd, bind, layout, OBJECT_SET_INDEX, &sets, &[]);
                     let keys = &self.object_keys[i];
-                    let segments: Vec<(u32, f32, f32)> = if effects.motion() {
-                        (0..keys.segments() as u32).map(|j| (j, 0.0, 1.0)).collect()
-                    } else {
-                        let (j, s) = keys.locate(0.5);
-                        vec![(j as u32, s, s)]
-                    };
+                    let (first, count, t0, t1) = bounded_segments(keys, effects.motion());
                     let n = self.object_clusters[i];
-                    for (segment, t0, t1) in segments {
+                    for segment in first..first + count {
                         let push = ClustersPush {
                             triangle_count: o.triangle_count(),
                             cluster_size: n,
@@ -1364,8 +1397,8 @@ impl StochasticDraws {
             if seg != 0 {
                 return None;
             }
-            let (j, s) = keys.locate(0.5);
-            return Some(StochasticPush { t0: s, t1: s, segment: j as u32, ..base });
+            let (segment, _, t0, t1) = bounded_segments(keys, false);
+            return Some(StochasticPush { t0, t1, segment, ..base });
         }
         // The run's samples' shutter times: [ξ0, ξ1) of the unwarped time, through the shutter curve
         // (monotone, the very function that warped the samples; it maps 0 to 0 and 1 to 1 exactly, so
