@@ -921,3 +921,51 @@ fn compute_hull_overflow_grows_the_buffer_and_loses_nothing() {
     }
     assert!(max_abs_diff(&images[0], &images[1]) <= 1e-6, "the overflowed expansion lost coverage");
 }
+
+/// The thesis' per-object level of adaptive switching (§4.7): each object draws the kind its own blur
+/// selects. On the focus-sweep study's scene (the statue nearly sharp, the buildings blurred) with the
+/// box for sharp objects and the hull for blurred ones: the image and the hits are the box's, and the
+/// samples tested are exactly the statue's under the box plus the buildings' under the hull, each
+/// measured on a scene of that part alone (no depth test in the coverage pass: the counts add up).
+#[test]
+fn per_object_bounds_follow_each_objects_blur() {
+    use shutter::plan::Plan;
+    use shutter::techniques::{BoundChoice, ObjectBoundPolicy};
+    let mut r = renderer();
+    let scene = doc_scene("thesis-sweep");
+    let (w, h, spp) = (80, 45, 4);
+    let plan = Plan::new(&scene, w, h);
+    let statue = plan.objects.iter().find(|o| o.name == "statue").expect("statue").max_coc_px;
+    let buildings = plan.objects.iter().filter(|o| o.name != "statue").map(|o| o.max_coc_px);
+    let least_building = buildings.fold(f32::INFINITY, f32::min);
+    assert!(statue < least_building, "statue {statue} px, buildings from {least_building} px");
+    let policy = ObjectBoundPolicy {
+        sharp: BoundKind::BoundingBox,
+        blurred: BoundKind::ConvexHull,
+        threshold_px: 0.5 * (statue + least_building),
+    };
+    let run = |r: &mut Renderer, scene: &Scene, bound: BoundChoice| {
+        let o =
+            StochasticOptions { bound, instrumented: true, clusters: Clusters::Off, ..Default::default() };
+        render(r, scene, w, h, spp, 5, o)
+    };
+    let part = |keep_statue: bool| {
+        let mut s = scene.clone();
+        s.objects.retain(|o| (o.name == "statue") == keep_statue);
+        s
+    };
+    let mixed = run(&mut r, &scene, BoundChoice::PerObject(policy));
+    let boxed = run(&mut r, &scene, BoundKind::BoundingBox.into());
+    let d = max_abs_diff(&boxed.image, &mixed.image);
+    assert!(d <= 1e-6, "per-object bounds change the image by {d}");
+    let (m, b) = (mixed.stats.counters.unwrap(), boxed.stats.counters.unwrap());
+    assert_eq!(m.samples_hit, b.samples_hit);
+    let statue_boxed = run(&mut r, &part(true), BoundKind::BoundingBox.into()).stats.counters.unwrap();
+    let buildings_hull = run(&mut r, &part(false), BoundKind::ConvexHull.into()).stats.counters.unwrap();
+    println!(
+        "per-object: tested {} = statue (bbox) {} + buildings (hull) {}; all bbox {}",
+        m.samples_tested, statue_boxed.samples_tested, buildings_hull.samples_tested, b.samples_tested
+    );
+    assert_eq!(m.samples_tested, statue_boxed.samples_tested + buildings_hull.samples_tested);
+    assert!(m.samples_tested < b.samples_tested, "the hull tests fewer samples on the buildings");
+}

@@ -212,7 +212,7 @@ pub fn run(renderer: &mut Renderer, scene: &Scene, a: &BenchArgs) -> Result<Benc
             label: c.label.clone(),
             technique: c.technique.name().into(),
             spp: c.settings.spp,
-            bound: if stochastic_options { c.settings.stochastic.bound.name().into() } else { "-".into() },
+            bound: if stochastic_options { c.settings.stochastic.bound.name() } else { "-".into() },
             shading: if stochastic_options {
                 c.settings.stochastic.shading.name().into()
             } else {

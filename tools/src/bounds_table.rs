@@ -5,14 +5,16 @@
 
 use anyhow::Result;
 use shutter::bounds::BoundKind;
+use shutter::plan::Plan;
 use shutter::scene::Scene;
 use shutter::techniques::{
-    RenderOutput, RenderSettings, Renderer, ShadingRate, StochasticOptions, Technique,
+    BoundChoice, ObjectBoundPolicy, RenderOutput, RenderSettings, Renderer, SampleCounters, ShadingRate,
+    StochasticOptions, Technique,
 };
 
 pub struct BoundsTableArgs {
     pub spp: Vec<u32>,
-    pub bounds: Vec<BoundKind>,
+    pub bounds: Vec<BoundChoice>,
     pub shading: ShadingRate,
     pub frames: usize,
     pub warmup: usize,
@@ -154,34 +156,184 @@ fn run_rows(renderer: &mut Renderer, scene: &Scene, a: &BoundsTableArgs) -> Resu
         let mut bbox_ste = None;
         for &bound in &a.bounds {
             // One bound per triangle: cluster bounds would replace the bound under test.
-            let opts = StochasticOptions {
-                bound: bound.into(),
-                shading: a.shading,
-                instrumented: true,
-                clusters: shutter::techniques::Clusters::Off,
-                ..Default::default()
-            };
-            let counted = renderer.render(scene, Technique::STOCHASTIC, &base.with_stochastic(opts))?;
-            let c = counted.stats.counters.expect("instrumented render has counters");
+            let (c, ms, (passes, msaa)) = measure(renderer, scene, &base, bound, a)?;
             let ste = c.sample_test_efficiency();
-            if bound == BoundKind::BoundingBox {
+            if bound == BoundChoice::Kind(BoundKind::BoundingBox) {
                 bbox_ste = Some(ste);
             }
-            let settings = base.with_stochastic(StochasticOptions { instrumented: false, ..opts });
-            let ms = timed(renderer, scene, Technique::STOCHASTIC, &settings, a)?;
             let rel = bbox_ste.map(|b| format!("{:.2}", ste / b)).unwrap_or_default();
             md.push_str(&format!(
-                "| {spp} | stochastic ({} × {} MSAA) | {} | {ms:.1} | {} | {} | {} | {ste:.4} | {rel} |\n",
-                counted.stats.passes,
-                counted.stats.msaa_samples,
+                "| {spp} | stochastic ({passes} × {msaa} MSAA) | {} | {ms:.1} | {} | {} | {} | {ste:.4} | {rel} |\n",
                 bound.name(),
                 c.fragments,
                 c.samples_tested,
                 c.samples_hit
             ));
             eprintln!("S={spp} {} {ms:.1} ms STE {ste:.4}", bound.name());
-            rows.push(Row { spp, label: bound.name().into(), ms, ste: Some(ste) });
+            rows.push(Row { spp, label: bound.name(), ms, ste: Some(ste) });
         }
     }
     Ok((md, rows))
+}
+
+/// One stochastic configuration with `bound`: the counters of an instrumented frame, the median GPU ms
+/// of uninstrumented frames, and (passes, MSAA samples). One bound per triangle: cluster bounds would
+/// replace the bound under test.
+fn measure(
+    renderer: &mut Renderer,
+    scene: &Scene,
+    base: &RenderSettings,
+    bound: BoundChoice,
+    a: &BoundsTableArgs,
+) -> Result<(SampleCounters, f64, (u32, u32))> {
+    let opts = StochasticOptions {
+        bound,
+        shading: a.shading,
+        instrumented: true,
+        clusters: shutter::techniques::Clusters::Off,
+        ..Default::default()
+    };
+    let counted = renderer.render(scene, Technique::STOCHASTIC, &base.with_stochastic(opts))?;
+    let c = counted.stats.counters.expect("instrumented render has counters");
+    let settings = base.with_stochastic(StochasticOptions { instrumented: false, ..opts });
+    let ms = timed(renderer, scene, Technique::STOCHASTIC, &settings, a)?;
+    Ok((c, ms, (counted.stats.passes, counted.stats.msaa_samples)))
+}
+
+/// One split of a focus distance's objects: its threshold (px; −1: none sharp), samples tested, GPU ms.
+type Split = (f32, u64, f64);
+
+/// The per-object threshold of `sharp`/`blurred` ([`ObjectBoundPolicy`]) measured on a focus sweep.
+/// Per focus distance, every object's largest circle of confusion (the plan's) splits the objects in
+/// at most n + 1 ways (sharp up to a threshold); each split is rendered, counted and timed. A global
+/// threshold picks one split per focus distance, so its sweep totals follow from those rows: the
+/// table gives, per candidate threshold (each object radius seen, and "all blurred"), the samples
+/// tested and the GPU ms summed over the sweep, first S only.
+pub fn per_object_sweep(
+    renderer: &mut Renderer,
+    scene: &Scene,
+    a: &BoundsTableArgs,
+    focus: &[f32],
+    (sharp, blurred): (BoundKind, BoundKind),
+) -> Result<String> {
+    let spp = *a.spp.first().ok_or_else(|| anyhow::anyhow!("--spp: need one value"))?;
+    let base = RenderSettings::new(a.width, a.height, spp, a.seed);
+    // Per focus: the object radii and the splits measured.
+    let mut per_focus: Vec<(Vec<f32>, Vec<Split>)> = vec![];
+    let mut md = format!(
+        "Per-object switching {} (at most the threshold) / {} (above), scene `{}`, {}×{}, S = {spp}, \
+         shading {}, device {} ({}), median of {} frame(s) after {} warm-up frame(s).\n\n",
+        sharp.name(),
+        blurred.name(),
+        scene.name,
+        a.width,
+        a.height,
+        a.shading.name(),
+        renderer.device().caps.device_name,
+        renderer.device().caps.driver_info,
+        a.frames,
+        a.warmup
+    );
+    md.push_str(
+        "| focus | objects' largest CoC, px | threshold px | sharp objects | samples tested | GPU ms |\n",
+    );
+    md.push_str("|---:|---|---:|---:|---:|---:|\n");
+    for &f in focus {
+        anyhow::ensure!(f.is_finite() && f > 0.0, "focus distance {f}: must be finite and > 0");
+        let mut s = scene.clone();
+        s.camera.focus_distance = f;
+        let radii: Vec<f32> = Plan::new(&s, a.width, a.height)
+            .objects
+            .iter()
+            .filter(|o| o.triangles > 0 && !o.culled)
+            .map(|o| o.max_coc_px)
+            .collect();
+        let mut splits: Vec<f32> = std::iter::once(-1.0).chain(radii.iter().copied()).collect();
+        splits.sort_by(|x, y| x.total_cmp(y));
+        splits.dedup();
+        let shown: Vec<String> = radii.iter().map(|r| format!("{r:.1}")).collect();
+        let mut rows = vec![];
+        for &t in &splits {
+            let policy = ObjectBoundPolicy { sharp, blurred, threshold_px: t };
+            let (c, ms, _) = measure(renderer, &s, &base, BoundChoice::PerObject(policy), a)?;
+            let n_sharp = radii.iter().filter(|&&r| r <= t).count();
+            md.push_str(&format!(
+                "| {f} | {} | {} | {n_sharp} | {} | {ms:.1} |\n",
+                shown.join(", "),
+                if t < 0.0 { "–".to_string() } else { format!("{t:.3}") },
+                c.samples_tested
+            ));
+            eprintln!("focus {f} threshold {t:.2}: {n_sharp} sharp, {} tested, {ms:.1} ms", c.samples_tested);
+            rows.push((t, c.samples_tested, ms));
+        }
+        per_focus.push((radii, rows));
+    }
+    let mut candidates: Vec<f32> = per_focus.iter().flat_map(|(r, _)| r.iter().copied()).collect();
+    candidates.push(-1.0);
+    candidates.sort_by(|x, y| x.total_cmp(y));
+    candidates.dedup();
+    let totals: Vec<(f32, u64, f64)> = candidates
+        .iter()
+        .map(|&g| {
+            let (mut tested, mut ms) = (0u64, 0.0f64);
+            for (_, rows) in &per_focus {
+                // This focus distance's split for threshold g: the largest split threshold ≤ g.
+                let row = rows.iter().rev().find(|r| r.0 <= g).expect("the -1 split is ≤ every g");
+                tested += row.1;
+                ms += row.2;
+            }
+            (g, tested, ms)
+        })
+        .collect();
+    let best_tested = totals.iter().min_by_key(|t| t.1).expect("non-empty");
+    let best_ms = totals.iter().min_by(|x, y| x.2.total_cmp(&y.2)).expect("non-empty");
+    let mut summary = format!(
+        "**Sweep totals per global threshold** (an object draws {} when its largest CoC ≤ the threshold):\n\n\
+         | threshold px | samples tested (sweep) | ÷ all {} | GPU ms (sweep) | ÷ all {} |\n|---:|---:|---:|---:|---:|\n",
+        sharp.name(),
+        blurred.name(),
+        blurred.name()
+    );
+    let (all_blurred_tested, all_blurred_ms) = (totals[0].1, totals[0].2);
+    // Rows: all blurred, a power-of-two grid of thresholds (each the largest object radius at most
+    // that), all sharp, and the two best; every candidate counted in the minima.
+    let mut shown: Vec<usize> = vec![0, totals.len() - 1];
+    for grid in [0.25f32, 0.5, 1.0, 2.0, 4.0, 8.0, 16.0, 32.0] {
+        shown.extend(totals.iter().rposition(|t| t.0 <= grid));
+    }
+    let best_tested_at = totals.iter().position(|t| t.1 == best_tested.1).expect("present");
+    let best_ms_at = totals.iter().position(|t| t.2.total_cmp(&best_ms.2).is_eq()).expect("present");
+    shown.extend([best_tested_at, best_ms_at]);
+    shown.sort_unstable();
+    shown.dedup();
+    for (g, tested, ms) in shown.iter().map(|&i| &totals[i]) {
+        let label = if *g < 0.0 {
+            format!("– (all {})", blurred.name())
+        } else if g.to_bits() == totals[totals.len() - 1].0.to_bits() {
+            format!("{g:.3} (all {})", sharp.name())
+        } else {
+            format!("{g:.3}")
+        };
+        summary.push_str(&format!(
+            "| {label} | {tested} | {:.3} | {ms:.1} | {:.3} |\n",
+            *tested as f64 / all_blurred_tested.max(1) as f64,
+            ms / all_blurred_ms
+        ));
+    }
+    let at = |g: f32| {
+        if g < 0.0 {
+            format!("no threshold (all {})", blurred.name())
+        } else {
+            format!("{g:.3} px")
+        }
+    };
+    summary.push_str(&format!(
+        "\n{} candidate thresholds (every object radius of the sweep). Fewest samples tested at {}; least \
+         GPU time at {} (any threshold from that radius up to the next object radius picks the same \
+         objects).\n\n",
+        totals.len(),
+        at(best_tested.0),
+        at(best_ms.0)
+    ));
+    Ok(summary + &md)
 }

@@ -46,7 +46,8 @@ enum Command {
         spp: Option<u32>,
         /// Stochastic bound: device (the one calibrated fastest on the device, `shutter probe` says
         /// which), bbox, 2d-hexagon, parallel-edge-triangle, variable-radius-triangle, 3d-hexagon,
-        /// wedge, reduced-wedge, convex-hull, adaptive. The image does not depend on it.
+        /// wedge, reduced-wedge, convex-hull, adaptive, or per-object[/SHARP/BLURRED/PX] (a kind per
+        /// object from its blur, the thesis §4.7). The image does not depend on it.
         #[arg(long, default_value = "device")]
         bound: String,
         /// Stochastic shading rate: per-pixel | per-sample.
@@ -111,7 +112,7 @@ enum Command {
         /// Samples per pixel, comma-separated.
         #[arg(long, value_delimiter = ',', default_value = "4,16")]
         spp: Vec<u32>,
-        /// Bounds, comma-separated (default: all).
+        /// Bounds, comma-separated (default: every kind); `per-object[/SHARP/BLURRED/PX]` too.
         #[arg(long, value_delimiter = ',')]
         bounds: Vec<String>,
         /// per-pixel | per-sample
@@ -127,6 +128,11 @@ enum Command {
         /// with summary tables of ms and STE per focus distance (the thesis' §8 study).
         #[arg(long, value_delimiter = ',')]
         focus: Vec<f32>,
+        /// With --focus: measure the per-object threshold of SHARP/BLURRED (e.g.
+        /// reduced-wedge/3d-hexagon) instead of the bounds table — every split of the objects by
+        /// their blur, per focus distance, and the sweep totals per threshold (first --spp only).
+        #[arg(long)]
+        per_object: Option<String>,
         #[command(flatten)]
         image: ImageArgs,
     },
@@ -455,12 +461,13 @@ fn run() -> Result<()> {
             frames,
             warmup,
             focus,
+            per_object,
             image: ImageArgs { size, seed, out },
         } => {
             let sc = load_scene(&scene)?;
             let (width, height) = size.unwrap_or((sc.image.width, sc.image.height));
             let bounds = if bounds.is_empty() {
-                shutter::bounds::BoundKind::ALL.to_vec()
+                shutter::bounds::BoundKind::ALL.iter().map(|&k| k.into()).collect()
             } else {
                 bounds.iter().map(|b| b.parse()).collect::<shutter::Result<Vec<_>>>()?
             };
@@ -475,7 +482,19 @@ fn run() -> Result<()> {
                 seed: seed.unwrap_or(sc.image.seed),
             };
             let mut renderer = Renderer::new(shutter::vk::create_device()?)?;
-            let md = if focus.is_empty() {
+            let md = if let Some(pair) = per_object {
+                anyhow::ensure!(!focus.is_empty(), "--per-object needs --focus");
+                let (sharp, blurred) = pair
+                    .split_once('/')
+                    .ok_or_else(|| anyhow::anyhow!("--per-object {pair}: want SHARP/BLURRED"))?;
+                bounds_table::per_object_sweep(
+                    &mut renderer,
+                    &sc,
+                    &args,
+                    &focus,
+                    (sharp.parse()?, blurred.parse()?),
+                )?
+            } else if focus.is_empty() {
                 bounds_table::run(&mut renderer, &sc, &args)?
             } else {
                 bounds_table::sweep(&mut renderer, &sc, &args, &focus)?

@@ -24,6 +24,7 @@ use bytemuck::{Pod, Zeroable};
 use gpu_allocator::MemoryLocation;
 
 use super::FrameInputs;
+use crate::bounds::BoundKind;
 use crate::error::{Error, Result};
 use crate::geometry::KeyTimes;
 use crate::gpu::layout::{
@@ -223,7 +224,7 @@ impl ComputeHull {
             vk::DescriptorSet,
         ),
         (object_effects, object_keys): (&'a [Effects], &'a [KeyTimes]),
-        bound: u32,
+        bounds: &'a [BoundKind],
         dilate: f32,
     ) {
         let world = inputs.world;
@@ -269,7 +270,7 @@ impl ComputeHull {
                         let push = ExpandPush {
                             object: i as u32,
                             triangle_count: o.triangle_count(),
-                            bound,
+                            bound: bounds[i].id(),
                             capacity: self.capacity[i],
                             dilate,
                             segment_count,

@@ -36,7 +36,9 @@ use std::time::Instant;
 pub use compute_hull::HullExpansion;
 pub use forward::PassSample;
 pub use registry::Technique;
-pub use stochastic::{BoundChoice, Clusters, Intervals, SampleCounters, ShadingRate, StochasticOptions};
+pub use stochastic::{
+    BoundChoice, Clusters, Intervals, ObjectBoundPolicy, SampleCounters, ShadingRate, StochasticOptions,
+};
 
 use crate::error::{Error, Result};
 use crate::gpu::{GpuView, GpuWorld};

@@ -356,13 +356,88 @@ impl Default for StochasticOptions {
     }
 }
 
-/// Which bound a render uses: a kind, or the one measured fastest on the device.
+/// Which bound a render uses: a kind, the one measured fastest on the device, or one per object.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum BoundChoice {
     /// The device's calibrated bound ([`device_bound`]).
     #[default]
     Device,
     Kind(BoundKind),
+    /// A kind per object from its blur ([`ObjectBoundPolicy`], the thesis' §4.7 per-object level).
+    PerObject(ObjectBoundPolicy),
+}
+
+/// The thesis' macroscopic level of adaptive switching (§4.7): each object draws one bound kind,
+/// chosen on the CPU from the object's largest circle of confusion in pixels over its depth range
+/// ([`crate::plan::ObjectPlan::max_coc_px`], from the object-level bounds an engine keeps for culling):
+/// `sharp` up to `threshold_px`, `blurred` above. Either kind may be `adaptive`, the per-triangle
+/// level. The bound never changes the image, only its cost. Command line: `per-object` (the
+/// thesis' pair at [`ObjectBoundPolicy::THESIS`]) or `per-object/SHARP/BLURRED/PX`.
+/// `shutter bounds --focus ... --per-object SHARP/BLURRED` measures the threshold on a focus sweep.
+#[derive(Clone, Copy, Debug)]
+pub struct ObjectBoundPolicy {
+    pub sharp: BoundKind,
+    pub blurred: BoundKind,
+    pub threshold_px: f32,
+}
+
+impl ObjectBoundPolicy {
+    /// The thesis' pair (§9.1: the reduced wedge where little is blurred, the 3D hexagon where much
+    /// is). The threshold is measured, not the thesis': `shutter bounds docs/scenes/thesis-sweep.toml
+    /// --per-object reduced-wedge/3d-hexagon ...` (docs/THESIS.md, "Per-object switching").
+    pub const THESIS: ObjectBoundPolicy = ObjectBoundPolicy {
+        sharp: BoundKind::ReducedWedge,
+        blurred: BoundKind::Hexagon3d,
+        threshold_px: PER_OBJECT_THRESHOLD_PX,
+    };
+
+    /// The kind an object whose largest circle of confusion is `max_coc_px` pixels draws (NaN:
+    /// `blurred`).
+    pub fn kind(&self, max_coc_px: f32) -> BoundKind {
+        if max_coc_px <= self.threshold_px {
+            self.sharp
+        } else {
+            self.blurred
+        }
+    }
+
+    /// `SHARP/BLURRED/PX`, the command-line spelling after `per-object/`.
+    pub fn spelling(&self) -> String {
+        format!("{}/{}/{}", self.sharp.name(), self.blurred.name(), self.threshold_px)
+    }
+}
+
+impl PartialEq for ObjectBoundPolicy {
+    fn eq(&self, o: &Self) -> bool {
+        self.sharp == o.sharp
+            && self.blurred == o.blurred
+            && self.threshold_px.to_bits() == o.threshold_px.to_bits()
+    }
+}
+impl Eq for ObjectBoundPolicy {}
+impl std::hash::Hash for ObjectBoundPolicy {
+    fn hash<H: std::hash::Hasher>(&self, h: &mut H) {
+        (self.sharp, self.blurred, self.threshold_px.to_bits()).hash(h)
+    }
+}
+
+impl std::str::FromStr for ObjectBoundPolicy {
+    type Err = Error;
+    /// `SHARP/BLURRED/PX` (PX ≥ 0, finite; `inf` is allowed: always `sharp`).
+    fn from_str(s: &str) -> Result<Self> {
+        let bad = || {
+            Error::Unsupported(format!(
+                "per-object bound `{s}`: want SHARP/BLURRED/PX, e.g. bbox/convex-hull/4"
+            ))
+        };
+        let parts: Vec<&str> = s.split('/').collect();
+        let [sharp, blurred, px] = parts[..] else { return Err(bad()) };
+        let threshold_px: f32 = px.parse().map_err(|_| bad())?;
+        if threshold_px.is_nan() || threshold_px < 0.0 {
+            return Err(bad());
+        }
+        Ok(ObjectBoundPolicy { sharp: sharp.parse()?, blurred: blurred.parse()?, threshold_px })
+    }
 }
 
 impl From<BoundKind> for BoundChoice {
@@ -377,22 +452,33 @@ impl std::str::FromStr for BoundChoice {
         if s == "device" {
             return Ok(BoundChoice::Device);
         }
-        s.parse::<BoundKind>().map(BoundChoice::Kind).map_err(|e| Error::Unsupported(format!("{e}, device")))
+        if s == "per-object" {
+            return Ok(BoundChoice::PerObject(ObjectBoundPolicy::THESIS));
+        }
+        if let Some(policy) = s.strip_prefix("per-object/") {
+            return policy.parse().map(BoundChoice::PerObject);
+        }
+        s.parse::<BoundKind>()
+            .map(BoundChoice::Kind)
+            .map_err(|e| Error::Unsupported(format!("{e}, device, per-object[/SHARP/BLURRED/PX]")))
     }
 }
 
 impl BoundChoice {
-    pub fn name(&self) -> &'static str {
+    pub fn name(&self) -> String {
         match self {
-            BoundChoice::Device => "device",
-            BoundChoice::Kind(k) => k.name(),
+            BoundChoice::Device => "device".into(),
+            BoundChoice::Kind(k) => k.name().into(),
+            BoundChoice::PerObject(p) => format!("per-object/{}", p.spelling()),
         }
     }
-    /// The kind this choice means on a device.
-    pub fn resolve(&self, caps: &crate::vk::Capabilities) -> BoundKind {
+    /// The kind this choice means on a device for an object whose largest circle of confusion is
+    /// `max_coc_px` pixels.
+    pub fn resolve(&self, caps: &crate::vk::Capabilities, max_coc_px: f32) -> BoundKind {
         match self {
             BoundChoice::Device => device_bound(caps).0,
             BoundChoice::Kind(k) => *k,
+            BoundChoice::PerObject(p) => p.kind(max_coc_px),
         }
     }
 }
@@ -418,6 +504,11 @@ pub const BOUND_CALIBRATIONS: &[BoundCalibration] = &[BoundCalibration {
                convex-hull 1.02x, adaptive 1.00x (an earlier bench: 0.77x, 0.93x); llvmpipe, Mesa 22.3.6, \
                LLVM 15, 2-core VM, 2026-12-01",
 }];
+
+/// [`ObjectBoundPolicy::THESIS`]'s threshold: the largest circle of confusion, in pixels, up to which
+/// an object draws the reduced wedge rather than the 3D hexagon (docs/THESIS.md, "Per-object
+/// switching", for the sweep that measured it).
+pub const PER_OBJECT_THRESHOLD_PX: f32 = 4.0;
 
 /// Bound used without a chosen one on this device, and why.
 pub fn device_bound(caps: &crate::vk::Capabilities) -> (BoundKind, String) {
@@ -698,8 +789,8 @@ pub struct StochasticDraws {
     /// Set 3 ([`STOCHASTIC_SET`]).
     technique_set: vk::DescriptorSet,
     options: StochasticOptions,
-    /// The bound kind drawn ([`BoundChoice::resolve`]).
-    bound: BoundKind,
+    /// The bound kind each object draws ([`BoundChoice::resolve`]).
+    bounds: Vec<BoundKind>,
     spp: u32,
     per_pass: u32,
     passes: u32,
@@ -1129,7 +1220,7 @@ impl StochasticDraws {
             object_sets,
             technique_set,
             options,
-            bound: options.bound.resolve(caps),
+            bounds: plan.objects.iter().map(|o| options.bound.resolve(caps, o.max_coc_px)).collect(),
             spp,
             per_pass,
             passes,
@@ -1320,7 +1411,7 @@ impl StochasticDraws {
                     inputs,
                     (&this.triangles, &this.object_sets, this.technique_set),
                     (&this.object_effects, &this.object_keys),
-                    this.bound.id(),
+                    &this.bounds,
                     this.dilate,
                 );
                 frame.run(g)?;
@@ -1334,9 +1425,9 @@ impl StochasticDraws {
         }
     }
 
-    /// The bound kind drawn.
-    pub fn bound(&self) -> BoundKind {
-        self.bound
+    /// The bound kind each object draws.
+    pub fn bounds(&self) -> &[BoundKind] {
+        &self.bounds
     }
 
     /// Interval count of each object (1: bounded over the whole shutter).
@@ -1352,7 +1443,7 @@ impl StochasticDraws {
             if o < self.object_keys.len() { view.segments(o) } else { (0, 1) };
         StochasticPush {
             object,
-            bound: self.bound.id(),
+            bound: self.bounds.get(o).map_or(0, |b| b.id()),
             pass_index: pass,
             spp: self.spp,
             per_pass: self.per_pass,
@@ -1888,6 +1979,34 @@ mod tests {
         for k in BoundKind::ALL {
             assert_eq!(BoundChoice::from(k).name(), k.name());
         }
+        // Per object: the thesis' pair by default, any pair and threshold spelled out; the name
+        // parses back to the same choice.
+        let thesis = BoundChoice::PerObject(ObjectBoundPolicy::THESIS);
+        assert_eq!("per-object".parse::<BoundChoice>().unwrap(), thesis);
+        let p: BoundChoice = "per-object/bbox/convex-hull/2.5".parse().unwrap();
+        let want = ObjectBoundPolicy {
+            sharp: BoundKind::BoundingBox,
+            blurred: BoundKind::ConvexHull,
+            threshold_px: 2.5,
+        };
+        assert_eq!(p, BoundChoice::PerObject(want));
+        for c in [thesis, p] {
+            assert_eq!(c.name().parse::<BoundChoice>().unwrap(), c);
+        }
+        for bad in [
+            "per-object/",
+            "per-object/bbox/convex-hull",
+            "per-object/bbox/hull/1",
+            "per-object/bbox/wedge/-1",
+        ] {
+            assert!(bad.parse::<BoundChoice>().is_err(), "{bad}");
+        }
+        assert!("per-object/bbox/wedge/nan".parse::<BoundChoice>().is_err());
+        // The threshold is inclusive; NaN blur (never from the plan, but) reads as blurred.
+        assert_eq!(want.kind(2.5), BoundKind::BoundingBox);
+        assert_eq!(want.kind(2.50001), BoundKind::ConvexHull);
+        assert_eq!(want.kind(0.0), BoundKind::BoundingBox);
+        assert_eq!(want.kind(f32::NAN), BoundKind::ConvexHull);
         for c in BOUND_CALIBRATIONS {
             let known =
                 [vk::DriverId::MESA_LLVMPIPE, vk::DriverId::NVIDIA_PROPRIETARY, vk::DriverId::MESA_RADV];
