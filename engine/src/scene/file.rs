@@ -34,6 +34,8 @@
 //! mesh = "spot"                 # built-in: plane, box, sphere, displaced-sphere, spot — or an .obj path
 //! detail = 3                    # optional tessellation level of procedural meshes
 //! normalize = false             # OBJ only: fit into [-1, 1]³ centred at the origin
+//! simplify = 0.5                # optional, in (0, 1]: keep about this fraction of the triangles
+//!                               # (meshoptimizer's simplifier, see Mesh::simplified; default 1 = all)
 //! [object.transform]            # optional; matrix T · Rz · Ry · Rx · S
 //! translate = [0, 0, 0]
 //! rotate_deg = [0, 0, 0]        # degrees about X, then Y, then Z
@@ -62,7 +64,8 @@
 //! background = [0, 0, 0]
 //! ```
 //!
-//! Meshes and textures referenced by several objects are loaded once and shared.
+//! Meshes and textures referenced by several objects are loaded once and shared (a mesh per distinct
+//! `mesh`, `detail`, `normalize` and `simplify`).
 
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -137,6 +140,7 @@ struct FileObject {
     detail: Option<u32>,
     #[serde(default)]
     normalize: bool,
+    simplify: Option<f32>,
     transform: Option<FileTransform>,
     transform_close: Option<FileTransform>,
     motion_keys: Option<u32>,
@@ -310,17 +314,22 @@ fn parse_with_source(text: &str, base_dir: &Path, default_name: &str, source: &s
 
     let camera = resolve_camera(&cx, &file.camera)?;
 
-    let mut meshes: HashMap<(String, Option<u32>, bool), Arc<Mesh>> = HashMap::new();
+    // Keyed by everything that shapes the mesh; the simplify fraction by its bits.
+    let mut meshes: HashMap<(String, Option<u32>, bool, u32), Arc<Mesh>> = HashMap::new();
     let mut textures: HashMap<String, Arc<Texture>> = HashMap::new();
     let mut objects = Vec::with_capacity(file.object.len());
     for (i, o) in file.object.iter().enumerate() {
         let name = o.name.clone().unwrap_or_else(|| format!("object{i}"));
         let field = format!("object[{i}] (`{name}`)");
-        let key = (o.mesh.clone(), o.detail, o.normalize);
+        let simplify = o.simplify.unwrap_or(1.0);
+        cx.range(&format!("{field}.simplify"), simplify, simplify > 0.0 && simplify <= 1.0, "in (0, 1]")?;
+        let key = (o.mesh.clone(), o.detail, o.normalize, simplify.to_bits());
         let mesh = match meshes.get(&key) {
             Some(m) => m.clone(),
             None => {
-                let m = Arc::new(resolve_mesh(&cx, &field, base_dir, o)?);
+                let full = resolve_mesh(&cx, &field, base_dir, o)?;
+                let m =
+                    Arc::new(full.simplified(simplify).map_err(|e| cx.err(&format!("{field}.simplify"), e))?);
                 meshes.insert(key, m.clone());
                 m
             }
@@ -836,6 +845,44 @@ mod tests {
         assert!(
             err(&format!("{CAMERA}[environment]\nambient = [nan, 0, 0]\n")).contains("environment.ambient")
         );
+    }
+
+    #[test]
+    fn simplify_is_validated_and_keys_the_shared_meshes() {
+        for bad in ["0", "-1", "1.5", "nan", "inf"] {
+            let e = err(&format!("{CAMERA}[[object]]\nname = \"cow\"\nmesh = \"spot\"\nsimplify = {bad}\n"));
+            assert!(e.contains("object[0] (`cow`).simplify"), "{bad}: {e}");
+        }
+        let object = |name: &str, simplify: &str| {
+            format!("[[object]]\nname = \"{name}\"\nmesh = \"spot\"\n{simplify}\n[object.material]\ntexture = \"spot\"\n")
+        };
+        let text = [
+            CAMERA.to_string(),
+            object("full", ""),
+            object("half", "simplify = 0.5"),
+            object("quarter", "simplify = 0.25"),
+            object("half-again", "simplify = 0.5"),
+            object("one", "simplify = 1"),
+        ]
+        .concat();
+        let s = parse(&text).unwrap();
+        let mesh = |name: &str| s.objects.iter().find(|o| o.name == name).unwrap().mesh.clone();
+        let (full, half, quarter) = (mesh("full"), mesh("half"), mesh("quarter"));
+        assert_eq!(full.triangle_count(), 5856);
+        assert!(
+            full.triangle_count() > half.triangle_count() && half.triangle_count() > quarter.triangle_count()
+        );
+        assert!(half.has_uvs() && quarter.has_uvs());
+        assert!(Arc::ptr_eq(&half, &mesh("half-again")) && Arc::ptr_eq(&full, &mesh("one")));
+        assert!(!Arc::ptr_eq(&full, &half) && !Arc::ptr_eq(&half, &quarter));
+
+        // Cached references are keyed by the content hash: it follows the geometry.
+        let one = |simplify: &str| parse(&[CAMERA.to_string(), object("spot", simplify)].concat()).unwrap();
+        let hash = |simplify: &str| one(simplify).content_hash();
+        assert_eq!(hash(""), hash("simplify = 1.0"));
+        assert_ne!(hash(""), hash("simplify = 0.5"));
+        assert_ne!(hash("simplify = 0.5"), hash("simplify = 0.25"));
+        assert_eq!(hash("simplify = 0.5"), hash("simplify = 0.5"));
     }
 
     #[test]

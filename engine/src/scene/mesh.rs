@@ -101,6 +101,98 @@ impl Mesh {
             .iter()
             .fold((Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)), |(lo, hi), p| (lo.min(*p), hi.max(*p)))
     }
+
+    /// A reduced copy keeping about `fraction` of the triangles (in (0, 1]; 1 returns the mesh
+    /// unchanged), for studies of time against geometric detail (`simplify` in scene files).
+    ///
+    /// Edge collapses by meshoptimizer's simplifier (`meshopt_simplifyWithAttributes`): the triangle
+    /// count is the target, and the error bound is meshoptimizer's own measure (quadric distance relative
+    /// to the mesh's extent, with normals and uvs weighed in), left at 1 so that it does not stop the
+    /// reduction early; the simplifier may still stop above the target where collapses would break the
+    /// topology. Collapses only remove vertices, so every kept vertex keeps its position, normal and uv
+    /// (the result lies within the original's bounds and stays textured the same way, uv seams
+    /// included). Unreferenced vertices are then dropped (kept in order of first use) and the result is
+    /// rebuilt through [`Mesh::new`], so it is cleaned like any other mesh; `stats` adds the triangles
+    /// it skips to those the original skipped. Deterministic.
+    pub fn simplified(&self, fraction: f32) -> Result<Mesh> {
+        if !(fraction > 0.0 && fraction <= 1.0) {
+            return Err(Error::scene(
+                "mesh simplification",
+                format!("fraction {fraction} is out of range: must be in (0, 1]"),
+            ));
+        }
+        if fraction == 1.0 || self.indices.is_empty() {
+            return Ok(self.clone());
+        }
+        let n = self.positions.len();
+        // The fields are public: check what Mesh::new guarantees before handing them to C++.
+        if let Some(&bad) = self.indices.iter().find(|&&i| i as usize >= n) {
+            return Err(Error::scene(
+                "mesh simplification",
+                format!("index {bad} out of range ({n} vertices)"),
+            ));
+        }
+        let has_normals = self.normals.len() == n;
+        let has_uvs = self.uvs.len() == n;
+        let target_triangles = ((self.triangle_count() as f64 * fraction as f64).round() as usize).max(1);
+        let positions: Vec<[f32; 3]> = self.positions.iter().map(|p| p.to_array()).collect();
+        let vertices = meshopt::VertexDataAdapter::new(bytemuck::cast_slice(&positions), 12, 0)
+            .map_err(|e| Error::scene("mesh simplification", e.to_string()))?;
+        // Per-vertex attributes weighed into the collapse cost (relative to positions, which the
+        // simplifier measures relative to the mesh's extent): the normal, then the uv.
+        let mut weights = vec![];
+        if has_normals {
+            weights.extend([0.5; 3]);
+        }
+        if has_uvs {
+            weights.extend([1.0; 2]);
+        }
+        let stride = weights.len();
+        let mut attributes = Vec::with_capacity(n * stride);
+        for i in 0..n {
+            if has_normals {
+                attributes.extend_from_slice(&self.normals[i].to_array());
+            }
+            if has_uvs {
+                attributes.extend_from_slice(&self.uvs[i].to_array());
+            }
+        }
+        let indices = meshopt::simplify::simplify_with_attributes_and_locks(
+            &self.indices,
+            &vertices,
+            &attributes,
+            &weights,
+            stride * std::mem::size_of::<f32>(),
+            &vec![false; n],
+            target_triangles * 3,
+            1.0,
+            meshopt::SimplifyOptions::None,
+            None,
+        );
+        // Compact: new vertex numbers in order of first use.
+        let mut remap = vec![u32::MAX; self.positions.len()];
+        let (mut positions, mut normals, mut uvs) = (vec![], vec![], vec![]);
+        let indices: Vec<u32> = indices
+            .iter()
+            .map(|&i| {
+                let i = i as usize;
+                if remap[i] == u32::MAX {
+                    remap[i] = positions.len() as u32;
+                    positions.push(self.positions[i]);
+                    if has_normals {
+                        normals.push(self.normals[i]);
+                    }
+                    if has_uvs {
+                        uvs.push(self.uvs[i]);
+                    }
+                }
+                remap[i]
+            })
+            .collect();
+        let mut mesh = Mesh::new("simplified mesh", positions, normals, uvs, indices)?;
+        mesh.stats.skipped_degenerate += self.stats.skipped_degenerate;
+        Ok(mesh)
+    }
 }
 
 /// Loads a Wavefront OBJ file as one mesh (all its groups merged). See [`parse_obj`].
@@ -209,6 +301,74 @@ mod tests {
         assert!(e.contains("bad.obj") && e.contains("vertex 1"), "{e}");
         let p = vec![Vec3::ZERO, Vec3::new(0.0, f32::INFINITY, 0.0), Vec3::Y];
         assert!(Mesh::new("x", p, vec![], vec![], vec![0, 1, 2]).is_err());
+    }
+
+    fn spot() -> Mesh {
+        crate::scene::builtin::builtin_mesh("spot", None).unwrap().unwrap()
+    }
+
+    #[test]
+    fn simplify_halves_spot_within_its_bounds_and_keeps_uvs() {
+        let full = spot();
+        assert_eq!(full.triangle_count(), 5856);
+        let half = full.simplified(0.5).unwrap();
+        let ratio = half.triangle_count() as f64 / full.triangle_count() as f64;
+        assert!((0.35..=0.65).contains(&ratio), "{} triangles ({ratio:.3})", half.triangle_count());
+        assert!(half.positions.len() < full.positions.len());
+        let ((lo, hi), (sl, sh)) = (full.bounds(), half.bounds());
+        assert!(sl.cmpge(lo - 1e-6).all() && sh.cmple(hi + 1e-6).all(), "{sl}..{sh} vs {lo}..{hi}");
+        // Compacted: every vertex is used; each kept vertex is an original one with its uv and normal.
+        let mut used = vec![false; half.positions.len()];
+        half.indices.iter().for_each(|&i| used[i as usize] = true);
+        assert!(used.iter().all(|&u| u));
+        assert!(half.has_uvs() && half.uvs.len() == half.positions.len());
+        for i in 0..half.positions.len() {
+            let found = (0..full.positions.len()).any(|j| {
+                full.positions[j] == half.positions[i]
+                    && full.uvs[j] == half.uvs[i]
+                    && (full.normals[j] - half.normals[i]).length() < 1e-6 // renormalized by Mesh::new
+            });
+            assert!(found, "vertex {i} is not an original vertex with its attributes");
+        }
+        assert_eq!(half.stats.skipped_degenerate, full.stats.skipped_degenerate);
+        // Smaller fractions keep fewer triangles.
+        let sixteenth = full.simplified(0.0625).unwrap();
+        assert!(sixteenth.triangle_count() < half.triangle_count() / 4, "{}", sixteenth.triangle_count());
+    }
+
+    #[test]
+    fn simplify_one_is_identity_and_simplify_is_deterministic() {
+        let full = spot();
+        let same = full.simplified(1.0).unwrap();
+        assert_eq!(
+            (&same.positions, &same.normals, &same.uvs, &same.indices, same.stats),
+            (&full.positions, &full.normals, &full.uvs, &full.indices, full.stats)
+        );
+        let (a, b) = (full.simplified(0.3).unwrap(), full.simplified(0.3).unwrap());
+        assert_eq!(
+            (&a.positions, &a.normals, &a.uvs, &a.indices),
+            (&b.positions, &b.normals, &b.uvs, &b.indices)
+        );
+        // A mesh without uvs stays without.
+        let quad = Mesh::new(
+            "quad",
+            vec![Vec3::ZERO, Vec3::X, Vec3::new(1.0, 1.0, 0.0), Vec3::Y],
+            vec![],
+            vec![],
+            vec![0, 1, 2, 0, 2, 3],
+        )
+        .unwrap();
+        let q = quad.simplified(0.5).unwrap();
+        assert!(!q.has_uvs() && q.normals.len() == q.positions.len());
+    }
+
+    #[test]
+    fn simplify_rejects_fractions_outside_0_1() {
+        let m = Mesh::new("t", vec![Vec3::ZERO, Vec3::X, Vec3::Y], vec![], vec![], vec![0, 1, 2]).unwrap();
+        for f in [0.0, -1.0, 1.5, f32::NAN, f32::INFINITY] {
+            let e = m.simplified(f).unwrap_err().to_string();
+            assert!(e.contains("(0, 1]"), "{f}: {e}");
+        }
     }
 
     #[test]
