@@ -3,7 +3,10 @@
 //! milliseconds per frame (median of timed frames after a warm-up frame, uninstrumented), next to
 //! `pinhole` and `accumulation` at the same samples per pixel. Prints a markdown table.
 
-use anyhow::Result;
+use std::path::Path;
+
+use anyhow::{Context, Result};
+use plotters::prelude::*;
 use shutter::bounds::BoundKind;
 use shutter::plan::Plan;
 use shutter::scene::Scene;
@@ -11,6 +14,13 @@ use shutter::techniques::{
     BoundChoice, ObjectBoundPolicy, RenderOutput, RenderSettings, Renderer, SampleCounters, ShadingRate,
     StochasticOptions, Technique,
 };
+
+use crate::quality::{format_sig, register_font, PALETTE};
+
+/// Accumulation passes per stochastic sample at about equal FLIP against the reference
+/// (`scripts/thesis-study.sh`, section 2: stochastic at S = 16 ≈ accumulation at 64 passes on the
+/// thesis scene at every focus distance measured; docs/THESIS.md).
+pub const EQUAL_QUALITY_PASSES: u32 = 4;
 
 pub struct BoundsTableArgs {
     pub spp: Vec<u32>,
@@ -56,7 +66,41 @@ pub struct Row {
 /// [`run`] once per focus distance in `focus` (the scene's camera refocused, nothing else changed): a
 /// focus sweep like the thesis' §8 study. Markdown: per focus the full table, then one summary table
 /// per S — a row per focus distance, the GPU ms of every configuration and each bound's STE ÷ the box's.
-pub fn sweep(renderer: &mut Renderer, scene: &Scene, a: &BoundsTableArgs, focus: &[f32]) -> Result<String> {
+pub fn sweep(
+    renderer: &mut Renderer,
+    scene: &Scene,
+    a: &BoundsTableArgs,
+    focus: &[f32],
+    plot: Option<&Path>,
+) -> Result<String> {
+    let (md, all) = sweep_rows(renderer, scene, a, focus)?;
+    if let Some(stem) = plot {
+        // The report first, so a plot that fails loses no measurement.
+        std::fs::write(stem, &md).with_context(|| format!("writing {}", stem.display()))?;
+        register_font()?;
+        let spp = a.spp[0];
+        let title = format!(
+            "{}: GPU ms per frame over a focus sweep ({}x{}, S = {spp})",
+            scene.name, a.width, a.height
+        );
+        let (png, svg) = (stem.with_extension("png"), stem.with_extension("svg"));
+        draw_sweep(BitMapBackend::new(&png, (960, 640)).into_drawing_area(), &title, &all, spp)
+            .with_context(|| format!("drawing {}", png.display()))?;
+        draw_sweep(SVGBackend::new(&svg, (960, 640)).into_drawing_area(), &title, &all, spp)
+            .with_context(|| format!("drawing {}", svg.display()))?;
+        eprintln!("wrote {} and {}", png.display(), svg.display());
+    }
+    Ok(md)
+}
+
+/// The markdown of [`sweep`] and its rows per focus distance.
+#[allow(clippy::type_complexity)]
+fn sweep_rows(
+    renderer: &mut Renderer,
+    scene: &Scene,
+    a: &BoundsTableArgs,
+    focus: &[f32],
+) -> Result<(String, Vec<(f32, Vec<Row>)>)> {
     let mut sections = String::new();
     let mut all: Vec<(f32, Vec<Row>)> = vec![];
     for &f in focus {
@@ -85,7 +129,76 @@ pub fn sweep(renderer: &mut Renderer, scene: &Scene, a: &BoundsTableArgs, focus:
         }));
     }
     md.push_str(&sections);
-    Ok(md)
+    Ok((md, all))
+}
+
+/// The thesis' Fig. 18 for one S: GPU ms per frame (log) against the focus distance, a line per
+/// configuration; the stochastic bounds solid, pinhole and accumulation dashed.
+fn draw_sweep<DB: DrawingBackend>(
+    root: DrawingArea<DB, plotters::coord::Shift>,
+    title: &str,
+    all: &[(f32, Vec<Row>)],
+    spp: u32,
+) -> Result<()>
+where
+    DB::ErrorType: 'static,
+{
+    root.fill(&WHITE)?;
+    let rows = || all.iter().flat_map(|(f, rows)| rows.iter().filter(|r| r.spp == spp).map(move |r| (*f, r)));
+    let (mut y0, mut y1) = (f64::INFINITY, 0.0f64);
+    for (_, r) in rows() {
+        if r.ms > 0.0 {
+            y0 = y0.min(r.ms);
+            y1 = y1.max(r.ms);
+        }
+    }
+    anyhow::ensure!(y1 > 0.0, "nothing measured to plot");
+    let (x0, x1) = all.iter().fold((f32::INFINITY, 0.0f32), |(lo, hi), (f, _)| (lo.min(*f), hi.max(*f)));
+    let mut chart = ChartBuilder::on(&root)
+        .caption(title, ("sans-serif", 20))
+        .margin(16)
+        .x_label_area_size(44)
+        .y_label_area_size(64)
+        .build_cartesian_2d(x0 as f64..x1 as f64, (y0 / 1.3).log10()..(y1 * 1.3).log10())?;
+    chart
+        .configure_mesh()
+        .x_desc("focus distance (scene units)")
+        .y_desc("GPU ms per frame (log)")
+        .label_style(("sans-serif", 14))
+        .y_label_formatter(&|v| format_sig(10f64.powf(*v)))
+        .draw()?;
+    let labels: Vec<&str> = all
+        .first()
+        .map(|(_, r)| r.iter().filter(|r| r.spp == spp).map(|r| r.label.as_str()).collect())
+        .unwrap_or_default();
+    for (i, label) in labels.iter().enumerate() {
+        // The quality plot's colours first, then plotters' 99-colour palette.
+        let color = if i < PALETTE.len() { PALETTE[i].to_rgba() } else { Palette99::pick(i).to_rgba() };
+        let line: Vec<(f64, f64)> = rows()
+            .filter(|(_, r)| r.label == *label && r.ms > 0.0)
+            .map(|(f, r)| (f as f64, r.ms.log10()))
+            .collect();
+        let dashed = label.starts_with("accumulation") || *label == "pinhole";
+        let style = color.stroke_width(if dashed { 1 } else { 2 });
+        let series = if dashed {
+            chart.draw_series(DashedLineSeries::new(line.clone(), 6, 4, style))?
+        } else {
+            chart.draw_series(LineSeries::new(line.clone(), style))?
+        };
+        series
+            .label(*label)
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2)));
+        chart.draw_series(line.iter().map(|&p| Circle::new(p, 3, color.filled())))?;
+    }
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::UpperLeft)
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .label_font(("sans-serif", 12))
+        .draw()?;
+    root.present()?;
+    Ok(())
 }
 
 /// One summary table of a sweep under `heading`: a row per focus distance, a column per configuration
@@ -153,6 +266,16 @@ fn run_rows(renderer: &mut Renderer, scene: &Scene, a: &BoundsTableArgs) -> Resu
         md.push_str(&format!("| {spp} | accumulation ({spp} passes) | – | {ms:.1} | | | | | |\n"));
         rows.push(Row { spp, label: "accumulation".into(), ms, ste: None });
         eprintln!("S={spp} accumulation {ms:.1} ms");
+        // At equal quality: accumulation needs about 4× the samples for stochastic rasterization's
+        // FLIP (the thesis' §9.1 estimate, measured on the thesis scene: docs/THESIS.md).
+        let equal = RenderSettings::new(a.width, a.height, EQUAL_QUALITY_PASSES * spp, a.seed);
+        let ms = timed(renderer, scene, Technique::ACCUMULATION, &equal, a)?;
+        let passes = EQUAL_QUALITY_PASSES * spp;
+        md.push_str(&format!(
+            "| {spp} | accumulation ({passes} passes, ≈ equal FLIP) | – | {ms:.1} | | | | | |\n"
+        ));
+        rows.push(Row { spp, label: format!("accumulation ×{EQUAL_QUALITY_PASSES}"), ms, ste: None });
+        eprintln!("S={spp} accumulation {passes} passes {ms:.1} ms");
         let mut bbox_ste = None;
         for &bound in &a.bounds {
             // One bound per triangle: cluster bounds would replace the bound under test.

@@ -125,7 +125,8 @@ enum Command {
         #[arg(long, default_value_t = 1)]
         warmup: usize,
         /// A focus sweep: the table once per focus distance (comma-separated), the camera refocused,
-        /// with summary tables of ms and STE per focus distance (the thesis' §8 study).
+        /// with summary tables of ms and STE per focus distance (the thesis' §8 study); with --out
+        /// X.md also the plot of ms against focus distance (first --spp) as X.png and X.svg.
         #[arg(long, value_delimiter = ',')]
         focus: Vec<f32>,
         /// With --focus: measure the per-object threshold of SHARP/BLURRED (e.g.
@@ -222,7 +223,7 @@ enum Command {
         /// Output stem: <out>.csv, .png, .svg, .md. Default: out/quality-<scene>.
         #[arg(long)]
         out: Option<PathBuf>,
-        /// Also save every point's image as <out>-<series>-S<n>.png.
+        /// Also save every point's image as <out>-<series>-S<n>.png, and the reference as <out>-reference.png.
         #[arg(long)]
         images: bool,
         /// Two series `A,B` whose ms are compared at equal FLIP (A ÷ B); repeat for more pairs.
@@ -497,7 +498,7 @@ fn run() -> Result<()> {
             } else if focus.is_empty() {
                 bounds_table::run(&mut renderer, &sc, &args)?
             } else {
-                bounds_table::sweep(&mut renderer, &sc, &args, &focus)?
+                bounds_table::sweep(&mut renderer, &sc, &args, &focus, out.as_deref())?
             };
             println!("{md}");
             if let Some(out) = out {

@@ -207,6 +207,9 @@ pub fn run(renderer: &mut Renderer, scene: &Scene, a: &QualityArgs) -> Result<Ve
         eprintln!("resuming {}: {} point(s) done, {} to go", csv_path.display(), points.len(), todo.len());
     }
     let truth = reference(scene, a)?;
+    if a.images {
+        save_image(format!("{}-reference.png", a.out.display()), &truth)?;
+    }
     let new_file = !csv_path.exists();
     let mut csv = std::fs::OpenOptions::new()
         .create(true)
@@ -366,7 +369,7 @@ pub fn markdown(scene: &Scene, a: &QualityArgs, points: &[Point], device: &str) 
 }
 
 /// Registers a TrueType font for the plots' text (plotters' ab_glyph backend needs one).
-fn register_font() -> Result<()> {
+pub fn register_font() -> Result<()> {
     const CANDIDATES: &[&str] = &[
         "/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf",
         "/usr/share/fonts/TTF/DejaVuSans.ttf",
@@ -472,7 +475,7 @@ where
     Ok(())
 }
 
-const PALETTE: [RGBColor; 7] = [
+pub const PALETTE: [RGBColor; 7] = [
     RGBColor(214, 39, 40),
     RGBColor(31, 119, 180),
     RGBColor(44, 160, 44),
@@ -483,7 +486,7 @@ const PALETTE: [RGBColor; 7] = [
 ];
 
 /// A tick label with three significant digits.
-fn format_sig(v: f64) -> String {
+pub fn format_sig(v: f64) -> String {
     if v >= 100.0 {
         format!("{v:.0}")
     } else if v >= 10.0 {
