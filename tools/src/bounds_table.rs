@@ -154,7 +154,9 @@ where
     }
     anyhow::ensure!(y1 > 0.0, "nothing measured to plot");
     let (x0, x1) = all.iter().fold((f32::INFINITY, 0.0f32), |(lo, hi), (f, _)| (lo.min(*f), hi.max(*f)));
-    let mut chart = ChartBuilder::on(&root)
+    // The legend gets its own column: the lines fill the plot at every height.
+    let (plot, legend) = root.split_horizontally(root.dim_in_pixel().0 * 3 / 4);
+    let mut chart = ChartBuilder::on(&plot)
         .caption(title, ("sans-serif", 20))
         .margin(16)
         .x_label_area_size(44)
@@ -180,23 +182,16 @@ where
             .collect();
         let dashed = label.starts_with("accumulation") || *label == "pinhole";
         let style = color.stroke_width(if dashed { 1 } else { 2 });
-        let series = if dashed {
-            chart.draw_series(DashedLineSeries::new(line.clone(), 6, 4, style))?
+        if dashed {
+            chart.draw_series(DashedLineSeries::new(line.clone(), 6, 4, style))?;
         } else {
-            chart.draw_series(LineSeries::new(line.clone(), style))?
-        };
-        series
-            .label(*label)
-            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2)));
+            chart.draw_series(LineSeries::new(line.clone(), style))?;
+        }
         chart.draw_series(line.iter().map(|&p| Circle::new(p, 3, color.filled())))?;
+        let y = 60 + 22 * i as i32;
+        legend.draw(&PathElement::new(vec![(8, y), (36, y)], style))?;
+        legend.draw(&Text::new(label.to_string(), (44, y - 7), ("sans-serif", 14).into_font()))?;
     }
-    chart
-        .configure_series_labels()
-        .position(SeriesLabelPosition::UpperLeft)
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .label_font(("sans-serif", 12))
-        .draw()?;
     root.present()?;
     Ok(())
 }
