@@ -8,13 +8,16 @@
 #define MAX_LIGHTS 16
 #define LIGHT_DIRECTIONAL 0.0
 #define LIGHT_POINT 1.0
+#define LIGHT_SPOT 2.0
 #define PROJECTION_THIN_LENS 0.0
 #define PROJECTION_ORTHOGRAPHIC 1.0
 
 struct Light {
-    vec4 at_open;   // xyz: direction to light (directional) or position (point), in view space; w: type
-    vec4 at_close;  // the same at shutter close
-    vec4 color;     // rgb
+    vec4 at_open;     // xyz: direction to light (directional) or position (point, spot), in view space; w: type
+    vec4 at_close;    // the same at shutter close
+    vec4 color;       // rgb
+    vec4 spot_open;   // spot: xyz unit axis (into the scene) at shutter open, w cos(inner half-angle)
+    vec4 spot_close;  // spot: xyz axis at shutter close, w cos(outer half-angle)
 };
 
 struct Material {

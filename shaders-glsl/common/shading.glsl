@@ -8,6 +8,15 @@ float specular_exponent(float roughness) {
     return clamp(2.0 / (r * r) - 2.0, 1.0, 1.0e4);
 }
 
+// The spot cone's falloff at the cosine of the angle off its axis (shading::spot_falloff): 1 inside
+// the inner cone, 0 outside the outer, a smoothstep of the cosine between.
+float spot_falloff(float cos_angle, float cos_inner, float cos_outer) {
+    if (cos_angle >= cos_inner) return 1.0;
+    if (cos_angle <= cos_outer) return 0.0;
+    float x = (cos_angle - cos_outer) / (cos_inner - cos_outer);
+    return x * x * (3.0 - 2.0 * x);
+}
+
 // Radiance at camera-space `pos` with unit normal `n` facing the viewer and unit `to_eye` towards the
 // lens sample, lights interpolated to shutter time t.
 vec3 shade(vec3 pos, vec3 n, vec3 to_eye, vec3 albedo, float specular, float roughness, float t) {
@@ -24,6 +33,14 @@ vec3 shade(vec3 pos, vec3 n, vec3 to_eye, vec3 albedo, float specular, float rou
         if (light.at_open.w == LIGHT_DIRECTIONAL) {
             float len = length(a);
             l = len > 0.0 ? a / len : vec3(0.0);
+        } else if (light.at_open.w == LIGHT_SPOT) {
+            vec3 d = a - pos;
+            float d2 = max(dot(d, d), 1e-8);
+            l = d / sqrt(d2);
+            vec3 axis = mix(light.spot_open.xyz, light.spot_close.xyz, t);
+            float axis_len = length(axis);
+            axis = axis_len > 0.0 ? axis / axis_len : vec3(0.0);
+            e = e * spot_falloff(-dot(l, axis), light.spot_open.w, light.spot_close.w) / d2;
         } else {
             vec3 d = a - pos;
             float d2 = max(dot(d, d), 1e-8);

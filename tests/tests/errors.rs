@@ -55,6 +55,7 @@ fn missing_device_feature_is_a_clear_error() {
     assert!(r.device().caps.require(shutter::vk::Feature::TimestampQueries, "bench").is_ok());
 }
 
+/// Transparency and shadow-casting lights are refused until the techniques of issue 12 exist.
 #[test]
 fn translucent_material_is_refused_by_opaque_techniques() {
     let mut scene = single_object_scene(
@@ -69,6 +70,10 @@ fn translucent_material_is_refused_by_opaque_techniques() {
     let mut r = renderer();
     let err = r.render(&scene, Technique::PINHOLE, &RenderSettings::new(8, 8, 1, 0)).unwrap_err();
     assert!(err.to_string().contains("alpha"), "{err}");
+    scene.objects[0].material.alpha = 1.0;
+    scene.lights = vec![shutter::scene::Light::Point { position: Vec3::Y, color: Vec3::ONE, shadows: true }];
+    let err = r.render(&scene, Technique::PINHOLE, &RenderSettings::new(8, 8, 1, 0)).unwrap_err();
+    assert!(err.to_string().contains("shadows"), "{err}");
 }
 
 #[test]

@@ -42,7 +42,7 @@ fn probe_scene(w: u32, h: u32) -> Scene {
                 Mat4::from_translation(Vec3::new(0.0, 1.2, 0.0)) * Mat4::from_scale(Vec3::splat(0.7)),
             ),
         ],
-        lights: vec![Light::Directional { direction: SUN, color: Vec3::splat(0.9) }],
+        lights: vec![Light::Directional { direction: SUN, color: Vec3::splat(0.9), shadows: false }],
         environment: Environment { ambient: Vec3::splat(0.1), background: Vec3::new(0.2, 0.3, 0.5) },
     }
 }

@@ -79,12 +79,23 @@ pub struct GpuMaterial {
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
 pub struct GpuLight {
-    /// xyz: direction to the light (w = 0, directional) or position (w = 1, point).
+    /// xyz: direction to the light (w = `LIGHT_DIRECTIONAL`) or position (w = `LIGHT_POINT`,
+    /// `LIGHT_SPOT`).
     pub at_open: [f32; 4],
     pub at_close: [f32; 4],
     /// rgb, unused.
     pub color: [f32; 4],
+    /// Spot only: xyz the unit axis at shutter open (from the light into the scene), w cos of the
+    /// inner half-angle.
+    pub spot_open: [f32; 4],
+    /// Spot only: xyz the axis at shutter close, w cos of the outer half-angle.
+    pub spot_close: [f32; 4],
 }
+
+/// Light kinds in [`GpuLight::at_open`]`[3]` (`LIGHT_*` in `common/frame.glsl`).
+pub const LIGHT_DIRECTIONAL: f32 = 0.0;
+pub const LIGHT_POINT: f32 = 1.0;
+pub const LIGHT_SPOT: f32 = 2.0;
 
 /// Projection kinds in [`ViewUniforms::projection`]`[0]`.
 pub const PROJECTION_THIN_LENS: f32 = 0.0;
@@ -242,7 +253,7 @@ pub(crate) use shared_struct;
 pub const SHARED_STRUCTS: &[SharedStruct] = &[
     shared_struct!("WorldUniforms", WorldUniforms, [ambient, background]),
     shared_struct!("Material", GpuMaterial, [albedo_specular, params]),
-    shared_struct!("Light", GpuLight, [at_open, at_close, color]),
+    shared_struct!("Light", GpuLight, [at_open, at_close, color, spot_open, spot_close]),
     shared_struct!("ViewUniforms", ViewUniforms, [viewport, lens, projection, lights]),
     shared_struct!("ObjectView", GpuObjectView, [model_view, normal_matrix, time]),
     shared_struct!("Vertex", Vertex, [position, normal, uv]),

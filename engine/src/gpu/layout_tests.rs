@@ -10,7 +10,7 @@
 //! * the push-constant block matches the interface's push struct: size (`size_of`), member names,
 //!   offsets (`offset_of`), sizes and scalar types, in order;
 //! * every struct of [`SHARED_STRUCTS`], wherever a shader lays it out (std140 or std430), matches the
-//!   Rust struct the same way, arrays by length and `ArrayStride` (`lights[16]`: 48,
+//!   Rust struct the same way, arrays by length and `ArrayStride` (`lights[16]`: 80,
 //!   `model_view[2]`: 64), and every array of it (`materials[]`) has `ArrayStride` = `size_of`; each
 //!   must appear in some shader, so a rename on one side cannot leave it unchecked.
 //!
@@ -300,4 +300,17 @@ fn compiled_shaders_match_the_rust_layouts() {
         }
     }
     m.finish();
+}
+
+/// The light kinds the GPU record carries match `common/frame.glsl`'s defines.
+#[test]
+fn light_kinds_match_the_glsl_defines() {
+    use super::layout::{LIGHT_DIRECTIONAL, LIGHT_POINT, LIGHT_SPOT};
+    let frame = include_str!("../../../shaders-glsl/common/frame.glsl");
+    for (name, value) in
+        [("LIGHT_DIRECTIONAL", LIGHT_DIRECTIONAL), ("LIGHT_POINT", LIGHT_POINT), ("LIGHT_SPOT", LIGHT_SPOT)]
+    {
+        let line = format!("#define {name} {value:.1}");
+        assert!(frame.lines().any(|l| l.trim() == line), "frame.glsl lacks `{line}`");
+    }
 }

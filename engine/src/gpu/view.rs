@@ -10,8 +10,8 @@ use ash::vk;
 use glam::{Mat3, Mat4};
 
 use super::layout::{
-    GpuLight, GpuObjectView, ViewUniforms, FRAME_SET, MAX_LIGHTS, PROJECTION_ORTHOGRAPHIC,
-    PROJECTION_THIN_LENS,
+    GpuLight, GpuObjectView, ViewUniforms, FRAME_SET, LIGHT_DIRECTIONAL, LIGHT_POINT, LIGHT_SPOT, MAX_LIGHTS,
+    PROJECTION_ORTHOGRAPHIC, PROJECTION_THIN_LENS,
 };
 use super::GpuWorld;
 use crate::error::{Error, Result};
@@ -54,14 +54,23 @@ pub fn view_uniforms(view: &View) -> Result<ViewUniforms> {
     for (dst, l) in lights.iter_mut().zip(lights_in_view) {
         *dst = match *l {
             CameraSpaceLight::Directional { to_light, color } => GpuLight {
-                at_open: to_light[0].extend(0.0).to_array(),
-                at_close: to_light[1].extend(0.0).to_array(),
+                at_open: to_light[0].extend(LIGHT_DIRECTIONAL).to_array(),
+                at_close: to_light[1].extend(LIGHT_DIRECTIONAL).to_array(),
                 color: color.extend(0.0).to_array(),
+                ..GpuLight::default()
             },
             CameraSpaceLight::Point { position, color } => GpuLight {
-                at_open: position[0].extend(1.0).to_array(),
-                at_close: position[1].extend(1.0).to_array(),
+                at_open: position[0].extend(LIGHT_POINT).to_array(),
+                at_close: position[1].extend(LIGHT_POINT).to_array(),
                 color: color.extend(0.0).to_array(),
+                ..GpuLight::default()
+            },
+            CameraSpaceLight::Spot { position, axis, cos_inner, cos_outer, color } => GpuLight {
+                at_open: position[0].extend(LIGHT_SPOT).to_array(),
+                at_close: position[1].extend(LIGHT_SPOT).to_array(),
+                color: color.extend(0.0).to_array(),
+                spot_open: axis[0].extend(cos_inner).to_array(),
+                spot_close: axis[1].extend(cos_outer).to_array(),
             },
         };
     }

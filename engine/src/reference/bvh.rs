@@ -382,6 +382,21 @@ impl Bvh {
         far: f32,
         mut accept: impl FnMut(u32) -> bool,
     ) -> Option<Hit> {
+        self.intersect_filtered(o, d, time, near, far, |id, _| accept(id))
+    }
+
+    /// [`Bvh::intersect`] whose filter also sees the candidate hit (its barycentrics, for coverage
+    /// from a texture's alpha; its depth, to tell which rejected surfaces lie in front of the hit).
+    #[inline]
+    pub fn intersect_filtered(
+        &self,
+        o: Vec3,
+        d: Vec3,
+        time: f32,
+        near: f32,
+        far: f32,
+        mut accept: impl FnMut(u32, &TriangleHit) -> bool,
+    ) -> Option<Hit> {
         if self.nodes.is_empty() || !depth_grows_within(d, near, far) {
             return None;
         }
@@ -415,7 +430,7 @@ impl Bvh {
                         let Some(h) = intersect_triangle(&self.tris[k].at(time), o, d) else { continue };
                         if h.depth_z >= near && h.depth_z <= far && h.depth_z < best {
                             let id = self.ids[k];
-                            if accept(id) {
+                            if accept(id, &h) {
                                 best = h.depth_z;
                                 s_max = s_bound(best);
                                 hit = Some(Hit { id, hit: h });
@@ -439,6 +454,59 @@ impl Bvh {
             }
         }
         hit
+    }
+
+    /// Every hit at shutter time `time` along the segment `o + s·d`, `s_min < s < s_max`, in any
+    /// direction (shadow rays; not only the camera's forward rays [`Bvh::intersect`] handles), in no
+    /// particular order: `visit(id, hit, s)` for each, stopping when it returns false. `s` is the ray
+    /// parameter of the hit's barycentric point. A ray through an edge shared by two triangles hits
+    /// both (the intersector is edges-inclusive); the caller decides whether that is one crossing.
+    pub fn for_each_hit(
+        &self,
+        o: Vec3,
+        d: Vec3,
+        time: f32,
+        s_min: f32,
+        s_max: f32,
+        mut visit: impl FnMut(u32, &TriangleHit, f32) -> bool,
+    ) {
+        let d2 = d.length_squared();
+        let range = s_min < s_max; // false for NaN
+        if self.nodes.is_empty() || !(d2 > 0.0 && d2.is_finite()) || !range {
+            return;
+        }
+        let inv_d = d.recip();
+        let box_time = ((time - self.t0) * self.inv_len).clamp(0.0, 1.0);
+        let mut stack = [0u32; STACK];
+        let mut sp = 0;
+        if Self::enter(&self.nodes[0], box_time, o, inv_d, s_min, s_max) != f32::INFINITY {
+            stack[0] = 0;
+            sp = 1;
+        }
+        while sp > 0 {
+            sp -= 1;
+            let ni = stack[sp];
+            let node = &self.nodes[ni as usize];
+            if node.count > 0 {
+                let first = node.first as usize;
+                for k in first..first + node.count as usize {
+                    let p = self.tris[k].at(time);
+                    let Some(h) = intersect_triangle(&p, o, d) else { continue };
+                    let s = (h.point(&p) - o).dot(d) / d2;
+                    if s > s_min && s < s_max && !visit(self.ids[k], &h, s) {
+                        return;
+                    }
+                }
+                continue;
+            }
+            for child in [ni + 1, node.first] {
+                if Self::enter(&self.nodes[child as usize], box_time, o, inv_d, s_min, s_max) != f32::INFINITY
+                {
+                    stack[sp] = child;
+                    sp += 1;
+                }
+            }
+        }
     }
 
     /// Reference for tests: the hit [`Bvh::intersect`] should find (same rules), by testing every
@@ -591,6 +659,55 @@ mod tests {
             hits += check_ray(&bvh, &tris, o, d, r.next_f32(), near, far) as usize;
         }
         assert!(hits > 10_000, "{hits}");
+    }
+
+    /// Any-hit traversal along segments in every direction finds exactly the triangles a brute-force
+    /// test finds in the segment's range, and stops when asked to.
+    #[test]
+    fn for_each_hit_finds_every_hit_in_the_segment() {
+        let mut r = Pcg32::new(17, 3);
+        let tris = random_scene(&mut r, 600);
+        let bvh = Bvh::build(&tris);
+        let mut total = 0;
+        for _ in 0..3000 {
+            let time = r.next_f32();
+            let o = rnd3(&mut r, 30.0) - 25.0 * Vec3::Z;
+            // Half the segments through a random triangle's centre (and on), half anywhere.
+            let d = if r.next_u32() & 1 == 0 {
+                let p = tris[r.below(tris.len() as u32) as usize].at(time);
+                ((p[0] + p[1] + p[2]) / 3.0 - o) * 1.5
+            } else {
+                rnd3(&mut r, 40.0)
+            };
+            let (s_min, s_max) = if r.next_u32() & 1 == 0 { (0.0, 1.0) } else { (0.3, f32::INFINITY) };
+            let mut got = vec![];
+            bvh.for_each_hit(o, d, time, s_min, s_max, |id, _, s| {
+                got.push((id, s));
+                true
+            });
+            let mut want = vec![];
+            for (i, t) in tris.iter().enumerate() {
+                let p = t.at(time);
+                if let Some(h) = intersect_triangle(&p, o, d) {
+                    let s = (h.point(&p) - o).dot(d) / d.length_squared();
+                    if s > s_min && s < s_max {
+                        want.push((i as u32, s));
+                    }
+                }
+            }
+            got.sort_by_key(|g| g.0);
+            assert_eq!(got, want, "o={o} d={d} t={time}");
+            total += got.len();
+            if want.len() >= 2 {
+                let mut calls = 0;
+                bvh.for_each_hit(o, d, time, s_min, s_max, |_, _, _| {
+                    calls += 1;
+                    false
+                });
+                assert_eq!(calls, 1);
+            }
+        }
+        assert!(total > 2000, "the test should exercise hits ({total})");
     }
 
     #[test]

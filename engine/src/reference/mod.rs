@@ -26,9 +26,31 @@
 //!   vector is `−direction`, i.e. towards the lens sample (thesis §5.1). Radiance is
 //!   [`shade`]`(hit, n, view, albedo, specular, roughness, lights(t), ambient)`; a miss sees
 //!   `environment.background`.
-//! * **Alpha.** A material with alpha < 1 is stochastic coverage: the ray hits the surface with
-//!   probability alpha and passes through it otherwise, decided by a hash of (seed, pixel, sample,
-//!   triangle) so renders are reproducible.
+//! * **Transparency (camera rays).** A surface's coverage α is the material's `alpha` (times the
+//!   texture's alpha at the hit's uv with `alpha_from_texture`, [`crate::scene::Material::coverage`]).
+//!   Coverage is *stochastic*: the ray stops at a surface with probability α and passes through it
+//!   otherwise, decided by [`coverage_hash`] of (seed, pixel, sample, triangle), so renders are
+//!   reproducible; passing through multiplies the ray's throughput by the surface's `tint` T. A sample
+//!   is `Π_{j<k} T_j · C_k` for the surface k it stops at (background if none), which happens with
+//!   probability `α_k · Π_{j<k} (1 − α_j)`; its expectation is therefore the sorted Porter-Duff
+//!   composite `Σ_k vis(z_k)·α_k·C_k + vis(∞)·background` with `vis(z) = Π_{z_j < z} (1 − α_j)·T_j`
+//!   (docs/TRANSPARENCY.md) — the quantity the GPU's stochastic transparency estimates, with the same
+//!   samples. Why stochastic rather than compositing every layer exactly: the coverage and the
+//!   rest of the pixel integral (lens, shutter, pixel area) are then sampled together, every
+//!   sample stays one path with one shading point (per-pixel shading mirrors the rasterizer), and an
+//!   opaque scene's samples are unchanged. The closed-form pane test (`tests.rs`) shows the
+//!   convergence: the error falls as 1/√S.
+//! * **Shadows.** For each light with `shadows`, a shadow ray leaves the shaded point — offset along
+//!   the geometric normal, towards the light's side, by [`SHADOW_RAY_OFFSET`] times the largest
+//!   coordinate magnitude of the hit triangle (the scale of its rounding error), so the surface does
+//!   not shadow itself — at the sample's shutter time, towards the light (directional: to infinity;
+//!   point and spot: up to the light's position). Any-hit traversal ([`Bvh::for_each_hit`])
+//!   multiplies the transmittance `(1 − α)·T` of every surface it crosses, at the crossing's coverage
+//!   (texture alpha included), and stops at the first opaque one (0). No randomness: the light's
+//!   colour is multiplied by the exact transmittance before shading. Two hits of one object closer
+//!   than the offset are one crossing (a ray through the edge two triangles share hits both).
+//!   Lights without `shadows` are unoccluded, and no shadow ray is traced for a light that does not
+//!   reach the point anyway (behind the surface, outside a spot's cone).
 //!
 //! Geometry lives in [`Bvh`]s over [`SegmentTriangle`]s, one per interval between consecutive motion
 //! keys of the whole scene (one tree for two-key scenes; boxes at the interval's ends, interpolated at
@@ -47,7 +69,7 @@ use rayon::prelude::*;
 pub use bvh::{Bvh, Hit, SegmentTriangle};
 
 use crate::error::{Error, Result};
-use crate::geometry::{KeyTimes, MovingTriangle};
+use crate::geometry::{KeyTimes, MovingTriangle, TriangleHit};
 use crate::image::LinearImage;
 use crate::limits::{MAX_IMAGE_DIMENSION, MAX_SPP};
 use crate::sampling::{pixel_sample_set, Pcg32, Sample5, SAMPLE_TILE_SIZE};
@@ -64,6 +86,11 @@ use crate::shading::{shade, ShadingLight};
 /// test), nearest by barycentric view depth, shaded at the barycentric point. 1: a Möller–Trumbore of
 /// its own, nearest by ray parameter, shaded at `o + t·d`.)
 pub const REFERENCE_VERSION: u32 = 3;
+/// Relative offset of a shadow ray's origin along the geometric normal, times the largest coordinate
+/// magnitude of the shaded triangle (see the module docs, "Shadows"): f32 rounding of the hit point is
+/// about 1e-7 of that scale, so the ray clears its own surface with a wide margin, while contact gaps
+/// below 1e-4 of the scene's coordinates are not resolved.
+pub const SHADOW_RAY_OFFSET: f32 = 1e-4;
 /// Side of the square pixel tiles rendered in parallel.
 pub const TILE: u32 = 16;
 
@@ -234,6 +261,16 @@ struct SurfaceMaterial<'a> {
     specular: f32,
     roughness: f32,
     alpha: f32,
+    /// Coverage also from `texture`'s alpha (false when the mesh has no UVs to sample it with).
+    alpha_from_texture: bool,
+    tint: Vec3,
+}
+
+impl SurfaceMaterial<'_> {
+    /// Coverage 1 everywhere: rays never pass through.
+    fn is_opaque(&self) -> bool {
+        self.alpha >= 1.0 && !self.alpha_from_texture
+    }
 }
 
 /// A triangle's camera-space vertices and (unnormalised) vertex normals at one motion key.
@@ -254,6 +291,8 @@ struct Tracer<'a> {
     camera: &'a Camera,
     intrinsics: Intrinsics,
     scene_space: CameraSpaceScene,
+    /// Per light (in `scene_space.lights` order): does it cast shadows?
+    shadows: Vec<bool>,
     ambient: Vec3,
     background: Vec3,
     width: u32,
@@ -292,6 +331,8 @@ impl<'a> Tracer<'a> {
                 specular: m.specular,
                 roughness: m.roughness,
                 alpha: m.alpha,
+                alpha_from_texture: m.alpha_from_texture && m.texture.is_some() && mesh.has_uvs(),
+                tint: m.tint,
             });
         }
         let object_keys: Vec<KeyTimes> = scene_space.objects.iter().map(|m| m.keys.clone()).collect();
@@ -331,6 +372,7 @@ impl<'a> Tracer<'a> {
             materials,
             camera: &scene.camera,
             intrinsics: scene.camera.intrinsics(s.width, s.height),
+            shadows: scene.lights.iter().map(|l| l.shadows()).collect(),
             scene_space,
             ambient: scene.environment.ambient,
             background: scene.environment.background,
@@ -387,8 +429,9 @@ impl<'a> Tracer<'a> {
             let lens = self.camera.aperture.map(s.lens);
             let time = self.camera.shutter.warp(s.time);
             let (o, d) = self.intrinsics.primary_ray(pos, lens);
-            let Some(hit) = self.nearest_hit(o, d, time, pixel_index, k as u32) else {
-                sum += self.background.as_dvec3();
+            let (hit, throughput) = self.camera_hit(o, d, time, pixel_index, k as u32);
+            let Some(hit) = hit else {
+                sum += (throughput * self.background).as_dvec3();
                 continue;
             };
             let radiance = if self.shading == ReferenceShading::PerSample {
@@ -407,19 +450,98 @@ impl<'a> Tracer<'a> {
                     }
                 }
             };
-            sum += radiance.as_dvec3();
+            sum += (throughput * radiance).as_dvec3();
         }
         (sum / self.spp as f64).as_vec3()
     }
 
     /// The nearest hit along one primary ray whose view depth lies in `[near, far]`, as the GPU's
-    /// visibility keeps it.
+    /// visibility keeps it, with stochastic coverage.
+    #[cfg(test)]
     fn nearest_hit(&self, o: Vec3, d: Vec3, time: f32, pixel: u64, sample: u32) -> Option<Hit> {
+        self.camera_hit(o, d, time, pixel, sample).0
+    }
+
+    /// The coverage of triangle `id`'s material at `hit`: alpha, times the texture's alpha at the
+    /// hit's uv with `alpha_from_texture`.
+    fn coverage(&self, id: u32, hit: &TriangleHit) -> f32 {
+        let tri = &self.surface[id as usize];
+        let m = &self.materials[tri.object as usize];
+        match m.texture.filter(|_| m.alpha_from_texture) {
+            Some(texture) => {
+                let w = hit.barycentrics;
+                let uv = w.x * tri.uv[0] + w.y * tri.uv[1] + w.z * tri.uv[2];
+                m.alpha * texture.sample_alpha_bilinear(uv)
+            }
+            None => m.alpha,
+        }
+    }
+
+    /// One camera ray (module docs, "Transparency"): the nearest surface in `[near, far]` it stops
+    /// at, each surface stopping it with probability its coverage ([`coverage_hash`]), and the
+    /// product of the tints of the surfaces it passed through in front of that one (all of them for
+    /// a miss).
+    fn camera_hit(&self, o: Vec3, d: Vec3, time: f32, pixel: u64, sample: u32) -> (Option<Hit>, Vec3) {
         let bvh = &self.bvhs[self.intervals.segment_of(time)];
-        bvh.intersect(o, d, time, self.camera.near, self.camera.far, |id| {
-            let alpha = self.materials[self.surface[id as usize].object as usize].alpha;
-            alpha >= 1.0 || coverage_hash(self.seed, pixel, sample, id) < alpha
-        })
+        // Tinted surfaces passed through: (view depth, triangle). The filter is asked for every
+        // surface nearer than the best hit so far, so those in front of the final hit are all here.
+        let mut passed: Vec<(f32, u32)> = Vec::new();
+        let hit = bvh.intersect_filtered(o, d, time, self.camera.near, self.camera.far, |id, h| {
+            let m = &self.materials[self.surface[id as usize].object as usize];
+            if m.is_opaque() {
+                return true;
+            }
+            let alpha = self.coverage(id, h);
+            let covered = alpha >= 1.0 || coverage_hash(self.seed, pixel, sample, id) < alpha;
+            if !covered && m.tint != Vec3::ONE {
+                passed.push((h.depth_z, id));
+            }
+            covered
+        });
+        let limit = hit.map_or(f32::INFINITY, |h| h.hit.depth_z);
+        let throughput = passed
+            .iter()
+            .filter(|p| p.0 < limit)
+            .fold(Vec3::ONE, |t, p| t * self.materials[self.surface[p.1 as usize].object as usize].tint);
+        (hit, throughput)
+    }
+
+    /// The transmittance `Π (1 − α)·T` of the surfaces crossed at shutter time `time` by the shadow
+    /// ray `o + s·d`, `0 < s < s_max` (module docs, "Shadows"); `offset` is the distance below which
+    /// two hits of one object are one crossing.
+    fn transmittance(&self, o: Vec3, d: Vec3, s_max: f32, time: f32, offset: f32) -> Vec3 {
+        let bvh = &self.bvhs[self.intervals.segment_of(time)];
+        let mut blocked = false;
+        // Partially transmitting crossings: (object, ray parameter, transmittance).
+        let mut crossings: Vec<(u32, f32, Vec3)> = Vec::new();
+        bvh.for_each_hit(o, d, time, 0.0, s_max, |id, h, s| {
+            let object = self.surface[id as usize].object;
+            let m = &self.materials[object as usize];
+            let alpha = if m.is_opaque() { 1.0 } else { self.coverage(id, h) };
+            let t = (1.0 - alpha) * m.tint;
+            if alpha >= 1.0 || t == Vec3::ZERO {
+                blocked = true;
+                return false;
+            }
+            if t != Vec3::ONE {
+                crossings.push((object, s, t));
+            }
+            true
+        });
+        if blocked {
+            return Vec3::ZERO;
+        }
+        crossings.sort_by(|a, b| a.0.cmp(&b.0).then(a.1.total_cmp(&b.1)));
+        let same_crossing = offset / d.length();
+        let mut v = Vec3::ONE;
+        let mut last: Option<(u32, f32)> = None;
+        for &(object, s, t) in &crossings {
+            if !matches!(last, Some((lo, ls)) if lo == object && s - ls <= same_crossing) {
+                v *= t;
+            }
+            last = Some((object, s));
+        }
+        v
     }
 
     /// Radiance towards the lens of a primary ray (direction `d`) at `hit`.
@@ -449,6 +571,21 @@ impl<'a> Tracer<'a> {
         lights.extend(self.scene_space.lights.iter().map(|l| l.at(time)));
         // The barycentric point, as the GPU shades (its depth is exactly `hit.depth_z`).
         let position = hit.point(&p);
+        for (light, _) in lights.iter_mut().zip(&self.shadows).filter(|(_, &shadows)| shadows) {
+            let (l, e) = light.incident(position);
+            if n.dot(l) <= 0.0 || e == Vec3::ZERO {
+                continue; // no light arrives to be shadowed
+            }
+            let scale = p.iter().fold(position.abs().max_element(), |m, v| m.max(v.abs().max_element()));
+            let offset = SHADOW_RAY_OFFSET * scale;
+            let g = geometric.normalize_or_zero();
+            let origin = position + if g.dot(l) >= 0.0 { offset } else { -offset } * g;
+            let v = match light.position() {
+                Ok(at) => self.transmittance(origin, at - origin, 1.0, time, offset),
+                Err(to_light) => self.transmittance(origin, to_light, f32::INFINITY, time, offset),
+            };
+            *light = light.attenuated(v);
+        }
         shade(position, n, -d, albedo, material.specular, material.roughness, lights, self.ambient)
     }
 }

@@ -152,8 +152,8 @@ fn renders_are_deterministic_across_thread_counts() {
     moving.set_close(close);
     let mut sc = scene(cam, vec![moving, object(b, Vec3::new(0.2, 0.7, 0.9), 1.0)], Vec3::new(0.0, 0.0, 0.1));
     sc.lights = vec![
-        Light::Directional { direction: Vec3::new(-1.0, -1.0, -1.0), color: Vec3::ONE },
-        Light::Point { position: Vec3::new(1.0, 1.0, -1.0), color: Vec3::splat(2.0) },
+        Light::Directional { direction: Vec3::new(-1.0, -1.0, -1.0), color: Vec3::ONE, shadows: false },
+        Light::Point { position: Vec3::new(1.0, 1.0, -1.0), color: Vec3::splat(2.0), shadows: false },
     ];
     sc.objects[1].material.specular = 0.5;
     let s = settings(40, 30, 16);
@@ -307,7 +307,7 @@ fn triangle_crossing_camera_plane_is_finite() {
     let close = Mat4::from_translation(Vec3::new(0.0, 0.0, 3.0));
     crossing.set_close(close);
     let mut sc = scene(cam, vec![crossing, object(straddle, Vec3::X, 1.0)], Vec3::ZERO);
-    sc.lights = vec![Light::Point { position: Vec3::ZERO, color: Vec3::ONE }];
+    sc.lights = vec![Light::Point { position: Vec3::ZERO, color: Vec3::ONE, shadows: false }];
     let img = render(&sc, settings(48, 32, 16));
     let lit = img.pixels.iter().filter(|p| p[0] > 0.0).count();
     assert!(lit > 100, "the triangle is visible for part of the shutter ({lit} pixels)");
@@ -327,7 +327,11 @@ fn back_faces_shade_like_front_faces() {
     for mesh in [front, back] {
         let mut sc = scene(cam.clone(), vec![object(mesh, Vec3::ONE, 1.0)], Vec3::ZERO);
         sc.environment.ambient = Vec3::ZERO;
-        sc.lights = vec![Light::Directional { direction: Vec3::new(0.3, -0.2, -1.0), color: Vec3::ONE }];
+        sc.lights = vec![Light::Directional {
+            direction: Vec3::new(0.3, -0.2, -1.0),
+            color: Vec3::ONE,
+            shadows: false,
+        }];
         images.push(render(&sc, settings(16, 16, 4)));
     }
     // Flat quad, directional light, no specular: radiance is the same Lambert term everywhere.
@@ -448,4 +452,330 @@ fn keys_on_a_linear_path_leave_the_image_unchanged() {
     assert!(diff <= 1.0 / 32.0 + 1e-6, "max difference {diff}");
     let changed = a.pixels.iter().zip(&b.pixels).filter(|(p, q)| p != q).count();
     assert!(changed <= 3, "{changed} pixels changed");
+}
+
+// ---- Transparency and shadows (docs/TRANSPARENCY.md) ----
+
+/// A pane's material: coverage `alpha`, colour (= radiance under unit ambient) `albedo`, tint.
+fn pane(mesh: Arc<Mesh>, albedo: Vec3, alpha: f32, tint: Vec3) -> Object {
+    let mut o = object(mesh, albedo, alpha);
+    o.material.tint = tint;
+    o
+}
+
+/// The sorted Porter-Duff composite of `layers` (front to back: coverage, colour, tint) over
+/// `background`, `Σ vis_i·α_i·C_i + vis_N·background` with `vis_i = Π_{j<i} (1 − α_j)·T_j`, and the
+/// per-channel variance of one stochastic-coverage sample (the ray stops at layer i with
+/// probability `α_i·Π_{j<i}(1 − α_j)`, carrying `Π_{j<i} T_j · C_i`), in f64.
+fn composite(layers: &[(f64, [f64; 3], [f64; 3])], background: [f64; 3]) -> ([f64; 3], [f64; 3]) {
+    let mut mean = [0.0; 3];
+    let mut second = [0.0; 3];
+    let (mut reach, mut vis, mut tint) = (1.0, [1.0; 3], [1.0; 3]);
+    for &(alpha, c, t) in layers {
+        for ch in 0..3 {
+            mean[ch] += vis[ch] * alpha * c[ch];
+            second[ch] += reach * alpha * (tint[ch] * c[ch]).powi(2);
+            vis[ch] *= (1.0 - alpha) * t[ch];
+            tint[ch] *= t[ch];
+        }
+        reach *= 1.0 - alpha;
+    }
+    for ch in 0..3 {
+        mean[ch] += vis[ch] * background[ch];
+        second[ch] += reach * (tint[ch] * background[ch]).powi(2);
+    }
+    (mean, std::array::from_fn(|ch| second[ch] - mean[ch] * mean[ch]))
+}
+
+/// Overlapping tinted panes in front of a background: the reference's mean over a patch converges
+/// to the closed-form composite, within 4 standard errors of the exact per-sample variance, in any
+/// object order, and its per-pixel error falls as 1/√S.
+#[test]
+fn stochastic_coverage_converges_to_the_closed_form_composite() {
+    let (w, h) = (32u32, 32u32);
+    let cam = camera(0.0, 5.0);
+    let background = Vec3::new(0.6, 0.7, 0.8);
+    // (pixel rectangle, depth, alpha, colour, tint); the nearest pane covers the left half only.
+    let panes = [
+        ([-1.0, 16.0, -1.0, 33.0], 2.0, 0.3, Vec3::new(0.9, 0.2, 0.1), Vec3::new(1.0, 0.6, 0.3)),
+        ([-1.0, 33.0, -1.0, 33.0], 3.0, 0.5, Vec3::new(0.1, 0.8, 0.3), Vec3::new(0.4, 1.0, 0.7)),
+        ([-1.0, 33.0, -1.0, 33.0], 4.0, 0.2, Vec3::new(0.2, 0.3, 0.9), Vec3::new(0.9, 0.9, 0.2)),
+        // A pure filter: no coverage, only transmission.
+        ([-1.0, 33.0, -1.0, 33.0], 5.0, 0.0, Vec3::ONE, Vec3::new(0.5, 0.8, 1.0)),
+    ];
+    let objects: Vec<Object> =
+        panes.iter().map(|&(rect, z, a, c, t)| pane(pixel_quad(&cam, w, h, rect, z), c, a, t)).collect();
+    let layer = |i: usize| {
+        let (_, _, a, c, t) = panes[i];
+        (a as f64, c.as_dvec3().to_array(), t.as_dvec3().to_array())
+    };
+    let bg = background.as_dvec3().to_array();
+    let left = composite(&[layer(0), layer(1), layer(2), layer(3)], bg);
+    let right = composite(&[layer(1), layer(2), layer(3)], bg);
+    // Columns 0..15 see all four panes, 17..32 the last three.
+    let patches = [(0u32..15u32, left), (17..32, right)];
+
+    // (mean error, RMS per-pixel error, standard deviation of one sample) per patch and channel.
+    let measure = |img: &LinearImage, spp: u32| {
+        let mut out = vec![];
+        for (cols, (mean, var)) in &patches {
+            for ch in 0..3 {
+                let (mut sum, mut sq, mut n) = (0.0f64, 0.0f64, 0.0f64);
+                for y in 0..h {
+                    for x in cols.clone() {
+                        let e = img.get(x, y)[ch] as f64 - mean[ch];
+                        sum += e;
+                        sq += e * e;
+                        n += 1.0;
+                    }
+                }
+                let sigma = var[ch].sqrt();
+                out.push((sum / n, (sq / n).sqrt(), sigma, n * spp as f64));
+            }
+        }
+        out
+    };
+    let mut rms = vec![];
+    for (order, spp) in [(0, 16u32), (0, 256), (1, 256)] {
+        let mut objects = objects.clone();
+        if order == 1 {
+            objects.reverse(); // the composite does not depend on the order of the list
+        }
+        let img = render(&scene(cam.clone(), objects, background), settings(w, h, spp));
+        let m = measure(&img, spp);
+        for &(mean_error, _, sigma, samples) in &m {
+            // 4 standard errors of the mean over the patch's samples (coverage decisions are
+            // independent per pixel, sample and triangle): fails by chance with probability ~6e-5.
+            let bound = 4.0 * sigma / samples.sqrt();
+            assert!(mean_error.abs() < bound, "S={spp}: mean error {mean_error} ≥ {bound}");
+        }
+        if order == 0 {
+            rms.push(m);
+        }
+    }
+    // The per-pixel RMS error is about σ/√S and falls by √16 = 4 from S = 16 to 256.
+    for (a, b) in rms[0].iter().zip(&rms[1]) {
+        let (rms16, rms256, sigma) = (a.1, b.1, a.2);
+        assert!((0.6..1.4).contains(&(rms16 / (sigma / 4.0))), "RMS {rms16} vs σ/√16 = {}", sigma / 4.0);
+        let ratio = rms16 / rms256;
+        assert!((2.8..5.6).contains(&ratio), "error fell by {ratio} from S=16 to S=256 (expected ~4)");
+    }
+}
+
+/// Coverage 0 and 1 are exact: a ray through pure filters carries the product of their tints.
+#[test]
+fn pure_filters_multiply_exactly() {
+    let cam = camera(0.0, 5.0);
+    let rect = [-1.0, 17.0, -1.0, 17.0];
+    let (t1, t2) = (Vec3::new(0.5, 0.25, 1.0), Vec3::new(0.75, 0.5, 0.125));
+    let filters = vec![
+        pane(pixel_quad(&cam, 16, 16, rect, 2.0), Vec3::ONE, 0.0, t1),
+        pane(pixel_quad(&cam, 16, 16, rect, 3.0), Vec3::ONE, 0.0, t2),
+    ];
+    let img = render(&scene(cam.clone(), filters.clone(), Vec3::ONE), settings(16, 16, 4));
+    assert!(img.pixels.iter().all(|p| Vec3::new(p[0], p[1], p[2]) == t1 * t2), "{:?}", img.pixels[0]);
+    // An opaque wall behind them: its colour through both filters.
+    let mut with_wall = filters;
+    with_wall.push(object(pixel_quad(&cam, 16, 16, rect, 4.0), Vec3::new(0.5, 1.0, 0.5), 1.0));
+    let img = render(&scene(cam, with_wall, Vec3::ONE), settings(16, 16, 4));
+    let want = t1 * t2 * Vec3::new(0.5, 1.0, 0.5);
+    assert!(img.pixels.iter().all(|p| Vec3::new(p[0], p[1], p[2]) == want), "{:?}", img.pixels[0]);
+}
+
+/// Coverage from the texture's alpha: coverage = alpha × texel alpha at the hit's uv.
+#[test]
+fn texture_alpha_multiplies_coverage() {
+    let cam = camera(0.0, 5.0);
+    let quad = pixel_quad(&cam, 16, 16, [0.0, 16.0, 0.0, 16.0], 3.0);
+    // 8×1 white texture whose alpha is 0 on the left half and 255 on the right.
+    let texels: Vec<u8> = (0..8).flat_map(|i| [255, 255, 255, if i < 4 { 0 } else { 255 }]).collect();
+    let mut o = object(quad, Vec3::ONE, 0.5);
+    o.material.texture = Some(Arc::new(Texture::from_srgb_rgba8("a", 8, 1, texels)));
+    o.material.alpha_from_texture = true;
+    let img = render(&scene(cam, vec![o.clone()], Vec3::ZERO), settings(16, 16, 256));
+    // Bilinear texel alpha is exactly 0 for u in [1/16, 7/16] (columns 1..7) and exactly 1 for u in
+    // [9/16, 15/16] (columns 9..15, coverage 0.5); near u = 0 the repeat addressing blends both.
+    let column = |x: u32| (0..16).map(|y| img.get(x, y)[0] as f64).sum::<f64>() / 16.0;
+    for x in 1..7 {
+        assert_eq!(column(x), 0.0, "column {x}");
+    }
+    for x in 9..15 {
+        assert!((column(x) - 0.5).abs() < 0.05, "column {x}: {}", column(x));
+    }
+    // Without alpha_from_texture the texture's alpha is ignored.
+    o.material.alpha_from_texture = false;
+    o.material.alpha = 1.0;
+    let img = render(&scene(camera(0.0, 5.0), vec![o], Vec3::ZERO), settings(16, 16, 4));
+    assert!(img.pixels.iter().all(|p| p[0] == 1.0));
+}
+
+const SHADOW_W: u32 = 32;
+/// Shadow scenes: the camera sees only a white wall at depth 6 (ambient `SHADOW_AMBIENT`); occluders
+/// lie at depths 3.5–4.5, nearer than the camera's near plane (5), so camera rays skip them while
+/// shadow rays (not clipped by the camera's planes) cross them.
+const SHADOW_AMBIENT: f32 = 0.05;
+
+fn shadow_scene(lights: Vec<Light>, occluders: Vec<Object>) -> Scene {
+    let mut cam = camera(0.0, 6.0);
+    cam.near = 5.0;
+    let wall = object(pixel_quad(&cam, SHADOW_W, SHADOW_W, [-1.0, 33.0, -1.0, 33.0], 6.0), Vec3::ONE, 1.0);
+    let mut objects = vec![wall];
+    objects.extend(occluders);
+    let mut sc = scene(cam, objects, Vec3::ZERO);
+    sc.environment.ambient = Vec3::splat(SHADOW_AMBIENT);
+    sc.lights = lights;
+    sc
+}
+
+/// A square pane of half-size `half` in the plane at depth `z`, centred on the view axis (two
+/// triangles sharing the diagonal x = y, which shadow rays cross in these tests).
+fn square_pane(half: f32, z: f32, alpha: f32, tint: Vec3) -> Object {
+    let p = [
+        Vec3::new(-half, -half, -z),
+        Vec3::new(half, -half, -z),
+        Vec3::new(half, half, -z),
+        Vec3::new(-half, half, -z),
+    ];
+    let uv = vec![Vec2::new(0.0, 1.0), Vec2::new(1.0, 1.0), Vec2::new(1.0, 0.0), Vec2::ZERO];
+    let mesh = Arc::new(Mesh::new("pane", p.to_vec(), vec![Vec3::Z; 4], uv, vec![0, 1, 2, 0, 2, 3]).unwrap());
+    pane(mesh, Vec3::ONE, alpha, tint)
+}
+
+type Pixels = Vec<(u32, u32)>;
+
+/// Pixels of the wall whose every point's segment towards the light crosses the plane at depth
+/// `z` inside `|x|, |y| < half − margin` (umbra), and those whose every point crosses outside
+/// `half + margin` (lit).
+fn umbra_and_lit(light: &Light, half: f32, z: f32) -> (Pixels, Pixels) {
+    let cam = shadow_scene(vec![], vec![]).camera;
+    let crossing = |p: Vec3| {
+        let towards = match *light {
+            Light::Directional { direction, .. } => -direction,
+            Light::Point { position, .. } | Light::Spot { position, .. } => position - p,
+        };
+        let s = (-z - p.z) / towards.z;
+        p + s * towards
+    };
+    let (margin, mut umbra, mut lit) = (0.05, vec![], vec![]);
+    for y in 0..SHADOW_W {
+        for x in 0..SHADOW_W {
+            let corners = [(0.0, 0.0), (1.0, 0.0), (0.0, 1.0), (1.0, 1.0)].map(|(dx, dy)| {
+                crossing(unproject(&cam, SHADOW_W, SHADOW_W, x as f32 + dx, y as f32 + dy, 6.0))
+            });
+            if corners.iter().all(|q| q.x.abs().max(q.y.abs()) < half - margin) {
+                umbra.push((x, y));
+            } else if corners.iter().all(|q| q.x.abs().max(q.y.abs()) > half + margin) {
+                lit.push((x, y));
+            }
+        }
+    }
+    assert!(umbra.len() > 20 && lit.len() > 20, "umbra {} lit {}", umbra.len(), lit.len());
+    (umbra, lit)
+}
+
+fn rgb(img: &LinearImage, (x, y): (u32, u32)) -> Vec3 {
+    let p = img.get(x, y);
+    Vec3::new(p[0], p[1], p[2])
+}
+
+/// Shadow rays towards point, directional and spot lights: an opaque occluder leaves exactly the
+/// ambient light in its umbra; a tinted pane multiplies the direct light by `(1 − α)·T` per channel;
+/// two panes by the product, in either order; outside the shadow, and with `shadows = false`, the
+/// image is bit-identical to the unshadowed one (no shadow acne).
+#[test]
+fn shadow_rays_multiply_the_transmittance_of_what_they_cross() {
+    let lights = [
+        Light::Point { position: Vec3::new(0.3, 0.2, -2.0), color: Vec3::splat(16.0), shadows: true },
+        Light::Directional {
+            direction: Vec3::new(-0.1, 0.05, -1.0).normalize(),
+            color: Vec3::ONE,
+            shadows: true,
+        },
+        Light::Spot {
+            position: Vec3::new(0.3, 0.2, -2.0),
+            direction: -Vec3::Z,
+            inner_deg: 50.0,
+            outer_deg: 60.0,
+            color: Vec3::splat(16.0),
+            shadows: true,
+        },
+    ];
+    let s = settings(SHADOW_W, SHADOW_W, 4);
+    for light in lights {
+        let unshadowed_light = match light {
+            Light::Point { position, color, .. } => Light::Point { position, color, shadows: false },
+            Light::Directional { direction, color, .. } => {
+                Light::Directional { direction, color, shadows: false }
+            }
+            Light::Spot { position, direction, inner_deg, outer_deg, color, .. } => {
+                Light::Spot { position, direction, inner_deg, outer_deg, color, shadows: false }
+            }
+        };
+        let (half, z) = (0.6, 4.0);
+        let (umbra, lit) = umbra_and_lit(&light, half, z);
+        let free = render(&shadow_scene(vec![light], vec![]), s);
+        let unshadowed = render(&shadow_scene(vec![unshadowed_light], vec![]), s);
+        assert_eq!(free, unshadowed, "{light:?}: an unoccluded shadow-casting light changes nothing");
+        // shadows = false: the occluder is ignored.
+        let ignored =
+            render(&shadow_scene(vec![unshadowed_light], vec![square_pane(half, z, 1.0, Vec3::ONE)]), s);
+        assert_eq!(ignored, unshadowed, "{light:?}");
+
+        let ambient = Vec3::splat(SHADOW_AMBIENT);
+        let opaque = render(&shadow_scene(vec![light], vec![square_pane(half, z, 1.0, Vec3::ONE)]), s);
+        for &px in &umbra {
+            assert_eq!(rgb(&opaque, px), ambient, "{light:?} umbra {px:?}");
+        }
+        for &px in &lit {
+            assert_eq!(rgb(&opaque, px), rgb(&unshadowed, px), "{light:?} lit {px:?}");
+            assert!(rgb(&unshadowed, px).x > SHADOW_AMBIENT + 0.05, "{light:?}: lit {px:?} gets light");
+        }
+
+        // Tinted panes, one and two (both orders).
+        let (a1, t1) = (0.25, Vec3::new(0.8, 0.5, 0.2));
+        let (a2, t2) = (0.5, Vec3::new(0.3, 1.0, 0.6));
+        let p1 = || square_pane(half, z, a1, t1);
+        // Behind the first, and large enough to cover the first one's umbra.
+        let p2 = || square_pane(half + 0.25, z + 0.5, a2, t2);
+        let v1 = (1.0 - a1) * t1;
+        let v12 = v1 * ((1.0 - a2) * t2);
+        let lit2: Vec<(u32, u32)> =
+            umbra_and_lit(&light, half + 0.25, z + 0.5).1.into_iter().filter(|p| lit.contains(p)).collect();
+        for (occluders, v, lit) in
+            [(vec![p1()], v1, &lit), (vec![p1(), p2()], v12, &lit2), (vec![p2(), p1()], v12, &lit2)]
+        {
+            let img = render(&shadow_scene(vec![light], occluders), s);
+            for &px in &umbra {
+                let (got, direct) = (rgb(&img, px) - ambient, rgb(&unshadowed, px) - ambient);
+                assert!(direct.min_element() > 0.05, "{light:?} {px:?}: {direct}");
+                let err = (got - v * direct).abs().max_element();
+                assert!(err < 1e-5, "{light:?} umbra {px:?}: {got} vs {v} × {direct}");
+            }
+            for &px in lit {
+                assert_eq!(rgb(&img, px), rgb(&unshadowed, px), "{light:?} lit {px:?}");
+            }
+        }
+    }
+}
+
+/// A shadow ray through the edge two triangles of one pane share hits both; it is one crossing.
+#[test]
+fn a_shadow_ray_through_a_shared_edge_crosses_once() {
+    let t = Vec3::new(0.8, 0.5, 0.2);
+    let sc = shadow_scene(vec![], vec![square_pane(0.6, 4.0, 0.25, t)]);
+    let s = settings(SHADOW_W, SHADOW_W, 1);
+    let tracer = Tracer::new(&sc, &s);
+    // From the wall's centre straight at the light: through (0, 0, −4), on the pane's diagonal.
+    let (o, d) = (Vec3::new(0.0, 0.0, -6.0), Vec3::new(0.0, 0.0, 4.0));
+    let mut hits = vec![];
+    tracer.bvhs[0].for_each_hit(o, d, 0.5, 0.0, 1.0, |id, _, s| {
+        hits.push((id, s));
+        true
+    });
+    assert_eq!(hits.len(), 2, "both triangles: {hits:?}");
+    assert_eq!(tracer.transmittance(o, d, 1.0, 0.5, 1e-4), 0.75 * t);
+    // Two panes of different objects at the same place are two crossings.
+    let sc = shadow_scene(vec![], vec![square_pane(0.6, 4.0, 0.25, t), square_pane(0.6, 4.0, 0.25, t)]);
+    let tracer = Tracer::new(&sc, &s);
+    assert_eq!(tracer.transmittance(o, d, 1.0, 0.5, 1e-4), (0.75 * t) * (0.75 * t));
 }

@@ -10,7 +10,8 @@
 //! interpolation of its positions seen from the open and close poses, so an object's model-view at an
 //! interior key is `lerp(view_open, view_close, t) · model(t)` (an affine map, exactly what the
 //! interpolation of a still point gives), and lights — which have no keys — are interpolated between
-//! the ends alike.
+//! the ends alike (a spot's position like a point light's, its axis like a directional light's
+//! direction, renormalised).
 
 use glam::{Mat3, Mat4, Vec3};
 
@@ -65,6 +66,14 @@ pub enum CameraSpaceLight {
         position: [Vec3; 2],
         color: Vec3,
     },
+    /// Position and unit axis (from the light into the scene) at each end; the cone's cosines.
+    Spot {
+        position: [Vec3; 2],
+        axis: [Vec3; 2],
+        cos_inner: f32,
+        cos_outer: f32,
+        color: Vec3,
+    },
 }
 
 impl CameraSpaceLight {
@@ -78,6 +87,13 @@ impl CameraSpaceLight {
             CameraSpaceLight::Point { position, color } => {
                 ShadingLight::Point { position: position[0].lerp(position[1], t), color }
             }
+            CameraSpaceLight::Spot { position, axis, cos_inner, cos_outer, color } => ShadingLight::Spot {
+                position: position[0].lerp(position[1], t),
+                axis: axis[0].lerp(axis[1], t).normalize_or_zero(),
+                cos_inner,
+                cos_outer,
+                color,
+            },
         }
     }
 }
@@ -126,17 +142,29 @@ impl CameraSpaceScene {
             .lights
             .iter()
             .map(|l| match *l {
-                Light::Directional { direction, color } => CameraSpaceLight::Directional {
+                Light::Directional { direction, color, .. } => CameraSpaceLight::Directional {
                     to_light: [
                         views[0].transform_vector3(-direction).normalize_or_zero(),
                         views[1].transform_vector3(-direction).normalize_or_zero(),
                     ],
                     color,
                 },
-                Light::Point { position, color } => CameraSpaceLight::Point {
+                Light::Point { position, color, .. } => CameraSpaceLight::Point {
                     position: [views[0].transform_point3(position), views[1].transform_point3(position)],
                     color,
                 },
+                Light::Spot { position, direction, inner_deg, outer_deg, color, .. } => {
+                    CameraSpaceLight::Spot {
+                        position: [views[0].transform_point3(position), views[1].transform_point3(position)],
+                        axis: [
+                            views[0].transform_vector3(direction).normalize_or_zero(),
+                            views[1].transform_vector3(direction).normalize_or_zero(),
+                        ],
+                        cos_inner: inner_deg.to_radians().cos(),
+                        cos_outer: outer_deg.to_radians().cos(),
+                        color,
+                    }
+                }
             })
             .collect();
         CameraSpaceScene { objects, lights }

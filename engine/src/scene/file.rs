@@ -53,11 +53,20 @@
 //! texture = "spot.png"          # PNG path, or "spot" for the embedded Spot texture
 //! specular = 0.0                # ≥ 0
 //! roughness = 0.5               # in (0, 1]
-//! alpha = 1.0                   # in [0, 1]
+//! alpha = 1.0                   # coverage, in [0, 1] (1 = opaque)
+//! alpha_from_texture = false    # true: coverage = alpha × the texture's alpha channel (needs texture)
+//! tint = [1, 1, 1]              # transmission of the uncovered part, each in [0, 1]: the surface
+//!                               # composites as alpha·C + (1 − alpha)·tint·behind (docs/TRANSPARENCY.md)
 //!
 //! [[light]]                     # any number
 //! type = "directional"          # direction = [x, y, z] (from the light into the scene), color = [r, g, b]
 //! # type = "point"              # position = [x, y, z], color = [r, g, b] (falls off with 1/d²)
+//! # type = "spot"               # position, direction (the cone's axis, into the scene), color (1/d²),
+//!                               # inner_angle_deg, outer_angle_deg: cone half-angles, 0 ≤ inner ≤
+//!                               # outer ≤ 90, full light inside inner, none outside outer, a
+//!                               # smoothstep of cos θ between (crate::shading)
+//! shadows = false               # any type: true = surfaces in between attenuate the light by their
+//!                               # transmittance (the CPU reference; GPU techniques refuse it for now)
 //!
 //! [environment]                 # optional
 //! ambient = [0.05, 0.05, 0.05]
@@ -181,13 +190,34 @@ struct FileMaterial {
     specular: Option<f32>,
     roughness: Option<f32>,
     alpha: Option<f32>,
+    alpha_from_texture: Option<bool>,
+    tint: Option<V3>,
 }
 
 #[derive(Deserialize)]
 #[serde(tag = "type", rename_all = "lowercase", deny_unknown_fields)]
 enum FileLight {
-    Directional { direction: V3, color: V3 },
-    Point { position: V3, color: V3 },
+    Directional {
+        direction: V3,
+        color: V3,
+        #[serde(default)]
+        shadows: bool,
+    },
+    Point {
+        position: V3,
+        color: V3,
+        #[serde(default)]
+        shadows: bool,
+    },
+    Spot {
+        position: V3,
+        direction: V3,
+        color: V3,
+        inner_angle_deg: f32,
+        outer_angle_deg: f32,
+        #[serde(default)]
+        shadows: bool,
+    },
 }
 
 #[derive(Deserialize)]
@@ -347,20 +377,46 @@ fn parse_with_source(text: &str, base_dir: &Path, default_name: &str, source: &s
 
     let mut lights = Vec::with_capacity(file.light.len());
     for (i, l) in file.light.iter().enumerate() {
+        let direction_of = |direction: V3| -> Result<Vec3> {
+            let field = format!("light[{i}].direction");
+            let d = cx.vec3(&field, direction)?;
+            d.try_normalize().ok_or_else(|| cx.err(&field, "must not be zero"))
+        };
         lights.push(match *l {
-            FileLight::Directional { direction, color } => {
-                let field = format!("light[{i}].direction");
-                let d = cx.vec3(&field, direction)?;
-                let direction = d.try_normalize().ok_or_else(|| cx.err(&field, "must not be zero"))?;
-                Light::Directional {
-                    direction,
-                    color: cx.non_negative3(&format!("light[{i}].color"), color)?,
-                }
-            }
-            FileLight::Point { position, color } => Light::Point {
+            FileLight::Directional { direction, color, shadows } => Light::Directional {
+                direction: direction_of(direction)?,
+                color: cx.non_negative3(&format!("light[{i}].color"), color)?,
+                shadows,
+            },
+            FileLight::Point { position, color, shadows } => Light::Point {
                 position: cx.vec3(&format!("light[{i}].position"), position)?,
                 color: cx.non_negative3(&format!("light[{i}].color"), color)?,
+                shadows,
             },
+            FileLight::Spot { position, direction, color, inner_angle_deg, outer_angle_deg, shadows } => {
+                let outer = outer_angle_deg;
+                cx.range(
+                    &format!("light[{i}].outer_angle_deg"),
+                    outer,
+                    outer > 0.0 && outer <= 90.0,
+                    "in (0, 90]",
+                )?;
+                let inner = inner_angle_deg;
+                cx.range(
+                    &format!("light[{i}].inner_angle_deg"),
+                    inner,
+                    (0.0..=outer).contains(&inner),
+                    &format!("in [0, outer_angle_deg = {outer}]"),
+                )?;
+                Light::Spot {
+                    position: cx.vec3(&format!("light[{i}].position"), position)?,
+                    direction: direction_of(direction)?,
+                    inner_deg: inner,
+                    outer_deg: outer,
+                    color: cx.non_negative3(&format!("light[{i}].color"), color)?,
+                    shadows,
+                }
+            }
         });
     }
 
@@ -581,7 +637,17 @@ fn resolve_material(
     cx.range(&format!("{field}.roughness"), roughness, roughness > 0.0 && roughness <= 1.0, "in (0, 1]")?;
     let alpha = m.alpha.unwrap_or(1.0);
     cx.range(&format!("{field}.alpha"), alpha, (0.0..=1.0).contains(&alpha), "in [0, 1]")?;
-    Ok(Material { albedo, texture, specular, roughness, alpha })
+    let alpha_from_texture = m.alpha_from_texture.unwrap_or(false);
+    if alpha_from_texture && texture.is_none() {
+        return Err(cx.err(&format!("{field}.alpha_from_texture"), "needs a texture"));
+    }
+    let tint = cx.vec3(&format!("{field}.tint"), m.tint.unwrap_or([1.0; 3]))?;
+    if tint.min_element() < 0.0 || tint.max_element() > 1.0 {
+        return Err(
+            cx.err(&format!("{field}.tint"), format!("{tint} is out of range: each component in [0, 1]"))
+        );
+    }
+    Ok(Material { albedo, texture, specular, roughness, alpha, alpha_from_texture, tint })
 }
 
 #[cfg(test)]
@@ -784,8 +850,8 @@ mod tests {
         assert!(e.contains("colour"), "{e}");
         let e = err(&format!("{CAMERA}[[object]]\nmesh = \"box\"\n[object.material]\nshiny = 1\n"));
         assert!(e.contains("shiny"), "{e}");
-        let e = err(&format!("{CAMERA}[[light]]\ntype = \"spot\"\nposition = [0,0,0]\ncolor = [1,1,1]\n"));
-        assert!(e.contains("spot"), "{e}");
+        let e = err(&format!("{CAMERA}[[light]]\ntype = \"area\"\nposition = [0,0,0]\ncolor = [1,1,1]\n"));
+        assert!(e.contains("area"), "{e}");
         let e = err(&format!(
             "{CAMERA}[[light]]\ntype = \"point\"\nposition = [0,0,0]\ncolor = [1,1,1]\nradius = 1\n"
         ));
@@ -828,6 +894,100 @@ mod tests {
         assert!(xf("scale = 0").contains("scale"));
         assert!(xf("scale = [1, 0, 1]").contains("scale"));
         assert!(xf("scale = inf").contains("scale"));
+    }
+
+    #[test]
+    fn transparency_keys_parse_and_default_to_opaque() {
+        let one = |m: &str| {
+            let s = parse(&format!("{CAMERA}[[object]]\nmesh = \"box\"\n[object.material]\n{m}\n")).unwrap();
+            s.objects[0].material.clone()
+        };
+        let m = one("");
+        assert_eq!((m.alpha, m.alpha_from_texture, m.tint), (1.0, false, Vec3::ONE));
+        assert!(m.is_opaque());
+        let m = one("alpha = 0.25\ntint = [0.5, 1, 0]");
+        assert_eq!((m.alpha, m.tint), (0.25, Vec3::new(0.5, 1.0, 0.0)));
+        assert!(!m.is_opaque());
+        assert_eq!(m.transmittance(m.alpha), Vec3::new(0.375, 0.75, 0.0));
+        let m = one("texture = \"spot\"\nalpha_from_texture = true");
+        assert!(m.alpha_from_texture && !m.is_opaque() && m.texture.is_some());
+        // The Spot texture is opaque: its alpha channel is 1 everywhere, so alpha_from_texture changes
+        // nothing there.
+        assert!(m.texture.as_ref().unwrap().srgb_rgba8.chunks_exact(4).all(|p| p[3] == 255));
+        let mat = |m: &str| err(&format!("{CAMERA}[[object]]\nmesh = \"box\"\n[object.material]\n{m}\n"));
+        for (bad, field) in [
+            ("alpha = 1.5", "material.alpha"),
+            ("alpha = -0.1", "material.alpha"),
+            ("alpha = nan", "material.alpha"),
+            ("tint = [2, 0, 0]", "material.tint"),
+            ("tint = [0, -0.5, 0]", "material.tint"),
+            ("tint = [nan, 0, 0]", "material.tint"),
+            ("tint = [1, 1]", "tint = [1, 1]"), // a TOML type error: it quotes the line
+            ("alpha_from_texture = true", "material.alpha_from_texture"),
+            ("alpha_from_texture = 1", "alpha_from_texture"),
+        ] {
+            let e = mat(bad);
+            assert!(e.contains(field) && (e.contains("object[0]") || e.contains("TOML")), "{bad}: {e}");
+        }
+    }
+
+    #[test]
+    fn lights_parse_with_shadows_and_spots() {
+        let lights = |l: &str| parse(&format!("{CAMERA}{l}")).map(|s| s.lights);
+        let l = lights(
+            "[[light]]\ntype = \"directional\"\ndirection = [0, -2, 0]\ncolor = [1, 1, 1]\n\
+             [[light]]\ntype = \"point\"\nposition = [0, 3, 0]\ncolor = [2, 2, 2]\nshadows = true\n\
+             [[light]]\ntype = \"spot\"\nposition = [1, 4, 0]\ndirection = [0, 0, -3]\ncolor = [5, 4, 3]\n\
+             inner_angle_deg = 15\nouter_angle_deg = 30\nshadows = true\n",
+        )
+        .unwrap();
+        assert_eq!(
+            l,
+            [
+                Light::Directional { direction: -Vec3::Y, color: Vec3::ONE, shadows: false },
+                Light::Point { position: Vec3::new(0.0, 3.0, 0.0), color: Vec3::splat(2.0), shadows: true },
+                Light::Spot {
+                    position: Vec3::new(1.0, 4.0, 0.0),
+                    direction: -Vec3::Z,
+                    inner_deg: 15.0,
+                    outer_deg: 30.0,
+                    color: Vec3::new(5.0, 4.0, 3.0),
+                    shadows: true,
+                },
+            ]
+        );
+        assert!(!l[0].shadows() && l[1].shadows() && l[2].shadows());
+        // A hard-edged spot (inner = outer) is fine.
+        let spot = |angles: &str| {
+            lights(&format!(
+                "[[light]]\ntype = \"spot\"\nposition = [0, 1, 0]\ndirection = [0, -1, 0]\ncolor = [1, 1, 1]\n{angles}\n"
+            ))
+        };
+        assert!(spot("inner_angle_deg = 20\nouter_angle_deg = 20").is_ok());
+        for (bad, field) in [
+            ("inner_angle_deg = 30\nouter_angle_deg = 20", "light[0].inner_angle_deg"),
+            ("inner_angle_deg = -1\nouter_angle_deg = 20", "light[0].inner_angle_deg"),
+            ("inner_angle_deg = 10\nouter_angle_deg = 95", "light[0].outer_angle_deg"),
+            ("inner_angle_deg = 0\nouter_angle_deg = 0", "light[0].outer_angle_deg"),
+            ("inner_angle_deg = nan\nouter_angle_deg = 20", "light[0].inner_angle_deg"),
+            ("outer_angle_deg = 20", "inner_angle_deg"),
+            // Inside a tagged table TOML reports the table's line and the type.
+            ("inner_angle_deg = 10\nouter_angle_deg = 20\nshadows = \"yes\"", "expected a boolean"),
+        ] {
+            let e = spot(bad).unwrap_err().to_string();
+            assert!(e.contains(field), "{bad}: {e}");
+        }
+        let e = lights(
+            "[[light]]\ntype = \"spot\"\nposition = [0, 1, 0]\ndirection = [0, 0, 0]\ncolor = [1, 1, 1]\n\
+             inner_angle_deg = 10\nouter_angle_deg = 20\n",
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("light[0].direction"), "{e}");
+        let e = lights("[[light]]\ntype = \"torch\"\nposition = [0, 1, 0]\ncolor = [1, 1, 1]\n")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("torch"), "{e}");
     }
 
     #[test]

@@ -45,13 +45,52 @@ pub struct Material {
     pub specular: f32,
     /// Roughness of the specular lobe, (0, 1].
     pub roughness: f32,
-    /// Coverage, 0..1. Techniques without transparency reject alpha < 1 with a clear error.
+    /// Coverage α, 0..1: the fraction of the surface that is there (and shades); the rest lets light
+    /// through, filtered by `tint`. Techniques without transparency reject a material that is not
+    /// [`Material::is_opaque`] with a clear error.
     pub alpha: f32,
+    /// Coverage also from the texture: α = `alpha` × the texel's alpha (linear, 8-bit) at the hit's
+    /// uv. Needs `texture`; off by default so textured scenes keep their images.
+    pub alpha_from_texture: bool,
+    /// Coloured transmission T (linear RGB, each in 0..1) of the uncovered part 1 − α: no refraction,
+    /// the light behind is multiplied per channel. With coverage α and shaded colour C a surface
+    /// composites over what lies behind it as `α·C + (1 − α)·T ⊙ behind` (Porter-Duff *over* with a
+    /// coloured transmittance `(1 − α)·T`); the transmittance of several layers is the product of
+    /// theirs, so the composite does not depend on their order (docs/TRANSPARENCY.md). α = 0 with a
+    /// tint is a pure filter (coloured glass); for α = 1 the tint is irrelevant.
+    pub tint: Vec3,
 }
 
 impl Default for Material {
     fn default() -> Self {
-        Material { albedo: Vec3::splat(0.8), texture: None, specular: 0.0, roughness: 0.5, alpha: 1.0 }
+        Material {
+            albedo: Vec3::splat(0.8),
+            texture: None,
+            specular: 0.0,
+            roughness: 0.5,
+            alpha: 1.0,
+            alpha_from_texture: false,
+            tint: Vec3::ONE,
+        }
+    }
+}
+
+impl Material {
+    /// Every point of the surface is fully covered: α = 1 and no texture alpha.
+    pub fn is_opaque(&self) -> bool {
+        self.alpha >= 1.0 && !self.alpha_from_texture
+    }
+    /// The coverage at a point whose texture alpha (when `alpha_from_texture`) is `texel_alpha`.
+    pub fn coverage(&self, texel_alpha: f32) -> f32 {
+        if self.alpha_from_texture {
+            self.alpha * texel_alpha
+        } else {
+            self.alpha
+        }
+    }
+    /// The per-channel transmittance `(1 − α)·T` of a point of coverage `coverage`.
+    pub fn transmittance(&self, coverage: f32) -> Vec3 {
+        (1.0 - coverage) * self.tint
     }
 }
 
@@ -88,11 +127,67 @@ impl Object {
     }
 }
 
-/// Light sources (world space). Directional `direction` points *from* the light into the scene.
+/// Light sources (world space). Directional `direction` points *from* the light into the scene, as
+/// does a spot's axis. `shadows`: whether surfaces between a shaded point and the light attenuate it
+/// by their transmittance (off by default; the CPU reference traces shadow rays, GPU techniques
+/// without shadow maps refuse such a light).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Light {
+    Directional {
+        direction: Vec3,
+        color: Vec3,
+        shadows: bool,
+    },
+    /// Falls off with 1/d².
+    Point {
+        position: Vec3,
+        color: Vec3,
+        shadows: bool,
+    },
+    /// A point light restricted to a cone about `direction` (unit): full inside the half-angle
+    /// `inner_deg`, none outside `outer_deg` (0 ≤ inner ≤ outer ≤ 90), a smoothstep of the angle's
+    /// cosine between them ([`crate::shading::spot_falloff`]); 1/d² like a point light.
+    Spot {
+        position: Vec3,
+        direction: Vec3,
+        inner_deg: f32,
+        outer_deg: f32,
+        color: Vec3,
+        shadows: bool,
+    },
+}
+
+impl Light {
+    /// Does the light cast shadows?
+    pub fn shadows(&self) -> bool {
+        match *self {
+            Light::Directional { shadows, .. }
+            | Light::Point { shadows, .. }
+            | Light::Spot { shadows, .. } => shadows,
+        }
+    }
+}
+
+/// What [`Scene::content_hash`] hashes of a light: lights that existed before spots and shadows in
+/// the very text they hashed as then (so cached references stay valid), anything else in full.
+#[derive(Debug)]
+#[allow(dead_code)] // read through `Debug` only
+enum HashedLight {
     Directional { direction: Vec3, color: Vec3 },
     Point { position: Vec3, color: Vec3 },
+    Other(Light),
+}
+
+impl From<&Light> for HashedLight {
+    fn from(l: &Light) -> Self {
+        match *l {
+            Light::Directional { direction, color, shadows: false } => {
+                HashedLight::Directional { direction, color }
+            }
+            Light::Point { position, color, shadows: false } => HashedLight::Point { position, color },
+            other => HashedLight::Other(other),
+        }
+    }
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -130,7 +225,8 @@ impl Scene {
     /// across runs and builds (floats are hashed by their bits).
     pub fn content_hash(&self) -> u64 {
         let mut h = Fnv1a::default();
-        h.text(&format!("{:?}|{:?}|{:?}", self.camera, self.lights, self.environment));
+        let lights: Vec<HashedLight> = self.lights.iter().map(HashedLight::from).collect();
+        h.text(&format!("{:?}|{:?}|{:?}", self.camera, lights, self.environment));
         for o in &self.objects {
             let m = &o.material;
             // Open and close as before keys existed (so cached references of two-key scenes stay
@@ -145,6 +241,10 @@ impl Scene {
                 m.roughness,
                 m.alpha
             ));
+            // Only when not the defaults, so opaque scenes keep their hashes.
+            if m.alpha_from_texture || m.tint != Vec3::ONE {
+                h.text(&format!("{}|{:?}", m.alpha_from_texture, m.tint));
+            }
             if o.transforms.len() > 2 {
                 h.text(&format!("{:?}", &o.transforms[1..o.transforms.len() - 1]));
             }
@@ -187,5 +287,44 @@ impl Fnv1a {
     fn text(&mut self, s: &str) {
         self.bytes(s.bytes());
         self.bytes([0xff]);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Cached references are keyed by the content hash: lights without spots or shadows, and opaque
+    /// untinted materials, hash exactly as before those existed (the text the derived `Debug` of the
+    /// old two-variant `Light` printed); anything new changes the hash.
+    #[test]
+    fn content_hash_keeps_old_scenes_and_sees_new_keys() {
+        let lights = [
+            Light::Directional { direction: -Vec3::Y, color: Vec3::ONE, shadows: false },
+            Light::Point { position: Vec3::new(1.0, 2.0, 3.0), color: Vec3::splat(2.0), shadows: false },
+        ];
+        let text = format!("{:?}", lights.iter().map(HashedLight::from).collect::<Vec<_>>());
+        assert_eq!(
+            text,
+            "[Directional { direction: Vec3(-0.0, -1.0, -0.0), color: Vec3(1.0, 1.0, 1.0) }, \
+             Point { position: Vec3(1.0, 2.0, 3.0), color: Vec3(2.0, 2.0, 2.0) }]"
+        );
+        let base = builtin::builtin_scene("static").expect("built-in").expect("parses");
+        let hash = base.content_hash();
+        let changed = |edit: &dyn Fn(&mut Scene)| {
+            let mut s = base.clone();
+            edit(&mut s);
+            s.content_hash() != hash
+        };
+        assert!(!changed(&|_| {}));
+        assert!(changed(&|s| s.objects[0].material.tint = Vec3::new(1.0, 0.5, 1.0)));
+        assert!(changed(&|s| s.objects[0].material.alpha_from_texture = true));
+        assert!(changed(&|s| {
+            if let Some(Light::Directional { shadows, .. } | Light::Point { shadows, .. }) =
+                s.lights.first_mut()
+            {
+                *shadows = true;
+            }
+        }));
     }
 }

@@ -1,5 +1,7 @@
 //! Albedo textures: decoded to linear RGB, with a mip chain for the GPU and bilinear lookup for the
-//! CPU reference (which supersamples, so it filters the texture by integrating over the pixel).
+//! CPU reference (which supersamples, so it filters the texture by integrating over the pixel). The
+//! alpha channel is kept as it is stored (linear, not sRGB-decoded — `R8G8B8A8_SRGB` decodes colour
+//! only): a material with `alpha_from_texture` takes its coverage from it.
 
 use std::path::Path;
 
@@ -61,20 +63,38 @@ impl Texture {
     /// Bilinear lookup of level 0 with repeat addressing. `uv` follows Vulkan's convention: (0,0) is
     /// the top-left corner of the first texel row.
     pub fn sample_bilinear(&self, uv: Vec2) -> Vec3 {
+        let ([i00, i10, i01, i11], fx, fy) = self.bilinear_footprint(uv);
+        let texel = |i: usize| self.linear[i];
+        let top = texel(i00).lerp(texel(i10), fx);
+        let bottom = texel(i01).lerp(texel(i11), fx);
+        top.lerp(bottom, fy)
+    }
+
+    /// Bilinear lookup of level 0's alpha channel (linear, `a / 255`), addressed as
+    /// [`Texture::sample_bilinear`].
+    pub fn sample_alpha_bilinear(&self, uv: Vec2) -> f32 {
+        let ([i00, i10, i01, i11], fx, fy) = self.bilinear_footprint(uv);
+        let alpha = |i: usize| self.srgb_rgba8[4 * i + 3] as f32 * (1.0 / 255.0);
+        let top = alpha(i00) + (alpha(i10) - alpha(i00)) * fx;
+        let bottom = alpha(i01) + (alpha(i11) - alpha(i01)) * fx;
+        top + (bottom - top) * fy
+    }
+
+    /// The four texel indices (top-left, top-right, bottom-left, bottom-right) and the weights of a
+    /// bilinear lookup at `uv` with repeat addressing.
+    fn bilinear_footprint(&self, uv: Vec2) -> ([usize; 4], f32, f32) {
         let (w, h) = (self.width as i64, self.height as i64);
         let x = uv.x * self.width as f32 - 0.5;
         let y = uv.y * self.height as f32 - 0.5;
         let (x0, y0) = (x.floor(), y.floor());
         let (fx, fy) = (x - x0, y - y0);
-        let texel = |xi: i64, yi: i64| -> Vec3 {
+        let index = |xi: i64, yi: i64| -> usize {
             let xi = xi.rem_euclid(w) as usize;
             let yi = yi.rem_euclid(h) as usize;
-            self.linear[yi * self.width as usize + xi]
+            yi * self.width as usize + xi
         };
         let (xi, yi) = (x0 as i64, y0 as i64);
-        let top = texel(xi, yi).lerp(texel(xi + 1, yi), fx);
-        let bottom = texel(xi, yi + 1).lerp(texel(xi + 1, yi + 1), fx);
-        top.lerp(bottom, fy)
+        ([index(xi, yi), index(xi + 1, yi), index(xi, yi + 1), index(xi + 1, yi + 1)], fx, fy)
     }
 }
 
@@ -121,6 +141,16 @@ mod tests {
         assert!((t.sample_bilinear(Vec2::new(1.25, 0.5)).x - 1.0).abs() < 1e-6, "repeat");
         assert!((t.sample_bilinear(Vec2::new(0.5, 0.5)).x - 0.5).abs() < 1e-6);
         assert_eq!(t.mip_levels(), 2);
+    }
+
+    #[test]
+    fn alpha_is_linear_and_bilinear() {
+        // sRGB 128 decodes to about 0.216; alpha 128 stays 128/255.
+        let t = Texture::from_srgb_rgba8("t", 2, 1, vec![128, 128, 128, 128, 0, 0, 0, 0]);
+        assert!((t.sample_alpha_bilinear(Vec2::new(0.25, 0.5)) - 128.0 / 255.0).abs() < 1e-6);
+        assert_eq!(t.sample_alpha_bilinear(Vec2::new(0.75, 0.5)), 0.0);
+        assert!((t.sample_alpha_bilinear(Vec2::new(0.5, 0.5)) - 64.0 / 255.0).abs() < 1e-6);
+        assert!((t.sample_alpha_bilinear(Vec2::new(1.25, 0.5)) - 128.0 / 255.0).abs() < 1e-6, "repeat");
     }
 
     fn temp_path(tag: &str) -> std::path::PathBuf {

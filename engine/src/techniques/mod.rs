@@ -278,13 +278,7 @@ impl Renderer {
         prepare: impl FnOnce(&PrepareContext<'_>) -> Result<Box<dyn FrameTechnique>>,
     ) -> Result<PreparedFrame> {
         self.check_settings(settings)?;
-        if let Some(o) = scene.objects.iter().find(|o| o.material.alpha < 1.0) {
-            return Err(Error::Unsupported(format!(
-                "object `{}` has alpha {} < 1: the GPU techniques render opaque surfaces only (the CPU \
-                 reference renders alpha as stochastic coverage)",
-                o.name, o.material.alpha,
-            )));
-        }
+        check_opaque_and_unshadowed(scene)?;
         let t0 = Instant::now();
         let world = GpuWorld::upload(&self.device, &mut self.recorder, scene)?;
         // The one camera-space build of the frame: the plan, the GPU view and the techniques share it.
@@ -490,4 +484,81 @@ pub fn shader_interfaces() -> impl Iterator<Item = &'static crate::gpu::layout::
     ]
     .into_iter()
     .flatten()
+}
+
+/// What no GPU technique renders yet (issue 12's transparency and shadow-map techniques): coverage
+/// below 1, coloured transmission, coverage from a texture's alpha, and shadow-casting lights. The CPU
+/// reference renders all of them (`reference` module docs).
+pub fn check_opaque_and_unshadowed(scene: &Scene) -> Result<()> {
+    for o in &scene.objects {
+        let m = &o.material;
+        if m.alpha < 1.0 {
+            let tint =
+                if m.tint != glam::Vec3::ONE { format!(" and tint {}", m.tint) } else { String::new() };
+            return Err(Error::Unsupported(format!(
+                "object `{}` has alpha {} < 1{tint}: the GPU techniques render opaque surfaces only (the \
+                 CPU reference renders alpha as stochastic coverage and tint as coloured transmission)",
+                o.name, m.alpha,
+            )));
+        }
+        if m.alpha_from_texture {
+            return Err(Error::Unsupported(format!(
+                "object `{}` takes alpha from its texture (alpha_from_texture): the GPU techniques render \
+                 opaque surfaces only (the CPU reference renders it)",
+                o.name,
+            )));
+        }
+    }
+    if let Some(i) = scene.lights.iter().position(|l| l.shadows()) {
+        return Err(Error::Unsupported(format!(
+            "light[{i}] casts shadows (shadows = true): shadows need the shadow-map techniques of issue 12, \
+             which no GPU technique has yet (the CPU reference renders them with shadow rays)"
+        )));
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod opaque_check_tests {
+    use glam::Vec3;
+
+    use super::check_opaque_and_unshadowed;
+    use crate::scene::builtin::builtin_scene;
+    use crate::scene::Light;
+
+    #[test]
+    fn transparency_and_shadows_are_refused_with_the_reason() {
+        let base = builtin_scene("static").expect("built-in").expect("parses");
+        assert!(check_opaque_and_unshadowed(&base).is_ok());
+        let refused = |edit: &dyn Fn(&mut crate::scene::Scene)| {
+            let mut s = base.clone();
+            edit(&mut s);
+            check_opaque_and_unshadowed(&s).map(|_| ()).unwrap_err().to_string()
+        };
+        let e = refused(&|s| s.objects[0].material.alpha = 0.5);
+        assert!(e.contains("alpha 0.5"), "{e}");
+        let e = refused(&|s| {
+            s.objects[0].material.alpha = 0.5;
+            s.objects[0].material.tint = Vec3::new(1.0, 0.5, 0.5);
+        });
+        assert!(e.contains("tint"), "{e}");
+        let e = refused(&|s| s.objects[0].material.alpha_from_texture = true);
+        assert!(e.contains("alpha_from_texture"), "{e}");
+        let e = refused(&|s| {
+            s.lights.push(Light::Point { position: Vec3::Y, color: Vec3::ONE, shadows: true });
+        });
+        assert!(e.contains("shadows") && e.contains("shadow-map") && e.contains("CPU reference"), "{e}");
+        // An opaque tinted surface (tint irrelevant) and a spot light without shadows are fine.
+        let mut ok = base.clone();
+        ok.objects[0].material.tint = Vec3::new(0.5, 0.5, 1.0);
+        ok.lights.push(Light::Spot {
+            position: Vec3::Y,
+            direction: -Vec3::Y,
+            inner_deg: 10.0,
+            outer_deg: 20.0,
+            color: Vec3::ONE,
+            shadows: false,
+        });
+        assert!(check_opaque_and_unshadowed(&ok).is_ok());
+    }
 }
