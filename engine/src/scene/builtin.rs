@@ -12,6 +12,9 @@
 //! * `spot` — Keenan Crane's Spot (public domain, `assets/spot/README.txt`), normalized to `[-1, 1]³`
 //!   (largest half-extent 1), with uvs for the embedded texture (`texture = "spot"` in a scene file).
 //!
+//! Textures: `spot` (Spot's, embedded PNG) and `leaves` ([`leaves_texture`], generated: leaf shapes on
+//! a transparent background, for alpha-tested cards).
+//!
 //! Scenes are TOML files in the repository's `scenes/` folder, embedded and parsed with
 //! [`parse_scene`](super::file::parse_scene): see [`BUILTIN_SCENES`].
 
@@ -29,7 +32,10 @@ use crate::error::{Error, Result};
 /// Names accepted by [`builtin_mesh`].
 pub const BUILTIN_MESHES: &[&str] = &["plane", "box", "sphere", "displaced-sphere", "spot"];
 /// Names accepted by [`builtin_scene`].
-pub const BUILTIN_SCENES: &[&str] = &["default", "static", "focus-sweep", "one-mover"];
+pub const BUILTIN_SCENES: &[&str] =
+    &["default", "static", "focus-sweep", "one-mover", "glass", "foliage", "smoke"];
+/// Names of the built-in textures a scene file's `texture` may give instead of a PNG path.
+pub const BUILTIN_TEXTURES: &[&str] = &["spot", "leaves"];
 
 pub const MAX_PLANE_DETAIL: u32 = 1024;
 pub const MAX_SPHERE_DETAIL: u32 = 4096;
@@ -47,6 +53,9 @@ const SCENE_DEFAULT: &str = include_str!("../../../scenes/default.toml");
 const SCENE_STATIC: &str = include_str!("../../../scenes/static.toml");
 const SCENE_FOCUS_SWEEP: &str = include_str!("../../../scenes/focus-sweep.toml");
 const SCENE_ONE_MOVER: &str = include_str!("../../../scenes/one-mover.toml");
+const SCENE_GLASS: &str = include_str!("../../../scenes/glass.toml");
+const SCENE_FOLIAGE: &str = include_str!("../../../scenes/foliage.toml");
+const SCENE_SMOKE: &str = include_str!("../../../scenes/smoke.toml");
 
 /// A procedural or embedded mesh by name; `None` when `name` is not a built-in mesh. `detail` is the
 /// tessellation level (ignored by `box` and `spot`).
@@ -74,6 +83,59 @@ pub fn spot_texture() -> Result<Arc<Texture>> {
     .map_err(|m| Error::scene("built-in texture `spot`", m))
 }
 
+/// Side of the generated [`leaves_texture`], texels.
+pub const LEAVES_SIZE: u32 = 128;
+
+/// The generated `leaves` texture: [`LEAVES_SIZE`]² texels of overlapping leaf shapes (pointed ellipses
+/// with a lighter midrib, greens of several shades) on a fully transparent background — coverage for
+/// alpha-tested foliage cards (`alpha_from_texture = true`). It tiles: leaves wrap around the edges.
+/// Deterministic (a fixed [`crate::sampling::Pcg32`] stream), so scenes using it are reproducible.
+pub fn leaves_texture() -> Arc<Texture> {
+    static LEAVES: OnceLock<Arc<Texture>> = OnceLock::new();
+    LEAVES
+        .get_or_init(|| {
+            let n = LEAVES_SIZE as usize;
+            let mut rng = crate::sampling::Pcg32::new(0x1eaf, 7);
+            let mut unit = || rng.next_u32() as f32 / 4_294_967_296.0;
+            let mut rgba = vec![0u8; n * n * 4];
+            for _ in 0..22 {
+                let centre = Vec2::new(unit(), unit()) * n as f32;
+                let angle = unit() * std::f32::consts::TAU;
+                let (half_length, half_width) = (14.0 + 10.0 * unit(), 5.0 + 4.0 * unit());
+                let shade = 0.55 + 0.45 * unit();
+                let axis = Vec2::from_angle(angle);
+                for y in 0..n {
+                    for x in 0..n {
+                        // Offset to the nearest copy of the centre (the texture tiles).
+                        let mut d = Vec2::new(x as f32 + 0.5, y as f32 + 0.5) - centre;
+                        d -= (d / n as f32).round() * n as f32;
+                        let (u, v) = (d.dot(axis) / half_length, d.perp_dot(axis) / half_width);
+                        // A pointed leaf: the width shrinks towards both tips.
+                        if u.abs() >= 1.0 || v.abs() >= 1.0 - u * u {
+                            continue;
+                        }
+                        let rib = if v.abs() < 0.12 { 1.25 } else { 1.0 };
+                        let c = [0.18 * shade, 0.55 * shade * rib, 0.12 * shade]
+                            .map(|c: f32| (c.min(1.0) * 255.0) as u8);
+                        let i = 4 * (y * n + x);
+                        rgba[i..i + 4].copy_from_slice(&[c[0], c[1], c[2], 255]);
+                    }
+                }
+            }
+            Arc::new(Texture::from_srgb_rgba8("leaves", LEAVES_SIZE, LEAVES_SIZE, rgba))
+        })
+        .clone()
+}
+
+/// A built-in texture by name (see [`BUILTIN_TEXTURES`]); `None` when there is no such texture.
+pub fn builtin_texture(name: &str) -> Option<Result<Arc<Texture>>> {
+    match name {
+        "spot" => Some(spot_texture()),
+        "leaves" => Some(Ok(leaves_texture())),
+        _ => None,
+    }
+}
+
 /// A built-in scene by name (see [`BUILTIN_SCENES`]); `None` when there is no such scene.
 pub fn builtin_scene(name: &str) -> Option<Result<Scene>> {
     let text = match name {
@@ -81,6 +143,9 @@ pub fn builtin_scene(name: &str) -> Option<Result<Scene>> {
         "static" => SCENE_STATIC,
         "focus-sweep" => SCENE_FOCUS_SWEEP,
         "one-mover" => SCENE_ONE_MOVER,
+        "glass" => SCENE_GLASS,
+        "foliage" => SCENE_FOLIAGE,
+        "smoke" => SCENE_SMOKE,
         _ => return None,
     };
     Some(super::file::parse_scene(text, Path::new("."), name))
@@ -298,6 +363,46 @@ mod tests {
         let t = spot_texture().unwrap();
         assert!(t.width > 0 && t.height > 0);
         assert!(SPOT_README.contains("public domain"));
+    }
+
+    #[test]
+    fn leaves_texture_is_cut_out_deterministic_and_tiles() {
+        let t = leaves_texture();
+        assert_eq!((t.width, t.height), (LEAVES_SIZE, LEAVES_SIZE));
+        let alpha: Vec<u8> = t.srgb_rgba8.chunks_exact(4).map(|p| p[3]).collect();
+        // Cut-out coverage: every texel fully in or fully out, and plenty of both.
+        assert!(alpha.iter().all(|&a| a == 0 || a == 255));
+        let covered = alpha.iter().filter(|&&a| a == 255).count() as f64 / alpha.len() as f64;
+        assert!((0.2..0.8).contains(&covered), "{covered}");
+        // Leaves wrap around: some leaf crosses each edge.
+        let n = LEAVES_SIZE as usize;
+        assert!((0..n).any(|y| alpha[y * n] == 255 && alpha[y * n + n - 1] == 255));
+        assert!((0..n).any(|x| alpha[x] == 255 && alpha[(n - 1) * n + x] == 255));
+        // Generated from a fixed stream: the same texels every time (and shared).
+        assert!(Arc::ptr_eq(&t, &leaves_texture()));
+        let sum: u64 = t.srgb_rgba8.iter().map(|&b| b as u64).sum();
+        assert_eq!(sum, leaves_texture().srgb_rgba8.iter().map(|&b| b as u64).sum::<u64>());
+        assert!(builtin_texture("leaves").unwrap().is_ok() && builtin_texture("bark").is_none());
+    }
+
+    /// Every built-in scene parses; the transparency scenes use what they are for.
+    #[test]
+    fn builtin_scenes_parse_and_the_transparency_ones_are_transparent() {
+        for name in BUILTIN_SCENES {
+            builtin_scene(name).unwrap().unwrap_or_else(|e| panic!("{name}: {e}"));
+        }
+        let scene = |n: &str| builtin_scene(n).unwrap().unwrap();
+        let glass = scene("glass");
+        assert!(
+            glass.objects.iter().filter(|o| o.material.alpha < 1.0 && o.material.tint != Vec3::ONE).count()
+                >= 3
+        );
+        assert!(glass.objects.iter().any(|o| o.material.alpha < 1.0 && o.is_moving()));
+        let foliage = scene("foliage");
+        assert!(foliage.objects.iter().any(|o| o.material.alpha_from_texture));
+        assert!(foliage.lights.iter().any(|l| l.shadows()));
+        let smoke = scene("smoke");
+        assert!(smoke.objects.iter().filter(|o| o.material.alpha < 0.3).count() >= 30);
     }
 
     #[test]

@@ -50,7 +50,7 @@
 //! translate = [0, 0, 0]         # rotate_deg, scale as in [object.transform]
 //! [object.material]             # optional
 //! albedo = [0.8, 0.8, 0.8]      # linear RGB ≥ 0; default 0.8, or 1 when there is a texture
-//! texture = "spot.png"          # PNG path, or "spot" for the embedded Spot texture
+//! texture = "spot.png"          # PNG path, or a built-in: "spot" (Spot's), "leaves" (generated foliage)
 //! specular = 0.0                # ≥ 0
 //! roughness = 0.5               # in (0, 1]
 //! alpha = 1.0                   # coverage, in [0, 1] (1 = opaque)
@@ -83,7 +83,7 @@ use std::sync::Arc;
 use glam::{Mat4, Vec3};
 use serde::Deserialize;
 
-use super::builtin::{builtin_mesh, builtin_scene, spot_texture, BUILTIN_MESHES, BUILTIN_SCENES};
+use super::builtin::{builtin_mesh, builtin_scene, builtin_texture, BUILTIN_MESHES, BUILTIN_SCENES};
 use super::mesh::{load_obj, Mesh};
 use super::texture::{load_texture, Texture};
 use super::{Camera, CameraPose, Environment, ImageSettings, Light, Material, Object, Scene};
@@ -622,8 +622,10 @@ fn resolve_material(
         Some(t) => Some(match textures.get(t) {
             Some(tex) => tex.clone(),
             None => {
-                let tex =
-                    if t == "spot" { spot_texture()? } else { Arc::new(load_texture(&base_dir.join(t))?) };
+                let tex = match builtin_texture(t) {
+                    Some(texture) => texture?,
+                    None => Arc::new(load_texture(&base_dir.join(t))?),
+                };
                 textures.insert(t.clone(), tex.clone());
                 tex
             }
