@@ -23,6 +23,7 @@ pub mod sampling;
 pub mod scene;
 pub mod shading;
 pub mod techniques;
+pub mod transparency;
 pub mod vk;
 
 pub use error::{Error, Result};

@@ -31,6 +31,10 @@ layout(push_constant) uniform Push {
     uint segment;
     // Cluster bounds (CLUSTER_BOUNDS): triangles per cluster.
     uint cluster_size;
+    // Stochastic transparency: the object's coverage (1: opaque) and the coverage hashes' seed
+    // (common/coverage.glsl).
+    float alpha;
+    uint coverage_seed;
 } pc;
 
 #endif

@@ -12,6 +12,8 @@
 //               interpolation.
 //   NO_DEFOCUS: motion-only objects: every sample's ray from the lens centre, no lens sampling.
 //   COMPUTE_HULL: behind the compute-expanded hull (hull.vert) rather than the geometry shader.
+// A partly covering object (pc.alpha < 1) keeps a hit only on the samples it covers (stochastic
+// transparency, docs/TRANSPARENCY.md); "samples hit" then counts covered hits.
 // llvmpipe runs this for every pixel a bound touches and masks SIMD lanes rather than branching, so
 // the work here is only what a miss must pay anyway: load the triangle, test the samples.
 #include "common/frame.glsl"
@@ -19,6 +21,7 @@
 #include "stochastic/push.glsl"
 #include "stochastic/visibility.glsl"
 #include "stochastic/camera_triangles.glsl"
+#include "common/coverage.glsl"
 
 // The sample tile (sampling::SampleTile): 64 x 64 pixels x S samples; xy in [0,1) within the pixel,
 // lens already mapped to the aperture shape, time already warped by the shutter curve.
@@ -54,6 +57,16 @@ bool sample_sees_cluster(vec2 q, vec2 lens, vec4 pin, vec4 phi) {
 #endif
 
 const uint SAMPLE_TILE_SIZE = 64u;
+
+// Stochastic transparency: does triangle `tri` (the frame's numbering, the reference's) cover sample
+// i of this pass? The reference's decision for the same sample (common/coverage.glsl), so a partly
+// covering surface hides exactly the samples it hides there; opaque objects skip the hashes (a
+// uniform branch: pc.alpha is the draw's).
+bool sample_covered(uvec2 pix, uint i, uint tri) {
+    if (pc.alpha >= 1.0) return true;
+    uint key = coverage_key(pc.coverage_seed, pix, tri);
+    return coverage_rank(pc.pass_index * pc.per_pass + i, pc.spp, key) < coverage_count(pc.alpha, pc.spp, key);
+}
 
 void main() {
 #if defined(CLUSTER_BOUNDS)
@@ -118,7 +131,7 @@ void main() {
         vec3 b = shutter_lerp(p_open[1], p_close[1], s);
         vec3 c = shutter_lerp(p_open[2], p_close[2], s);
 #endif
-        if (sample_hit(a, b, c, ro, rd, z, w, back) && in_segment) {
+        if (sample_hit(a, b, c, ro, rd, z, w, back) && in_segment && sample_covered(pix, i, pc.triangle_base + prim)) {
             atomicMax(visibility[visibility_index(pix, i, pc.per_pass)], visibility_pack(z, pc.triangle_base + prim, back));
             hits++;
         }
@@ -171,7 +184,7 @@ void main() {
                 float z;
                 vec3 w;
                 bool back;
-                if (sample_hit(a, b, c, ro, rd, z, w, back)) {
+                if (sample_hit(a, b, c, ro, rd, z, w, back) && sample_covered(pix, i, pc.triangle_base + prim)) {
                     atomicMax(visibility[visibility_index(pix, i, pc.per_pass)], visibility_pack(z, pc.triangle_base + prim, back));
                     hits++;
                 }

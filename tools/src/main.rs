@@ -73,6 +73,12 @@ enum Command {
         /// object.
         #[arg(long, default_value = "auto")]
         clusters: String,
+        /// How pinhole and accumulation (and auto without blur) render alpha < 1, alpha_from_texture
+        /// and tints: `stochastic` (stochastic transparency, stratified per-pixel masks over the
+        /// S = MSAA × passes samples, tints multiplied into the uncovered samples). Used only when
+        /// the scene has transparency.
+        #[arg(long, default_value = "stochastic")]
+        transparency: String,
         #[command(flatten)]
         image: ImageArgs,
     },
@@ -323,9 +329,11 @@ fn run() -> Result<()> {
             hull,
             intervals,
             clusters,
+            transparency,
             image: ImageArgs { size, seed, out },
         } => {
             let technique: Technique = technique.parse()?;
+            let transparency: shutter::transparency::TransparencyMethod = transparency.parse()?;
             let stochastic = StochasticOptions {
                 bound: bound.parse()?,
                 shading: shading.parse()?,
@@ -337,6 +345,7 @@ fn run() -> Result<()> {
             };
             let sc = load_scene(&scene)?;
             let mut settings = RenderSettings::from_scene(&sc).with_stochastic(stochastic);
+            settings.transparency = transparency;
             if let Some((w, h)) = size {
                 (settings.width, settings.height) = (w, h);
             }
@@ -376,6 +385,14 @@ fn run() -> Result<()> {
                 let paths: Vec<String> =
                     plan.objects.iter().map(|o| format!("{} {}", o.name, o.effects.name())).collect();
                 println!("  plan: {}", paths.join(", "));
+            }
+            if let Some(method) = output.stats.transparency {
+                println!(
+                    "  transparency {method}: S = {} samples per pixel (MSAA {}x × {} passes)",
+                    output.stats.msaa_samples * output.stats.passes,
+                    output.stats.msaa_samples,
+                    output.stats.passes
+                );
             }
             if technique == Technique::STOCHASTIC
                 || output.stats.plan.as_ref().is_some_and(|p| p.needs_stochastic())

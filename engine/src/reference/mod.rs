@@ -29,8 +29,11 @@
 //! * **Transparency (camera rays).** A surface's coverage α is the material's `alpha` (times the
 //!   texture's alpha at the hit's uv with `alpha_from_texture`, [`crate::scene::Material::coverage`]).
 //!   Coverage is *stochastic*: the ray stops at a surface with probability α and passes through it
-//!   otherwise, decided by [`coverage_hash`] of (seed, pixel, sample, triangle), so renders are
-//!   reproducible; passing through multiplies the ray's throughput by the surface's `tint` T. A sample
+//!   otherwise, decided by [`crate::transparency::covered`] of (seed, pixel, sample index k of the
+//!   pixel's S = `spp`, triangle) — stratified per pixel and triangle (exactly ⌊αS⌋ or ⌈αS⌉ of the
+//!   pixel's samples stop at a triangle) and the very function the GPU's stochastic transparency
+//!   evaluates, so renders are reproducible and the GPU makes the same decisions for the same
+//!   samples; passing through multiplies the ray's throughput by the surface's `tint` T. A sample
 //!   is `Π_{j<k} T_j · C_k` for the surface k it stops at (background if none), which happens with
 //!   probability `α_k · Π_{j<k} (1 − α_j)`; its expectation is therefore the sorted Porter-Duff
 //!   composite `Σ_k vis(z_k)·α_k·C_k + vis(∞)·background` with `vis(z) = Π_{z_j < z} (1 − α_j)·T_j`
@@ -80,12 +83,15 @@ use crate::shading::{shade, ShadingLight};
 /// different pixels (intersection, shading, sampling). `shutter quality` puts it in the key of its
 /// cached references, so a reference rendered by an older version is never reused.
 ///
+/// 4: stochastic coverage stratified per pixel and triangle ([`crate::transparency::covered`], shared
+/// with the GPU) instead of an independent hash per sample: scenes with alpha or tints render to
+/// different pixels (opaque scenes do not change).
 /// 3: a pixel's samples in shutter-time order (`sampling::pixel_sample_set`), the hit depth clamped
 /// to the triangle's depth range, triangles interpolated over the shutter as `a + (b − a)·t` (exact for
 /// still vertices). (2: hits from the shared [`crate::geometry::intersect_triangle`] (the GPU's inside
 /// test), nearest by barycentric view depth, shaded at the barycentric point. 1: a Möller–Trumbore of
 /// its own, nearest by ray parameter, shaded at `o + t·d`.)
-pub const REFERENCE_VERSION: u32 = 3;
+pub const REFERENCE_VERSION: u32 = 4;
 /// Relative offset of a shadow ray's origin along the geometric normal, times the largest coordinate
 /// magnitude of the shaded triangle (see the module docs, "Shadows"): f32 rounding of the hit point is
 /// about 1e-7 of that scale, so the ray clears its own surface with a wide margin, while contact gaps
@@ -152,9 +158,35 @@ pub fn render_reference_with_stats(
     scene: &Scene,
     settings: &ReferenceSettings,
 ) -> Result<(LinearImage, ReferenceStats)> {
+    render(scene, settings, None)
+}
+
+/// Renders `scene` with every pixel taking the same sample set `samples` (sample k at pixel `(x, y)`
+/// is the ray through `(x + s.xy.x, y + s.xy.y)`, lens and time as usual) — what technique
+/// `accumulation` does, pass k rendering `samples[k]` everywhere
+/// ([`crate::techniques::accumulation::accumulation_samples`]), so its images can be compared
+/// with the same samples (stochastic coverage included: sample index k, S = `samples.len()`).
+/// `settings.spp` must be `samples.len()`.
+pub fn render_reference_shared_samples(
+    scene: &Scene,
+    settings: &ReferenceSettings,
+    samples: &[Sample5],
+) -> Result<LinearImage> {
+    if samples.len() != settings.spp as usize {
+        return Err(limit("shared samples", samples.len(), &format!("spp = {}", settings.spp)));
+    }
+    render(scene, settings, Some(samples)).map(|(image, _)| image)
+}
+
+fn render(
+    scene: &Scene,
+    settings: &ReferenceSettings,
+    shared: Option<&[Sample5]>,
+) -> Result<(LinearImage, ReferenceStats)> {
     validate(settings, &scene.camera)?;
     let start = Instant::now();
-    let tracer = Tracer::new(scene, settings);
+    let mut tracer = Tracer::new(scene, settings);
+    tracer.shared = shared.map(|s| s.to_vec());
     let build_seconds = start.elapsed().as_secs_f64();
 
     let (w, h) = (settings.width, settings.height);
@@ -295,10 +327,13 @@ struct Tracer<'a> {
     shadows: Vec<bool>,
     ambient: Vec3,
     background: Vec3,
-    width: u32,
     spp: u32,
     seed: u64,
+    /// [`crate::transparency::coverage_seed`] of `seed`.
+    coverage_seed: u32,
     shading: ReferenceShading,
+    /// Every pixel's samples, when they are shared ([`render_reference_shared_samples`]).
+    shared: Option<Vec<Sample5>>,
 }
 
 impl<'a> Tracer<'a> {
@@ -376,10 +411,11 @@ impl<'a> Tracer<'a> {
             scene_space,
             ambient: scene.environment.ambient,
             background: scene.environment.background,
-            width: s.width,
             spp: s.spp,
             seed: s.seed,
+            coverage_seed: crate::transparency::coverage_seed(s.seed),
             shading: s.shading,
+            shared: None,
         }
     }
 
@@ -412,8 +448,14 @@ impl<'a> Tracer<'a> {
     }
 
     fn render_pixel(&self, x: u32, y: u32, lights: &mut Vec<ShadingLight>) -> Vec3 {
-        let samples = pixel_samples(self.spp, self.seed, x, y);
-        let pixel_index = y as u64 * self.width as u64 + x as u64;
+        let own;
+        let samples = match &self.shared {
+            Some(shared) => shared.as_slice(),
+            None => {
+                own = pixel_samples(self.spp, self.seed, x, y);
+                own.as_slice()
+            }
+        };
         let per_pass = match self.shading {
             ReferenceShading::PerSample => 1,
             ReferenceShading::PerPixel { per_pass } => per_pass.max(1) as usize,
@@ -429,7 +471,7 @@ impl<'a> Tracer<'a> {
             let lens = self.camera.aperture.map(s.lens);
             let time = self.camera.shutter.warp(s.time);
             let (o, d) = self.intrinsics.primary_ray(pos, lens);
-            let (hit, throughput) = self.camera_hit(o, d, time, pixel_index, k as u32);
+            let (hit, throughput) = self.camera_hit(o, d, time, (x, y), k as u32);
             let Some(hit) = hit else {
                 sum += (throughput * self.background).as_dvec3();
                 continue;
@@ -458,7 +500,7 @@ impl<'a> Tracer<'a> {
     /// The nearest hit along one primary ray whose view depth lies in `[near, far]`, as the GPU's
     /// visibility keeps it, with stochastic coverage.
     #[cfg(test)]
-    fn nearest_hit(&self, o: Vec3, d: Vec3, time: f32, pixel: u64, sample: u32) -> Option<Hit> {
+    fn nearest_hit(&self, o: Vec3, d: Vec3, time: f32, pixel: (u32, u32), sample: u32) -> Option<Hit> {
         self.camera_hit(o, d, time, pixel, sample).0
     }
 
@@ -478,10 +520,17 @@ impl<'a> Tracer<'a> {
     }
 
     /// One camera ray (module docs, "Transparency"): the nearest surface in `[near, far]` it stops
-    /// at, each surface stopping it with probability its coverage ([`coverage_hash`]), and the
-    /// product of the tints of the surfaces it passed through in front of that one (all of them for
-    /// a miss).
-    fn camera_hit(&self, o: Vec3, d: Vec3, time: f32, pixel: u64, sample: u32) -> (Option<Hit>, Vec3) {
+    /// at, each surface stopping it with probability its coverage ([`crate::transparency::covered`]
+    /// for sample `sample` of pixel `pixel`'s `spp`), and the product of the tints of the surfaces it
+    /// passed through in front of that one (all of them for a miss).
+    fn camera_hit(
+        &self,
+        o: Vec3,
+        d: Vec3,
+        time: f32,
+        (x, y): (u32, u32),
+        sample: u32,
+    ) -> (Option<Hit>, Vec3) {
         let bvh = &self.bvhs[self.intervals.segment_of(time)];
         // Tinted surfaces passed through: (view depth, triangle). The filter is asked for every
         // surface nearer than the best hit so far, so those in front of the final hit are all here.
@@ -492,7 +541,8 @@ impl<'a> Tracer<'a> {
                 return true;
             }
             let alpha = self.coverage(id, h);
-            let covered = alpha >= 1.0 || coverage_hash(self.seed, pixel, sample, id) < alpha;
+            let covered = alpha >= 1.0
+                || crate::transparency::covered(self.coverage_seed, x, y, sample, id, alpha, self.spp);
             if !covered && m.tint != Vec3::ONE {
                 passed.push((h.depth_z, id));
             }
@@ -588,24 +638,6 @@ impl<'a> Tracer<'a> {
         }
         shade(position, n, -d, albedo, material.specular, material.roughness, lights, self.ambient)
     }
-}
-
-fn mix64(mut x: u64) -> u64 {
-    x ^= x >> 30;
-    x = x.wrapping_mul(0xbf58_476d_1ce4_e5b9);
-    x ^= x >> 27;
-    x = x.wrapping_mul(0x94d0_49bb_1331_11eb);
-    x ^ (x >> 31)
-}
-
-/// Uniform number in [0, 1) from (seed, pixel, sample, triangle): the stochastic-alpha decision.
-pub fn coverage_hash(seed: u64, pixel: u64, sample: u32, triangle: u32) -> f32 {
-    let h = mix64(
-        seed ^ mix64(
-            pixel.wrapping_add(0x9e37_79b9_7f4a_7c15) ^ mix64(((sample as u64) << 32) | triangle as u64),
-        ),
-    );
-    (h >> 40) as f32 * (1.0 / 16_777_216.0)
 }
 
 #[cfg(test)]

@@ -412,7 +412,7 @@ fn keyed_motion_finds_the_brute_force_hit_in_every_interval() {
         // Every tenth ray exactly at a key time.
         let time = if i % 10 == 0 { [0.0, 0.3, 0.55, 0.8, 1.0][i / 10 % 5] } else { rng.next_f32() };
         let (o, d) = k.primary_ray(pos, lens);
-        let got = tracer.nearest_hit(o, d, time, 0, 0);
+        let got = tracer.nearest_hit(o, d, time, (0, 0), 0);
         let mut want: Option<Hit> = None;
         for id in 0..tracer.surface.len() as u32 {
             let ([(p0, _), (p1, _)], st) = tracer.segment_at(id, time);
@@ -544,8 +544,8 @@ fn stochastic_coverage_converges_to_the_closed_form_composite() {
         let img = render(&scene(cam.clone(), objects, background), settings(w, h, spp));
         let m = measure(&img, spp);
         for &(mean_error, _, sigma, samples) in &m {
-            // 4 standard errors of the mean over the patch's samples (coverage decisions are
-            // independent per pixel, sample and triangle): fails by chance with probability ~6e-5.
+            // 4 standard errors of the mean over the patch's samples as if every coverage decision
+            // were independent (pixels are; the stratified samples of one pixel only err less).
             let bound = 4.0 * sigma / samples.sqrt();
             assert!(mean_error.abs() < bound, "S={spp}: mean error {mean_error} ≥ {bound}");
         }
@@ -553,12 +553,16 @@ fn stochastic_coverage_converges_to_the_closed_form_composite() {
             rms.push(m);
         }
     }
-    // The per-pixel RMS error is about σ/√S and falls by √16 = 4 from S = 16 to 256.
+    // The per-pixel RMS error is at most σ/√S — the error of independent coverage decisions; the
+    // stratified masks (exactly ⌊αS⌋ or ⌈αS⌉ samples per pixel and triangle) measured 0.26–0.85 of it
+    // — and falls by at least about √16 = 4 from S = 16 to 256 (measured 3.9–6.0: a stratified count
+    // converges faster than 1/√S).
     for (a, b) in rms[0].iter().zip(&rms[1]) {
         let (rms16, rms256, sigma) = (a.1, b.1, a.2);
-        assert!((0.6..1.4).contains(&(rms16 / (sigma / 4.0))), "RMS {rms16} vs σ/√16 = {}", sigma / 4.0);
+        assert!(rms16 <= sigma / 4.0, "RMS {rms16} > σ/√16 = {}", sigma / 4.0);
+        assert!(rms256 <= sigma / 16.0, "RMS {rms256} > σ/√256 = {}", sigma / 16.0);
         let ratio = rms16 / rms256;
-        assert!((2.8..5.6).contains(&ratio), "error fell by {ratio} from S=16 to S=256 (expected ~4)");
+        assert!((2.8..8.0).contains(&ratio), "error fell by {ratio} from S=16 to S=256 (expected ≥ ~4)");
     }
 }
 

@@ -4,13 +4,18 @@
 //! The P samples are one stratified set (`sampling::stratified_samples`): subpixel offsets and lens
 //! points multi-jittered over P, times jittered over P strata, the three permuted independently. Each
 //! pass renders without MSAA so the pixel filter is exactly the box of DESIGN.md: S = P samples/pixel.
+//!
+//! Coverage below 1 and tints: stochastic transparency on the forward path (`forward.rs`): in pass p a
+//! transparent fragment is kept iff sample p of its pixel's P is covered, the decision the reference
+//! makes for the same sample — with [`accumulation_samples`] as every pixel's samples the two images
+//! agree to rounding.
 
 use glam::Vec2;
 
 use super::forward::{ForwardTechnique, PassSample};
 use super::{FrameTechnique, PrepareContext, TechniqueInfo};
 use crate::error::Result;
-use crate::sampling::{stratified_samples, ApertureShape, Pcg32, ShutterCurve};
+use crate::sampling::{stratified_samples, ApertureShape, Pcg32, Sample5, ShutterCurve};
 
 /// The registry entry.
 pub const INFO: TechniqueInfo = TechniqueInfo {
@@ -26,6 +31,14 @@ fn prepare(ctx: &PrepareContext<'_>) -> Result<Box<dyn FrameTechnique>> {
     Ok(Box::new(ForwardTechnique::new(ctx, 1, passes)?))
 }
 
+/// The samples of `passes` passes with `seed`, in pass order, before the aperture shape and the
+/// shutter curve: what the reference takes to render with the same samples
+/// ([`crate::reference::render_reference_shared_samples`]; pass p is sample index p of every pixel,
+/// stochastic coverage included).
+pub fn accumulation_samples(passes: u32, seed: u64) -> Vec<Sample5> {
+    stratified_samples(passes, &mut Pcg32::new(seed, 0xacc))
+}
+
 /// The passes for `passes` samples with `seed`, the aperture shape and the shutter curve applied.
 pub fn accumulation_passes(
     passes: u32,
@@ -33,8 +46,7 @@ pub fn accumulation_passes(
     aperture: ApertureShape,
     shutter: ShutterCurve,
 ) -> Vec<PassSample> {
-    let mut rng = Pcg32::new(seed, 0xacc);
-    stratified_samples(passes, &mut rng)
+    accumulation_samples(passes, seed)
         .into_iter()
         .map(|s| PassSample {
             time: shutter.warp(s.time),

@@ -35,6 +35,9 @@ fn prepare(ctx: &PrepareContext<'_>) -> Result<Box<dyn FrameTechnique>> {
         let inner = ForwardTechnique::new(ctx, msaa, pinhole_passes())?;
         return Ok(Box::new(Auto { plan, path: AutoPath::Pinhole(Box::new(inner)) }));
     }
+    // The stochastic path renders constant coverage (its coverage stage keeps covered samples only),
+    // not tints or texture alpha yet.
+    super::check_untinted(ctx.scene, "technique `auto` with blur (its stochastic path)")?;
     let effects = plan.effects();
     let mut options = ctx.settings.stochastic;
     if !ctx.device.caps.geometry_shader {
@@ -66,5 +69,12 @@ impl FrameTechnique for Auto {
 
     fn plan(&self) -> Option<&Plan> {
         Some(&self.plan)
+    }
+
+    fn transparency(&self) -> Option<crate::transparency::TransparencyMethod> {
+        match &self.path {
+            AutoPath::Pinhole(t) => t.transparency(),
+            AutoPath::Stochastic(s) => s.transparency(),
+        }
     }
 }

@@ -1,6 +1,15 @@
 //! The plain forward path shared by `pinhole`, `accumulation` and `auto`'s still, sharp objects: the
 //! objects rendered with one (u, v, t) and one subpixel offset per pass, into the passes of a
 //! [`MultipassFrame`]. Shaders: `shaders-glsl/forward/`.
+//!
+//! **Stochastic transparency** ([`TransparentDraws`], docs/TRANSPARENCY.md): objects with coverage
+//! below 1 are drawn by `transparent.frag`, which keeps the MSAA samples of the pass that
+//! [`crate::transparency::covered`] gives them (sample `pass × M + j` of the pixel's S = M × P) and
+//! discards the fragment before shading when it keeps none; then tinted ones are drawn again, nearer
+//! than the stored depth only, multiplying their tint into the samples they do not cover. Both are
+//! draws inside the same raster pass of the frame graph, after the opaque ones: draws in one pass
+//! meet the depth test and blending in submission order, so no barrier and no second pass (storing
+//! and reloading the MSAA targets) is needed. An opaque scene builds none of it.
 
 use ash::vk;
 use bytemuck::{Pod, Zeroable};
@@ -12,8 +21,11 @@ use crate::error::Result;
 use crate::gpu::layout::{shared_struct, vertex_input, SharedStruct};
 use crate::gpu::{GpuView, GpuWorld};
 use crate::graph::{FrameGraph, PassContext};
+use crate::scene::Scene;
 use crate::shaders;
-use crate::vk::{Device, GraphicsDesc, Pipeline, PipelineLayout, ShaderModule};
+use crate::shaders::axes::TransparencyPass;
+use crate::transparency::{coverage_seed, TransparencyMethod};
+use crate::vk::{ColorBlend, Device, Feature, GraphicsDesc, Pipeline, PipelineLayout, ShaderModule};
 
 /// One pass' sample of the lens and shutter.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -57,9 +69,56 @@ impl ForwardPush {
     }
 }
 
+/// Push constants of `transparent.frag`: [`ForwardPush`]'s members (`forward.vert` reads them) and
+/// what the coverage decision and the tint pass need.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct TransparentPush {
+    pub object: u32,
+    pub time: f32,
+    pub lens: [f32; 2],
+    pub jitter: [f32; 2],
+    pub segment: u32,
+    pub segment_time: f32,
+    /// rgb transmission, unused.
+    pub tint: [f32; 4],
+    /// [`coverage_seed`] of the render seed.
+    pub coverage_seed: u32,
+    /// S: samples per pixel over the frame (MSAA × passes).
+    pub samples: u32,
+    /// Index among the S of the pass' first MSAA sample (pass × MSAA).
+    pub sample_base: u32,
+    /// MSAA samples of the pass.
+    pub msaa: u32,
+    /// The object's first triangle in the scene's numbering (the reference's).
+    pub first_triangle: u32,
+    /// 1: coverage is alpha × the texture's alpha.
+    pub alpha_from_texture: u32,
+}
+
 /// For the reflection test.
-pub const FORWARD_STRUCTS: &[SharedStruct] =
-    &[shared_struct!("Push", ForwardPush, [object, time, lens, jitter, segment, segment_time])];
+pub const FORWARD_STRUCTS: &[SharedStruct] = &[
+    shared_struct!("Push", ForwardPush, [object, time, lens, jitter, segment, segment_time]),
+    shared_struct!(
+        "Push",
+        TransparentPush,
+        [
+            object,
+            time,
+            lens,
+            jitter,
+            segment,
+            segment_time,
+            tint,
+            coverage_seed,
+            samples,
+            sample_base,
+            msaa,
+            first_triangle,
+            alpha_from_texture
+        ]
+    ),
+];
 
 /// The forward pipeline for one MSAA count.
 pub struct ForwardPipeline {
@@ -118,16 +177,221 @@ impl ForwardPipeline {
     }
 }
 
+/// Per object, what stochastic transparency needs to know of it.
+#[derive(Clone, Copy, Debug)]
+struct TransparentObject {
+    /// Coverage below 1 somewhere (alpha < 1 or from the texture).
+    transparent: bool,
+    /// Transparent with a tint other than white: drawn again by the tint pass.
+    tinted: bool,
+    tint: [f32; 4],
+    alpha_from_texture: bool,
+    first_triangle: u32,
+}
+
+/// Stochastic transparency on the forward path (module docs): the coverage and tint pipelines and
+/// what they push per object.
+pub struct TransparentDraws {
+    coverage: Pipeline,
+    tint: Pipeline,
+    layout: PipelineLayout,
+    objects: Vec<TransparentObject>,
+    coverage_seed: u32,
+    msaa: u32,
+    /// S = MSAA × passes.
+    samples: u32,
+    _shaders: Vec<ShaderModule>,
+}
+
+/// Whether any object of `scene` has coverage below 1 (and needs a transparency method).
+pub fn has_transparency(scene: &Scene) -> bool {
+    scene.objects.iter().any(|o| !o.material.is_opaque())
+}
+
+impl TransparentDraws {
+    /// For `scene`'s objects at `msaa` samples × `passes` passes, with the render seed `seed`.
+    pub fn new(
+        device: &Device,
+        world: &GpuWorld,
+        scene: &Scene,
+        msaa: u32,
+        passes: u32,
+        seed: u64,
+    ) -> Result<Self> {
+        device.caps.require(
+            Feature::GeometryShader,
+            "stochastic transparency (the fragment stage reads gl_PrimitiveID to name the triangle)",
+        )?;
+        let vert = ShaderModule::new(device, shaders::FORWARD_FORWARD_VERT)?;
+        let source = |pass| shaders::TransparentFrag { transparency_pass: pass }.source();
+        let coverage_frag = ShaderModule::new(device, source(TransparencyPass::Coverage))?;
+        let tint_frag = ShaderModule::new(device, source(TransparencyPass::Tint))?;
+        let layout = world.pipeline_layout(
+            device,
+            &[],
+            std::mem::size_of::<TransparentPush>() as u32,
+            vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT,
+        )?;
+        let (bindings, attributes) = vertex_input();
+        let coverage_stages = [&vert, &coverage_frag];
+        let tint_stages = [&vert, &tint_frag];
+        let desc = |name, stages, depth_write| GraphicsDesc {
+            name,
+            stages,
+            vertex_bindings: &bindings,
+            vertex_attributes: &attributes,
+            color_formats: &[COLOR_FORMAT],
+            depth_format: Some(DEPTH_FORMAT),
+            samples: msaa,
+            sample_shading: None,
+            cull_mode: vk::CullModeFlags::NONE,
+            front_face: vk::FrontFace::COUNTER_CLOCKWISE,
+            // Reversed Z: nearer is greater. The tint pass passes only in front of the stored depth.
+            depth_compare: vk::CompareOp::GREATER,
+            depth_write,
+        };
+        let coverage =
+            Pipeline::graphics(device, &layout, &desc("forward transparency", &coverage_stages, true))?;
+        let tint = Pipeline::graphics_blended(
+            device,
+            &layout,
+            &desc("forward transparency tint", &tint_stages, false),
+            ColorBlend::Multiply,
+        )?;
+        let mut first_triangle = 0u32;
+        let objects = scene
+            .objects
+            .iter()
+            .map(|o| {
+                let m = &o.material;
+                let transparent = !m.is_opaque();
+                let t = TransparentObject {
+                    transparent,
+                    tinted: transparent && m.tint != glam::Vec3::ONE,
+                    tint: m.tint.extend(0.0).to_array(),
+                    // As the reference: the texture's alpha counts only where the mesh has uvs.
+                    alpha_from_texture: m.alpha_from_texture && m.texture.is_some() && o.mesh.has_uvs(),
+                    first_triangle,
+                };
+                first_triangle += (o.mesh.indices.len() / 3) as u32;
+                t
+            })
+            .collect();
+        Ok(TransparentDraws {
+            coverage,
+            tint,
+            layout,
+            objects,
+            coverage_seed: coverage_seed(seed),
+            msaa,
+            samples: msaa * passes,
+            _shaders: vec![vert, coverage_frag, tint_frag],
+        })
+    }
+
+    fn push(&self, view: &GpuView, object: usize, pass: &PassSample, pass_index: u32) -> TransparentPush {
+        let f = ForwardPush::new(view, object, pass);
+        let o = &self.objects[object];
+        TransparentPush {
+            object: f.object,
+            time: f.time,
+            lens: f.lens,
+            jitter: f.jitter,
+            segment: f.segment,
+            segment_time: f.segment_time,
+            tint: o.tint,
+            coverage_seed: self.coverage_seed,
+            samples: self.samples,
+            sample_base: pass_index * self.msaa,
+            msaa: self.msaa,
+            first_triangle: o.first_triangle,
+            alpha_from_texture: o.alpha_from_texture as u32,
+        }
+    }
+
+    fn is_transparent(&self, object: usize) -> bool {
+        self.objects[object].transparent
+    }
+
+    /// The coverage draws (every transparent object), then the tint draws (the tinted ones).
+    fn record(
+        &self,
+        d: &Device,
+        cmd: vk::CommandBuffer,
+        inputs: &FrameInputs<'_>,
+        pass: &PassSample,
+        index: u32,
+    ) {
+        let (world, view) = (inputs.world, inputs.camera);
+        let stages = vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT;
+        let push = |i: usize| self.push(view, i, pass, index);
+        let bind = vk::PipelineBindPoint::GRAPHICS;
+        unsafe { d.raw.cmd_bind_pipeline(cmd, bind, self.coverage.raw) };
+        world.record_object_draws(
+            d,
+            cmd,
+            view,
+            &self.layout,
+            stages,
+            |i| self.objects[i].transparent,
+            push,
+            |_| None,
+        );
+        if self.objects.iter().any(|o| o.tinted) {
+            d.begin_label(cmd, "transparency tint");
+            unsafe { d.raw.cmd_bind_pipeline(cmd, bind, self.tint.raw) };
+            world.record_object_draws(
+                d,
+                cmd,
+                view,
+                &self.layout,
+                stages,
+                |i| self.objects[i].tinted,
+                push,
+                |_| None,
+            );
+            d.end_label(cmd);
+        }
+    }
+}
+
 /// The forward path of every object: one [`PassSample`] per pass of the frame.
 pub struct ForwardDraws {
     pipeline: ForwardPipeline,
     samples: Vec<PassSample>,
+    /// Stochastic transparency, when the scene has coverage below 1.
+    transparent: Option<TransparentDraws>,
 }
 
 impl ForwardDraws {
-    /// Pass p drawn with `samples[p]`, at `msaa` samples.
+    /// Pass p drawn with `samples[p]`, at `msaa` samples, every object opaque.
     pub fn new(device: &Device, world: &GpuWorld, msaa: u32, samples: Vec<PassSample>) -> Result<Self> {
-        Ok(ForwardDraws { pipeline: ForwardPipeline::new(device, world, msaa)?, samples })
+        Ok(ForwardDraws { pipeline: ForwardPipeline::new(device, world, msaa)?, samples, transparent: None })
+    }
+
+    /// Pass p drawn with `samples[p]`, at `msaa` samples; `scene`'s objects with coverage below 1
+    /// by `method` with coverage seeded by `seed` (nothing more is built for an opaque scene).
+    pub fn with_transparency(
+        device: &Device,
+        world: &GpuWorld,
+        scene: &Scene,
+        msaa: u32,
+        samples: Vec<PassSample>,
+        method: TransparencyMethod,
+        seed: u64,
+    ) -> Result<Self> {
+        let transparent = match method {
+            _ if !has_transparency(scene) => None,
+            TransparencyMethod::Stochastic => {
+                Some(TransparentDraws::new(device, world, scene, msaa, samples.len() as u32, seed)?)
+            }
+        };
+        Ok(ForwardDraws { pipeline: ForwardPipeline::new(device, world, msaa)?, samples, transparent })
+    }
+
+    /// The transparency method used, if the scene needs one.
+    pub fn transparency(&self) -> Option<TransparencyMethod> {
+        self.transparent.as_ref().map(|_| TransparencyMethod::Stochastic)
     }
 }
 
@@ -142,7 +406,16 @@ impl PassDraws for ForwardDraws {
     }
     fn record(&self, ctx: &mut PassContext<'_>, inputs: &FrameInputs<'_>, pass: u32) {
         let sample = &self.samples[pass as usize];
-        self.pipeline.record_draws(ctx.device, ctx.cmd, inputs.world, inputs.camera, sample, |_| true);
+        match &self.transparent {
+            None => {
+                self.pipeline.record_draws(ctx.device, ctx.cmd, inputs.world, inputs.camera, sample, |_| true)
+            }
+            Some(t) => {
+                let opaque = |i: usize| !t.is_transparent(i);
+                self.pipeline.record_draws(ctx.device, ctx.cmd, inputs.world, inputs.camera, sample, opaque);
+                t.record(ctx.device, ctx.cmd, inputs, sample, pass);
+            }
+        }
     }
 }
 
@@ -153,10 +426,20 @@ pub struct ForwardTechnique {
 }
 
 impl ForwardTechnique {
-    /// `samples.len()` passes at `msaa` samples per pass, every object drawn.
+    /// `samples.len()` passes at `msaa` samples per pass, every object drawn; coverage below 1 by
+    /// `ctx.settings.transparency`.
     pub fn new(ctx: &PrepareContext<'_>, msaa: u32, samples: Vec<PassSample>) -> Result<Self> {
         let passes = samples.len() as u32;
-        let draws = ForwardDraws::new(ctx.device, ctx.world, msaa, samples)?;
+        let s = ctx.settings;
+        let draws = ForwardDraws::with_transparency(
+            ctx.device,
+            ctx.world,
+            ctx.scene,
+            msaa,
+            samples,
+            s.transparency,
+            s.seed,
+        )?;
         let frame = MultipassFrame::new(ctx.device, ctx.world, ctx.camera.size(), msaa, passes, "forward")?;
         Ok(ForwardTechnique { frame, draws })
     }
@@ -168,13 +451,24 @@ impl FrameTechnique for ForwardTechnique {
         let image = self.frame.render(frame, inputs, &draws)?;
         Ok(self.frame.technique_frame(image, None))
     }
+
+    fn transparency(&self) -> Option<TransparencyMethod> {
+        self.draws.transparency()
+    }
 }
 
 /// What `forward/` expects of [`ForwardPipeline`]'s layout: sets 0 and 1, [`ForwardPush`].
-pub const SHADER_INTERFACES: &[crate::gpu::layout::ShaderInterface] =
-    &[crate::gpu::layout::ShaderInterface::technique(
+pub const SHADER_INTERFACES: &[crate::gpu::layout::ShaderInterface] = &[
+    crate::gpu::layout::ShaderInterface::technique(
         &["forward/forward.vert", "forward/forward.frag"],
         None,
         None,
         Some(FORWARD_STRUCTS[0]),
-    )];
+    ),
+    crate::gpu::layout::ShaderInterface::technique(
+        &["forward/transparent.frag"],
+        None,
+        None,
+        Some(FORWARD_STRUCTS[1]),
+    ),
+];

@@ -47,6 +47,7 @@ use crate::image::LinearImage;
 use crate::limits::{MAX_IMAGE_DIMENSION, MAX_SPP};
 use crate::plan::Plan;
 use crate::scene::{Scene, View};
+use crate::transparency::TransparencyMethod;
 use crate::vk::{CommandRecorder, Device, PassTimings};
 
 impl FromStr for Technique {
@@ -72,12 +73,22 @@ pub struct RenderSettings {
     pub seed: u64,
     /// Settings of technique `stochastic` (ignored by the others).
     pub stochastic: StochasticOptions,
+    /// How `pinhole` and `accumulation` render coverage below 1 and tints (unused by an opaque
+    /// scene).
+    pub transparency: TransparencyMethod,
 }
 
 impl RenderSettings {
     /// `width × height`, `spp` samples per pixel, `seed`; default technique options.
     pub fn new(width: u32, height: u32, spp: u32, seed: u64) -> Self {
-        RenderSettings { width, height, spp, seed, stochastic: StochasticOptions::default() }
+        RenderSettings {
+            width,
+            height,
+            spp,
+            seed,
+            stochastic: StochasticOptions::default(),
+            transparency: TransparencyMethod::default(),
+        }
     }
     /// The same with these `stochastic` options.
     pub fn with_stochastic(self, stochastic: StochasticOptions) -> Self {
@@ -109,6 +120,8 @@ pub struct RenderStats {
     pub clusters: Vec<u32>,
     /// The effect plan of an `auto` render.
     pub plan: Option<Plan>,
+    /// The method that rendered coverage below 1 and tints; `None` for an opaque scene.
+    pub transparency: Option<TransparencyMethod>,
 }
 
 /// An image with how it was made.
@@ -165,6 +178,10 @@ pub trait FrameTechnique: Any {
     fn render(&mut self, inputs: &FrameInputs<'_>, frame: &mut FrameContext<'_>) -> Result<TechniqueFrame>;
     /// The effect plan behind the technique's choices, if it made any (`auto`).
     fn plan(&self) -> Option<&Plan> {
+        None
+    }
+    /// The method rendering the scene's coverage below 1 and tints, if it has any.
+    fn transparency(&self) -> Option<TransparencyMethod> {
         None
     }
 }
@@ -266,6 +283,7 @@ impl Renderer {
         technique: Technique,
         settings: &RenderSettings,
     ) -> Result<PreparedFrame> {
+        check_transparency_supported(scene, technique)?;
         self.prepare_with(scene, settings, technique.info().prepare)
     }
 
@@ -278,7 +296,7 @@ impl Renderer {
         prepare: impl FnOnce(&PrepareContext<'_>) -> Result<Box<dyn FrameTechnique>>,
     ) -> Result<PreparedFrame> {
         self.check_settings(settings)?;
-        check_opaque_and_unshadowed(scene)?;
+        check_unshadowed(scene)?;
         let t0 = Instant::now();
         let world = GpuWorld::upload(&self.device, &mut self.recorder, scene)?;
         // The one camera-space build of the frame: the plan, the GPU view and the techniques share it.
@@ -344,6 +362,7 @@ impl Renderer {
                 counters: out.counters,
                 clusters: out.clusters,
                 plan: prepared.technique.plan().cloned(),
+                transparency: prepared.technique.transparency(),
             },
         })
     }
@@ -486,29 +505,82 @@ pub fn shader_interfaces() -> impl Iterator<Item = &'static crate::gpu::layout::
     .flatten()
 }
 
-/// What no GPU technique renders yet (issue 12's transparency and shadow-map techniques): coverage
-/// below 1, coloured transmission, coverage from a texture's alpha, and shadow-casting lights. The CPU
-/// reference renders all of them (`reference` module docs).
+/// Techniques that render coverage below 1 and tints (stochastic transparency, `--transparency`);
+/// `stochastic` and `auto` with blur render constant coverage only ([`check_untinted`]).
+pub const TRANSPARENCY_TECHNIQUES: &str = "pinhole, accumulation, and auto when nothing needs blur";
+
+/// What a GPU technique does not render yet (issue 12): coverage below 1, coloured transmission and
+/// coverage from a texture's alpha anywhere but on the forward path (`pinhole`, `accumulation`,
+/// `auto` without blur), and shadow-casting lights anywhere. The CPU reference renders all of them
+/// (`reference` module docs).
 pub fn check_opaque_and_unshadowed(scene: &Scene) -> Result<()> {
+    check_opaque(scene, "this technique")?;
+    check_unshadowed(scene)
+}
+
+/// Refuses coverage below 1 for `technique` unless it renders it: `pinhole` and `accumulation` do;
+/// `stochastic` renders constant coverage but no tint or texture alpha yet ([`check_untinted`]);
+/// `auto` decides in its own `prepare` (its pinhole path renders all of it, its stochastic path what
+/// `stochastic` does).
+pub fn check_transparency_supported(scene: &Scene, technique: Technique) -> Result<()> {
+    if [Technique::PINHOLE, Technique::ACCUMULATION, Technique::AUTO].contains(&technique) {
+        return Ok(());
+    }
+    if technique == Technique::STOCHASTIC {
+        return check_untinted(scene, &format!("technique `{technique}`"));
+    }
+    check_opaque(scene, &format!("technique `{technique}`"))
+}
+
+/// What the stochastic rasterizer's transparency renders (issue 12): constant coverage (`alpha`),
+/// each sample kept where the surface covers it. Tints and coverage from a texture's alpha are
+/// refused with the techniques that render them.
+pub fn check_untinted(scene: &Scene, who: &str) -> Result<()> {
     for o in &scene.objects {
         let m = &o.material;
-        if m.alpha < 1.0 {
+        let what = if m.alpha < 1.0 && m.tint != glam::Vec3::ONE {
+            format!("has alpha {} < 1 and tint {}", m.alpha, m.tint)
+        } else if m.alpha_from_texture {
+            "takes alpha from its texture (alpha_from_texture)".to_string()
+        } else {
+            continue;
+        };
+        return Err(Error::Unsupported(format!(
+            "object `{}` {what}: {who} renders constant coverage (alpha) only, not tints or texture \
+             alpha yet; stochastic transparency renders them in {TRANSPARENCY_TECHNIQUES} (the CPU \
+             reference renders them too)",
+            o.name,
+        )));
+    }
+    Ok(())
+}
+
+/// Every object opaque (coverage 1, no texture alpha), or an error saying that `who` renders opaque
+/// surfaces only and which techniques render transparency.
+pub fn check_opaque(scene: &Scene, who: &str) -> Result<()> {
+    for o in &scene.objects {
+        let m = &o.material;
+        let what = if m.alpha < 1.0 {
             let tint =
                 if m.tint != glam::Vec3::ONE { format!(" and tint {}", m.tint) } else { String::new() };
-            return Err(Error::Unsupported(format!(
-                "object `{}` has alpha {} < 1{tint}: the GPU techniques render opaque surfaces only (the \
-                 CPU reference renders alpha as stochastic coverage and tint as coloured transmission)",
-                o.name, m.alpha,
-            )));
-        }
-        if m.alpha_from_texture {
-            return Err(Error::Unsupported(format!(
-                "object `{}` takes alpha from its texture (alpha_from_texture): the GPU techniques render \
-                 opaque surfaces only (the CPU reference renders it)",
-                o.name,
-            )));
-        }
+            format!("has alpha {} < 1{tint}", m.alpha)
+        } else if m.alpha_from_texture {
+            "takes alpha from its texture (alpha_from_texture)".to_string()
+        } else {
+            continue;
+        };
+        return Err(Error::Unsupported(format!(
+            "object `{}` {what}: {who} renders opaque surfaces only; stochastic transparency \
+             (--transparency stochastic) renders it in {TRANSPARENCY_TECHNIQUES} (the CPU reference \
+             renders it too)",
+            o.name,
+        )));
     }
+    Ok(())
+}
+
+/// No light casts shadows: no GPU technique renders shadows yet.
+pub fn check_unshadowed(scene: &Scene) -> Result<()> {
     if let Some(i) = scene.lights.iter().position(|l| l.shadows()) {
         return Err(Error::Unsupported(format!(
             "light[{i}] casts shadows (shadows = true): shadows need the shadow-map techniques of issue 12, \

@@ -572,6 +572,11 @@ pub struct StochasticPush {
     pub segment_count: u32,
     pub segment: u32,
     pub cluster_size: u32,
+    /// The object's coverage α (1: opaque): the coverage stage keeps a hit only where the sample is
+    /// covered ([`crate::transparency::covered`]), stochastic transparency with the reference's decisions.
+    pub alpha: f32,
+    /// [`crate::transparency::coverage_seed`] of the render seed.
+    pub coverage_seed: u32,
 }
 
 /// Push constants of `clusters.comp`.
@@ -654,7 +659,9 @@ pub const STOCHASTIC_STRUCTS: &[SharedStruct] = &[
             segment_first,
             segment_count,
             segment,
-            cluster_size
+            cluster_size,
+            alpha,
+            coverage_seed
         ]
     ),
     shared_struct!("Push", TrianglesPush, [segment_first, keys, triangle_count]),
@@ -796,6 +803,10 @@ pub struct StochasticDraws {
     options: StochasticOptions,
     /// The bound kind each object draws ([`BoundChoice::resolve`]).
     bounds: Vec<BoundKind>,
+    /// Each object's coverage α (stochastic transparency; 1 for opaque objects).
+    object_alpha: Vec<f32>,
+    /// [`crate::transparency::coverage_seed`] of the render seed.
+    coverage_seed: u32,
     spp: u32,
     per_pass: u32,
     passes: u32,
@@ -1226,6 +1237,8 @@ impl StochasticDraws {
             technique_set,
             options,
             bounds: plan.objects.iter().map(|o| options.bound.resolve(caps, o.max_coc_px)).collect(),
+            object_alpha: ctx.scene.objects.iter().map(|o| o.material.alpha).collect(),
+            coverage_seed: crate::transparency::coverage_seed(seed),
             spp,
             per_pass,
             passes,
@@ -1465,6 +1478,8 @@ impl StochasticDraws {
             segment_count,
             segment: 0,
             cluster_size: self.object_clusters.get(o).copied().unwrap_or(0).max(1),
+            alpha: self.object_alpha.get(o).copied().unwrap_or(1.0),
+            coverage_seed: self.coverage_seed,
         }
     }
 
@@ -1873,6 +1888,16 @@ impl FrameTechnique for StochasticTechnique {
         self.draws.before_frame(inputs, frame)?;
         let image = self.draws.render(frame, inputs)?;
         self.draws.technique_frame(image)
+    }
+
+    /// Stochastic transparency, when an object covers partly: its coverage stage keeps a hit only on
+    /// the samples the object covers.
+    fn transparency(&self) -> Option<crate::transparency::TransparencyMethod> {
+        self.draws
+            .object_alpha
+            .iter()
+            .any(|&a| a < 1.0)
+            .then_some(crate::transparency::TransparencyMethod::Stochastic)
     }
 }
 

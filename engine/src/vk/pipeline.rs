@@ -269,8 +269,29 @@ pub struct GraphicsDesc<'a> {
     pub depth_write: bool,
 }
 
+/// How a graphics pipeline's fragments combine with the colour attachment.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum ColorBlend {
+    /// The fragment's colour replaces the attachment's (no blending).
+    #[default]
+    Replace,
+    /// The attachment is multiplied by the fragment's colour, every channel (`dst × src`): coloured
+    /// transmission, order-independent because a product is.
+    Multiply,
+}
+
 impl Pipeline {
     pub fn graphics(device: &Device, layout: &PipelineLayout, d: &GraphicsDesc) -> Result<Pipeline> {
+        Self::graphics_blended(device, layout, d, ColorBlend::Replace)
+    }
+
+    /// [`Pipeline::graphics`] with the colour attachments blended as `blend` says.
+    pub fn graphics_blended(
+        device: &Device,
+        layout: &PipelineLayout,
+        d: &GraphicsDesc,
+        blend: ColorBlend,
+    ) -> Result<Pipeline> {
         let stages: Vec<_> = d.stages.iter().map(|s| s.stage_info()).collect();
         let vertex_input = vk::PipelineVertexInputStateCreateInfo::default()
             .vertex_binding_descriptions(d.vertex_bindings)
@@ -296,8 +317,20 @@ impl Pipeline {
             .color_formats
             .iter()
             .map(|_| {
-                vk::PipelineColorBlendAttachmentState::default()
-                    .color_write_mask(vk::ColorComponentFlags::RGBA)
+                let state = vk::PipelineColorBlendAttachmentState::default()
+                    .color_write_mask(vk::ColorComponentFlags::RGBA);
+                match blend {
+                    ColorBlend::Replace => state,
+                    // result = src · dst + dst · 0
+                    ColorBlend::Multiply => state
+                        .blend_enable(true)
+                        .src_color_blend_factor(vk::BlendFactor::DST_COLOR)
+                        .dst_color_blend_factor(vk::BlendFactor::ZERO)
+                        .color_blend_op(vk::BlendOp::ADD)
+                        .src_alpha_blend_factor(vk::BlendFactor::DST_ALPHA)
+                        .dst_alpha_blend_factor(vk::BlendFactor::ZERO)
+                        .alpha_blend_op(vk::BlendOp::ADD),
+                }
             })
             .collect();
         let blend = vk::PipelineColorBlendStateCreateInfo::default().attachments(&blend_attachments);

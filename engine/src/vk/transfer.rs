@@ -9,23 +9,29 @@ use crate::image::LinearImage;
 use crate::scene::texture::{linear_to_srgb, Texture};
 
 /// The mip chain of a texture as sRGB RGBA8 levels, box-filtered in linear light on the CPU
-/// (deterministic across drivers, unlike blits).
+/// (deterministic across drivers, unlike blits). Alpha (linear, coverage for `alpha_from_texture`)
+/// is box-filtered too.
 pub fn srgb_mip_chain(tex: &Texture) -> Vec<(u32, u32, Vec<u8>)> {
     let mut levels = vec![(tex.width, tex.height, tex.srgb_rgba8.clone())];
-    let mut cur: Vec<[f32; 3]> = tex.linear.iter().map(|c| c.to_array()).collect();
+    let mut cur: Vec<[f32; 4]> = tex
+        .linear
+        .iter()
+        .zip(tex.srgb_rgba8.chunks_exact(4))
+        .map(|(c, b)| c.extend(b[3] as f32 / 255.0).to_array())
+        .collect();
     let (mut w, mut h) = (tex.width, tex.height);
     while w > 1 || h > 1 {
         let (nw, nh) = ((w / 2).max(1), (h / 2).max(1));
-        let mut next = vec![[0.0f32; 3]; (nw * nh) as usize];
+        let mut next = vec![[0.0f32; 4]; (nw * nh) as usize];
         for y in 0..nh {
             for x in 0..nw {
-                let mut acc = [0.0f32; 3];
+                let mut acc = [0.0f32; 4];
                 let mut n = 0.0;
                 for dy in 0..2 {
                     for dx in 0..2 {
                         let (sx, sy) = ((2 * x + dx).min(w - 1), (2 * y + dy).min(h - 1));
                         let c = cur[(sy * w + sx) as usize];
-                        for i in 0..3 {
+                        for i in 0..4 {
                             acc[i] += c[i];
                         }
                         n += 1.0;
@@ -38,7 +44,7 @@ pub fn srgb_mip_chain(tex: &Texture) -> Vec<(u32, u32, Vec<u8>)> {
             .iter()
             .flat_map(|c| {
                 let e = |v: f32| (linear_to_srgb(v) * 255.0 + 0.5) as u8;
-                [e(c[0]), e(c[1]), e(c[2]), 255]
+                [e(c[0]), e(c[1]), e(c[2]), (c[3] * 255.0 + 0.5) as u8]
             })
             .collect();
         levels.push((nw, nh, bytes));

@@ -1,0 +1,245 @@
+//! Stochastic coverage: which of a pixel's samples a partly covering surface covers. One function for
+//! the CPU reference and the GPU (`shaders-glsl/common/coverage.glsl` mirrors it with the same 32-bit
+//! integer operations, so both make the same decision for the same sample), and the transparency
+//! methods a GPU technique can use (docs/TRANSPARENCY.md, "Stochastic transparency (GPU)").
+//!
+//! **Stratified per pixel** (Laine & Karras 2011, the idea of their stratified masks): for one pixel
+//! and one triangle of coverage α, the pixel's S samples are ranked by a bijection of `[0, S)` drawn
+//! from a hash of (seed, pixel, triangle), and sample k is covered iff `rank(k) < n` with
+//! `n = floor(α·S + u)`, `u` a uniform of the same hash. So exactly n samples are covered — `n` is
+//! `floor(α·S)` or `ceil(α·S)` with mean α·S, the least spread a count can have — while each sample is
+//! still covered with probability α: its rank is uniform over `[0, S)` (a random rotation follows the
+//! scrambling permutation) and independent of `u`. Different triangles draw independent hashes, so
+//! their decisions for one sample are independent, which is what makes the expected value of the
+//! nearest covered surface the sorted composite (Enderton et al. 2011).
+//!
+//! α enters as 24-bit fixed point (`α·2²⁴`, exact in f32), so the decision needs only integer
+//! arithmetic after that one exact conversion.
+
+use std::fmt;
+use std::str::FromStr;
+
+use crate::error::{Error, Result};
+
+/// lowbias32 (Wellons' 32-bit integer finalizer): a bijection of u32 with good avalanche.
+pub fn hash32(mut x: u32) -> u32 {
+    x ^= x >> 16;
+    x = x.wrapping_mul(0x7feb_352d);
+    x ^= x >> 15;
+    x = x.wrapping_mul(0x846c_a68b);
+    x ^ (x >> 16)
+}
+
+/// The 32-bit seed of the coverage hashes for a render seed (both halves of it count).
+pub fn coverage_seed(seed: u64) -> u32 {
+    hash32(seed as u32 ^ hash32((seed >> 32) as u32 ^ 0x5bd1_e995))
+}
+
+/// The key of one (pixel, triangle) from which its count and ranks are drawn.
+pub fn coverage_key(seed: u32, x: u32, y: u32, triangle: u32) -> u32 {
+    let h = hash32(triangle.wrapping_add(seed));
+    let h = hash32(h ^ x.wrapping_mul(0x9e37_79b9));
+    hash32(h ^ y.wrapping_mul(0x85eb_ca6b))
+}
+
+/// `α` in 24-bit fixed point, clamped to `[0, 2²⁴]` (NaN counts as 0).
+pub fn alpha_fixed(alpha: f32) -> u32 {
+    // Scaling by a power of two is exact and the conversion truncates: the GPU gets the same integer.
+    (alpha.clamp(0.0, 1.0) * 16_777_216.0) as u32
+}
+
+/// How many of the pixel's `samples` samples a surface of coverage `alpha` covers:
+/// `floor(α·S + u)` with `u` the key's 24-bit uniform.
+pub fn covered_count(alpha: f32, samples: u32, key: u32) -> u32 {
+    let u = hash32(key ^ 0x68e3_1da4) >> 8;
+    ((alpha_fixed(alpha) as u64 * samples as u64 + u as u64) >> 24) as u32
+}
+
+/// The rank of sample `k` among the pixel's `samples` samples: a bijection of `[0, samples)` drawn
+/// from `key` — a scrambling permutation (xor, odd multiply and xorshift rounds inside the next
+/// power of two, cycle-walked back into range), then a rotation by a uniform offset, which makes every
+/// sample's rank uniform.
+pub fn coverage_rank(k: u32, samples: u32, key: u32) -> u32 {
+    if samples <= 1 {
+        return 0;
+    }
+    // All ones up to the highest bit of samples − 1: the scramble is a bijection of [0, mask].
+    let mask = u32::MAX >> (samples - 1).leading_zeros();
+    let p0 = hash32(key ^ 0x1b87_3593);
+    let p1 = hash32(key ^ 0xcc9e_2d51) | 1;
+    // Cycle walking ends because the walk starts inside [0, samples).
+    let mut i = k % samples;
+    loop {
+        i ^= p0;
+        i &= mask;
+        i = i.wrapping_mul(p1) & mask;
+        i ^= i >> 3;
+        i = i.wrapping_mul(0x2c1b_3c6d) & mask;
+        i ^= i >> 7;
+        if i < samples {
+            break;
+        }
+    }
+    let offset = hash32(key ^ 0x0d1a_b7c5) % samples;
+    (i + offset) % samples
+}
+
+/// Whether sample `k` of pixel `(x, y)`'s `samples` samples is covered by triangle `triangle` of
+/// coverage `alpha` (module docs). α ≥ 1 always, α ≤ 0 never.
+pub fn covered(seed: u32, x: u32, y: u32, k: u32, triangle: u32, alpha: f32, samples: u32) -> bool {
+    let key = coverage_key(seed, x, y, triangle);
+    coverage_rank(k, samples, key) < covered_count(alpha, samples, key)
+}
+
+/// How a GPU technique renders partial coverage and tints (`--transparency`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum TransparencyMethod {
+    /// Stochastic transparency (Enderton et al. 2011) with per-pixel stratified masks: the default,
+    /// and so far the only one (depth-based ST and an exact baseline are to come, issue 12).
+    #[default]
+    Stochastic,
+}
+
+impl TransparencyMethod {
+    pub const ALL: &'static [TransparencyMethod] = &[TransparencyMethod::Stochastic];
+    pub fn name(self) -> &'static str {
+        match self {
+            TransparencyMethod::Stochastic => "stochastic",
+        }
+    }
+}
+
+impl fmt::Display for TransparencyMethod {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl FromStr for TransparencyMethod {
+    type Err = Error;
+    fn from_str(s: &str) -> Result<Self> {
+        Self::ALL.iter().copied().find(|m| m.name() == s).ok_or_else(|| {
+            Error::Unsupported(format!(
+                "unknown transparency method `{s}`; available: {}",
+                Self::ALL.iter().map(|m| m.name()).collect::<Vec<_>>().join(", ")
+            ))
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const SEED: u32 = 0x1234_5678;
+
+    fn mask(x: u32, y: u32, tri: u32, alpha: f32, s: u32) -> Vec<bool> {
+        (0..s).map(|k| covered(SEED, x, y, k, tri, alpha, s)).collect()
+    }
+
+    #[test]
+    fn ranks_are_a_bijection() {
+        for s in [1u32, 2, 3, 4, 5, 7, 8, 16, 33, 64, 100, 256, 1000] {
+            for key in [0u32, 1, 0xdead_beef, 12345] {
+                let mut seen = vec![false; s as usize];
+                for k in 0..s {
+                    let r = coverage_rank(k, s, key);
+                    assert!(r < s && !seen[r as usize], "S {s} key {key}: rank {r} twice or out of range");
+                    seen[r as usize] = true;
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn popcount_is_floor_or_ceil_of_alpha_times_s() {
+        for s in [1u32, 3, 4, 7, 16, 64] {
+            for alpha in [0.05f32, 0.25, 0.3, 0.5, 0.77, 0.999] {
+                let (lo, hi) = ((alpha * s as f32).floor() as usize, (alpha * s as f32).ceil() as usize);
+                for p in 0..200u32 {
+                    let n = mask(p % 17, p / 17, p * 7 + 3, alpha, s).iter().filter(|&&c| c).count();
+                    assert!(n == lo || n == hi, "S {s} alpha {alpha}: {n} covered, not {lo} or {hi}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn zero_never_one_always() {
+        for s in [1u32, 4, 9, 64] {
+            for p in 0..300u32 {
+                assert!(mask(p, p / 3, p, 0.0, s).iter().all(|&c| !c));
+                assert!(mask(p, p / 3, p, 1.0, s).iter().all(|&c| c));
+                assert!(mask(p, p / 3, p, 1.5, s).iter().all(|&c| c));
+                assert!(mask(p, p / 3, p, -0.5, s).iter().all(|&c| !c));
+            }
+        }
+    }
+
+    /// Every sample is covered with probability α: over N pixels the fraction of pixels whose sample k
+    /// is covered lies within 4.5σ of α for each k (σ² = α(1 − α)/N).
+    #[test]
+    fn each_sample_is_covered_with_probability_alpha() {
+        let n = 40_000u32;
+        for s in [1u32, 4, 7, 16] {
+            for alpha in [0.1f32, 0.37, 0.5, 0.9] {
+                let mut hits = vec![0u32; s as usize];
+                for p in 0..n {
+                    for (k, c) in mask(p % 200, p / 200, 11, alpha, s).into_iter().enumerate() {
+                        hits[k] += c as u32;
+                    }
+                }
+                let a = alpha as f64;
+                let sigma = (a * (1.0 - a) / n as f64).sqrt();
+                for (k, &h) in hits.iter().enumerate() {
+                    let f = h as f64 / n as f64;
+                    assert!((f - a).abs() < 4.5 * sigma, "S {s} alpha {alpha} sample {k}: {f}");
+                }
+            }
+        }
+    }
+
+    /// Two triangles' decisions for one sample are independent: P(both) = α_A·α_B, and their popcounts
+    /// are uncorrelated.
+    #[test]
+    fn different_triangles_are_uncorrelated() {
+        let n = 40_000u32;
+        let s = 8u32;
+        let (aa, ab) = (0.5f32, 0.3f32);
+        let (mut both, mut sum_a, mut sum_b, mut sum_ab) = (0u32, 0f64, 0f64, 0f64);
+        let mut slots = 0u32;
+        for p in 0..n {
+            let (x, y) = (p % 200, p / 200);
+            let ma = mask(x, y, 5, aa, s);
+            let mb = mask(x, y, 6, ab, s);
+            both += ma.iter().zip(&mb).filter(|(a, b)| **a && **b).count() as u32;
+            slots += s;
+            let (ca, cb) =
+                (ma.iter().filter(|&&c| c).count() as f64, mb.iter().filter(|&&c| c).count() as f64);
+            sum_a += ca;
+            sum_b += cb;
+            sum_ab += ca * cb;
+        }
+        let p = (aa * ab) as f64;
+        let f = both as f64 / slots as f64;
+        // Samples of one pixel are not independent draws, so bound with the pixel count.
+        let sigma = (p * (1.0 - p) / n as f64).sqrt();
+        assert!((f - p).abs() < 4.5 * sigma, "P(both) {f} vs {p}");
+        let nf = n as f64;
+        let cov = sum_ab / nf - (sum_a / nf) * (sum_b / nf);
+        // Each count takes two neighbouring values: variances ≤ 1/4, so |cov| is tiny if independent.
+        assert!(cov.abs() < 0.01, "popcount covariance {cov}");
+        // Masks also differ between neighbouring pixels and seeds.
+        assert_ne!(mask(0, 0, 5, 0.5, 16), mask(1, 0, 5, 0.5, 16));
+        assert_ne!(coverage_seed(1), coverage_seed(1 << 32));
+    }
+
+    #[test]
+    fn methods_parse_back() {
+        for m in TransparencyMethod::ALL {
+            assert_eq!(m.name().parse::<TransparencyMethod>().unwrap(), *m);
+        }
+        let e = "nope".parse::<TransparencyMethod>().unwrap_err().to_string();
+        assert!(e.contains("stochastic"), "{e}");
+    }
+}
