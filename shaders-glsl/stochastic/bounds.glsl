@@ -38,6 +38,7 @@ const float BOUND_RADIUS_ROUND_UP = 1.0000005;  // RADIUS_ROUND_UP = 1 + 4 eps
 const float BOUND_DEGENERATE_EPS = 1e-12;       // DEGENERATE_EPS (is_degenerate)
 const float BOUND_MID_DEGENERATE_EPS = 1e-5;    // MID_DEGENERATE_EPS
 const float BOUND_STILL_EPS_PX = 0.001;         // STILL_EPS_PX
+const float BOUND_VOLUME_SLIVER = 0.01;         // volumes::VOLUME_SLIVER
 const float BOUND_CLIP_PAD_EPS = 7.6293945e-6;  // CLIP_PAD_EPS = 64 eps
 const float BOUND_ADAPTIVE_MOTION_MIN_PX = 0.5; // ADAPTIVE_MOTION_MIN_PX
 const float BOUND_ADAPTIVE_SMALL_BLUR = 0.25;   // ADAPTIVE_SMALL_BLUR
@@ -296,7 +297,7 @@ bool bound_triangle_shape_(int kind) {
 
 // volumes.rs `prism` and bounds::volume_silhouette: the thesis' view-space prism (hexagonal, or the
 // wedge's triangular one) around the discs of confusion of the still triangle t, its vertices' pinhole
-// projections into bound_in_; returns their count, or 0 when there is none (degenerate triangle) or
+// projections into bound_in_; returns their count, or 0 when there is none (a sliver, VOLUME_SLIVER) or
 // it reaches the near plane (the caller falls back to the convex hull).
 int bound_volume_(vec3 t[3], bool hexagon) {
     float A = bound_aperture_(), F = view.lens.y, near_z = view.lens.z;
@@ -304,7 +305,7 @@ int bound_volume_(vec3 t[3], bool hexagon) {
     vec3 n = cross(t[1] - t[0], t[2] - t[0]);
     float scale = max(max(length(t[1] - t[0]), length(t[2] - t[0])), length(t[2] - t[1]));
     float area2 = length(n);
-    if (isnan(area2) || area2 <= 1e-6 * scale * scale) return 0;
+    if (isnan(area2) || area2 <= BOUND_VOLUME_SLIVER * scale * scale) return 0;
     n = normalize(n);
     float r[3];
     for (int i = 0; i < 3; ++i) r[i] = A * abs(-t[i].z - F) / F * BOUND_RADIUS_ROUND_UP;
@@ -356,7 +357,9 @@ int bound_volume_(vec3 t[3], bool hexagon) {
         for (int i = 0; i < count; ++i) poly[i] = next[i];
         if (count == 0) return 0;
     }
-    float lift = rmax * sqrt(max(1.0 - n.z * n.z, 0.0));
+    float off_z = sqrt(max(1.0 - n.z * n.z, 0.0));
+    float lift = 0.0;
+    for (int i = 0; i < 3; ++i) lift = max(lift, abs(dot(n, t[i] - centre)) + r[i] * off_z);
     lift = lift * BOUND_RADIUS_ROUND_UP + 1e-6 * (scale + rmax);
     int out_n = 0;
     for (int side = 0; side < 2; ++side) {
