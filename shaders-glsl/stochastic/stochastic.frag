@@ -58,14 +58,27 @@ bool sample_sees_cluster(vec2 q, vec2 lens, vec4 pin, vec4 phi) {
 
 const uint SAMPLE_TILE_SIZE = 64u;
 
-// Stochastic transparency: does triangle `tri` (the frame's numbering, the reference's) cover sample
-// i of this pass? The reference's decision for the same sample (common/coverage.glsl), so a partly
-// covering surface hides exactly the samples it hides there; opaque objects skip the hashes (a
-// uniform branch: pc.alpha is the draw's).
-bool sample_covered(uvec2 pix, uint i, uint tri) {
-    if (pc.alpha >= 1.0) return true;
-    uint key = coverage_key(pc.coverage_seed, pix, tri);
-    return coverage_rank(pc.pass_index * pc.per_pass + i, pc.spp, key) < coverage_count(pc.alpha, pc.spp, key);
+// Stochastic transparency: the reference's coverage decisions (common/coverage.glsl) for triangle `tri`
+// (the frame's numbering, the reference's) in this pixel — its key and covered count, drawn once per
+// (pixel, triangle) — so a partly covering surface hides exactly the samples it hides there. Opaque
+// objects skip the hashes (a uniform branch: pc.alpha is the draw's).
+struct Coverage {
+    uint key;
+    uint count;
+};
+
+Coverage triangle_coverage(uvec2 pix, uint tri) {
+    Coverage c = Coverage(0u, 0u);
+    if (pc.alpha < 1.0) {
+        c.key = coverage_key(pc.coverage_seed, pix, tri);
+        c.count = coverage_count(pc.alpha, pc.spp, c.key);
+    }
+    return c;
+}
+
+// Does that triangle cover sample i of this pass?
+bool sample_covered(Coverage c, uint i) {
+    return pc.alpha >= 1.0 || coverage_rank(pc.pass_index * pc.per_pass + i, pc.spp, c.key) < c.count;
 }
 
 void main() {
@@ -106,6 +119,7 @@ void main() {
     uint hits = 0u, tested = 0u;
     uint end = pc.sample_first + pc.sample_count;
 #ifndef CLUSTER_BOUNDS
+    Coverage coverage = triangle_coverage(pix, pc.triangle_base + prim);
     for (uint i = pc.sample_first; i < end; i++) {
         vec4 xl = sample_xy_lens[base + i];
 #ifdef NO_DEFOCUS
@@ -131,7 +145,7 @@ void main() {
         vec3 b = shutter_lerp(p_open[1], p_close[1], s);
         vec3 c = shutter_lerp(p_open[2], p_close[2], s);
 #endif
-        if (sample_hit(a, b, c, ro, rd, z, w, back) && in_segment && sample_covered(pix, i, pc.triangle_base + prim)) {
+        if (sample_hit(a, b, c, ro, rd, z, w, back) && in_segment && sample_covered(coverage, i)) {
             atomicMax(visibility[visibility_index(pix, i, pc.per_pass)], visibility_pack(z, pc.triangle_base + prim, back));
             hits++;
         }
@@ -163,6 +177,7 @@ void main() {
         for (uint k = first; k < last; k++) {
             uint prim = cluster_triangles[k];
             load_triangle(prim, seg, pc.segment_count + 1u, p_open, p_close);
+            Coverage coverage = triangle_coverage(pix, pc.triangle_base + prim);
             uint todo = bits;
             while (todo != 0u) {
                 uint i = chunk + uint(findLSB(todo));
@@ -184,7 +199,7 @@ void main() {
                 float z;
                 vec3 w;
                 bool back;
-                if (sample_hit(a, b, c, ro, rd, z, w, back) && sample_covered(pix, i, pc.triangle_base + prim)) {
+                if (sample_hit(a, b, c, ro, rd, z, w, back) && sample_covered(coverage, i)) {
                     atomicMax(visibility[visibility_index(pix, i, pc.per_pass)], visibility_pack(z, pc.triangle_base + prim, back));
                     hits++;
                 }
