@@ -58,6 +58,21 @@ impl Error {
     }
 }
 
+/// The member of `all` called `s` by `name`, else an [`Error::Unsupported`] naming `what` and listing
+/// every name: the `FromStr` of the command-line enums (bound kinds, shading rates, hull expansions,
+/// transparency methods).
+pub(crate) fn parse_named<T: Copy>(
+    all: &[T],
+    name: impl Fn(T) -> &'static str,
+    what: &str,
+    s: &str,
+) -> Result<T> {
+    all.iter().copied().find(|&t| name(t) == s).ok_or_else(|| {
+        let names: Vec<&str> = all.iter().map(|&t| name(t)).collect();
+        Error::Unsupported(format!("unknown {what} `{s}`; available: {}", names.join(", ")))
+    })
+}
+
 /// Maps a raw `VkResult` to [`Error::Vulkan`] naming the call.
 pub(crate) trait VkContext<T> {
     fn vk(self, call: &'static str) -> Result<T>;

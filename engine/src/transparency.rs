@@ -91,6 +91,32 @@ pub fn covered(seed: u32, x: u32, y: u32, k: u32, triangle: u32, alpha: f32, sam
     coverage_rank(k, samples, key) < covered_count(alpha, samples, key)
 }
 
+/// The sorted Porter-Duff composite of `layers` (front to back: coverage α, colour C, tint T) over
+/// `background` — `Σ vis_i·α_i·C_i + vis_N·background` with `vis_i = Π_{j<i} (1 − α_j)·T_j` — and the
+/// per-channel variance of one sample of stochastic coverage with independent decisions (the sample
+/// stops at layer i with probability `α_i·Π_{j<i}(1 − α_j)`, carrying `Π_{j<i} T_j · C_i`), in f64:
+/// the closed form the reference and the GPU techniques are tested against (docs/TRANSPARENCY.md).
+/// Stratified masks ([`covered`]) have the same mean and at most this variance per pixel.
+pub fn composite(layers: &[(f64, [f64; 3], [f64; 3])], background: [f64; 3]) -> ([f64; 3], [f64; 3]) {
+    let mut mean = [0.0; 3];
+    let mut second = [0.0; 3];
+    let (mut reach, mut vis, mut tint) = (1.0, [1.0; 3], [1.0; 3]);
+    for &(alpha, c, t) in layers {
+        for ch in 0..3 {
+            mean[ch] += vis[ch] * alpha * c[ch];
+            second[ch] += reach * alpha * (tint[ch] * c[ch]).powi(2);
+            vis[ch] *= (1.0 - alpha) * t[ch];
+            tint[ch] *= t[ch];
+        }
+        reach *= 1.0 - alpha;
+    }
+    for ch in 0..3 {
+        mean[ch] += vis[ch] * background[ch];
+        second[ch] += reach * (tint[ch] * background[ch]).powi(2);
+    }
+    (mean, std::array::from_fn(|ch| second[ch] - mean[ch] * mean[ch]))
+}
+
 /// How a GPU technique renders partial coverage and tints (`--transparency`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum TransparencyMethod {
@@ -118,12 +144,7 @@ impl fmt::Display for TransparencyMethod {
 impl FromStr for TransparencyMethod {
     type Err = Error;
     fn from_str(s: &str) -> Result<Self> {
-        Self::ALL.iter().copied().find(|m| m.name() == s).ok_or_else(|| {
-            Error::Unsupported(format!(
-                "unknown transparency method `{s}`; available: {}",
-                Self::ALL.iter().map(|m| m.name()).collect::<Vec<_>>().join(", ")
-            ))
-        })
+        crate::error::parse_named(Self::ALL, |m| m.name(), "transparency method", s)
     }
 }
 

@@ -171,12 +171,7 @@ impl std::fmt::Display for BoundKind {
 impl FromStr for BoundKind {
     type Err = Error;
     fn from_str(s: &str) -> Result<Self> {
-        BoundKind::ALL.iter().copied().find(|b| b.name() == s).ok_or_else(|| {
-            Error::Unsupported(format!(
-                "unknown bound `{s}`; available: {}",
-                BoundKind::ALL.iter().map(|b| b.name()).collect::<Vec<_>>().join(", ")
-            ))
-        })
+        crate::error::parse_named(&BoundKind::ALL, |b| b.name(), "bound", s)
     }
 }
 

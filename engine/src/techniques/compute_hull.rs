@@ -72,9 +72,7 @@ impl HullExpansion {
 impl std::str::FromStr for HullExpansion {
     type Err = Error;
     fn from_str(s: &str) -> Result<Self> {
-        HullExpansion::ALL.into_iter().find(|h| h.name() == s).ok_or_else(|| {
-            Error::Unsupported(format!("unknown hull expansion `{s}`; available: gs, compute"))
-        })
+        crate::error::parse_named(&HullExpansion::ALL, |h| h.name(), "hull expansion", s)
     }
 }
 

@@ -87,9 +87,7 @@ impl ShadingRate {
 impl std::str::FromStr for ShadingRate {
     type Err = Error;
     fn from_str(s: &str) -> Result<Self> {
-        ShadingRate::ALL.into_iter().find(|r| r.name() == s).ok_or_else(|| {
-            Error::Unsupported(format!("unknown shading rate `{s}`; available: per-pixel, per-sample"))
-        })
+        crate::error::parse_named(&ShadingRate::ALL, |r| r.name(), "shading rate", s)
     }
 }
 
