@@ -19,7 +19,7 @@ layout(push_constant) uniform Push {
     vec2 jitter;
     uint segment;
     float segment_time;
-    vec4 tint;            // rgb transmission, unused
+    vec4 tint;            // rgb: the object's tint (transmission); w unused
     uint coverage_seed;   // transparency::coverage_seed of the render seed
     uint samples;         // S: samples per pixel over the whole frame (MSAA x passes)
     uint sample_base;     // index among the S of this pass' first MSAA sample (pass x MSAA)

@@ -38,6 +38,15 @@ pub fn same_sample_reference(
         .expect("reference")
 }
 
+/// Largest absolute difference of two images over the colour channels.
+pub fn max_abs_diff(a: &LinearImage, b: &LinearImage) -> f32 {
+    a.pixels
+        .iter()
+        .zip(&b.pixels)
+        .flat_map(|(p, q)| (0..3).map(move |c| (p[c] - q[c]).abs()))
+        .fold(0.0, f32::max)
+}
+
 /// Where tests write images for a person to look at.
 pub fn output_dir() -> PathBuf {
     let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../target/test-output");

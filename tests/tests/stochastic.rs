@@ -19,7 +19,9 @@ use shutter::techniques::{
     Clusters, FrameTechnique, HullExpansion, Intervals, PreparedFrame, RenderOutput, RenderSettings,
     Renderer, ShadingRate, StochasticOptions, Technique,
 };
-use shutter_tests::{camera, renderer, same_sample_reference, save_comparison, single_object_scene, square};
+use shutter_tests::{
+    camera, max_abs_diff, renderer, same_sample_reference, save_comparison, single_object_scene, square,
+};
 
 fn options(bound: BoundKind, shading: ShadingRate) -> StochasticOptions {
     StochasticOptions { bound: bound.into(), shading, instrumented: false, ..Default::default() }
@@ -49,14 +51,6 @@ fn reference(scene: &Scene, w: u32, h: u32, spp: u32, seed: u64) -> LinearImage 
 fn assert_finite(name: &str, img: &LinearImage) {
     let bad = img.pixels.iter().filter(|p| p.iter().any(|c| !c.is_finite())).count();
     assert_eq!(bad, 0, "{name}: {bad} pixels with NaN/Inf");
-}
-
-fn max_abs_diff(a: &LinearImage, b: &LinearImage) -> f32 {
-    a.pixels
-        .iter()
-        .zip(&b.pixels)
-        .flat_map(|(p, q)| (0..3).map(move |c| (p[c] - q[c]).abs()))
-        .fold(0.0, f32::max)
 }
 
 // ---------------------------------------------------------------------------------------------------

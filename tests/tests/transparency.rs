@@ -21,7 +21,7 @@ use shutter::scene::{Camera, Material, Mesh, Object, Scene, Texture};
 use shutter::techniques::accumulation::accumulation_samples;
 use shutter::techniques::{RenderSettings, Technique};
 use shutter::transparency::TransparencyMethod;
-use shutter_tests::{camera, renderer, save_comparison, single_object_scene, square};
+use shutter_tests::{camera, max_abs_diff, renderer, save_comparison, single_object_scene, square};
 
 const W: u32 = 48;
 const H: u32 = 32;
@@ -101,28 +101,15 @@ fn pane_scene(tinted: bool, reversed: bool) -> Scene {
     scene
 }
 
-/// Closed-form composite `Σ vis_i·α_i·C_i + vis·background` and the variance of one independent
-/// stochastic-coverage sample, per channel (as in the reference's own test).
+/// Closed-form composite of `layers` (tints ignored unless `tinted`) over the background and the
+/// variance of one independent stochastic-coverage sample, per channel (`transparency::composite`).
 fn composite(layers: &[PaneSpec], tinted: bool) -> ([f64; 3], [f64; 3]) {
-    let (mut mean, mut second) = ([0.0f64; 3], [0.0f64; 3]);
-    let (mut reach, mut vis, mut tint) = (1.0f64, [1.0f64; 3], [1.0f64; 3]);
-    for &(_, _, a, c, t) in layers {
-        let t = if tinted { t } else { Vec3::ONE };
-        for ch in 0..3 {
-            let (a, c, t) = (a as f64, c[ch] as f64, t[ch] as f64);
-            mean[ch] += vis[ch] * a * c;
-            second[ch] += reach * a * (tint[ch] * c).powi(2);
-            vis[ch] *= (1.0 - a) * t;
-            tint[ch] *= t;
-        }
-        reach *= 1.0 - a as f64;
-    }
-    for ch in 0..3 {
-        let b = BACKGROUND[ch] as f64;
-        mean[ch] += vis[ch] * b;
-        second[ch] += reach * (tint[ch] * b).powi(2);
-    }
-    (mean, std::array::from_fn(|ch| second[ch] - mean[ch] * mean[ch]))
+    let f64x3 = |v: Vec3| v.as_dvec3().to_array();
+    let layers: Vec<(f64, [f64; 3], [f64; 3])> = layers
+        .iter()
+        .map(|&(_, _, a, c, t)| (a as f64, f64x3(c), f64x3(if tinted { t } else { Vec3::ONE })))
+        .collect();
+    shutter::transparency::composite(&layers, f64x3(BACKGROUND))
 }
 
 /// Per patch (left: all four panes, right: the last three) and channel: (mean error, per-pixel RMS
@@ -160,14 +147,6 @@ fn shared_sample_reference(scene: &Scene, spp: u32, seed: u64) -> LinearImage {
     let rs =
         ReferenceSettings { width: W, height: H, spp, seed, progress: false, shading: Default::default() };
     render_reference_shared_samples(scene, &rs, &accumulation_samples(spp, seed)).expect("reference")
-}
-
-fn max_abs_diff(a: &LinearImage, b: &LinearImage) -> f32 {
-    a.pixels
-        .iter()
-        .zip(&b.pixels)
-        .flat_map(|(p, q)| (0..3).map(move |c| (p[c] - q[c]).abs()))
-        .fold(0.0, f32::max)
 }
 
 // Against the reference with the same samples only rounding differs: each pass is resolved into an

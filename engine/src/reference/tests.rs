@@ -463,30 +463,6 @@ fn pane(mesh: Arc<Mesh>, albedo: Vec3, alpha: f32, tint: Vec3) -> Object {
     o
 }
 
-/// The sorted Porter-Duff composite of `layers` (front to back: coverage, colour, tint) over
-/// `background`, `Σ vis_i·α_i·C_i + vis_N·background` with `vis_i = Π_{j<i} (1 − α_j)·T_j`, and the
-/// per-channel variance of one stochastic-coverage sample (the ray stops at layer i with
-/// probability `α_i·Π_{j<i}(1 − α_j)`, carrying `Π_{j<i} T_j · C_i`), in f64.
-fn composite(layers: &[(f64, [f64; 3], [f64; 3])], background: [f64; 3]) -> ([f64; 3], [f64; 3]) {
-    let mut mean = [0.0; 3];
-    let mut second = [0.0; 3];
-    let (mut reach, mut vis, mut tint) = (1.0, [1.0; 3], [1.0; 3]);
-    for &(alpha, c, t) in layers {
-        for ch in 0..3 {
-            mean[ch] += vis[ch] * alpha * c[ch];
-            second[ch] += reach * alpha * (tint[ch] * c[ch]).powi(2);
-            vis[ch] *= (1.0 - alpha) * t[ch];
-            tint[ch] *= t[ch];
-        }
-        reach *= 1.0 - alpha;
-    }
-    for ch in 0..3 {
-        mean[ch] += vis[ch] * background[ch];
-        second[ch] += reach * (tint[ch] * background[ch]).powi(2);
-    }
-    (mean, std::array::from_fn(|ch| second[ch] - mean[ch] * mean[ch]))
-}
-
 /// Overlapping tinted panes in front of a background: the reference's mean over a patch converges
 /// to the closed-form composite, within 4 standard errors of the exact per-sample variance, in any
 /// object order, and its per-pixel error falls as 1/√S.
@@ -510,8 +486,8 @@ fn stochastic_coverage_converges_to_the_closed_form_composite() {
         (a as f64, c.as_dvec3().to_array(), t.as_dvec3().to_array())
     };
     let bg = background.as_dvec3().to_array();
-    let left = composite(&[layer(0), layer(1), layer(2), layer(3)], bg);
-    let right = composite(&[layer(1), layer(2), layer(3)], bg);
+    let left = crate::transparency::composite(&[layer(0), layer(1), layer(2), layer(3)], bg);
+    let right = crate::transparency::composite(&[layer(1), layer(2), layer(3)], bg);
     // Columns 0..15 see all four panes, 17..32 the last three.
     let patches = [(0u32..15u32, left), (17..32, right)];
 

@@ -80,7 +80,7 @@ pub struct TransparentPush {
     pub jitter: [f32; 2],
     pub segment: u32,
     pub segment_time: f32,
-    /// rgb transmission, unused.
+    /// rgb: the object's tint (transmission); w unused (vec4 alignment).
     pub tint: [f32; 4],
     /// [`coverage_seed`] of the render seed.
     pub coverage_seed: u32,
