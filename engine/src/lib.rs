@@ -22,6 +22,7 @@ pub mod reference;
 pub mod sampling;
 pub mod scene;
 pub mod shading;
+pub mod shadows;
 pub mod techniques;
 pub mod transparency;
 pub mod vk;

@@ -36,9 +36,21 @@ vec4 orthographic_clip(vec3 p) {
     return vec4(p.x / view.projection.y, -p.y / view.projection.z, (far_z + p.z) / (far_z - near_z), 1.0);
 }
 
-// Any view: its thin lens or its orthographic projection, as the view's block says.
+// Clip-space position of view-space point p in a pinhole perspective view (a spot light's shadow map
+// or a face of a point light's; engine/src/scene/view.rs Projection::Perspective): the thin lens'
+// projection without a lens or jitter, the same reversed-Z depth.
+vec4 perspective_clip(vec3 p) {
+    float W = view.viewport.x, H = view.viewport.y, s = view.viewport.z;
+    float near_z = view.lens.z, far_z = view.lens.w;
+    float z = -p.z;
+    return vec4(2.0 * s * p.x / W, -2.0 * s * p.y / H, near_z * (far_z - z) / (far_z - near_z), z);
+}
+
+// Any view: its thin lens, or a light's orthographic or perspective projection, as the view's block
+// says.
 vec4 view_clip(vec3 p, vec2 lens_unit, vec2 jitter_px) {
     if (view.projection.x == PROJECTION_ORTHOGRAPHIC) return orthographic_clip(p);
+    if (view.projection.x == PROJECTION_PERSPECTIVE) return perspective_clip(p);
     return thin_lens_clip(p, lens_unit, jitter_px);
 }
 

@@ -11,6 +11,7 @@
 #define LIGHT_SPOT 2.0
 #define PROJECTION_THIN_LENS 0.0
 #define PROJECTION_ORTHOGRAPHIC 1.0
+#define PROJECTION_PERSPECTIVE 2.0
 
 struct Light {
     vec4 at_open;     // xyz: direction to light (directional) or position (point, spot), in view space; w: type
@@ -45,7 +46,7 @@ layout(set = 0, binding = 0, std140) uniform WorldUniforms {
 layout(set = 0, binding = 1, std430) readonly buffer Materials { Material materials[]; };
 
 layout(set = 0, binding = 2, std140) uniform ViewUniforms {
-    vec4 viewport;    // width, height, pixel_scale s (thin lens), light_count
+    vec4 viewport;    // width, height, pixel_scale s (thin lens, perspective), light_count
     vec4 lens;        // aperture_radius A, focus_distance F, near, far
     vec4 projection;  // kind (PROJECTION_*), orthographic half extents x, y, unused
     Light lights[MAX_LIGHTS];

@@ -2,6 +2,9 @@
 #ifndef SHUTTER_SHADING_GLSL
 #define SHUTTER_SHADING_GLSL
 #include "common/frame.glsl"
+#ifdef SHADOWS
+#include "common/shadow.glsl"
+#endif
 
 float specular_exponent(float roughness) {
     float r = max(roughness, 1e-3);
@@ -18,7 +21,8 @@ float spot_falloff(float cos_angle, float cos_inner, float cos_outer) {
 }
 
 // Radiance at camera-space `pos` with unit normal `n` facing the viewer and unit `to_eye` towards the
-// lens sample, lights interpolated to shutter time t.
+// lens sample, lights interpolated to shutter time t. With SHADOWS, each light is attenuated by its
+// shadow map at the receiver the caller set in `shadow_receiver`.
 vec3 shade(vec3 pos, vec3 n, vec3 to_eye, vec3 albedo, float specular, float roughness, float t) {
     float n_exp = specular_exponent(roughness);
     float norm = (n_exp + 8.0) / (8.0 * 3.14159265358979);
@@ -49,6 +53,9 @@ vec3 shade(vec3 pos, vec3 n, vec3 to_eye, vec3 albedo, float specular, float rou
         }
         float ndl = max(dot(n, l), 0.0);
         if (ndl <= 0.0) continue;
+#ifdef SHADOWS
+        e *= shadow_light(i);  // the receiver's transmittance towards light i (common/shadow.glsl)
+#endif
         diffuse += e * ndl;
         if (specular > 0.0) {
             vec3 h = l + to_eye;

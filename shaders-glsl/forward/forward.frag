@@ -1,5 +1,6 @@
 #version 460
 // Forward pass fragment stage: the shared shading model, view vector towards this pass' lens sample.
+// SHADOWS: lights attenuated by their shadow maps (common/shadow.glsl).
 #include "common/object.glsl"
 #include "common/shading.glsl"
 
@@ -15,6 +16,10 @@ layout(push_constant) uniform Push {
 layout(location = 0) in vec3 v_position;
 layout(location = 1) in vec3 v_normal;
 layout(location = 2) in vec2 v_uv;
+#ifdef SHADOWS
+layout(location = 3) in vec3 v_object_position;
+layout(location = 4) in vec3 v_object_normal;
+#endif
 layout(location = 0) out vec4 out_color;
 
 void main() {
@@ -26,5 +31,8 @@ void main() {
     vec3 to_eye = normalize(lens_point - v_position);
     vec3 albedo = m.albedo_specular.rgb;
     if (m.params.y > 0.5) albedo *= texture(albedo_texture, v_uv).rgb;
+#ifdef SHADOWS
+    shadow_receiver = ShadowReceiver(v_object_position, v_object_normal, pc.segment, pc.segment_time);
+#endif
     out_color = vec4(shade(v_position, n, to_eye, albedo, m.albedo_specular.w, m.params.x, pc.time), 1.0);
 }

@@ -1,6 +1,8 @@
 #version 460
-// Forward pass vertex stage: one (u,v,t) per draw (pinhole and accumulation passes).
-// Camera-space position at t is the lerp of the positions at shutter open and close (DESIGN.md).
+// Forward pass vertex stage: one (u,v,t) per draw (pinhole and accumulation passes), through any
+// view's projection (the camera's thin lens; a light's, for its shadow map).
+// View-space position at t is the lerp of the positions at shutter open and close (DESIGN.md).
+// SHADOW_RECEIVER: also the object-space position and normal, for common/shadow.glsl's lookups.
 #include "common/camera.glsl"
 
 layout(location = 0) in vec3 in_position;
@@ -19,6 +21,10 @@ layout(push_constant) uniform Push {
 layout(location = 0) out vec3 v_position;  // camera space at t
 layout(location = 1) out vec3 v_normal;
 layout(location = 2) out vec2 v_uv;
+#ifdef SHADOW_RECEIVER
+layout(location = 3) out vec3 v_object_position;
+layout(location = 4) out vec3 v_object_normal;
+#endif
 
 void main() {
     ObjectView o = object_views[pc.segment];
@@ -28,5 +34,9 @@ void main() {
     v_position = p;
     v_normal = mix(mat3(o.normal_matrix[0]) * in_normal, mat3(o.normal_matrix[1]) * in_normal, pc.segment_time);
     v_uv = in_uv;
-    gl_Position = thin_lens_clip(p, pc.lens, pc.jitter);
+#ifdef SHADOW_RECEIVER
+    v_object_position = in_position;
+    v_object_normal = in_normal;
+#endif
+    gl_Position = view_clip(p, pc.lens, pc.jitter);
 }

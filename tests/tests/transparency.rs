@@ -247,8 +247,9 @@ fn texture_alpha_is_coverage_on_the_gpu() {
     assert!(worst < 0.03, "GPU and reference columns differ by {worst}");
 }
 
-/// Shadows are still refused; so are tints by the stochastic rasterizer and by `auto` with blur
-/// (they render constant coverage), with a message naming the techniques that render them.
+/// Tints are refused by the stochastic rasterizer and by `auto` with blur (they render constant
+/// coverage), and so are shadows, with a message naming the techniques that render them; pinhole
+/// and accumulation render both (tests/tests/shadows.rs checks the shadows).
 #[test]
 fn what_is_still_refused_says_why() {
     let mut r = renderer();
@@ -267,9 +268,12 @@ fn what_is_still_refused_says_why() {
     assert_eq!(out.stats.transparency, Some(TransparencyMethod::Stochastic));
     scene.lights = vec![shutter::scene::Light::Point { position: Vec3::Y, color: Vec3::ONE, shadows: true }];
     for t in [Technique::PINHOLE, Technique::ACCUMULATION] {
-        let err = r.render(&scene, t, &s).expect_err("shadows refused").to_string();
-        assert!(err.contains("shadows") && err.contains("shadow-map"), "{err}");
+        r.render(&scene, t, &s).expect("shadow maps with stochastic transparency");
     }
+    scene.objects.iter_mut().for_each(|o| o.material.tint = Vec3::ONE);
+    let err =
+        r.render(&scene, Technique::STOCHASTIC, &s).expect_err("stochastic refuses shadows").to_string();
+    assert!(err.contains("shadows") && err.contains("pinhole"), "{err}");
     // An opaque scene reports no transparency method.
     let mut opaque = pane_scene(false, false);
     for o in &mut opaque.objects {

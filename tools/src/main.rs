@@ -79,6 +79,12 @@ enum Command {
         /// the scene has transparency.
         #[arg(long, default_value = "stochastic")]
         transparency: String,
+        /// Shadow maps of lights with `shadows = true` (pinhole, accumulation, auto without blur):
+        /// SIZE[/SAMPLES[/PCF]] — texels per side of each map (a point light has six), depth samples
+        /// per texel of a stochastic map (casters with alpha < 1 or tints; opaque casters get one),
+        /// and the PCF radius in texels (docs/SHADOWS.md).
+        #[arg(long, default_value = "1024/4/1")]
+        shadow_map: String,
         #[command(flatten)]
         image: ImageArgs,
     },
@@ -330,10 +336,12 @@ fn run() -> Result<()> {
             intervals,
             clusters,
             transparency,
+            shadow_map,
             image: ImageArgs { size, seed, out },
         } => {
             let technique: Technique = technique.parse()?;
             let transparency: shutter::transparency::TransparencyMethod = transparency.parse()?;
+            let shadows: shutter::shadows::ShadowSettings = shadow_map.parse()?;
             let stochastic = StochasticOptions {
                 bound: bound.parse()?,
                 shading: shading.parse()?,
@@ -346,6 +354,7 @@ fn run() -> Result<()> {
             let sc = load_scene(&scene)?;
             let mut settings = RenderSettings::from_scene(&sc).with_stochastic(stochastic);
             settings.transparency = transparency;
+            settings.shadows = shadows;
             if let Some((w, h)) = size {
                 (settings.width, settings.height) = (w, h);
             }

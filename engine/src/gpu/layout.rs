@@ -100,6 +100,7 @@ pub const LIGHT_SPOT: f32 = 2.0;
 /// Projection kinds in [`ViewUniforms::projection`]`[0]`.
 pub const PROJECTION_THIN_LENS: f32 = 0.0;
 pub const PROJECTION_ORTHOGRAPHIC: f32 = 1.0;
+pub const PROJECTION_PERSPECTIVE: f32 = 2.0;
 
 /// `ViewUniforms` (std140; vec4s only).
 #[repr(C)]
@@ -112,6 +113,33 @@ pub struct ViewUniforms {
     /// kind (`PROJECTION_*`), orthographic half extents x, y (world units), unused.
     pub projection: [f32; 4],
     pub lights: [GpuLight; MAX_LIGHTS],
+}
+
+/// `ShadowHeader` (std430, `common/shadow.glsl`): what every shadow lookup shares
+/// ([`crate::techniques::shadow_maps`]).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct GpuShadowHeader {
+    /// Samples per texel S, MSAA per sub-map, sub-maps, PCF radius.
+    pub counts: [u32; 4],
+    /// `ObjectView` records per lookup space, unused ×3.
+    pub spaces: [u32; 4],
+    /// Normal offset and depth bias (texels at the receiver), unused ×2.
+    pub bias: [f32; 4],
+    /// Per light: has a map (0/1), first view, view count (1 or 6), lookup space.
+    pub lights: [[u32; 4]; MAX_LIGHTS],
+}
+
+/// `ShadowView` (std430): one rendered face of a light's shadow map.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct GpuShadowView {
+    /// The light's lookup space → this face's view space (column-major).
+    pub base_to_face: [f32; 16],
+    /// Kind (`PROJECTION_*`), half extent x or pixel scale, half extent y, size (texels).
+    pub projection: [f32; 4],
+    /// Near, far, atlas x and y of the first sub-map's tile.
+    pub depth: [f32; 4],
 }
 
 /// `ObjectView` (std430): one key segment of one object's motion seen from one view (an object with
@@ -257,6 +285,8 @@ pub const SHARED_STRUCTS: &[SharedStruct] = &[
     shared_struct!("ViewUniforms", ViewUniforms, [viewport, lens, projection, lights]),
     shared_struct!("ObjectView", GpuObjectView, [model_view, normal_matrix, time]),
     shared_struct!("Vertex", Vertex, [position, normal, uv]),
+    shared_struct!("ShadowHeader", GpuShadowHeader, [counts, spaces, bias, lights]),
+    shared_struct!("ShadowView", GpuShadowView, [base_to_face, projection, depth]),
 ];
 
 /// What a group of shader stage files expects of the pipeline layout the Rust side builds for them:

@@ -14,5 +14,5 @@ mod layout_tests;
 mod view;
 mod world;
 
-pub use view::{view_uniforms, GpuView};
+pub use view::{object_view_records, view_uniforms, GpuView};
 pub use world::{GpuObject, GpuWorld, SCENE_STAGES};

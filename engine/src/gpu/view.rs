@@ -11,7 +11,7 @@ use glam::{Mat3, Mat4};
 
 use super::layout::{
     GpuLight, GpuObjectView, ViewUniforms, FRAME_SET, LIGHT_DIRECTIONAL, LIGHT_POINT, LIGHT_SPOT, MAX_LIGHTS,
-    PROJECTION_ORTHOGRAPHIC, PROJECTION_THIN_LENS,
+    PROJECTION_ORTHOGRAPHIC, PROJECTION_PERSPECTIVE, PROJECTION_THIN_LENS,
 };
 use super::GpuWorld;
 use crate::error::{Error, Result};
@@ -86,8 +86,33 @@ pub fn view_uniforms(view: &View) -> Result<ViewUniforms> {
             [0.0, 0.0, near, far],
             [PROJECTION_ORTHOGRAPHIC, half_extent.x, half_extent.y, 0.0],
         ),
+        Projection::Perspective { width, height, pixel_scale, near, far } => (
+            [width as f32, height as f32, pixel_scale, n],
+            [0.0, 0.0, near, far],
+            [PROJECTION_PERSPECTIVE, 0.0, 0.0, 0.0],
+        ),
     };
     Ok(ViewUniforms { viewport, lens, projection, lights })
+}
+
+/// Every object's transforms into `view` over each key segment of its motion, in the order of
+/// `ObjectViews` (one record per segment, an object's consecutive), and per object its first record
+/// and key times.
+pub fn object_view_records(view: &View) -> (Vec<GpuObjectView>, Vec<(u32, KeyTimes)>) {
+    let mut object_views: Vec<GpuObjectView> = Vec::with_capacity(view.space.objects.len());
+    let mut object_keys = Vec::with_capacity(view.space.objects.len());
+    for m in &view.space.objects {
+        object_keys.push((object_views.len() as u32, m.keys.clone()));
+        let (t, inv) = (m.keys.times(), m.keys.inv_len());
+        for j in 0..m.segments() {
+            object_views.push(GpuObjectView {
+                model_view: [mat4(m.model_view[j]), mat4(m.model_view[j + 1])],
+                normal_matrix: [mat3_padded(m.normal_matrix[j]), mat3_padded(m.normal_matrix[j + 1])],
+                time: [t[j], t[j + 1], inv[j], 0.0],
+            });
+        }
+    }
+    (object_views, object_keys)
 }
 
 impl GpuView {
@@ -107,19 +132,7 @@ impl GpuView {
                 world.objects.len()
             )));
         }
-        let mut object_views: Vec<GpuObjectView> = Vec::with_capacity(view.space.objects.len());
-        let mut object_keys = Vec::with_capacity(view.space.objects.len());
-        for m in &view.space.objects {
-            object_keys.push((object_views.len() as u32, m.keys.clone()));
-            let (t, inv) = (m.keys.times(), m.keys.inv_len());
-            for j in 0..m.segments() {
-                object_views.push(GpuObjectView {
-                    model_view: [mat4(m.model_view[j]), mat4(m.model_view[j + 1])],
-                    normal_matrix: [mat3_padded(m.normal_matrix[j]), mat3_padded(m.normal_matrix[j + 1])],
-                    time: [t[j], t[j + 1], inv[j], 0.0],
-                });
-            }
-        }
+        let (mut object_views, object_keys) = object_view_records(view);
         if object_views.is_empty() {
             object_views.push(bytemuck::Zeroable::zeroed());
         }

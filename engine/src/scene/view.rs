@@ -15,6 +15,10 @@ pub enum Projection {
     /// Orthographic along −Z, for a directional light: `half_extent` world units each side of the axis
     /// in x and y over `width × height` pixels, view depth in `[near, far]` (reversed Z like the camera).
     Orthographic { width: u32, height: u32, half_extent: Vec2, near: f32, far: f32 },
+    /// A pinhole perspective along −Z, for a spot light or one face of a point light's cube: a
+    /// view-space point `p` lands `pixel_scale · p.xy / z` pixels from the image centre (x right, y up,
+    /// `z = −p.z`), the thin lens' projection without a lens; depth reversed Z in `[near, far]`.
+    Perspective { width: u32, height: u32, pixel_scale: f32, near: f32, far: f32 },
 }
 
 impl Projection {
@@ -22,14 +26,17 @@ impl Projection {
     pub fn size(&self) -> (u32, u32) {
         match *self {
             Projection::ThinLens(k) => (k.width as u32, k.height as u32),
-            Projection::Orthographic { width, height, .. } => (width, height),
+            Projection::Orthographic { width, height, .. }
+            | Projection::Perspective { width, height, .. } => (width, height),
         }
     }
     /// Near and far view depth.
     pub fn depth_range(&self) -> (f32, f32) {
         match *self {
             Projection::ThinLens(k) => (k.near, k.far),
-            Projection::Orthographic { near, far, .. } => (near, far),
+            Projection::Orthographic { near, far, .. } | Projection::Perspective { near, far, .. } => {
+                (near, far)
+            }
         }
     }
 }
@@ -64,20 +71,7 @@ impl View {
     /// `None` when the scene has no geometry or the direction is not finite and non-zero.
     pub fn directional_light(scene: &Scene, name: &str, direction: Vec3, size: u32) -> Option<View> {
         let dir = direction.try_normalize()?;
-        let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
-        for o in &scene.objects {
-            for &(_, m) in &o.transforms {
-                for &p in &o.mesh.positions {
-                    let w = m.transform_point3(p);
-                    (lo, hi) = (lo.min(w), hi.max(w));
-                }
-            }
-        }
-        if !(lo.is_finite() && hi.is_finite()) {
-            return None;
-        }
-        let centre = 0.5 * (lo + hi);
-        let radius = (0.5 * (hi - lo).length()).max(1e-3);
+        let (centre, radius) = scene_bounds(scene)?;
         let up = if dir.y.abs() > 0.99 { Vec3::Z } else { Vec3::Y };
         let eye = centre - dir * (2.0 * radius);
         let m = Mat4::look_at_rh(eye, centre, up);
@@ -96,6 +90,36 @@ impl View {
         })
     }
 
+    /// A `size × size` perspective view from `position` looking along `direction` (up `up`), with
+    /// `half_angle_deg` from the axis to the image's edge, its depth range framing every vertex of the
+    /// scene at every motion key in front of it: a spot light's shadow map, or one face of a point
+    /// light's ([`cube_face`]). `None` without geometry or for a degenerate direction.
+    pub fn perspective_light(
+        scene: &Scene,
+        name: &str,
+        position: Vec3,
+        direction: Vec3,
+        up: Vec3,
+        half_angle_deg: f32,
+        size: u32,
+    ) -> Option<View> {
+        let dir = direction.try_normalize()?;
+        let (centre, radius) = scene_bounds(scene)?;
+        let m = Mat4::look_at_rh(position, position + dir, up);
+        let world_to_view = [m, m];
+        // Everything lies within `radius` of `centre`: the far plane just past it, the near plane a
+        // small fraction of the scene's size from the light (reversed-Z float depth keeps precision).
+        let far = (position.distance(centre) + radius) * 1.01;
+        let near = (far * 1e-4).max(1e-4);
+        let pixel_scale = 0.5 * size as f32 / half_angle_deg.to_radians().tan();
+        Some(View {
+            name: name.to_string(),
+            world_to_view,
+            projection: Projection::Perspective { width: size, height: size, pixel_scale, near, far },
+            space: CameraSpaceScene::seen_from(scene, world_to_view),
+        })
+    }
+
     /// Image size in pixels.
     pub fn size(&self) -> (u32, u32) {
         self.projection.size()
@@ -107,6 +131,59 @@ impl View {
             Projection::ThinLens(k) => Some(k),
             _ => None,
         }
+    }
+}
+
+/// The centre and radius of a sphere holding every vertex of `scene` at every transform key; `None`
+/// without geometry (or with non-finite positions).
+pub fn scene_bounds(scene: &Scene) -> Option<(Vec3, f32)> {
+    let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+    for o in &scene.objects {
+        for &(_, m) in &o.transforms {
+            for &p in &o.mesh.positions {
+                let w = m.transform_point3(p);
+                (lo, hi) = (lo.min(w), hi.max(w));
+            }
+        }
+    }
+    if !(lo.is_finite() && hi.is_finite()) {
+        return None;
+    }
+    Some((0.5 * (lo + hi), (0.5 * (hi - lo).length()).max(1e-3)))
+}
+
+/// The six faces of a point light's cube map, in order +X, −X, +Y, −Y, +Z, −Z: the direction each
+/// face looks along and its up vector (world space). Face `k` sees the points whose largest
+/// coordinate (relative to the light) in absolute value is along its direction ([`cube_face_of`]).
+pub const CUBE_FACES: [(Vec3, Vec3); 6] = [
+    (Vec3::X, Vec3::NEG_Y),
+    (Vec3::NEG_X, Vec3::NEG_Y),
+    (Vec3::Y, Vec3::Z),
+    (Vec3::NEG_Y, Vec3::NEG_Z),
+    (Vec3::Z, Vec3::NEG_Y),
+    (Vec3::NEG_Z, Vec3::NEG_Y),
+];
+
+/// The cube face (index into [`CUBE_FACES`]) that sees direction `d` from the light: its largest
+/// coordinate in absolute value, ties to the earlier axis. `cube_face_of` in `common/shadow.glsl`.
+pub fn cube_face_of(d: Vec3) -> usize {
+    let a = d.abs();
+    if a.x >= a.y && a.x >= a.z {
+        if d.x >= 0.0 {
+            0
+        } else {
+            1
+        }
+    } else if a.y >= a.z {
+        if d.y >= 0.0 {
+            2
+        } else {
+            3
+        }
+    } else if d.z >= 0.0 {
+        4
+    } else {
+        5
     }
 }
 

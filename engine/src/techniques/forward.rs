@@ -16,14 +16,15 @@ use bytemuck::{Pod, Zeroable};
 use glam::Vec2;
 
 use super::multipass::{FrameUse, MultipassFrame, PassDraws, COLOR_FORMAT, DEPTH_FORMAT};
+use super::shadow_maps::ShadowMaps;
 use super::{FrameContext, FrameInputs, FrameTechnique, PrepareContext, TechniqueFrame};
 use crate::error::Result;
-use crate::gpu::layout::{shared_struct, vertex_input, SharedStruct};
+use crate::gpu::layout::{shared_struct, vertex_input, SharedStruct, TECHNIQUE_SET_INDEX};
 use crate::gpu::{GpuView, GpuWorld};
 use crate::graph::{FrameGraph, PassContext};
 use crate::scene::Scene;
 use crate::shaders;
-use crate::shaders::axes::TransparencyPass;
+use crate::shaders::axes::{Shadows, TransparencyPass};
 use crate::transparency::{coverage_seed, TransparencyMethod};
 use crate::vk::{ColorBlend, Device, Feature, GraphicsDesc, Pipeline, PipelineLayout, ShaderModule};
 
@@ -120,23 +121,81 @@ pub const FORWARD_STRUCTS: &[SharedStruct] = &[
     ),
 ];
 
+/// How a receiving forward pipeline reads shadow maps: its set 3 and the lookup permutation.
+#[derive(Clone, Copy)]
+pub struct ShadowLookup {
+    set: vk::DescriptorSet,
+    shadows: Shadows,
+    color: bool,
+}
+
+impl ShadowLookup {
+    pub fn of(maps: &ShadowMaps) -> Self {
+        let (shadows, color) = maps.lookup();
+        ShadowLookup { set: maps.set(), shadows, color }
+    }
+}
+
+/// The vertex stage of a forward pipeline: with the object-space outputs a shadow receiver reads.
+fn forward_vert(device: &Device, receives_shadows: bool) -> Result<ShaderModule> {
+    ShaderModule::new(device, shaders::ForwardVert { shadow_receiver: receives_shadows }.source())
+}
+
+/// The layout of a forward pipeline: sets 0 and 1, with shadows set 2 empty and set 3 the shadow
+/// maps' ([`ShadowMaps::set_layout`]); push constants of `push_bytes`.
+fn forward_layout(
+    device: &Device,
+    world: &GpuWorld,
+    shadows: Option<&ShadowMaps>,
+    push_bytes: usize,
+) -> Result<PipelineLayout> {
+    let stages = vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT;
+    match shadows {
+        Some(maps) => world.pipeline_layout(
+            device,
+            &[&world.empty_layout, maps.set_layout()],
+            push_bytes as u32,
+            stages,
+        ),
+        None => world.pipeline_layout(device, &[], push_bytes as u32, stages),
+    }
+}
+
+/// Binds the shadow maps' set 3, when the pipeline receives shadows.
+fn bind_shadows(d: &Device, cmd: vk::CommandBuffer, layout: &PipelineLayout, lookup: Option<ShadowLookup>) {
+    if let Some(l) = lookup {
+        let bind = vk::PipelineBindPoint::GRAPHICS;
+        unsafe { d.raw.cmd_bind_descriptor_sets(cmd, bind, layout.raw, TECHNIQUE_SET_INDEX, &[l.set], &[]) };
+    }
+}
+
 /// The forward pipeline for one MSAA count.
 pub struct ForwardPipeline {
     pipeline: Pipeline,
     layout: PipelineLayout,
+    shadows: Option<ShadowLookup>,
     _shaders: Vec<ShaderModule>,
 }
 
 impl ForwardPipeline {
+    /// Every light unshadowed.
     pub fn new(device: &Device, world: &GpuWorld, samples: u32) -> Result<Self> {
-        let vert = ShaderModule::new(device, shaders::FORWARD_FORWARD_VERT)?;
-        let frag = ShaderModule::new(device, shaders::FORWARD_FORWARD_FRAG)?;
-        let layout = world.pipeline_layout(
-            device,
-            &[],
-            std::mem::size_of::<ForwardPush>() as u32,
-            vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT,
-        )?;
+        Self::with_shadows(device, world, samples, None)
+    }
+
+    /// Shadow-casting lights attenuated by `shadows`' maps, when given.
+    pub fn with_shadows(
+        device: &Device,
+        world: &GpuWorld,
+        samples: u32,
+        shadows: Option<&ShadowMaps>,
+    ) -> Result<Self> {
+        let lookup = shadows.map(ShadowLookup::of);
+        let vert = forward_vert(device, lookup.is_some())?;
+        let (shadow_axis, shadow_color) = lookup.map_or((Shadows::None, false), |l| (l.shadows, l.color));
+        let frag =
+            ShaderModule::new(device, shaders::ForwardFrag { shadows: shadow_axis, shadow_color }.source())?;
+        let layout = forward_layout(device, world, shadows, std::mem::size_of::<ForwardPush>())?;
         let (bindings, attributes) = vertex_input();
         let pipeline = Pipeline::graphics(
             device,
@@ -157,7 +216,7 @@ impl ForwardPipeline {
                 depth_write: true,
             },
         )?;
-        Ok(ForwardPipeline { pipeline, layout, _shaders: vec![vert, frag] })
+        Ok(ForwardPipeline { pipeline, layout, shadows: lookup, _shaders: vec![vert, frag] })
     }
 
     /// Draws the objects `i` with `include(i)` seen from `view` with one pass' (t, lens, jitter).
@@ -171,6 +230,7 @@ impl ForwardPipeline {
         include: impl Fn(usize) -> bool,
     ) {
         unsafe { d.raw.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, self.pipeline.raw) };
+        bind_shadows(d, cmd, &self.layout, self.shadows);
         let push = |i: usize| ForwardPush::new(view, i, pass);
         let stages = vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT;
         world.record_object_draws(d, cmd, view, &self.layout, stages, include, push, |_| None);
@@ -195,6 +255,7 @@ pub struct TransparentDraws {
     coverage: Pipeline,
     tint: Pipeline,
     layout: PipelineLayout,
+    shadows: Option<ShadowLookup>,
     objects: Vec<TransparentObject>,
     coverage_seed: u32,
     msaa: u32,
@@ -209,7 +270,8 @@ pub fn has_transparency(scene: &Scene) -> bool {
 }
 
 impl TransparentDraws {
-    /// For `scene`'s objects at `msaa` samples × `passes` passes, with the render seed `seed`.
+    /// For `scene`'s objects at `msaa` samples × `passes` passes, with the render seed `seed`; the
+    /// covered samples' shading attenuated by `shadows`' maps when given.
     pub fn new(
         device: &Device,
         world: &GpuWorld,
@@ -217,24 +279,39 @@ impl TransparentDraws {
         msaa: u32,
         passes: u32,
         seed: u64,
+        shadows: Option<&ShadowMaps>,
     ) -> Result<Self> {
         device.caps.require(
             Feature::GeometryShader,
             "stochastic transparency (the fragment stage reads gl_PrimitiveID to name the triangle)",
         )?;
-        let vert = ShaderModule::new(device, shaders::FORWARD_FORWARD_VERT)?;
-        let source = |pass| shaders::TransparentFrag { transparency_pass: pass }.source();
-        let coverage_frag = ShaderModule::new(device, source(TransparencyPass::Coverage))?;
-        let tint_frag = ShaderModule::new(device, source(TransparencyPass::Tint))?;
-        let layout = world.pipeline_layout(
+        let lookup = shadows.map(ShadowLookup::of);
+        let (shadow_axis, shadow_color) = lookup.map_or((Shadows::None, false), |l| (l.shadows, l.color));
+        // The tint pass shades nothing: no shadow lookups, so no object-space outputs either.
+        let vert = forward_vert(device, lookup.is_some())?;
+        let tint_vert = ShaderModule::new(device, shaders::FORWARD_FORWARD_VERT)?;
+        let coverage_frag = ShaderModule::new(
             device,
-            &[],
-            std::mem::size_of::<TransparentPush>() as u32,
-            vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT,
+            shaders::TransparentFrag {
+                transparency_pass: TransparencyPass::Coverage,
+                shadows: shadow_axis,
+                shadow_color,
+            }
+            .source(),
         )?;
+        let tint_frag = ShaderModule::new(
+            device,
+            shaders::TransparentFrag {
+                transparency_pass: TransparencyPass::Tint,
+                shadows: Shadows::None,
+                shadow_color: false,
+            }
+            .source(),
+        )?;
+        let layout = forward_layout(device, world, shadows, std::mem::size_of::<TransparentPush>())?;
         let (bindings, attributes) = vertex_input();
         let coverage_stages = [&vert, &coverage_frag];
-        let tint_stages = [&vert, &tint_frag];
+        let tint_stages = [&tint_vert, &tint_frag];
         let desc = |name, stages, depth_write| GraphicsDesc {
             name,
             stages,
@@ -281,11 +358,12 @@ impl TransparentDraws {
             coverage,
             tint,
             layout,
+            shadows: lookup,
             objects,
             coverage_seed: coverage_seed(seed),
             msaa,
             samples: msaa * passes,
-            _shaders: vec![vert, coverage_frag, tint_frag],
+            _shaders: vec![vert, tint_vert, coverage_frag, tint_frag],
         })
     }
 
@@ -327,6 +405,7 @@ impl TransparentDraws {
         let push = |i: usize| self.push(view, i, pass, index);
         let bind = vk::PipelineBindPoint::GRAPHICS;
         unsafe { d.raw.cmd_bind_pipeline(cmd, bind, self.coverage.raw) };
+        bind_shadows(d, cmd, &self.layout, self.shadows);
         world.record_object_draws(
             d,
             cmd,
@@ -370,7 +449,9 @@ impl ForwardDraws {
     }
 
     /// Pass p drawn with `samples[p]`, at `msaa` samples; `scene`'s objects with coverage below 1
-    /// by `method` with coverage seeded by `seed` (nothing more is built for an opaque scene).
+    /// by `method` with coverage seeded by `seed` (nothing more is built for an opaque scene); lights
+    /// attenuated by `shadows`' maps when given.
+    #[allow(clippy::too_many_arguments)]
     pub fn with_transparency(
         device: &Device,
         world: &GpuWorld,
@@ -379,14 +460,16 @@ impl ForwardDraws {
         samples: Vec<PassSample>,
         method: TransparencyMethod,
         seed: u64,
+        shadows: Option<&ShadowMaps>,
     ) -> Result<Self> {
         let transparent = match method {
             _ if !has_transparency(scene) => None,
             TransparencyMethod::Stochastic => {
-                Some(TransparentDraws::new(device, world, scene, msaa, samples.len() as u32, seed)?)
+                Some(TransparentDraws::new(device, world, scene, msaa, samples.len() as u32, seed, shadows)?)
             }
         };
-        Ok(ForwardDraws { pipeline: ForwardPipeline::new(device, world, msaa)?, samples, transparent })
+        let pipeline = ForwardPipeline::with_shadows(device, world, msaa, shadows)?;
+        Ok(ForwardDraws { pipeline, samples, transparent })
     }
 
     /// The transparency method used, if the scene needs one.
@@ -422,7 +505,10 @@ impl PassDraws for ForwardDraws {
 /// Every object on the forward path, one [`PassSample`] per pass: `pinhole` and `accumulation`.
 pub struct ForwardTechnique {
     frame: MultipassFrame,
+    // Dropped before the maps whose set layout its pipelines use.
     draws: ForwardDraws,
+    /// The shadow-casting lights' maps, when the scene has any.
+    shadows: Option<ShadowMaps>,
 }
 
 impl ForwardTechnique {
@@ -431,6 +517,8 @@ impl ForwardTechnique {
     pub fn new(ctx: &PrepareContext<'_>, msaa: u32, samples: Vec<PassSample>) -> Result<Self> {
         let passes = samples.len() as u32;
         let s = ctx.settings;
+        let times: Vec<f32> = samples.iter().map(|p| p.time).collect();
+        let shadows = ShadowMaps::new(ctx.device, ctx.world, ctx.scene, &s.shadows, &times, s.seed)?;
         let draws = ForwardDraws::with_transparency(
             ctx.device,
             ctx.world,
@@ -439,16 +527,17 @@ impl ForwardTechnique {
             samples,
             s.transparency,
             s.seed,
+            shadows.as_ref(),
         )?;
         let frame = MultipassFrame::new(ctx.device, ctx.world, ctx.camera.size(), msaa, passes, "forward")?;
-        Ok(ForwardTechnique { frame, draws })
+        Ok(ForwardTechnique { frame, draws, shadows })
     }
 }
 
 impl FrameTechnique for ForwardTechnique {
     fn render(&mut self, inputs: &FrameInputs<'_>, frame: &mut FrameContext<'_>) -> Result<TechniqueFrame> {
         let draws: [&dyn PassDraws; 1] = [&self.draws];
-        let image = self.frame.render(frame, inputs, &draws)?;
+        let image = self.frame.render(frame, inputs, &draws, self.shadows.as_ref())?;
         Ok(self.frame.technique_frame(image, None))
     }
 
@@ -457,18 +546,19 @@ impl FrameTechnique for ForwardTechnique {
     }
 }
 
-/// What `forward/` expects of [`ForwardPipeline`]'s layout: sets 0 and 1, [`ForwardPush`].
+/// What `forward/` expects of [`ForwardPipeline`]'s layout: sets 0 and 1, with shadows set 3 the
+/// shadow maps' ([`super::shadow_maps::SHADOW_SET`]), [`ForwardPush`].
 pub const SHADER_INTERFACES: &[crate::gpu::layout::ShaderInterface] = &[
     crate::gpu::layout::ShaderInterface::technique(
         &["forward/forward.vert", "forward/forward.frag"],
         None,
-        None,
+        Some(&super::shadow_maps::SHADOW_SET),
         Some(FORWARD_STRUCTS[0]),
     ),
     crate::gpu::layout::ShaderInterface::technique(
         &["forward/transparent.frag"],
         None,
-        None,
+        Some(&super::shadow_maps::SHADOW_SET),
         Some(FORWARD_STRUCTS[1]),
     ),
 ];

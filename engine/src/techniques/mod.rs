@@ -26,6 +26,7 @@ pub mod graph_probe;
 pub mod multipass;
 pub mod pinhole;
 pub mod registry;
+pub mod shadow_maps;
 pub mod stochastic;
 
 use std::any::Any;
@@ -47,6 +48,7 @@ use crate::image::LinearImage;
 use crate::limits::{MAX_IMAGE_DIMENSION, MAX_SPP};
 use crate::plan::Plan;
 use crate::scene::{Scene, View};
+use crate::shadows::ShadowSettings;
 use crate::transparency::TransparencyMethod;
 use crate::vk::{CommandRecorder, Device, PassTimings};
 
@@ -63,7 +65,7 @@ impl FromStr for Technique {
 }
 
 /// What to render: image size, samples and seed (defaults come from the scene's `[image]`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RenderSettings {
     pub width: u32,
     pub height: u32,
@@ -76,6 +78,8 @@ pub struct RenderSettings {
     /// How `pinhole` and `accumulation` render coverage below 1 and tints (unused by an opaque
     /// scene).
     pub transparency: TransparencyMethod,
+    /// The shadow maps of shadow-casting lights (unused without any).
+    pub shadows: ShadowSettings,
 }
 
 impl RenderSettings {
@@ -88,6 +92,7 @@ impl RenderSettings {
             seed,
             stochastic: StochasticOptions::default(),
             transparency: TransparencyMethod::default(),
+            shadows: ShadowSettings::default(),
         }
     }
     /// The same with these `stochastic` options.
@@ -296,7 +301,6 @@ impl Renderer {
         prepare: impl FnOnce(&PrepareContext<'_>) -> Result<Box<dyn FrameTechnique>>,
     ) -> Result<PreparedFrame> {
         self.check_settings(settings)?;
-        check_unshadowed(scene)?;
         let t0 = Instant::now();
         let world = GpuWorld::upload(&self.device, &mut self.recorder, scene)?;
         // The one camera-space build of the frame: the plan, the GPU view and the techniques share it.
@@ -500,6 +504,7 @@ pub fn shader_interfaces() -> impl Iterator<Item = &'static crate::gpu::layout::
         stochastic::SHADER_INTERFACES,
         multipass::SHADER_INTERFACES,
         graph_probe::SHADER_INTERFACES,
+        shadow_maps::SHADER_INTERFACES,
     ]
     .into_iter()
     .flatten()
@@ -515,7 +520,7 @@ pub const TRANSPARENCY_TECHNIQUES: &str = "pinhole, accumulation, and auto when 
 /// (`reference` module docs).
 pub fn check_opaque_and_unshadowed(scene: &Scene) -> Result<()> {
     check_opaque(scene, "this technique")?;
-    check_unshadowed(scene)
+    check_unshadowed(scene, "this technique")
 }
 
 /// Refuses coverage below 1 for `technique` unless it renders it: `pinhole` and `accumulation` do;
@@ -579,12 +584,16 @@ pub fn check_opaque(scene: &Scene, who: &str) -> Result<()> {
     Ok(())
 }
 
-/// No light casts shadows: no GPU technique renders shadows yet.
-pub fn check_unshadowed(scene: &Scene) -> Result<()> {
+/// Techniques that render shadow maps.
+pub const SHADOW_TECHNIQUES: &str = "pinhole, accumulation, and auto when nothing needs blur";
+
+/// No light casts shadows: for the techniques without shadow maps (`stochastic`, `auto`'s
+/// stochastic path), which say who they are in `who`.
+pub fn check_unshadowed(scene: &Scene, who: &str) -> Result<()> {
     if let Some(i) = scene.lights.iter().position(|l| l.shadows()) {
         return Err(Error::Unsupported(format!(
-            "light[{i}] casts shadows (shadows = true): shadows need the shadow-map techniques of issue 12, \
-             which no GPU technique has yet (the CPU reference renders them with shadow rays)"
+            "light[{i}] casts shadows (shadows = true): {who} has no shadow maps yet; shadow maps render \
+             them in {SHADOW_TECHNIQUES} (the CPU reference renders them with shadow rays)"
         )));
     }
     Ok(())
@@ -619,7 +628,7 @@ mod opaque_check_tests {
         let e = refused(&|s| {
             s.lights.push(Light::Point { position: Vec3::Y, color: Vec3::ONE, shadows: true });
         });
-        assert!(e.contains("shadows") && e.contains("shadow-map") && e.contains("CPU reference"), "{e}");
+        assert!(e.contains("shadows") && e.contains("shadow maps") && e.contains("CPU reference"), "{e}");
         // An opaque tinted surface (tint irrelevant) and a spot light without shadows are fine.
         let mut ok = base.clone();
         ok.objects[0].material.tint = Vec3::new(0.5, 0.5, 1.0);

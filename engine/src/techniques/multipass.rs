@@ -10,6 +10,7 @@
 use ash::vk;
 use bytemuck::{Pod, Zeroable};
 
+use super::shadow_maps::ShadowMaps;
 use super::{FrameContext, FrameInputs};
 use crate::error::Result;
 use crate::gpu::layout::{shared_struct, Binding, SharedStruct, TECHNIQUE_SET_INDEX};
@@ -167,14 +168,22 @@ impl MultipassFrame {
     }
 
     /// Renders the P passes with every path of `draws` (in order) in each, averages them and reads the
-    /// result back. Each pass clears colour to the world's background and depth to 0.
+    /// result back. Each pass clears colour to the world's background and depth to 0. With `shadows`,
+    /// their maps are rendered first — once, or before every pass when something moves — and read by
+    /// the passes.
     pub fn render<'a>(
         &'a self,
         frame: &mut FrameContext<'_>,
         inputs: &FrameInputs<'a>,
         draws: &'a [&'a dyn PassDraws],
+        shadows: Option<&'a ShadowMaps>,
     ) -> Result<LinearImage> {
         let mut g = frame.graph();
+        let shadows = shadows.map(|s| (s, s.import(&mut g)));
+        if let Some((s, h)) = shadows.filter(|(s, _)| !s.per_pass()) {
+            s.add_passes(&mut g, h, inputs, false);
+        }
+        let shadow_reads = shadows.map(|(_, h)| ShadowMaps::reads(h)).unwrap_or_default();
         let mut uses = Vec::with_capacity(draws.len());
         for d in draws {
             uses.push(d.add_frame_passes(&mut g, inputs)?);
@@ -202,6 +211,9 @@ impl MultipassFrame {
         let weight = 1.0 / self.passes.max(1) as f32;
         let inputs = *inputs;
         g.repeat(self.passes, |g| {
+            if let Some((s, h)) = shadows.filter(|(s, _)| s.per_pass()) {
+                s.add_passes(g, h, &inputs, true);
+            }
             let mut pass = g.pass(self.name);
             pass = match color_ms {
                 Some(ms) => pass.color(ms, Load::Clear(background), Store::DontCare).resolve(resolved),
@@ -209,7 +221,8 @@ impl MultipassFrame {
             };
             pass = pass
                 .depth(depth, Load::Clear(0.0), Store::DontCare)
-                .accesses(uses.iter().flat_map(|u| u.pass_accesses.iter().copied()));
+                .accesses(uses.iter().flat_map(|u| u.pass_accesses.iter().copied()))
+                .accesses(shadow_reads.iter().copied());
             pass.record(move |ctx| {
                 for d in draws {
                     d.record(ctx, &inputs, ctx.iteration);

@@ -1872,6 +1872,7 @@ impl StochasticTechnique {
         plan: &Plan,
         object_effects: &[Effects],
     ) -> Result<Self> {
+        super::check_unshadowed(ctx.scene, "the stochastic rasterizer (`stochastic`, `auto` with blur)")?;
         Ok(StochasticTechnique { draws: StochasticDraws::new(ctx, options, debug, plan, object_effects)? })
     }
 

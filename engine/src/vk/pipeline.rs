@@ -278,6 +278,9 @@ pub enum ColorBlend {
     /// The attachment is multiplied by the fragment's colour, every channel (`dst × src`): coloured
     /// transmission, order-independent because a product is.
     Multiply,
+    /// rgb multiplied as [`ColorBlend::Multiply`], alpha the larger of the two (`max(src, dst)`): a
+    /// coloured shadow map's hue product and nearest tinted depth (reversed Z), both order-independent.
+    MultiplyMaxAlpha,
 }
 
 impl Pipeline {
@@ -330,6 +333,15 @@ impl Pipeline {
                         .src_alpha_blend_factor(vk::BlendFactor::DST_ALPHA)
                         .dst_alpha_blend_factor(vk::BlendFactor::ZERO)
                         .alpha_blend_op(vk::BlendOp::ADD),
+                    // rgb = src · dst; a = max(src, dst) (factors are ignored by MAX)
+                    ColorBlend::MultiplyMaxAlpha => state
+                        .blend_enable(true)
+                        .src_color_blend_factor(vk::BlendFactor::DST_COLOR)
+                        .dst_color_blend_factor(vk::BlendFactor::ZERO)
+                        .color_blend_op(vk::BlendOp::ADD)
+                        .src_alpha_blend_factor(vk::BlendFactor::ONE)
+                        .dst_alpha_blend_factor(vk::BlendFactor::ONE)
+                        .alpha_blend_op(vk::BlendOp::MAX),
                 }
             })
             .collect();

@@ -1,0 +1,518 @@
+//! Shadow maps (issue 12, docs/SHADOWS.md): which lights get one, of which kind, seen from which
+//! views, laid out where in the atlas — and the lookup math, the CPU mirror of
+//! `shaders-glsl/common/shadow.glsl`. The GPU side (pipelines, atlas, passes) is
+//! [`crate::techniques::shadow_maps`].
+//!
+//! * **Kinds** ([`ShadowKind`]), chosen from the casters (every object casts): all opaque → a
+//!   **plain** depth map (one sample per texel) filtered by PCF; some coverage below 1 → a
+//!   **stochastic shadow map** (Enderton et al. 2011: the casters drawn with stochastic transparency,
+//!   depth only, S depth samples per texel; the lookup compares against all S of each filter tap); some
+//!   tinted → a **coloured stochastic shadow map** (after McGuire & Enderton 2011: a second atlas of
+//!   transmitted colour; see [`ShadowKind::Colored`] for how ours departs from the paper).
+//! * **Views**: a directional light sees the scene orthographically along its direction
+//!   ([`View::directional_light`]); a spot light through a perspective of its outer cone; a point light
+//!   (and a spot light wider than [`SPOT_CUBE_DEG`]) through the six faces of a cube
+//!   ([`CUBE_FACES`]). Each light has one **lookup space** (its view, or for a cube the light's
+//!   position with the world's axes) in which the receiver's position is found, and `base_to_face`
+//!   maps it into each rendered face.
+//! * **Atlas**: every face of every light is `sub_maps` tiles of `size × size` side by side, each
+//!   multisampled `msaa` times, so a texel holds `S = msaa × sub_maps` depth samples.
+//! * **Bias**: the receiver is pushed along its normal (towards the light) by
+//!   `normal_offset × (r + 1)` texels, r the PCF radius — far enough that every filter tap sees the
+//!   receiver's own plane behind it at any slope — and compared with `depth_bias` texels of slack.
+//!   Both scale with the texel's size at the receiver, so they shrink as the resolution grows.
+//! * **Time**: a map is rendered at each pass' shutter time when anything moves, else once per frame.
+
+use glam::{Mat4, Vec2, Vec3};
+
+use crate::error::{Error, Result};
+use crate::scene::view::{scene_bounds, CUBE_FACES};
+use crate::scene::{Light, Projection, Scene, View};
+
+/// A spot light whose outer half-angle exceeds this many degrees is mapped through a cube like a
+/// point light (one perspective that wide wastes most of its texels at the edges).
+pub const SPOT_CUBE_DEG: f32 = 60.0;
+
+/// The largest atlas side (texels), within every device's image limit we target (lavapipe: 16384).
+pub const MAX_ATLAS: u32 = 16384;
+
+/// Shadow-map settings (`--shadow-map`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ShadowSettings {
+    /// Texels per side of each face.
+    pub size: u32,
+    /// Depth samples per texel S of a stochastic (or coloured) map; a plain map has one.
+    pub samples: u32,
+    /// PCF radius r: the lookup averages the (2r + 1)² texels around the receiver's.
+    pub pcf_radius: u32,
+    /// Normal offset per (r + 1), in texels at the receiver.
+    pub normal_offset: f32,
+    /// Depth slack, in texels at the receiver.
+    pub depth_bias: f32,
+}
+
+impl Default for ShadowSettings {
+    fn default() -> Self {
+        ShadowSettings { size: 1024, samples: 4, pcf_radius: 1, normal_offset: 1.5, depth_bias: 1.0 }
+    }
+}
+
+impl ShadowSettings {
+    /// Checks the settings' ranges.
+    pub fn validate(&self) -> Result<()> {
+        let bad = |what: &str, value: String, limit: &str| {
+            Err(Error::Limit { what: "shadow map", value: format!("{what} {value}"), limit: limit.into() })
+        };
+        if !(8..=8192).contains(&self.size) {
+            return bad("size", self.size.to_string(), "8 to 8192 texels per side");
+        }
+        if !(1..=256).contains(&self.samples) {
+            return bad("samples", self.samples.to_string(), "1 to 256 per texel");
+        }
+        if self.pcf_radius > 8 {
+            return bad("PCF radius", self.pcf_radius.to_string(), "0 to 8 texels");
+        }
+        if !(self.normal_offset.is_finite() && self.normal_offset >= 0.0) {
+            return bad("normal offset", self.normal_offset.to_string(), "finite and ≥ 0");
+        }
+        if !(self.depth_bias.is_finite() && self.depth_bias >= 0.0) {
+            return bad("depth bias", self.depth_bias.to_string(), "finite and ≥ 0");
+        }
+        Ok(())
+    }
+}
+
+impl std::str::FromStr for ShadowSettings {
+    type Err = Error;
+    /// `SIZE[/SAMPLES[/PCF]]`, e.g. `1024`, `512/16`, `2048/4/2`.
+    fn from_str(s: &str) -> Result<Self> {
+        let mut out = ShadowSettings::default();
+        let parts: Vec<&str> = s.split('/').collect();
+        let number = |p: &str, what: &str| {
+            p.trim().parse::<u32>().map_err(|_| {
+                Error::Unsupported(format!(
+                    "shadow map `{s}`: {what} `{p}` is not a whole number (expected SIZE[/SAMPLES[/PCF]], \
+                     e.g. 1024/4/1)"
+                ))
+            })
+        };
+        if parts.len() > 3 || parts.iter().any(|p| p.trim().is_empty()) {
+            return Err(Error::Unsupported(format!(
+                "shadow map `{s}`: expected SIZE[/SAMPLES[/PCF]], e.g. 1024/4/1"
+            )));
+        }
+        out.size = number(parts[0], "size")?;
+        if let Some(p) = parts.get(1) {
+            out.samples = number(p, "samples")?;
+        }
+        if let Some(p) = parts.get(2) {
+            out.pcf_radius = number(p, "PCF radius")?;
+        }
+        out.validate()?;
+        Ok(out)
+    }
+}
+
+impl std::fmt::Display for ShadowSettings {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}/{}/{}", self.size, self.samples, self.pcf_radius)
+    }
+}
+
+/// What the shadow maps of a scene hold (module docs).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ShadowKind {
+    /// Every caster opaque: one depth per texel, PCF.
+    Plain,
+    /// Some caster with coverage below 1, none tinted: S stochastic depths per texel.
+    Stochastic,
+    /// Some tinted caster: S stochastic depths and, per sample, the product of the hues of the tinted
+    /// casters in front of it and the depth of the nearest of them. A caster of transmittance τ per
+    /// channel blocks a sample with probability `1 − max τ` and tints the rest by its hue `τ / max τ`,
+    /// so each sample's expected light is exactly τ for a receiver behind it. **Departure from McGuire
+    /// & Enderton (2011)**: their colour map is one colour per texel; ours is per sample, with the
+    /// nearest tinted depth, so a receiver in front of every tinted caster of a sample (a directly lit
+    /// pane) is not tinted by them; a receiver *between* two tinted casters of one sample still takes
+    /// the hue of the one behind it — the remaining bias (docs/SHADOWS.md).
+    Colored,
+}
+
+impl ShadowKind {
+    /// The kind `scene`'s casters need.
+    pub fn for_scene(scene: &Scene) -> ShadowKind {
+        let transparent = |o: &&crate::scene::Object| !o.material.is_opaque();
+        if scene.objects.iter().filter(transparent).any(|o| o.material.tint != Vec3::ONE) {
+            ShadowKind::Colored
+        } else if scene.objects.iter().any(|o| !o.material.is_opaque()) {
+            ShadowKind::Stochastic
+        } else {
+            ShadowKind::Plain
+        }
+    }
+    pub fn name(self) -> &'static str {
+        match self {
+            ShadowKind::Plain => "plain",
+            ShadowKind::Stochastic => "stochastic",
+            ShadowKind::Colored => "coloured stochastic",
+        }
+    }
+}
+
+/// One rendered face of a light's shadow map.
+#[derive(Clone, Debug)]
+pub struct ShadowFace {
+    pub view: View,
+    /// The light's lookup space → this face's view space.
+    pub base_to_face: Mat4,
+    /// Atlas texel of its first sub-map's tile (the others follow to the right).
+    pub origin: [u32; 2],
+}
+
+/// One shadow-casting light.
+#[derive(Clone, Debug)]
+pub struct LightShadow {
+    /// Index in the scene's lights.
+    pub light: usize,
+    /// The space the receiver's position is found in (a face's view, or a cube's centre).
+    pub lookup: View,
+    /// One face, or six for a cube.
+    pub faces: Vec<ShadowFace>,
+}
+
+/// Every shadow-casting light's maps and the atlas holding them.
+#[derive(Clone, Debug)]
+pub struct ShadowPlan {
+    pub kind: ShadowKind,
+    pub settings: ShadowSettings,
+    /// MSAA samples per sub-map and sub-maps per face: `msaa × sub_maps = S` (1 × 1 for a plain map).
+    pub msaa: u32,
+    pub sub_maps: u32,
+    pub lights: Vec<LightShadow>,
+    /// Atlas size in texels.
+    pub atlas: (u32, u32),
+}
+
+impl ShadowPlan {
+    /// Depth samples per texel S.
+    pub fn samples(&self) -> u32 {
+        self.msaa * self.sub_maps
+    }
+    /// Faces over all lights.
+    pub fn face_count(&self) -> usize {
+        self.lights.iter().map(|l| l.faces.len()).sum()
+    }
+
+    /// The maps `scene` needs with `settings`, multisampling each tile at the largest of
+    /// `msaa_counts` (the device's) that divides S (`None` when no light casts shadows).
+    pub fn new(scene: &Scene, settings: &ShadowSettings, msaa_counts: &[u32]) -> Result<Option<ShadowPlan>> {
+        settings.validate()?;
+        if !scene.lights.iter().any(|l| l.shadows()) {
+            return Ok(None);
+        }
+        let kind = ShadowKind::for_scene(scene);
+        let samples = if kind == ShadowKind::Plain { 1 } else { settings.samples };
+        let msaa =
+            msaa_counts.iter().copied().filter(|&m| m <= samples && samples % m == 0).max().unwrap_or(1);
+        let sub_maps = samples / msaa;
+        let size = settings.size;
+        let mut lights = Vec::new();
+        for (i, light) in scene.lights.iter().enumerate() {
+            if !light.shadows() {
+                continue;
+            }
+            let name = format!("light {i} shadow");
+            let none = || {
+                Error::Unsupported(format!(
+                    "light[{i}] casts shadows, but no shadow map frames it (a scene without geometry, or a \
+                     zero direction)"
+                ))
+            };
+            let (lookup, faces) = match *light {
+                Light::Directional { direction, .. } => {
+                    let v = View::directional_light(scene, &name, direction, size).ok_or_else(none)?;
+                    (v.clone(), vec![(v, Mat4::IDENTITY)])
+                }
+                Light::Spot { position, direction, outer_deg, .. } if outer_deg <= SPOT_CUBE_DEG => {
+                    let up = if direction.normalize_or_zero().y.abs() > 0.99 { Vec3::Z } else { Vec3::Y };
+                    let half = outer_deg.max(1.0);
+                    let v = View::perspective_light(scene, &name, position, direction, up, half, size)
+                        .ok_or_else(none)?;
+                    (v.clone(), vec![(v, Mat4::IDENTITY)])
+                }
+                Light::Spot { position, .. } | Light::Point { position, .. } => {
+                    cube_views(scene, &name, position, size).ok_or_else(none)?
+                }
+            };
+            lights.push((i, lookup, faces));
+        }
+        // Faces in rows: each face is `sub_maps` tiles wide.
+        let face_w = sub_maps * size;
+        let faces: usize = lights.iter().map(|(_, _, f)| f.len()).sum();
+        let per_row = ((MAX_ATLAS / face_w.max(1)) as usize).clamp(1, faces.max(1));
+        // As square as the faces allow: rows × per_row ≥ faces with per_row ≈ √faces·(size / face_w).
+        let per_row = per_row.min(((faces as f64).sqrt().ceil() as usize).max(1));
+        let rows = faces.div_ceil(per_row);
+        let atlas = (per_row as u32 * face_w, rows as u32 * size);
+        if face_w > MAX_ATLAS || atlas.1 > MAX_ATLAS {
+            return Err(Error::Limit {
+                what: "shadow atlas",
+                value: format!(
+                    "{} × {} texels ({faces} faces of {sub_maps} tiles of {size}²)",
+                    atlas.0, atlas.1
+                ),
+                limit: format!(
+                    "at most {MAX_ATLAS} per side: lower the map size or its samples (--shadow-map)"
+                ),
+            });
+        }
+        let mut next = 0usize;
+        let lights = lights
+            .into_iter()
+            .map(|(light, lookup, faces)| LightShadow {
+                light,
+                lookup,
+                faces: faces
+                    .into_iter()
+                    .map(|(view, base_to_face)| {
+                        let (row, col) = (next / per_row, next % per_row);
+                        next += 1;
+                        ShadowFace { view, base_to_face, origin: [col as u32 * face_w, row as u32 * size] }
+                    })
+                    .collect(),
+            })
+            .collect();
+        Ok(Some(ShadowPlan { kind, settings: *settings, msaa, sub_maps, lights, atlas }))
+    }
+}
+
+/// A point light's lookup space (its position, the world's axes) and its six faces.
+fn cube_views(scene: &Scene, name: &str, position: Vec3, size: u32) -> Option<(View, Vec<(View, Mat4)>)> {
+    let (_, _) = scene_bounds(scene)?;
+    let faces: Vec<(View, Mat4)> = CUBE_FACES
+        .iter()
+        .enumerate()
+        .map(|(k, &(dir, up))| {
+            let v =
+                View::perspective_light(scene, &format!("{name} face {k}"), position, dir, up, 45.0, size)?;
+            // world_to_view = R · T(−position), so base (= T(−position)) → face is R.
+            let base_to_face = v.world_to_view[0] * Mat4::from_translation(position);
+            Some((v, base_to_face))
+        })
+        .collect::<Option<_>>()?;
+    let base = Mat4::from_translation(-position);
+    let mut lookup = faces[0].0.clone();
+    lookup.name = format!("{name} lookup");
+    lookup.world_to_view = [base, base];
+    lookup.space = crate::scene::CameraSpaceScene::seen_from(scene, [base, base]);
+    Some((lookup, faces))
+}
+
+/// What the lookup needs of one face's projection (`ShadowView` in `common/shadow.glsl`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FaceProjection {
+    pub orthographic: bool,
+    /// Orthographic: half extents x, y; perspective: pixel scale in x (and y unused).
+    pub a: f32,
+    pub b: f32,
+    pub size: f32,
+    pub near: f32,
+    pub far: f32,
+}
+
+impl FaceProjection {
+    pub fn of(view: &View) -> FaceProjection {
+        match view.projection {
+            Projection::Orthographic { width, half_extent, near, far, .. } => FaceProjection {
+                orthographic: true,
+                a: half_extent.x,
+                b: half_extent.y,
+                size: width as f32,
+                near,
+                far,
+            },
+            Projection::Perspective { width, pixel_scale, near, far, .. } => {
+                FaceProjection { orthographic: false, a: pixel_scale, b: 0.0, size: width as f32, near, far }
+            }
+            Projection::ThinLens(k) => FaceProjection {
+                orthographic: false,
+                a: k.pixel_scale,
+                b: 0.0,
+                size: k.width,
+                near: k.near,
+                far: k.far,
+            },
+        }
+    }
+
+    /// Pixel position (x right, y down) and view depth of view-space point `q`.
+    pub fn project(&self, q: Vec3) -> (Vec2, f32) {
+        let z = -q.z;
+        let pixel = if self.orthographic {
+            Vec2::new(0.5 * self.size * (1.0 + q.x / self.a), 0.5 * self.size * (1.0 - q.y / self.b))
+        } else {
+            Vec2::new(0.5 * self.size + self.a * q.x / z, 0.5 * self.size - self.a * q.y / z)
+        };
+        (pixel, z)
+    }
+
+    /// The reversed-Z depth the rasterizer stores for view depth `z` (`orthographic_clip` and
+    /// `perspective_clip` in `common/camera.glsl`, after the divide).
+    pub fn stored_depth(&self, z: f32) -> f32 {
+        let (n, f) = (self.near, self.far);
+        if self.orthographic {
+            (f - z) / (f - n)
+        } else {
+            n * (f - z) / ((f - n) * z)
+        }
+    }
+
+    /// View depth of a stored reversed-Z depth: the inverse of [`FaceProjection::stored_depth`]
+    /// (`shadow_linear_depth` in `common/shadow.glsl`).
+    pub fn linear_depth(&self, d: f32) -> f32 {
+        let (n, f) = (self.near, self.far);
+        if self.orthographic {
+            f - d * (f - n)
+        } else {
+            n * f / (d * (f - n) + n)
+        }
+    }
+
+    /// One texel's width at view depth `z`, in view units.
+    pub fn texel(&self, z: f32) -> f32 {
+        if self.orthographic {
+            2.0 * self.a / self.size
+        } else {
+            z / self.a
+        }
+    }
+}
+
+/// The seed of one light face's coverage decisions in pass `pass` (0 when maps are rendered once):
+/// different faces and passes draw independent masks.
+pub fn map_seed(coverage_seed: u32, face: u32, pass: u32) -> u32 {
+    use crate::transparency::hash32;
+    hash32(coverage_seed ^ hash32(face.wrapping_mul(0x9e37_79b9) ^ hash32(pass ^ 0x5f35_6495)))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::builtin::builtin_scene;
+    use crate::scene::view::cube_face_of;
+    use proptest::prelude::*;
+
+    fn lit_scene(light: Light) -> Scene {
+        let mut s = builtin_scene("default").expect("built-in").expect("parses");
+        s.lights = vec![light];
+        s
+    }
+
+    #[test]
+    fn settings_parse_and_refuse_bad_values() {
+        let s: ShadowSettings = "512/16/2".parse().unwrap();
+        assert_eq!((s.size, s.samples, s.pcf_radius), (512, 16, 2));
+        assert_eq!("256".parse::<ShadowSettings>().unwrap().size, 256);
+        for bad in ["", "0", "abc", "512/0", "512/4/99", "1/2/3/4", "512//1", "99999"] {
+            assert!(bad.parse::<ShadowSettings>().is_err(), "{bad}");
+        }
+        assert_eq!(
+            ShadowSettings::default().to_string().parse::<ShadowSettings>().unwrap(),
+            ShadowSettings::default()
+        );
+    }
+
+    #[test]
+    fn the_kind_follows_the_casters() {
+        let mut s = lit_scene(Light::Directional { direction: -Vec3::Y, color: Vec3::ONE, shadows: true });
+        assert_eq!(ShadowKind::for_scene(&s), ShadowKind::Plain);
+        // A tint on an opaque surface changes nothing.
+        s.objects[0].material.tint = Vec3::new(1.0, 0.5, 0.5);
+        assert_eq!(ShadowKind::for_scene(&s), ShadowKind::Plain);
+        s.objects[1].material.alpha = 0.5;
+        assert_eq!(ShadowKind::for_scene(&s), ShadowKind::Stochastic);
+        s.objects[0].material.alpha = 0.5;
+        assert_eq!(ShadowKind::for_scene(&s), ShadowKind::Colored);
+    }
+
+    #[test]
+    fn plans_one_face_per_light_or_six_for_a_cube_in_one_atlas() {
+        let mut s =
+            lit_scene(Light::Point { position: Vec3::new(0.0, 3.0, 0.0), color: Vec3::ONE, shadows: true });
+        s.lights.push(Light::Directional { direction: -Vec3::Y, color: Vec3::ONE, shadows: true });
+        s.lights.push(Light::Directional { direction: Vec3::X, color: Vec3::ONE, shadows: false });
+        s.lights.push(Light::Spot {
+            position: Vec3::new(0.0, 3.0, 2.0),
+            direction: -Vec3::Y,
+            inner_deg: 10.0,
+            outer_deg: 25.0,
+            color: Vec3::ONE,
+            shadows: true,
+        });
+        s.objects[0].material.alpha = 0.5;
+        let settings = ShadowSettings { size: 64, samples: 8, ..ShadowSettings::default() };
+        let plan = ShadowPlan::new(&s, &settings, &[1, 4]).unwrap().expect("shadows");
+        assert_eq!((plan.kind, plan.msaa, plan.sub_maps, plan.samples()), (ShadowKind::Stochastic, 4, 2, 8));
+        assert_eq!(
+            plan.lights.iter().map(|l| (l.light, l.faces.len())).collect::<Vec<_>>(),
+            [(0, 6), (1, 1), (3, 1)]
+        );
+        // Tiles are disjoint and inside the atlas.
+        let mut tiles = vec![];
+        for f in plan.lights.iter().flat_map(|l| &l.faces) {
+            for j in 0..plan.sub_maps {
+                let (x, y) = (f.origin[0] + j * 64, f.origin[1]);
+                assert!(x + 64 <= plan.atlas.0 && y + 64 <= plan.atlas.1);
+                tiles.push((x, y));
+            }
+        }
+        let n = tiles.len();
+        tiles.sort();
+        tiles.dedup();
+        assert_eq!(tiles.len(), n);
+        // Without a shadow-casting light, no plan.
+        s.lights.retain(|l| !l.shadows());
+        assert!(ShadowPlan::new(&s, &settings, &[1, 4]).unwrap().is_none());
+    }
+
+    #[test]
+    fn an_atlas_too_large_is_refused() {
+        let s =
+            lit_scene(Light::Point { position: Vec3::new(0.0, 3.0, 0.0), color: Vec3::ONE, shadows: true });
+        let mut s2 = s.clone();
+        s2.objects[0].material.alpha = 0.5;
+        let settings = ShadowSettings { size: 8192, samples: 16, ..ShadowSettings::default() };
+        let e = ShadowPlan::new(&s2, &settings, &[1, 4]).unwrap_err().to_string();
+        assert!(e.contains("shadow atlas") && e.contains("--shadow-map"), "{e}");
+    }
+
+    proptest! {
+        /// The stored depth of a point linearises back to its view depth, in both projections.
+        #[test]
+        fn stored_depth_linearises_back(z in 0.05f32..50.0, ortho in any::<bool>()) {
+            let p = FaceProjection { orthographic: ortho, a: 300.0, b: 3.0, size: 512.0, near: 0.05, far: 50.0 };
+            let back = p.linear_depth(p.stored_depth(z));
+            prop_assert!((back - z).abs() <= 2e-3 * z.max(1.0), "{} vs {}", back, z);
+        }
+
+        /// The face `cube_face_of` picks sees the point: its projection lands inside the face, in front
+        /// of it, and the face's own view of the world point is `base_to_face` of its lookup position.
+        #[test]
+        fn cube_faces_see_their_points(d in prop::array::uniform3(-1.0f32..1.0)) {
+            let d = Vec3::from(d);
+            prop_assume!(d.length() > 1e-3);
+            let light = Vec3::new(0.2, 2.5, -0.3);
+            let s = lit_scene(Light::Point { position: light, color: Vec3::ONE, shadows: true });
+            let (lookup, faces) = cube_views(&s, "l", light, 64).expect("views");
+            let world = light + d * 1.7;
+            let base = lookup.world_to_view[0].transform_point3(world);
+            let k = cube_face_of(base);
+            let (face, base_to_face) = &faces[k];
+            let q = base_to_face.transform_point3(base);
+            let direct = face.world_to_view[0].transform_point3(world);
+            prop_assert!((q - direct).length() < 1e-4, "{} vs {}", q, direct);
+            let (pixel, z) = FaceProjection::of(face).project(q);
+            prop_assert!(z > 0.0);
+            prop_assert!(pixel.x >= -1e-3 && pixel.x <= 64.001 && pixel.y >= -1e-3 && pixel.y <= 64.001, "{}", pixel);
+        }
+    }
+}

@@ -1,0 +1,226 @@
+//! Shadow maps (`pinhole`, `accumulation`; docs/SHADOWS.md) against the CPU reference's shadow rays,
+//! lavapipe with validation on. The GPU renders `accumulation` with the very samples of the reference
+//! (`render_reference_shared_samples`), so the two differ only where the shadow map's answer differs
+//! from the shadow ray's:
+//!
+//! * plain maps (opaque casters) for a directional, a spot and a point light (a cube): the error falls
+//!   as the map's resolution grows and is small at the largest; no acne (a lit surface stays lit);
+//! * stochastic maps (an alpha caster) and coloured stochastic maps (a tinted one): unbiased (the
+//!   mean over the shadow matches the reference's per channel) and the noise falls as S grows;
+//! * a moving caster: the maps follow each pass' shutter time.
+
+use std::sync::Arc;
+
+use glam::{Mat4, Vec3};
+use shutter::image::LinearImage;
+use shutter::reference::{render_reference_shared_samples, ReferenceSettings};
+use shutter::scene::builtin::builtin_mesh;
+use shutter::scene::{Environment, ImageSettings, Light, Material, Mesh, Object, Scene};
+use shutter::shadows::ShadowSettings;
+use shutter::techniques::accumulation::accumulation_samples;
+use shutter::techniques::{RenderSettings, Renderer, Technique};
+use shutter_tests::{camera, renderer, save_comparison, square};
+
+const W: u32 = 64;
+const H: u32 = 48;
+const SEED: u64 = 7;
+
+fn mesh(name: &str, detail: Option<u32>) -> Arc<Mesh> {
+    Arc::new(builtin_mesh(name, detail).expect("built-in").expect("mesh"))
+}
+
+fn object(name: &str, mesh: Arc<Mesh>, transforms: Vec<(f32, Mat4)>, material: Material) -> Object {
+    Object { name: name.into(), mesh, transforms, material }
+}
+
+/// A ground plane under a caster (a box, or a square pane lying flat) lit by `light`, seen from
+/// above at an angle.
+fn scene(light: Light, caster: Object) -> Scene {
+    let mut cam = camera(50.0, 0.0, 5.0);
+    cam.open.position = Vec3::new(0.0, 4.5, 2.0);
+    cam.open.look_at = Vec3::new(-0.3, 0.0, 0.0);
+    let ground = Material { albedo: Vec3::splat(0.6), ..Material::default() };
+    Scene {
+        name: "shadows".into(),
+        image: ImageSettings { width: W, height: H, spp: 4, seed: SEED },
+        camera: cam,
+        objects: vec![
+            object("ground", mesh("plane", Some(2)), vec![(0.0, Mat4::from_scale(Vec3::splat(2.5)))], ground),
+            caster,
+        ],
+        lights: vec![light],
+        environment: Environment { ambient: Vec3::splat(0.05), background: Vec3::new(0.2, 0.3, 0.5) },
+    }
+}
+
+fn a_box(transforms: Vec<(f32, Mat4)>) -> Object {
+    let m = Material { albedo: Vec3::new(0.7, 0.5, 0.3), ..Material::default() };
+    object("box", mesh("box", None), transforms, m)
+}
+
+fn still_box() -> Object {
+    a_box(vec![(0.0, Mat4::from_translation(Vec3::new(0.1, 0.8, 0.0)) * Mat4::from_scale(Vec3::splat(0.6)))])
+}
+
+/// A flat square pane at height 1 with coverage `alpha` and `tint`.
+fn pane(alpha: f32, tint: Vec3) -> Object {
+    let m = Material { albedo: Vec3::new(0.9, 0.9, 0.9), alpha, tint, ..Material::default() };
+    let t = Mat4::from_translation(Vec3::new(0.3, 0.8, 0.0))
+        * Mat4::from_rotation_x(-std::f32::consts::FRAC_PI_2);
+    object("pane", square(1.0), vec![(0.0, t)], m)
+}
+
+fn directional() -> Light {
+    Light::Directional { direction: Vec3::new(-1.0, -1.2, -0.1), color: Vec3::splat(1.0), shadows: true }
+}
+fn spot() -> Light {
+    Light::Spot {
+        position: Vec3::new(1.2, 2.4, 0.1),
+        direction: Vec3::new(-0.6, -1.0, -0.05),
+        inner_deg: 30.0,
+        outer_deg: 45.0,
+        color: Vec3::splat(6.0),
+        shadows: true,
+    }
+}
+fn point() -> Light {
+    Light::Point { position: Vec3::new(1.4, 2.0, 0.1), color: Vec3::splat(4.0), shadows: true }
+}
+
+/// The reference with the samples of an `accumulation` render of `spp` passes.
+fn reference(scene: &Scene, spp: u32) -> LinearImage {
+    let rs = ReferenceSettings {
+        width: W,
+        height: H,
+        spp,
+        seed: SEED,
+        progress: false,
+        shading: Default::default(),
+    };
+    render_reference_shared_samples(scene, &rs, &accumulation_samples(spp, SEED)).expect("reference")
+}
+
+fn accumulation(r: &mut Renderer, scene: &Scene, spp: u32, shadows: ShadowSettings) -> LinearImage {
+    let mut settings = RenderSettings::new(W, H, spp, SEED);
+    settings.shadows = shadows;
+    r.render(scene, Technique::ACCUMULATION, &settings).expect("accumulation").image
+}
+
+/// Mean absolute difference over the colour channels, and the signed mean per channel.
+fn errors(a: &LinearImage, b: &LinearImage) -> (f64, [f64; 3]) {
+    let n = (a.pixels.len() * 3) as f64;
+    let mut abs = 0.0;
+    let mut signed = [0.0; 3];
+    for (p, q) in a.pixels.iter().zip(&b.pixels) {
+        for c in 0..3 {
+            let d = (p[c] - q[c]) as f64;
+            abs += d.abs();
+            signed[c] += d / a.pixels.len() as f64;
+        }
+    }
+    (abs / n, signed)
+}
+
+/// Plain maps for each light type: the error against the shadow rays falls with the resolution, and
+/// at 512² it is small. Lit surfaces are not darkened (no acne): pixels the reference lights fully
+/// differ only at shadow edges, which shrink with the texel size.
+#[test]
+fn plain_shadow_maps_converge_to_the_shadow_rays() {
+    let mut r = renderer();
+    for (name, light) in [("directional", directional()), ("spot", spot()), ("point", point())] {
+        let s = scene(light, still_box());
+        let want = reference(&s, 4);
+        let mut errs = vec![];
+        for size in [32u32, 64, 128, 512] {
+            let got = accumulation(&mut r, &s, 4, ShadowSettings { size, ..ShadowSettings::default() });
+            let (e, _) = errors(&got, &want);
+            errs.push(e);
+            if size == 512 {
+                save_comparison(&format!("shadows-plain-{name}"), &want, &got);
+            }
+        }
+        println!("{name}: mean |error| at 32, 64, 128, 512 texels: {errs:?}");
+        assert!(
+            errs.windows(2).all(|w| w[1] < w[0]),
+            "{name}: error should fall with the resolution: {errs:?}"
+        );
+        assert!(errs[3] < 0.25 * errs[0], "{name}: {errs:?}");
+        assert!(errs[3] < 4e-3, "{name}: at 512² the mean error is {}", errs[3]);
+        // Without the light's shadows the image differs much more: the maps do shadow.
+        let mut unshadowed = s.clone();
+        unshadowed.lights = unshadowed.lights.iter().map(|l| without_shadows(*l)).collect();
+        let (e_off, _) = errors(&accumulation(&mut r, &unshadowed, 4, ShadowSettings::default()), &want);
+        assert!(e_off > 5.0 * errs[3], "{name}: unshadowed {e_off} vs shadowed {}", errs[3]);
+    }
+}
+
+fn without_shadows(l: Light) -> Light {
+    match l {
+        Light::Directional { direction, color, .. } => {
+            Light::Directional { direction, color, shadows: false }
+        }
+        Light::Point { position, color, .. } => Light::Point { position, color, shadows: false },
+        Light::Spot { position, direction, inner_deg, outer_deg, color, .. } => {
+            Light::Spot { position, direction, inner_deg, outer_deg, color, shadows: false }
+        }
+    }
+}
+
+/// A pane of coverage 0.35 (a stochastic map) and tinted panes (coloured maps), under a directional
+/// and a point light:
+/// * unbiased: at the largest S the mean over the image matches the shadow rays per channel, to a
+///   bound set by the texels at the shadow's edges (it halves as the resolution doubles);
+/// * the noise (the error against the same map at S = 64) falls as S grows: ≈ 1/√S;
+/// * a pure filter (coverage 0) blocks nothing and its hue is exact at every S.
+#[test]
+fn stochastic_and_coloured_shadow_maps_are_unbiased_and_converge_in_s() {
+    let mut r = renderer();
+    // Coverage 0.35 and 0.3 (the tinted pane blocks with probability 1 − max τ = 0.3): no S used
+    // makes α·S whole, where the stratified masks would be exact.
+    let cases = [
+        ("alpha", pane(0.35, Vec3::ONE), true),
+        ("tinted", pane(0.3, Vec3::new(1.0, 0.35, 0.15)), true),
+        ("filter", pane(0.0, Vec3::new(0.2, 0.6, 1.0)), false),
+    ];
+    let map = |samples| ShadowSettings { size: 512, samples, pcf_radius: 0, ..ShadowSettings::default() };
+    for (name, caster, noisy) in cases {
+        // A point light's six faces at S = 64 would make a 400 MB atlas: S = 4 and 16 there.
+        for (light, counts) in [(directional(), &[4u32, 16, 64][..]), (point(), &[4, 16][..])] {
+            let s = scene(light, caster.clone());
+            let want = reference(&s, 4);
+            let renders: Vec<LinearImage> =
+                counts.iter().map(|&n| accumulation(&mut r, &s, 4, map(n))).collect();
+            let best = renders.last().expect("renders");
+            let (e, signed) = errors(best, &want);
+            let kind = if matches!(light, Light::Point { .. }) { "point" } else { "directional" };
+            println!("{name} {kind} S {}: mean |error| {e:.5}, signed {signed:.5?}", counts.last().unwrap());
+            for (c, m) in signed.iter().enumerate() {
+                assert!(m.abs() < 5e-4, "{name} {kind}: channel {c} biased by {m}");
+            }
+            save_comparison(&format!("shadows-{name}-{kind}"), &want, best);
+            let noise: Vec<f64> =
+                renders[..renders.len() - 1].iter().map(|img| errors(img, best).0).collect();
+            println!("{name} {kind}: noise against the largest S {noise:.6?}");
+            if noisy {
+                assert!(noise[0] > 1e-4, "{name} {kind}: no noise at S = 4? {noise:?}");
+                assert!(noise.windows(2).all(|w| w[1] < 0.7 * w[0]), "{name} {kind}: {noise:?}");
+            } else {
+                assert!(noise.iter().all(|&e| e < 1e-5), "{name} {kind}: {noise:?}");
+            }
+        }
+    }
+}
+
+/// A box moving across the shutter: each pass' map is rendered at that pass' time, so the shadow
+/// sweeps with the box as the shadow rays see it.
+#[test]
+fn shadow_maps_follow_a_moving_caster() {
+    let mut r = renderer();
+    let at = |x: f32| Mat4::from_translation(Vec3::new(x, 0.8, 0.0)) * Mat4::from_scale(Vec3::splat(0.5));
+    let s = scene(directional(), a_box(vec![(0.0, at(-0.8)), (1.0, at(0.8))]));
+    let want = reference(&s, 8);
+    let got = accumulation(&mut r, &s, 8, ShadowSettings { size: 512, ..ShadowSettings::default() });
+    let (e, _) = errors(&got, &want);
+    save_comparison("shadows-moving", &want, &got);
+    assert!(e < 4e-3, "moving caster: mean |error| {e}");
+}
