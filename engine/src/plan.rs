@@ -21,7 +21,8 @@ use std::fmt;
 
 use glam::Vec2;
 
-use crate::scene::{Intrinsics, Scene, View};
+use crate::scene::{Intrinsics, Light, Scene, View};
+use crate::shadows::{ShadowKind, SPOT_CUBE_DEG};
 
 /// Blur below which an effect is not simulated, in pixels (circle-of-confusion radius; screen-motion
 /// length). Ignoring a blur of b px moves edges by at most b px, so the error grows about linearly in
@@ -113,12 +114,31 @@ pub struct ObjectPlan {
 }
 
 /// Per-object decisions for one frame and image size.
+/// The frame `auto` renders ([`Plan::auto_frame`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum AutoFrame {
+    Pinhole,
+    Stochastic,
+    Accumulation,
+}
+
 #[derive(Clone, Debug, PartialEq)]
 pub struct Plan {
     pub width: u32,
     pub height: u32,
     pub threshold_px: f32,
     pub objects: Vec<ObjectPlan>,
+    /// Objects with coverage below 1 (rendered with a transparency method), and of those the tinted.
+    pub transparent_objects: usize,
+    pub tinted_objects: usize,
+    /// Objects whose coverage comes from their texture's alpha.
+    pub texture_alpha_objects: usize,
+    /// The shadow-casting lights (index, how each is mapped), the map kind their casters need, and
+    /// whether the maps follow motion (rendered per pass) — none of it built for a scene without
+    /// shadow-casting lights.
+    pub shadow_lights: Vec<(usize, &'static str)>,
+    pub shadow_kind: Option<ShadowKind>,
+    pub shadows_follow_motion: bool,
 }
 
 impl Plan {
@@ -147,12 +167,75 @@ impl Plan {
                 plan_object(&o.name, o.mesh.triangle_count(), &ends, &k, threshold_px)
             })
             .collect();
-        Plan { width, height, threshold_px, objects }
+        let transparent = || scene.objects.iter().filter(|o| !o.material.is_opaque());
+        let shadow_lights: Vec<(usize, &'static str)> = scene
+            .lights
+            .iter()
+            .enumerate()
+            .filter(|(_, l)| l.shadows())
+            .map(|(i, l)| {
+                let how = match *l {
+                    Light::Directional { .. } => "directional: one orthographic map",
+                    Light::Spot { outer_deg, .. } if outer_deg <= SPOT_CUBE_DEG => {
+                        "spot: one perspective map"
+                    }
+                    Light::Spot { .. } => "wide spot: a cube of six maps",
+                    Light::Point { .. } => "point: a cube of six maps",
+                };
+                (i, how)
+            })
+            .collect();
+        let shadow_kind = (!shadow_lights.is_empty()).then(|| ShadowKind::for_scene(scene));
+        Plan {
+            width,
+            height,
+            threshold_px,
+            objects,
+            transparent_objects: transparent().count(),
+            tinted_objects: transparent().filter(|o| o.material.tint != glam::Vec3::ONE).count(),
+            texture_alpha_objects: transparent().filter(|o| o.material.alpha_from_texture).count(),
+            // Lights do not move in the world: maps change only when an object moves there.
+            shadows_follow_motion: !shadow_lights.is_empty()
+                && scene.objects.iter().any(|o| o.transforms.iter().any(|&(_, m)| m != o.transforms[0].1)),
+            shadow_lights,
+            shadow_kind,
+        }
     }
 
     /// Does any object need stochastic rasterization?
     pub fn needs_stochastic(&self) -> bool {
         self.objects.iter().any(|o| o.effects.is_stochastic())
+    }
+
+    /// The frame technique `auto` renders, and why when it is not the obvious one: the pinhole
+    /// technique when nothing needs blur; the stochastic frame when something does — unless the scene
+    /// has what the stochastic frame does not render yet (tints, texture alpha, shadow maps), when
+    /// it is `accumulation`, which renders all of them with the blur.
+    pub fn auto_frame(&self) -> (AutoFrame, Option<String>) {
+        if !self.needs_stochastic() {
+            return (AutoFrame::Pinhole, None);
+        }
+        let mut missing = vec![];
+        if self.tinted_objects > 0 {
+            missing.push("tints");
+        }
+        if self.texture_alpha_objects > 0 {
+            missing.push("texture alpha");
+        }
+        if !self.shadow_lights.is_empty() {
+            missing.push("shadow maps");
+        }
+        if missing.is_empty() {
+            (AutoFrame::Stochastic, None)
+        } else {
+            let list = match missing.split_last() {
+                Some((last, [])) => last.to_string(),
+                Some((last, rest)) => format!("{} or {last}", rest.join(", ")),
+                None => unreachable!("not empty"),
+            };
+            let why = format!("the stochastic frame renders no {list} yet");
+            (AutoFrame::Accumulation, Some(why))
+        }
     }
 
     /// Each object's path, in scene order.
@@ -287,16 +370,40 @@ impl fmt::Display for Plan {
             .filter(|(_, n)| *n > 0)
             .map(|(e, n)| format!("{} {n}", e.name()))
             .collect();
-        write!(
-            f,
-            "\ntriangles by path: {}; frame: {}",
-            by_path.join(", "),
-            if self.needs_stochastic() {
+        if self.transparent_objects > 0 {
+            writeln!(
+                f,
+                "\ntransparency: {} object(s) with coverage below 1 ({} tinted): a transparency method \
+                 (--transparency)",
+                self.transparent_objects, self.tinted_objects
+            )?;
+        }
+        if let Some(kind) = self.shadow_kind {
+            let lights: Vec<String> =
+                self.shadow_lights.iter().map(|(i, how)| format!("light[{i}] {how}")).collect();
+            writeln!(
+                f,
+                "\nshadows: {}; {} shadow maps (the casters need them), rendered {}",
+                lights.join(", "),
+                kind.name(),
+                if self.shadows_follow_motion {
+                    "before every pass (something moves)"
+                } else {
+                    "once per frame"
+                }
+            )?;
+        }
+        let frame = match self.auto_frame() {
+            (AutoFrame::Pinhole, _) => "the pinhole technique (one MSAA pass): nothing to simulate".to_string(),
+            (AutoFrame::Stochastic, _) => {
                 "the stochastic frame (pinhole objects on its still permutation, in the same visibility buffer)"
-            } else {
-                "the pinhole technique (one MSAA pass): nothing to simulate"
+                    .to_string()
             }
-        )
+            (AutoFrame::Accumulation, why) => {
+                format!("accumulation (S passes): {}", why.unwrap_or_default())
+            }
+        };
+        write!(f, "\ntriangles by path: {}; frame: {frame}", by_path.join(", "))
     }
 }
 
@@ -309,6 +416,36 @@ mod tests {
     fn plan_of(name: &str) -> Plan {
         let s = builtin_scene(name).unwrap().unwrap();
         Plan::new(&s, s.image.width, s.image.height)
+    }
+
+    /// `auto` takes pinhole without blur, the stochastic frame with blur, and accumulation with blur
+    /// and what the stochastic frame lacks (shadow maps, tints, texture alpha); the plan says which
+    /// shadow maps a scene needs and whether they follow motion.
+    #[test]
+    fn auto_frame_follows_blur_and_what_the_stochastic_frame_renders() {
+        assert_eq!(plan_of("static").auto_frame(), (AutoFrame::Pinhole, None));
+        assert_eq!(plan_of("default").auto_frame(), (AutoFrame::Stochastic, None));
+        let mut s = builtin_scene("default").unwrap().unwrap();
+        s.lights.push(Light::Point { position: Vec3::Y, color: Vec3::ONE, shadows: true });
+        let p = Plan::new(&s, 64, 36);
+        let (frame, why) = p.auto_frame();
+        assert_eq!(frame, AutoFrame::Accumulation);
+        assert!(why.unwrap().contains("shadow maps"));
+        assert_eq!(p.shadow_lights, vec![(s.lights.len() - 1, "point: a cube of six maps")]);
+        assert_eq!(p.shadow_kind, Some(ShadowKind::Plain));
+        assert!(p.shadows_follow_motion, "the default scene's sphere moves");
+        assert!(p.to_string().contains("shadows: light["), "{p}");
+        let foliage = plan_of("foliage");
+        assert_eq!(foliage.auto_frame().0, AutoFrame::Accumulation);
+        assert!(foliage.auto_frame().1.unwrap().contains("texture alpha or shadow maps"));
+        assert_eq!(
+            (foliage.shadow_kind, foliage.shadows_follow_motion),
+            (Some(ShadowKind::Stochastic), false)
+        );
+        // Nothing about shadows or transparency in an opaque, unshadowed plan.
+        let st = plan_of("static");
+        assert!(st.shadow_kind.is_none() && st.transparent_objects == 0);
+        assert!(!st.to_string().contains("shadows:") && !st.to_string().contains("transparency:"));
     }
 
     fn path(p: &Plan, object: &str) -> Effects {

@@ -39,6 +39,9 @@ pub const MAX_ATLAS: u32 = 16384;
 /// Shadow-map settings (`--shadow-map`).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ShadowSettings {
+    /// false (`off`): shadow-casting lights are rendered unshadowed — to price what shadows cost
+    /// against the reference, which always traces them.
+    pub enabled: bool,
     /// Texels per side of each face.
     pub size: u32,
     /// Depth samples per texel S of a stochastic (or coloured) map; a plain map has one.
@@ -53,7 +56,14 @@ pub struct ShadowSettings {
 
 impl Default for ShadowSettings {
     fn default() -> Self {
-        ShadowSettings { size: 1024, samples: 4, pcf_radius: 1, normal_offset: 1.5, depth_bias: 1.0 }
+        ShadowSettings {
+            enabled: true,
+            size: 1024,
+            samples: 4,
+            pcf_radius: 1,
+            normal_offset: 1.5,
+            depth_bias: 1.0,
+        }
     }
 }
 
@@ -84,21 +94,25 @@ impl ShadowSettings {
 
 impl std::str::FromStr for ShadowSettings {
     type Err = Error;
-    /// `SIZE[/SAMPLES[/PCF]]`, e.g. `1024`, `512/16`, `2048/4/2`.
+    /// `SIZE[/SAMPLES[/PCF]]`, e.g. `1024`, `512/16`, `2048/4/2`; or `off`.
     fn from_str(s: &str) -> Result<Self> {
         let mut out = ShadowSettings::default();
+        if s.trim() == "off" {
+            out.enabled = false;
+            return Ok(out);
+        }
         let parts: Vec<&str> = s.split('/').collect();
         let number = |p: &str, what: &str| {
             p.trim().parse::<u32>().map_err(|_| {
                 Error::Unsupported(format!(
                     "shadow map `{s}`: {what} `{p}` is not a whole number (expected SIZE[/SAMPLES[/PCF]], \
-                     e.g. 1024/4/1)"
+                     e.g. 1024/4/1, or off)"
                 ))
             })
         };
         if parts.len() > 3 || parts.iter().any(|p| p.trim().is_empty()) {
             return Err(Error::Unsupported(format!(
-                "shadow map `{s}`: expected SIZE[/SAMPLES[/PCF]], e.g. 1024/4/1"
+                "shadow map `{s}`: expected SIZE[/SAMPLES[/PCF]], e.g. 1024/4/1, or off"
             )));
         }
         out.size = number(parts[0], "size")?;
@@ -115,6 +129,9 @@ impl std::str::FromStr for ShadowSettings {
 
 impl std::fmt::Display for ShadowSettings {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        if !self.enabled {
+            return f.write_str("off");
+        }
         write!(f, "{}/{}/{}", self.size, self.samples, self.pcf_radius)
     }
 }
@@ -197,6 +214,22 @@ impl ShadowPlan {
     pub fn samples(&self) -> u32 {
         self.msaa * self.sub_maps
     }
+    /// One line for a render's report: kind, faces, resolution, S, filter.
+    pub fn summary(&self) -> String {
+        let r = 2 * self.settings.pcf_radius + 1;
+        format!(
+            "{} maps: {} face(s) of {}², S = {} ({}× MSAA × {} tile(s)), PCF {r}×{r}, atlas {}×{}",
+            self.kind.name(),
+            self.face_count(),
+            self.settings.size,
+            self.samples(),
+            self.msaa,
+            self.sub_maps,
+            self.atlas.0,
+            self.atlas.1
+        )
+    }
+
     /// Faces over all lights.
     pub fn face_count(&self) -> usize {
         self.lights.iter().map(|l| l.faces.len()).sum()
@@ -206,7 +239,7 @@ impl ShadowPlan {
     /// `msaa_counts` (the device's) that divides S (`None` when no light casts shadows).
     pub fn new(scene: &Scene, settings: &ShadowSettings, msaa_counts: &[u32]) -> Result<Option<ShadowPlan>> {
         settings.validate()?;
-        if !scene.lights.iter().any(|l| l.shadows()) {
+        if !settings.enabled || !scene.lights.iter().any(|l| l.shadows()) {
             return Ok(None);
         }
         let kind = ShadowKind::for_scene(scene);
@@ -469,7 +502,9 @@ mod tests {
         tiles.sort();
         tiles.dedup();
         assert_eq!(tiles.len(), n);
-        // Without a shadow-casting light, no plan.
+        // Shadows off, or no shadow-casting light: no plan.
+        let off = ShadowSettings { enabled: false, ..settings };
+        assert!(ShadowPlan::new(&s, &off, &[1, 4]).unwrap().is_none());
         s.lights.retain(|l| !l.shadows());
         assert!(ShadowPlan::new(&s, &settings, &[1, 4]).unwrap().is_none());
     }

@@ -17,7 +17,7 @@ use serde::{Deserialize, Serialize};
 use shutter::scene::Scene;
 use shutter::techniques::{RenderSettings, Renderer, SampleCounters, StochasticOptions, Technique};
 
-/// One configuration: `technique[:key=value...]` with keys spp, bound, shading, per-pass, intervals, clusters, hull; unset keys
+/// One configuration: `technique[:key=value...]` with keys spp, shadow-map, bound, shading, per-pass, intervals, clusters, hull; unset keys
 /// take the command's defaults.
 #[derive(Clone, Debug)]
 pub struct Config {
@@ -45,13 +45,16 @@ pub fn apply_option(s: &mut RenderSettings, key: &str, value: &str) -> Result<()
     let o: &mut StochasticOptions = &mut s.stochastic;
     match key {
         "spp" => s.spp = value.parse().with_context(|| format!("spp `{value}`"))?,
+        "shadow-map" => s.shadows = value.parse()?,
         "bound" => o.bound = value.parse()?,
         "shading" => o.shading = value.parse()?,
         "per-pass" => o.per_pass = Some(value.parse().with_context(|| format!("per-pass `{value}`"))?),
         "hull" => o.expansion = value.parse()?,
         "intervals" => o.intervals = value.parse()?,
         "clusters" => o.clusters = value.parse()?,
-        _ => bail!("unknown setting `{key}` (spp, bound, shading, per-pass, intervals, clusters, hull)"),
+        _ => bail!(
+            "unknown setting `{key}` (spp, shadow-map, bound, shading, per-pass, intervals, clusters, hull)"
+        ),
     }
     Ok(())
 }
@@ -196,16 +199,15 @@ pub fn run(renderer: &mut Renderer, scene: &Scene, a: &BenchArgs) -> Result<Benc
             .iter()
             .map(|n| (n.clone(), Stat::of(outs.iter().map(|o| o.timings.get(n).unwrap_or(0.0)).collect())))
             .collect();
-        let plan = first.stats.plan.as_ref().map(|p| {
-            if p.needs_stochastic() {
-                p.objects
-                    .iter()
-                    .map(|o| format!("{}={}", o.name, o.effects.name()))
-                    .collect::<Vec<_>>()
-                    .join(" ")
-            } else {
-                "pinhole".to_string()
-            }
+        let plan = first.stats.plan.as_ref().map(|p| match p.auto_frame().0 {
+            shutter::plan::AutoFrame::Stochastic => p
+                .objects
+                .iter()
+                .map(|o| format!("{}={}", o.name, o.effects.name()))
+                .collect::<Vec<_>>()
+                .join(" "),
+            shutter::plan::AutoFrame::Pinhole => "pinhole".to_string(),
+            shutter::plan::AutoFrame::Accumulation => "accumulation".to_string(),
         });
         let stochastic_options = c.technique == Technique::STOCHASTIC || c.technique == Technique::AUTO;
         let mut r = ConfigResult {

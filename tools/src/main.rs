@@ -209,7 +209,7 @@ enum Command {
     Quality {
         #[arg(default_value = "default")]
         scene: String,
-        /// A series `technique[:key=value...]@S1,S2,...` (keys: bound, shading, per-pass, intervals, clusters, hull); repeat for more.
+        /// A series `technique[:key=value...]@S1,S2,...` (keys: shadow-map, bound, shading, per-pass, intervals, clusters, hull); repeat for more.
         #[arg(short = 's', long = "series", default_values_t = [
             "accumulation@4,16,64,256".to_string(),
             "stochastic@4,16,64".to_string(),
@@ -403,8 +403,15 @@ fn run() -> Result<()> {
                     output.stats.passes
                 );
             }
+            if let Some(shadows) = &output.stats.shadows {
+                println!("  shadows: {shadows}");
+            }
             if technique == Technique::STOCHASTIC
-                || output.stats.plan.as_ref().is_some_and(|p| p.needs_stochastic())
+                || output
+                    .stats
+                    .plan
+                    .as_ref()
+                    .is_some_and(|p| p.auto_frame().0 == shutter::plan::AutoFrame::Stochastic)
             {
                 println!(
                     "  bound {}, shading {}, {} hull",

@@ -9,8 +9,12 @@
 //!   at mid-shutter through the lens centre: no blur, but the very same samples), the others with the
 //!   defocus-only, motion-only or full one; all meet in one visibility buffer, so occlusion between
 //!   paths is per sample. Without a geometry shader the stochastic path takes the compute-expanded
-//!   hull.
+//!   hull;
+//! * blur to simulate in a scene with what the stochastic frame does not render yet (tints, texture
+//!   alpha, shadow maps: [`Plan::auto_frame`]) → the `accumulation` technique, which renders all of it
+//!   with the blur, S passes.
 
+use super::accumulation::accumulation_passes;
 use super::forward::ForwardTechnique;
 use super::pinhole::{pinhole_passes, PINHOLE_MSAA};
 use super::stochastic::{DebugOptions, StochasticTechnique};
@@ -18,7 +22,7 @@ use super::{
     FrameContext, FrameInputs, FrameTechnique, HullExpansion, PrepareContext, TechniqueFrame, TechniqueInfo,
 };
 use crate::error::Result;
-use crate::plan::Plan;
+use crate::plan::{AutoFrame, Plan};
 
 /// The registry entry.
 pub const INFO: TechniqueInfo = TechniqueInfo {
@@ -30,13 +34,21 @@ pub const INFO: TechniqueInfo = TechniqueInfo {
 
 fn prepare(ctx: &PrepareContext<'_>) -> Result<Box<dyn FrameTechnique>> {
     let plan = Plan::for_view(ctx.scene, ctx.camera, crate::plan::DEFAULT_THRESHOLD_PX);
-    if !plan.needs_stochastic() {
-        let msaa = ctx.device.caps.msaa_samples(PINHOLE_MSAA);
-        let inner = ForwardTechnique::new(ctx, msaa, pinhole_passes())?;
-        return Ok(Box::new(Auto { plan, path: AutoPath::Pinhole(Box::new(inner)) }));
+    match plan.auto_frame().0 {
+        AutoFrame::Pinhole => {
+            let msaa = ctx.device.caps.msaa_samples(PINHOLE_MSAA);
+            let inner = ForwardTechnique::new(ctx, msaa, pinhole_passes())?;
+            return Ok(Box::new(Auto { plan, path: AutoPath::Pinhole(Box::new(inner)) }));
+        }
+        AutoFrame::Accumulation => {
+            let (c, s) = (&ctx.scene.camera, ctx.settings);
+            let passes = accumulation_passes(s.spp, s.seed, c.aperture, c.shutter);
+            let inner = ForwardTechnique::new(ctx, 1, passes)?;
+            return Ok(Box::new(Auto { plan, path: AutoPath::Pinhole(Box::new(inner)) }));
+        }
+        AutoFrame::Stochastic => {}
     }
-    // The stochastic path renders constant coverage (its coverage stage keeps covered samples only),
-    // not tints or texture alpha yet.
+    // The stochastic path renders constant coverage (its coverage stage keeps covered samples only).
     super::check_untinted(ctx.scene, "technique `auto` with blur (its stochastic path)")?;
     let effects = plan.effects();
     let mut options = ctx.settings.stochastic;
@@ -48,7 +60,8 @@ fn prepare(ctx: &PrepareContext<'_>) -> Result<Box<dyn FrameTechnique>> {
 }
 
 enum AutoPath {
-    /// Nothing to simulate: the `pinhole` technique itself.
+    /// Nothing to simulate: the `pinhole` technique itself; or blur with what only the forward path
+    /// renders: the `accumulation` technique itself.
     Pinhole(Box<ForwardTechnique>),
     /// Every object on the stochastic path, each with its planned permutation.
     Stochastic(Box<StochasticTechnique>),
@@ -75,6 +88,13 @@ impl FrameTechnique for Auto {
         match &self.path {
             AutoPath::Pinhole(t) => t.transparency(),
             AutoPath::Stochastic(s) => s.transparency(),
+        }
+    }
+
+    fn shadows(&self) -> Option<String> {
+        match &self.path {
+            AutoPath::Pinhole(t) => t.shadows(),
+            AutoPath::Stochastic(s) => s.shadows(),
         }
     }
 }

@@ -544,6 +544,13 @@ impl FrameTechnique for ForwardTechnique {
     fn transparency(&self) -> Option<TransparencyMethod> {
         self.draws.transparency()
     }
+
+    fn shadows(&self) -> Option<String> {
+        self.shadows.as_ref().map(|s| {
+            let when = if s.per_pass() { "before every pass" } else { "once per frame" };
+            format!("{}, rendered {when}", s.plan().summary())
+        })
+    }
 }
 
 /// What `forward/` expects of [`ForwardPipeline`]'s layout: sets 0 and 1, with shadows set 3 the

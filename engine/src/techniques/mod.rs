@@ -127,6 +127,9 @@ pub struct RenderStats {
     pub plan: Option<Plan>,
     /// The method that rendered coverage below 1 and tints; `None` for an opaque scene.
     pub transparency: Option<TransparencyMethod>,
+    /// The shadow maps rendered ([`crate::shadows::ShadowPlan::summary`], and whether per pass);
+    /// `None` without shadow-casting lights.
+    pub shadows: Option<String>,
 }
 
 /// An image with how it was made.
@@ -187,6 +190,10 @@ pub trait FrameTechnique: Any {
     }
     /// The method rendering the scene's coverage below 1 and tints, if it has any.
     fn transparency(&self) -> Option<TransparencyMethod> {
+        None
+    }
+    /// The shadow maps it renders, if any (one line).
+    fn shadows(&self) -> Option<String> {
         None
     }
 }
@@ -367,6 +374,7 @@ impl Renderer {
                 clusters: out.clusters,
                 plan: prepared.technique.plan().cloned(),
                 transparency: prepared.technique.transparency(),
+                shadows: prepared.technique.shadows(),
             },
         })
     }
