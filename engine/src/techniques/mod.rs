@@ -24,6 +24,7 @@ pub mod compute_hull;
 pub mod forward;
 pub mod graph_probe;
 pub mod multipass;
+pub mod oit;
 pub mod pinhole;
 pub mod registry;
 pub mod stochastic;
@@ -284,6 +285,7 @@ impl Renderer {
         settings: &RenderSettings,
     ) -> Result<PreparedFrame> {
         check_transparency_supported(scene, technique)?;
+        check_transparency_method(scene, technique, settings.transparency)?;
         self.prepare_with(scene, settings, technique.info().prepare)
     }
 
@@ -500,6 +502,7 @@ pub fn shader_interfaces() -> impl Iterator<Item = &'static crate::gpu::layout::
         stochastic::SHADER_INTERFACES,
         multipass::SHADER_INTERFACES,
         graph_probe::SHADER_INTERFACES,
+        oit::SHADER_INTERFACES,
     ]
     .into_iter()
     .flatten()
@@ -530,6 +533,28 @@ pub fn check_transparency_supported(scene: &Scene, technique: Technique) -> Resu
         return check_untinted(scene, &format!("technique `{technique}`"));
     }
     check_opaque(scene, &format!("technique `{technique}`"))
+}
+
+/// Refuses a transparency method `technique` does not have, for a scene with transparency: depth-based
+/// stochastic transparency and depth peeling (`techniques/oit.rs`) are frames of `pinhole` and
+/// `accumulation` only; `stochastic` and `auto` render stochastic transparency.
+pub fn check_transparency_method(
+    scene: &Scene,
+    technique: Technique,
+    method: TransparencyMethod,
+) -> Result<()> {
+    let has_transparency = forward::has_transparency(scene);
+    if !has_transparency
+        || method == TransparencyMethod::Stochastic
+        || [Technique::PINHOLE, Technique::ACCUMULATION].contains(&technique)
+    {
+        return Ok(());
+    }
+    Err(Error::Unsupported(format!(
+        "technique `{technique}` renders transparency by stochastic transparency only (--transparency \
+         stochastic), not `{method}`: depth-based stochastic transparency and depth peeling are rendered by \
+         pinhole and accumulation"
+    )))
 }
 
 /// What the stochastic rasterizer's transparency renders (issue 12): constant coverage (`alpha`),

@@ -278,6 +278,9 @@ pub enum ColorBlend {
     /// The attachment is multiplied by the fragment's colour, every channel (`dst × src`): coloured
     /// transmission, order-independent because a product is.
     Multiply,
+    /// The fragment's colour is added to the attachment's, every channel (`dst + src`): sums over
+    /// fragments, order-independent up to rounding (depth-based stochastic transparency).
+    Add,
 }
 
 impl Pipeline {
@@ -329,6 +332,15 @@ impl Pipeline {
                         .color_blend_op(vk::BlendOp::ADD)
                         .src_alpha_blend_factor(vk::BlendFactor::DST_ALPHA)
                         .dst_alpha_blend_factor(vk::BlendFactor::ZERO)
+                        .alpha_blend_op(vk::BlendOp::ADD),
+                    // result = src · 1 + dst · 1
+                    ColorBlend::Add => state
+                        .blend_enable(true)
+                        .src_color_blend_factor(vk::BlendFactor::ONE)
+                        .dst_color_blend_factor(vk::BlendFactor::ONE)
+                        .color_blend_op(vk::BlendOp::ADD)
+                        .src_alpha_blend_factor(vk::BlendFactor::ONE)
+                        .dst_alpha_blend_factor(vk::BlendFactor::ONE)
                         .alpha_blend_op(vk::BlendOp::ADD),
                 }
             })
