@@ -17,7 +17,8 @@ use serde::{Deserialize, Serialize};
 use shutter::scene::Scene;
 use shutter::techniques::{RenderSettings, Renderer, SampleCounters, StochasticOptions, Technique};
 
-/// One configuration: `technique[:key=value...]` with keys spp, bound, shading, per-pass, intervals, clusters, hull; unset keys
+/// One configuration: `technique[:key=value...]` with keys spp, bound, shading, per-pass, intervals, clusters, hull,
+/// transparency; unset keys
 /// take the command's defaults.
 #[derive(Clone, Debug)]
 pub struct Config {
@@ -51,7 +52,10 @@ pub fn apply_option(s: &mut RenderSettings, key: &str, value: &str) -> Result<()
         "hull" => o.expansion = value.parse()?,
         "intervals" => o.intervals = value.parse()?,
         "clusters" => o.clusters = value.parse()?,
-        _ => bail!("unknown setting `{key}` (spp, bound, shading, per-pass, intervals, clusters, hull)"),
+        "transparency" => s.transparency = value.parse()?,
+        _ => bail!(
+            "unknown setting `{key}` (spp, bound, shading, per-pass, intervals, clusters, hull, transparency)"
+        ),
     }
     Ok(())
 }

@@ -246,7 +246,7 @@ pub fn run(renderer: &mut Renderer, scene: &Scene, a: &QualityArgs) -> Result<Ve
             msaa: last.stats.msaa_samples,
         };
         if a.images {
-            let name = format!("{}-{}-S{spp}.png", a.out.display(), s.name.replace([':', '='], "-"));
+            let name = format!("{}-{}-S{spp}.png", a.out.display(), s.name.replace([':', '=', '/'], "-"));
             save_image(&name, &last.image)?;
         }
         writeln!(
