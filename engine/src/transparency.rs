@@ -120,31 +120,76 @@ pub fn composite(layers: &[(f64, [f64; 3], [f64; 3])], background: [f64; 3]) -> 
 /// How a GPU technique renders partial coverage and tints (`--transparency`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum TransparencyMethod {
-    /// Stochastic transparency (Enderton et al. 2011) with per-pixel stratified masks: the default,
-    /// and so far the only one (depth-based ST and an exact baseline are to come, issue 12).
+    /// Stochastic transparency (Enderton et al. 2011) with per-pixel stratified masks: the default.
     #[default]
     Stochastic,
+    /// Depth-based stochastic transparency (Enderton et al. 2011): the stochastic masks write depth
+    /// only, and every transparent fragment adds `vis(z)·α·C` with `vis` estimated from the pixel's
+    /// stochastic depths (`techniques/oit.rs`). `alpha_correction`: normalise the layer sum by the
+    /// exact total transmittance (`depth-based`), or not (`depth-based/uncorrected`).
+    DepthBased { alpha_correction: bool },
+    /// Depth peeling of `layers` transparent layers, composited front to back: exact where a sample
+    /// has at most `layers` transparent surfaces in front of its opaque one (`peeling/K`).
+    Peeling { layers: u32 },
 }
 
+/// Layers of `peeling` without `/K`.
+pub const DEFAULT_PEELING_LAYERS: u32 = 8;
+/// Most layers `peeling/K` accepts (each is a raster pass and a compute pass per frame pass).
+pub const MAX_PEELING_LAYERS: u32 = 64;
+
 impl TransparencyMethod {
-    pub const ALL: &'static [TransparencyMethod] = &[TransparencyMethod::Stochastic];
-    pub fn name(self) -> &'static str {
-        match self {
-            TransparencyMethod::Stochastic => "stochastic",
-        }
-    }
+    /// One of each kind (peeling with its default layer count).
+    pub const ALL: &'static [TransparencyMethod] = &[
+        TransparencyMethod::Stochastic,
+        TransparencyMethod::DepthBased { alpha_correction: true },
+        TransparencyMethod::DepthBased { alpha_correction: false },
+        TransparencyMethod::Peeling { layers: DEFAULT_PEELING_LAYERS },
+    ];
 }
 
 impl fmt::Display for TransparencyMethod {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(self.name())
+        match self {
+            TransparencyMethod::Stochastic => f.write_str("stochastic"),
+            TransparencyMethod::DepthBased { alpha_correction: true } => f.write_str("depth-based"),
+            TransparencyMethod::DepthBased { alpha_correction: false } => {
+                f.write_str("depth-based/uncorrected")
+            }
+            TransparencyMethod::Peeling { layers } => write!(f, "peeling/{layers}"),
+        }
     }
 }
 
 impl FromStr for TransparencyMethod {
     type Err = Error;
     fn from_str(s: &str) -> Result<Self> {
-        crate::error::parse_named(Self::ALL, |m| m.name(), "transparency method", s)
+        let unknown = || {
+            Error::Unsupported(format!(
+                "unknown transparency method `{s}`; available: stochastic, depth-based, \
+                 depth-based/uncorrected, peeling/K (K layers, 1..={MAX_PEELING_LAYERS}; `peeling` is \
+                 peeling/{DEFAULT_PEELING_LAYERS})"
+            ))
+        };
+        match s {
+            "stochastic" => Ok(TransparencyMethod::Stochastic),
+            "depth-based" => Ok(TransparencyMethod::DepthBased { alpha_correction: true }),
+            "depth-based/uncorrected" => Ok(TransparencyMethod::DepthBased { alpha_correction: false }),
+            "peeling" => Ok(TransparencyMethod::Peeling { layers: DEFAULT_PEELING_LAYERS }),
+            _ => {
+                let k = s.strip_prefix("peeling/").ok_or_else(unknown)?;
+                match k.parse::<u32>() {
+                    Ok(layers) if (1..=MAX_PEELING_LAYERS).contains(&layers) => {
+                        Ok(TransparencyMethod::Peeling { layers })
+                    }
+                    _ => Err(Error::Limit {
+                        what: "peeling layers",
+                        value: k.to_string(),
+                        limit: format!("1..={MAX_PEELING_LAYERS}"),
+                    }),
+                }
+            }
+        }
     }
 }
 
@@ -257,10 +302,18 @@ mod tests {
 
     #[test]
     fn methods_parse_back() {
-        for m in TransparencyMethod::ALL {
-            assert_eq!(m.name().parse::<TransparencyMethod>().unwrap(), *m);
+        for m in TransparencyMethod::ALL.iter().chain(&[TransparencyMethod::Peeling { layers: 3 }]) {
+            assert_eq!(m.to_string().parse::<TransparencyMethod>().unwrap(), *m);
         }
+        assert_eq!(
+            "peeling".parse::<TransparencyMethod>().unwrap(),
+            TransparencyMethod::Peeling { layers: 8 }
+        );
         let e = "nope".parse::<TransparencyMethod>().unwrap_err().to_string();
-        assert!(e.contains("stochastic"), "{e}");
+        assert!(e.contains("stochastic") && e.contains("depth-based") && e.contains("peeling/K"), "{e}");
+        for bad in ["peeling/0", "peeling/65", "peeling/x"] {
+            let e = bad.parse::<TransparencyMethod>().unwrap_err().to_string();
+            assert!(e.contains("peeling layers") && e.contains("1..=64"), "{bad}: {e}");
+        }
     }
 }

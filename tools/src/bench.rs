@@ -17,7 +17,8 @@ use serde::{Deserialize, Serialize};
 use shutter::scene::Scene;
 use shutter::techniques::{RenderSettings, Renderer, SampleCounters, StochasticOptions, Technique};
 
-/// One configuration: `technique[:key=value...]` with keys spp, shadow-map, bound, shading, per-pass, intervals, clusters, hull; unset keys
+/// One configuration: `technique[:key=value...]` with keys spp, shadow-map, transparency, bound, shading, per-pass,
+/// intervals, clusters, hull; unset keys
 /// take the command's defaults.
 #[derive(Clone, Debug)]
 pub struct Config {
@@ -52,8 +53,9 @@ pub fn apply_option(s: &mut RenderSettings, key: &str, value: &str) -> Result<()
         "hull" => o.expansion = value.parse()?,
         "intervals" => o.intervals = value.parse()?,
         "clusters" => o.clusters = value.parse()?,
+        "transparency" => s.transparency = value.parse()?,
         _ => bail!(
-            "unknown setting `{key}` (spp, shadow-map, bound, shading, per-pass, intervals, clusters, hull)"
+            "unknown setting `{key}` (spp, shadow-map, transparency, bound, shading, per-pass, intervals, clusters, hull)"
         ),
     }
     Ok(())

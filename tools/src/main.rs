@@ -75,7 +75,10 @@ enum Command {
         clusters: String,
         /// How pinhole and accumulation (and auto without blur) render alpha < 1, alpha_from_texture
         /// and tints: `stochastic` (stochastic transparency, stratified per-pixel masks over the
-        /// S = MSAA × passes samples, tints multiplied into the uncovered samples). Used only when
+        /// S = MSAA × passes samples, tints multiplied into the uncovered samples); pinhole and
+        /// accumulation only: `depth-based` (depth-based stochastic transparency: the masks write
+        /// depth only, every fragment adds vis(z)·α·C, alpha-corrected), `depth-based/uncorrected`,
+        /// `peeling/K` (depth peeling of K layers, default 8: exact up to K layers). Used only when
         /// the scene has transparency.
         #[arg(long, default_value = "stochastic")]
         transparency: String,
@@ -209,7 +212,7 @@ enum Command {
     Quality {
         #[arg(default_value = "default")]
         scene: String,
-        /// A series `technique[:key=value...]@S1,S2,...` (keys: shadow-map, bound, shading, per-pass, intervals, clusters, hull); repeat for more.
+        /// A series `technique[:key=value...]@S1,S2,...` (keys: shadow-map, transparency, bound, shading, per-pass, intervals, clusters, hull); repeat for more.
         #[arg(short = 's', long = "series", default_values_t = [
             "accumulation@4,16,64,256".to_string(),
             "stochastic@4,16,64".to_string(),

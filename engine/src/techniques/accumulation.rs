@@ -12,7 +12,7 @@
 
 use glam::Vec2;
 
-use super::forward::{ForwardTechnique, PassSample};
+use super::forward::PassSample;
 use super::{FrameTechnique, PrepareContext, TechniqueInfo};
 use crate::error::Result;
 use crate::sampling::{stratified_samples, ApertureShape, Pcg32, Sample5, ShutterCurve};
@@ -28,7 +28,7 @@ fn prepare(ctx: &PrepareContext<'_>) -> Result<Box<dyn FrameTechnique>> {
     let c = &ctx.scene.camera;
     let s = ctx.settings;
     let passes = accumulation_passes(s.spp, s.seed, c.aperture, c.shutter);
-    Ok(Box::new(ForwardTechnique::new(ctx, 1, passes)?))
+    super::oit::prepare_forward(ctx, 1, passes)
 }
 
 /// The samples of `passes` passes with `seed`, in pass order, before the aperture shape and the

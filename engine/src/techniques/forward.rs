@@ -467,6 +467,13 @@ impl ForwardDraws {
             TransparencyMethod::Stochastic => {
                 Some(TransparentDraws::new(device, world, scene, msaa, samples.len() as u32, seed, shadows)?)
             }
+            // Several raster passes per frame pass: their own frame (oit::prepare_forward).
+            TransparencyMethod::DepthBased { .. } | TransparencyMethod::Peeling { .. } => {
+                return Err(crate::error::Error::Unsupported(format!(
+                    "transparency method `{method}` is rendered by the OIT frame (techniques/oit.rs), not \
+                     the forward passes"
+                )))
+            }
         };
         let pipeline = ForwardPipeline::with_shadows(device, world, msaa, shadows)?;
         Ok(ForwardDraws { pipeline, samples, transparent })

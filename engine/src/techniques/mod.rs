@@ -24,6 +24,7 @@ pub mod compute_hull;
 pub mod forward;
 pub mod graph_probe;
 pub mod multipass;
+pub mod oit;
 pub mod pinhole;
 pub mod registry;
 pub mod shadow_maps;
@@ -296,6 +297,7 @@ impl Renderer {
         settings: &RenderSettings,
     ) -> Result<PreparedFrame> {
         check_transparency_supported(scene, technique)?;
+        check_transparency_method(scene, technique, settings.transparency)?;
         self.prepare_with(scene, settings, technique.info().prepare)
     }
 
@@ -513,6 +515,7 @@ pub fn shader_interfaces() -> impl Iterator<Item = &'static crate::gpu::layout::
         multipass::SHADER_INTERFACES,
         graph_probe::SHADER_INTERFACES,
         shadow_maps::SHADER_INTERFACES,
+        oit::SHADER_INTERFACES,
     ]
     .into_iter()
     .flatten()
@@ -543,6 +546,28 @@ pub fn check_transparency_supported(scene: &Scene, technique: Technique) -> Resu
         return check_untinted(scene, &format!("technique `{technique}`"));
     }
     check_opaque(scene, &format!("technique `{technique}`"))
+}
+
+/// Refuses a transparency method `technique` does not have, for a scene with transparency: depth-based
+/// stochastic transparency and depth peeling (`techniques/oit.rs`) are frames of `pinhole` and
+/// `accumulation` only; `stochastic` and `auto` render stochastic transparency.
+pub fn check_transparency_method(
+    scene: &Scene,
+    technique: Technique,
+    method: TransparencyMethod,
+) -> Result<()> {
+    let has_transparency = forward::has_transparency(scene);
+    if !has_transparency
+        || method == TransparencyMethod::Stochastic
+        || [Technique::PINHOLE, Technique::ACCUMULATION].contains(&technique)
+    {
+        return Ok(());
+    }
+    Err(Error::Unsupported(format!(
+        "technique `{technique}` renders transparency by stochastic transparency only (--transparency \
+         stochastic), not `{method}`: depth-based stochastic transparency and depth peeling are rendered by \
+         pinhole and accumulation"
+    )))
 }
 
 /// What the stochastic rasterizer's transparency renders (issue 12): constant coverage (`alpha`),
@@ -593,7 +618,8 @@ pub fn check_opaque(scene: &Scene, who: &str) -> Result<()> {
 }
 
 /// Techniques that render shadow maps.
-pub const SHADOW_TECHNIQUES: &str = "pinhole, accumulation, and auto when nothing needs blur";
+pub const SHADOW_TECHNIQUES: &str =
+    "pinhole and accumulation (with --transparency stochastic), and auto (taking accumulation for blur)";
 
 /// No light casts shadows: for the techniques without shadow maps (`stochastic`, `auto`'s
 /// stochastic path), which say who they are in `who`.

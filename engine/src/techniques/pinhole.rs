@@ -3,7 +3,7 @@
 
 use glam::Vec2;
 
-use super::forward::{ForwardTechnique, PassSample};
+use super::forward::PassSample;
 use super::{FrameTechnique, PrepareContext, TechniqueInfo};
 use crate::error::Result;
 
@@ -16,7 +16,7 @@ pub const INFO: TechniqueInfo = TechniqueInfo {
 
 fn prepare(ctx: &PrepareContext<'_>) -> Result<Box<dyn FrameTechnique>> {
     let msaa = ctx.device.caps.msaa_samples(PINHOLE_MSAA);
-    Ok(Box::new(ForwardTechnique::new(ctx, msaa, pinhole_passes())?))
+    super::oit::prepare_forward(ctx, msaa, pinhole_passes())
 }
 
 /// MSAA count the pinhole technique asks for (the device may offer less).

@@ -281,6 +281,9 @@ pub enum ColorBlend {
     /// rgb multiplied as [`ColorBlend::Multiply`], alpha the larger of the two (`max(src, dst)`): a
     /// coloured shadow map's hue product and nearest tinted depth (reversed Z), both order-independent.
     MultiplyMaxAlpha,
+    /// The fragment's colour is added to the attachment's, every channel (`dst + src`): sums over
+    /// fragments, order-independent up to rounding (depth-based stochastic transparency).
+    Add,
 }
 
 impl Pipeline {
@@ -342,6 +345,15 @@ impl Pipeline {
                         .src_alpha_blend_factor(vk::BlendFactor::ONE)
                         .dst_alpha_blend_factor(vk::BlendFactor::ONE)
                         .alpha_blend_op(vk::BlendOp::MAX),
+                    // result = src · 1 + dst · 1
+                    ColorBlend::Add => state
+                        .blend_enable(true)
+                        .src_color_blend_factor(vk::BlendFactor::ONE)
+                        .dst_color_blend_factor(vk::BlendFactor::ONE)
+                        .color_blend_op(vk::BlendOp::ADD)
+                        .src_alpha_blend_factor(vk::BlendFactor::ONE)
+                        .dst_alpha_blend_factor(vk::BlendFactor::ONE)
+                        .alpha_blend_op(vk::BlendOp::ADD),
                 }
             })
             .collect();

@@ -1,0 +1,947 @@
+//! Order-independent transparency with more than one raster pass per frame pass, for `pinhole` and
+//! `accumulation` (`--transparency depth-based`, `depth-based/uncorrected`, `peeling/K`;
+//! docs/TRANSPARENCY.md). [`prepare_forward`] gives those techniques this frame when the scene has
+//! transparency and one of these methods is chosen, and the plain forward frame otherwise.
+//!
+//! Per frame pass (one [`PassSample`] each, M MSAA samples), as a graph, after `clear accumulation`:
+//!
+//! * `oit opaque` (raster): the opaque objects with the forward pipeline into an MSAA colour and depth
+//!   target, both kept (the later passes read them per sample).
+//! * **Depth-based stochastic transparency** (Enderton, Sintorn, Shirley & Luebke 2011, the
+//!   depth-based variant):
+//!   1. `oit stochastic depth` (raster, depth only): every transparent surface writes its depth to
+//!      the samples its stochastic coverage mask keeps — the very mask of `--transparency
+//!      stochastic` (`common/coverage.glsl`: sample `pass × M + j` of the pixel's S = M × passes,
+//!      stratified per pixel) — so the M depths are M draws of the deep shadow function from the eye.
+//!   2. `oit layers` (raster, the opaque depth as a read-only attachment): every transparent fragment
+//!      in front of the opaque surface adds `vis(z)·α·C` and `vis(z)·α` (additive blending; per
+//!      channel, with tints as below), `vis(z)` the fraction of the pixel's M stochastic depths not nearer than it; then, in the same
+//!      rendering, every transparent fragment multiplies `(1 − α)·T` into the total transmittance
+//!      (multiplicative blending: exact, order independent). Shading once per fragment.
+//!   3. `oit composite` (compute): per pixel, the means over its M samples of `C_opaque·T`, of the
+//!      layer sum, of its weight and of `1 − T`, added with weight 1/P into four frame totals; after
+//!      the last pass, `oit composite finish` adds the layer sum `L` behind which nothing remains:
+//!      with alpha correction `L = ΣL·Σ(1 − T)/Σweight` (Enderton's normalisation), without it `ΣL`.
+//! * **Depth peeling** (K layers), per sample: K times `oit peel` (raster: of the transparent surfaces
+//!   in front of the opaque depth and strictly behind the previous layer's depth, the nearest writes
+//!   α·C and (1 − α)·T) then `oit peel under` (compute: the layer composited under the ones before it,
+//!   per sample, in a storage buffer); the last one adds the opaque colour behind the remaining
+//!   transmittance and accumulates. Exact where a sample has at most K transparent layers in front of
+//!   its opaque surface; deeper layers are left out (the truncation: the K nearest over the opaque
+//!   surface). With MSAA the peel pipeline shades per sample (sample-rate shading), so every sample
+//!   peels its own layers.
+//!
+//! **Tints in depth-based ST.** The layer sum needs `vis_c(z) = Π_{z_j nearer than z} (1 − α_j)·T_j,c`
+//! per channel c. One stochastic depth map estimates only the `Π (1 − α_j)` part. A surface stops
+//! channel c with probability `a_c = 1 − (1 − α)·T_c` (it covers, or it does not and its tint absorbs),
+//! so a stochastic depth map drawn with coverage `a_c` estimates `vis_c` exactly in expectation. A
+//! scene with a tinted transparent object therefore draws three stochastic depth maps (one per
+//! channel, masks from the same key, so the channels' masks are nested rather than independent), an
+//! untinted one a single map with α — where `T_c = 1`, `a_c` is α itself and the mask is
+//! `stochastic`'s. The alpha correction's weights use `a_c` too: `Σ vis_c·a_c` has the exact value
+//! `1 − T_c` (T_c the total transmittance), where `Σ vis·α` would not with tints. This departs from
+//! the paper, which has no coloured transmission. The price: a tint's absorption is sampled (a
+//! surface that transmits little of a channel mostly occludes in that channel's map), where
+//! `stochastic` multiplies tints exactly, so in a strongly absorbed channel depth-based ST can be the
+//! noisier of the two (tests/tests/oit.rs measures it; over a pixel's channels it stays below).
+//!
+//! **Departures from the paper, on purpose.** The stochastic depth maps hold transparent surfaces
+//! only, not the opaque depth: a fragment's contribution is already cut per sample by the opaque
+//! depth test of the layers pass, and counting opaque samples in `vis` too would cut it twice at the
+//! edge of an opaque object. The stochastic depth written is the fragment's centre depth on every
+//! sample it keeps (the layers pass compares that same centre depth, so a surface never occludes
+//! itself; a relative 2⁻²⁰ tolerance absorbs the neighbouring triangle of a flat mesh). The alpha
+//! correction's ratio is formed once per frame from the sums over all S = M × P samples, not per pass:
+//! with one sample per pass (`accumulation`) a per-pass ratio is a ratio of one-sample estimates, and
+//! its bias (0.07 on the test panes at S = 16, measured) does not average away over the passes; the
+//! frame's ratio has the bias of an S-sample ratio (≤ 0.0011 there).
+
+use ash::vk;
+use bytemuck::{Pod, Zeroable};
+
+use super::forward::{has_transparency, ForwardPipeline, ForwardPush, ForwardTechnique, PassSample};
+use super::multipass::{accumulation_image, COLOR_FORMAT, DEPTH_FORMAT};
+use super::{check_unshadowed, FrameContext, FrameInputs, FrameTechnique, PrepareContext, TechniqueFrame};
+use crate::error::{Error, Result};
+use crate::gpu::layout::{shared_struct, vertex_input, Binding, SharedStruct, TECHNIQUE_SET_INDEX};
+use crate::gpu::{GpuView, GpuWorld};
+use crate::graph::{Access, ImageHandle, Load, PassContext, Store, Tracked};
+use crate::image::LinearImage;
+use crate::shaders;
+use crate::transparency::{coverage_seed, TransparencyMethod, MAX_PEELING_LAYERS};
+use crate::vk::{
+    write_descriptors, Buffer, ColorBlend, DescriptorPool, DescriptorSetLayout, DescriptorWrite, Device,
+    Feature, GraphicsDesc, Image, ImageDesc, Pipeline, PipelineLayout, Sampler, ShaderModule,
+};
+
+/// The format of the sums, the transmittance and the peeled layers: 32-bit floats, so that a sum
+/// over many faint particles and a product of many transmittances round like the f32 closed form.
+pub const OIT_FORMAT: vk::Format = vk::Format::R32G32B32A32_SFLOAT;
+
+/// `pinhole`'s and `accumulation`'s frame for `samples.len()` passes at `msaa` samples: an
+/// [`OitTechnique`] when the scene has transparency and `ctx.settings.transparency` is depth-based or
+/// peeling, the multipass forward frame ([`ForwardTechnique`]) otherwise.
+pub fn prepare_forward(
+    ctx: &PrepareContext<'_>,
+    msaa: u32,
+    samples: Vec<PassSample>,
+) -> Result<Box<dyn FrameTechnique>> {
+    match ctx.settings.transparency {
+        TransparencyMethod::Stochastic => {}
+        _ if !has_transparency(ctx.scene) => {}
+        method => return Ok(Box::new(OitTechnique::new(ctx, msaa, samples, method)?)),
+    }
+    Ok(Box::new(ForwardTechnique::new(ctx, msaa, samples)?))
+}
+
+/// Push constants of the OIT draws (`oit/draw.glsl`): [`ForwardPush`]'s members first
+/// (`forward.vert` reads them), then coverage (as `TransparentPush`), the stochastic depth channel,
+/// the number of depth maps and the peeled layer.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct OitPush {
+    pub object: u32,
+    pub time: f32,
+    pub lens: [f32; 2],
+    pub jitter: [f32; 2],
+    pub segment: u32,
+    pub segment_time: f32,
+    /// rgb: the object's tint (transmission); w unused (vec4 alignment).
+    pub tint: [f32; 4],
+    /// [`coverage_seed`] of the render seed.
+    pub coverage_seed: u32,
+    /// S: samples per pixel over the frame (MSAA × passes).
+    pub samples: u32,
+    /// Index among the S of the pass' first MSAA sample (pass × MSAA).
+    pub sample_base: u32,
+    /// MSAA samples of the pass.
+    pub msaa: u32,
+    /// The object's first triangle in the scene's numbering (the reference's).
+    pub first_triangle: u32,
+    /// 1: coverage is alpha × the texture's alpha.
+    pub alpha_from_texture: u32,
+    /// Stochastic depth: 0–2 the channel whose effective coverage `1 − (1 − α)·T_c` decides, 3 α.
+    pub channel: u32,
+    /// Layers pass: 1 or 3 stochastic depth maps.
+    pub depth_maps: u32,
+    /// Peeling: the layer being peeled (0: the nearest).
+    pub layer: u32,
+}
+
+/// Push constants of `oit/depth_composite.comp`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct DepthCompositePush {
+    /// 1 / passes.
+    pub weight: f32,
+    pub msaa: u32,
+    /// 1: Enderton's alpha correction.
+    pub alpha_correction: u32,
+    /// 1: after the last pass, add the (corrected) layer sum of the frame.
+    pub finish: u32,
+}
+
+/// Push constants of `oit/peel_under.comp`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct PeelUnderPush {
+    /// 1 / passes.
+    pub weight: f32,
+    pub msaa: u32,
+    /// The layer just peeled (0: the accumulators start from it).
+    pub layer: u32,
+    /// 1: the last layer (composite over the opaque colour and accumulate).
+    pub last: u32,
+}
+
+/// For the reflection test.
+pub const OIT_STRUCTS: &[SharedStruct] = &[
+    shared_struct!(
+        "Push",
+        OitPush,
+        [
+            object,
+            time,
+            lens,
+            jitter,
+            segment,
+            segment_time,
+            tint,
+            coverage_seed,
+            samples,
+            sample_base,
+            msaa,
+            first_triangle,
+            alpha_from_texture,
+            channel,
+            depth_maps,
+            layer
+        ]
+    ),
+    shared_struct!("Push", DepthCompositePush, [weight, msaa, alpha_correction, finish]),
+    shared_struct!("Push", PeelUnderPush, [weight, msaa, layer, last]),
+];
+
+const SAMPLED: vk::DescriptorType = vk::DescriptorType::COMBINED_IMAGE_SAMPLER;
+const fn binding(binding: u32, ty: vk::DescriptorType, block: &'static str) -> Binding {
+    Binding { binding, ty, block }
+}
+
+/// Set 3 of `oit/layers.frag`: the stochastic depth maps (one per channel; an untinted scene binds its
+/// one map three times).
+pub const LAYERS_SET: [Binding; 3] = [
+    binding(0, SAMPLED, "stochastic_depth_r"),
+    binding(1, SAMPLED, "stochastic_depth_g"),
+    binding(2, SAMPLED, "stochastic_depth_b"),
+];
+
+/// Set 3 of `oit/peel.frag`.
+pub const PEEL_SET: [Binding; 2] =
+    [binding(0, SAMPLED, "opaque_depth"), binding(1, SAMPLED, "previous_depth")];
+
+/// Set 3 of `oit/depth_composite.comp`.
+pub const DEPTH_COMPOSITE_SET: [Binding; 8] = [
+    binding(0, SAMPLED, "opaque_color"),
+    binding(1, SAMPLED, "layer_sum"),
+    binding(2, SAMPLED, "layer_weight"),
+    binding(3, SAMPLED, "total_transmittance"),
+    binding(4, vk::DescriptorType::STORAGE_IMAGE, "accum"),
+    binding(5, vk::DescriptorType::STORAGE_IMAGE, "sum_total"),
+    binding(6, vk::DescriptorType::STORAGE_IMAGE, "weight_total"),
+    binding(7, vk::DescriptorType::STORAGE_IMAGE, "absorbed_total"),
+];
+
+/// Set 3 of `oit/peel_under.comp`.
+pub const PEEL_UNDER_SET: [Binding; 5] = [
+    binding(0, SAMPLED, "layer_color"),
+    binding(1, SAMPLED, "layer_transmittance"),
+    binding(2, SAMPLED, "opaque_color"),
+    binding(3, vk::DescriptorType::STORAGE_BUFFER, "PeelAccumulators"),
+    binding(4, vk::DescriptorType::STORAGE_IMAGE, "accum"),
+];
+
+/// Per object, what the OIT draws push.
+#[derive(Clone, Copy, Debug)]
+struct OitObject {
+    /// Coverage below 1 somewhere (alpha < 1 or from the texture): drawn by the OIT passes, not the
+    /// opaque one.
+    transparent: bool,
+    tint: [f32; 4],
+    alpha_from_texture: bool,
+    first_triangle: u32,
+}
+
+fn oit_objects(scene: &crate::scene::Scene) -> Vec<OitObject> {
+    let mut first_triangle = 0u32;
+    scene
+        .objects
+        .iter()
+        .map(|o| {
+            let m = &o.material;
+            let t = OitObject {
+                transparent: !m.is_opaque(),
+                tint: m.tint.extend(0.0).to_array(),
+                // As the reference: the texture's alpha counts only where the mesh has uvs.
+                alpha_from_texture: m.alpha_from_texture && m.texture.is_some() && o.mesh.has_uvs(),
+                first_triangle,
+            };
+            first_triangle += (o.mesh.indices.len() / 3) as u32;
+            t
+        })
+        .collect()
+}
+
+/// A persistent `size` image of `msaa` samples.
+fn target(
+    device: &Device,
+    name: &str,
+    (width, height): (u32, u32),
+    format: vk::Format,
+    msaa: u32,
+    usage: vk::ImageUsageFlags,
+) -> Result<Tracked<Image>> {
+    Ok(Tracked::new(Image::new(device, name, ImageDesc::new_2d(width, height, format, usage).samples(msaa))?))
+}
+
+/// A compute pipeline of the OIT frame with set 3 from `table`.
+struct ComputeStep {
+    pipeline: Pipeline,
+    layout: PipelineLayout,
+    set: vk::DescriptorSet,
+    _set_layout: DescriptorSetLayout,
+    _shader: ShaderModule,
+}
+
+impl ComputeStep {
+    fn new<P>(
+        device: &Device,
+        world: &GpuWorld,
+        pool: &DescriptorPool,
+        name: &str,
+        source: shaders::ShaderSource,
+        table: &[Binding],
+        writes: &[DescriptorWrite],
+    ) -> Result<Self> {
+        let shader = ShaderModule::new(device, source)?;
+        let set_layout = DescriptorSetLayout::from_table(
+            device,
+            &format!("{name} set layout"),
+            table,
+            vk::ShaderStageFlags::COMPUTE,
+        )?;
+        let layout = world.pipeline_layout(
+            device,
+            &[&world.empty_layout, &set_layout],
+            std::mem::size_of::<P>() as u32,
+            vk::ShaderStageFlags::COMPUTE,
+        )?;
+        let pipeline = Pipeline::compute(device, name, &layout, &shader)?;
+        let set = pool.allocate(&set_layout)?;
+        write_descriptors(device, set, writes);
+        Ok(ComputeStep { pipeline, layout, set, _set_layout: set_layout, _shader: shader })
+    }
+
+    /// One invocation per pixel of a `width × height` image.
+    fn record<P: Pod>(&self, ctx: &PassContext<'_>, push: &P, (width, height): (u32, u32)) {
+        let (d, cmd) = (ctx.device, ctx.cmd);
+        let bind = vk::PipelineBindPoint::COMPUTE;
+        unsafe {
+            d.raw.cmd_bind_pipeline(cmd, bind, self.pipeline.raw);
+            d.raw.cmd_bind_descriptor_sets(cmd, bind, self.layout.raw, TECHNIQUE_SET_INDEX, &[self.set], &[]);
+            d.raw.cmd_push_constants(
+                cmd,
+                self.layout.raw,
+                vk::ShaderStageFlags::COMPUTE,
+                0,
+                bytemuck::bytes_of(push),
+            );
+            d.raw.cmd_dispatch(cmd, width.div_ceil(8), height.div_ceil(8), 1);
+        }
+    }
+}
+
+/// Depth-based stochastic transparency's pipelines and targets (module docs).
+struct DepthBased {
+    alpha_correction: bool,
+    stochastic_depth: Pipeline,
+    layers: Pipeline,
+    transmittance: Pipeline,
+    draw_layout: PipelineLayout,
+    layers_set: vk::DescriptorSet,
+    composite: ComputeStep,
+    /// One stochastic depth map, or one per channel when a transparent object is tinted.
+    depth_maps: Vec<Tracked<Image>>,
+    layer_sum: Tracked<Image>,
+    layer_weight: Tracked<Image>,
+    total_transmittance: Tracked<Image>,
+    /// The frame's sums (means over each pass' samples, weighted 1/P) of the layer sum, its weight and
+    /// the absorbed fraction 1 − T, from which the last step forms the alpha correction's ratio.
+    totals: [Tracked<Image>; 3],
+    _layers_set_layout: DescriptorSetLayout,
+    _shaders: Vec<ShaderModule>,
+}
+
+/// Depth peeling's pipelines and targets (module docs).
+struct Peeling {
+    layers: u32,
+    peel: Pipeline,
+    peel_layout: PipelineLayout,
+    /// Set 3 when peeling into depth target `i`: the other one is the previous layer's.
+    peel_sets: [vk::DescriptorSet; 2],
+    under: ComputeStep,
+    depth: [Tracked<Image>; 2],
+    layer_color: Tracked<Image>,
+    layer_transmittance: Tracked<Image>,
+    accumulators: Tracked<Buffer>,
+    _peel_set_layout: DescriptorSetLayout,
+    _shaders: Vec<ShaderModule>,
+}
+
+enum OitPath {
+    DepthBased(Box<DepthBased>),
+    Peeling(Box<Peeling>),
+}
+
+/// The OIT frame of `pinhole` and `accumulation` (module docs).
+pub struct OitTechnique {
+    method: TransparencyMethod,
+    size: (u32, u32),
+    msaa: u32,
+    samples: Vec<PassSample>,
+    objects: Vec<OitObject>,
+    coverage_seed: u32,
+    opaque: ForwardPipeline,
+    opaque_color: Tracked<Image>,
+    opaque_depth: Tracked<Image>,
+    accum: Tracked<Image>,
+    path: OitPath,
+    // Sets die with the pool; the pool and the sampler outlive nothing that names them.
+    _pool: DescriptorPool,
+    _sampler: Sampler,
+}
+
+impl OitTechnique {
+    /// `samples.len()` passes at `msaa` samples per pass, the scene's transparency by `method`
+    /// (depth-based or peeling).
+    pub fn new(
+        ctx: &PrepareContext<'_>,
+        msaa: u32,
+        samples: Vec<PassSample>,
+        method: TransparencyMethod,
+    ) -> Result<Self> {
+        // Shadow maps are read by the forward path's pipelines (forward.rs); these methods' own draws
+        // do not read them yet.
+        check_unshadowed(ctx.scene, &format!("--transparency {method}"))?;
+        let (device, world) = (ctx.device, ctx.world);
+        let size = ctx.camera.size();
+        let sampled = vk::ImageUsageFlags::SAMPLED;
+        let color_usage = vk::ImageUsageFlags::COLOR_ATTACHMENT | sampled;
+        let depth_usage = vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT | sampled;
+        let opaque_color = target(device, "oit opaque color", size, COLOR_FORMAT, msaa, color_usage)?;
+        let opaque_depth = target(device, "oit opaque depth", size, DEPTH_FORMAT, msaa, depth_usage)?;
+        let accum = Tracked::new(accumulation_image(device, "accumulation", size)?);
+        let sampler = Sampler::nearest_clamp(device, "oit pass images")?;
+        let objects = oit_objects(ctx.scene);
+        let multisampled = msaa > 1;
+        let vert = || ShaderModule::new(device, shaders::FORWARD_FORWARD_VERT);
+        let (bindings, attributes) = vertex_input();
+        let draw_stages = vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT;
+        let sampled_image = |binding, image: &Image| DescriptorWrite::SampledImage {
+            binding,
+            view: image.view,
+            sampler: sampler.raw,
+        };
+        let (pool, path) = match method {
+            TransparencyMethod::Stochastic => {
+                return Err(Error::Unsupported(
+                    "stochastic transparency is drawn by the forward passes (forward.rs), not the OIT frame"
+                        .into(),
+                ))
+            }
+            TransparencyMethod::DepthBased { alpha_correction } => {
+                device.caps.require(
+                    Feature::GeometryShader,
+                    "depth-based stochastic transparency (the fragment stage reads gl_PrimitiveID to name \
+                     the triangle)",
+                )?;
+                let tinted = objects.iter().any(|o| o.transparent && o.tint[..3] != [1.0; 3]);
+                let maps = if tinted { 3 } else { 1 };
+                let depth_maps = (0..maps)
+                    .map(|c| {
+                        target(
+                            device,
+                            &format!("stochastic depth {c}"),
+                            size,
+                            DEPTH_FORMAT,
+                            msaa,
+                            depth_usage,
+                        )
+                    })
+                    .collect::<Result<Vec<_>>>()?;
+                let layer_sum = target(device, "oit layer sum", size, OIT_FORMAT, msaa, color_usage)?;
+                let layer_weight = target(device, "oit layer weight", size, OIT_FORMAT, msaa, color_usage)?;
+                let total_transmittance =
+                    target(device, "oit total transmittance", size, OIT_FORMAT, msaa, color_usage)?;
+                let total = |name| Ok::<_, Error>(Tracked::new(accumulation_image(device, name, size)?));
+                let totals =
+                    [total("oit sum total")?, total("oit weight total")?, total("oit absorbed total")?];
+                let pool =
+                    DescriptorPool::for_tables(device, 2, &[(&LAYERS_SET, 1), (&DEPTH_COMPOSITE_SET, 1)])?;
+                let layers_set_layout = DescriptorSetLayout::from_table(
+                    device,
+                    "oit layers set layout",
+                    &LAYERS_SET,
+                    vk::ShaderStageFlags::FRAGMENT,
+                )?;
+                let layers_set = pool.allocate(&layers_set_layout)?;
+                let map = |c: usize| &*depth_maps[c.min(maps - 1)];
+                write_descriptors(device, layers_set, &[0, 1, 2].map(|c| sampled_image(c as u32, map(c))));
+                let draw_layout = world.pipeline_layout(
+                    device,
+                    &[&world.empty_layout, &layers_set_layout],
+                    std::mem::size_of::<OitPush>() as u32,
+                    draw_stages,
+                )?;
+                let v = vert()?;
+                let depth_frag = ShaderModule::new(device, shaders::OIT_STOCHASTIC_DEPTH_FRAG)?;
+                let layers_frag = ShaderModule::new(device, shaders::LayersFrag { multisampled }.source())?;
+                let transmittance_frag = ShaderModule::new(device, shaders::OIT_TRANSMITTANCE_FRAG)?;
+                let three = [OIT_FORMAT; 3];
+                let depth_stages = [&v, &depth_frag];
+                let layers_stages = [&v, &layers_frag];
+                let transmittance_stages = [&v, &transmittance_frag];
+                let desc = |name, stages, color_formats, depth_write| GraphicsDesc {
+                    name,
+                    stages,
+                    vertex_bindings: &bindings,
+                    vertex_attributes: &attributes,
+                    color_formats,
+                    depth_format: Some(DEPTH_FORMAT),
+                    samples: msaa,
+                    sample_shading: None,
+                    // Two-sided surfaces, as the forward pipeline.
+                    cull_mode: vk::CullModeFlags::NONE,
+                    front_face: vk::FrontFace::COUNTER_CLOCKWISE,
+                    // Reversed Z: nearer is greater.
+                    depth_compare: vk::CompareOp::GREATER,
+                    depth_write,
+                };
+                let stochastic_depth = Pipeline::graphics(
+                    device,
+                    &draw_layout,
+                    &desc("oit stochastic depth", &depth_stages, &[], true),
+                )?;
+                let layers = Pipeline::graphics_blended(
+                    device,
+                    &draw_layout,
+                    &desc("oit layers", &layers_stages, &three, false),
+                    ColorBlend::Add,
+                )?;
+                let transmittance = Pipeline::graphics_blended(
+                    device,
+                    &draw_layout,
+                    &desc("oit transmittance", &transmittance_stages, &three, false),
+                    ColorBlend::Multiply,
+                )?;
+                let composite = ComputeStep::new::<DepthCompositePush>(
+                    device,
+                    world,
+                    &pool,
+                    "oit composite",
+                    shaders::DepthCompositeComp { multisampled }.source(),
+                    &DEPTH_COMPOSITE_SET,
+                    &[
+                        sampled_image(0, &opaque_color),
+                        sampled_image(1, &layer_sum),
+                        sampled_image(2, &layer_weight),
+                        sampled_image(3, &total_transmittance),
+                        DescriptorWrite::StorageImage { binding: 4, view: accum.view },
+                        DescriptorWrite::StorageImage { binding: 5, view: totals[0].view },
+                        DescriptorWrite::StorageImage { binding: 6, view: totals[1].view },
+                        DescriptorWrite::StorageImage { binding: 7, view: totals[2].view },
+                    ],
+                )?;
+                let path = DepthBased {
+                    alpha_correction,
+                    stochastic_depth,
+                    layers,
+                    transmittance,
+                    draw_layout,
+                    layers_set,
+                    composite,
+                    depth_maps,
+                    layer_sum,
+                    layer_weight,
+                    total_transmittance,
+                    totals,
+                    _layers_set_layout: layers_set_layout,
+                    _shaders: vec![v, depth_frag, layers_frag, transmittance_frag],
+                };
+                (pool, OitPath::DepthBased(Box::new(path)))
+            }
+            TransparencyMethod::Peeling { layers } => {
+                if layers == 0 || layers > MAX_PEELING_LAYERS {
+                    return Err(Error::Limit {
+                        what: "peeling layers",
+                        value: layers.to_string(),
+                        limit: format!("1..={MAX_PEELING_LAYERS}"),
+                    });
+                }
+                if multisampled {
+                    device.caps.require(
+                        Feature::SampleRateShading,
+                        "depth peeling with MSAA (every sample peels its own layers)",
+                    )?;
+                }
+                let peel_depth =
+                    |i| target(device, &format!("peel depth {i}"), size, DEPTH_FORMAT, msaa, depth_usage);
+                let depth = [peel_depth(0)?, peel_depth(1)?];
+                let layer_color = target(device, "peel layer color", size, OIT_FORMAT, msaa, color_usage)?;
+                let layer_transmittance =
+                    target(device, "peel layer transmittance", size, OIT_FORMAT, msaa, color_usage)?;
+                // Two vec4 per sample: the colour composited so far and the transmittance left.
+                let bytes = size.0 as u64 * size.1 as u64 * msaa as u64 * 32;
+                let accumulators = Tracked::new(Buffer::new(
+                    device,
+                    "peel accumulators",
+                    bytes,
+                    vk::BufferUsageFlags::STORAGE_BUFFER,
+                    gpu_allocator::MemoryLocation::GpuOnly,
+                )?);
+                let pool = DescriptorPool::for_tables(device, 3, &[(&PEEL_SET, 2), (&PEEL_UNDER_SET, 1)])?;
+                let peel_set_layout = DescriptorSetLayout::from_table(
+                    device,
+                    "oit peel set layout",
+                    &PEEL_SET,
+                    vk::ShaderStageFlags::FRAGMENT,
+                )?;
+                let peel_sets = [pool.allocate(&peel_set_layout)?, pool.allocate(&peel_set_layout)?];
+                for (i, &set) in peel_sets.iter().enumerate() {
+                    write_descriptors(
+                        device,
+                        set,
+                        &[sampled_image(0, &opaque_depth), sampled_image(1, &depth[1 - i])],
+                    );
+                }
+                let peel_layout = world.pipeline_layout(
+                    device,
+                    &[&world.empty_layout, &peel_set_layout],
+                    std::mem::size_of::<OitPush>() as u32,
+                    draw_stages,
+                )?;
+                let v = vert()?;
+                let peel_frag = ShaderModule::new(device, shaders::PeelFrag { multisampled }.source())?;
+                let peel = Pipeline::graphics(
+                    device,
+                    &peel_layout,
+                    &GraphicsDesc {
+                        name: "oit peel",
+                        stages: &[&v, &peel_frag],
+                        vertex_bindings: &bindings,
+                        vertex_attributes: &attributes,
+                        color_formats: &[OIT_FORMAT; 2],
+                        depth_format: Some(DEPTH_FORMAT),
+                        samples: msaa,
+                        // Per sample: each sample compares its own depths and keeps its own nearest.
+                        sample_shading: multisampled.then_some(1.0),
+                        cull_mode: vk::CullModeFlags::NONE,
+                        front_face: vk::FrontFace::COUNTER_CLOCKWISE,
+                        depth_compare: vk::CompareOp::GREATER,
+                        depth_write: true,
+                    },
+                )?;
+                let under = ComputeStep::new::<PeelUnderPush>(
+                    device,
+                    world,
+                    &pool,
+                    "oit peel under",
+                    shaders::PeelUnderComp { multisampled }.source(),
+                    &PEEL_UNDER_SET,
+                    &[
+                        sampled_image(0, &layer_color),
+                        sampled_image(1, &layer_transmittance),
+                        sampled_image(2, &opaque_color),
+                        DescriptorWrite::storage_buffer(3, &accumulators),
+                        DescriptorWrite::StorageImage { binding: 4, view: accum.view },
+                    ],
+                )?;
+                let path = Peeling {
+                    layers,
+                    peel,
+                    peel_layout,
+                    peel_sets,
+                    under,
+                    depth,
+                    layer_color,
+                    layer_transmittance,
+                    accumulators,
+                    _peel_set_layout: peel_set_layout,
+                    _shaders: vec![v, peel_frag],
+                };
+                (pool, OitPath::Peeling(Box::new(path)))
+            }
+        };
+        Ok(OitTechnique {
+            method,
+            size,
+            msaa,
+            samples,
+            objects,
+            coverage_seed: coverage_seed(ctx.settings.seed),
+            opaque: ForwardPipeline::new(device, world, msaa)?,
+            opaque_color,
+            opaque_depth,
+            accum,
+            path,
+            _pool: pool,
+            _sampler: sampler,
+        })
+    }
+
+    /// What every OIT draw of `object` pushes in pass `pass`.
+    fn push(&self, view: &GpuView, object: usize, pass: u32) -> OitPush {
+        let f = ForwardPush::new(view, object, &self.samples[pass as usize]);
+        let o = &self.objects[object];
+        OitPush {
+            object: f.object,
+            time: f.time,
+            lens: f.lens,
+            jitter: f.jitter,
+            segment: f.segment,
+            segment_time: f.segment_time,
+            tint: o.tint,
+            coverage_seed: self.coverage_seed,
+            samples: self.msaa * self.samples.len() as u32,
+            sample_base: pass * self.msaa,
+            msaa: self.msaa,
+            first_triangle: o.first_triangle,
+            alpha_from_texture: o.alpha_from_texture as u32,
+            channel: 3,
+            depth_maps: 1,
+            layer: 0,
+        }
+    }
+
+    /// Draws the transparent objects with `pipeline` (layout `layout`, set 3 `set` when given), each
+    /// with its [`OitPush`] for the pass as `edit` changes it.
+    fn draw_transparent(
+        &self,
+        ctx: &PassContext<'_>,
+        inputs: &FrameInputs<'_>,
+        pipeline: &Pipeline,
+        layout: &PipelineLayout,
+        set: Option<vk::DescriptorSet>,
+        edit: impl Fn(&mut OitPush),
+    ) {
+        let (d, cmd) = (ctx.device, ctx.cmd);
+        let bind = vk::PipelineBindPoint::GRAPHICS;
+        unsafe {
+            d.raw.cmd_bind_pipeline(cmd, bind, pipeline.raw);
+            if let Some(set) = set {
+                d.raw.cmd_bind_descriptor_sets(cmd, bind, layout.raw, TECHNIQUE_SET_INDEX, &[set], &[]);
+            }
+        }
+        let push = |i: usize| {
+            let mut p = self.push(inputs.camera, i, ctx.iteration);
+            edit(&mut p);
+            p
+        };
+        let stages = vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT;
+        inputs.world.record_object_draws(
+            d,
+            cmd,
+            inputs.camera,
+            layout,
+            stages,
+            |i| self.objects[i].transparent,
+            push,
+            |_| None,
+        );
+    }
+
+    /// The frame's graph: the passes of the module docs, then the read-back.
+    fn render_frame<'a>(
+        &'a self,
+        frame: &mut FrameContext<'_>,
+        inputs: &FrameInputs<'a>,
+    ) -> Result<LinearImage> {
+        let mut g = frame.graph();
+        let accum = g.import_image("accumulation", &self.accum);
+        let opaque_color = g.import_image("oit opaque color", &self.opaque_color);
+        let opaque_depth = g.import_image("oit opaque depth", &self.opaque_depth);
+        let background = inputs.world.background;
+        let weight = 1.0 / self.samples.len().max(1) as f32;
+        let (msaa, size) = (self.msaa, self.size);
+        let inputs = *inputs;
+        let sampled_fragment = Access::FragmentShaderReadSampledImageOrUniformTexelBuffer;
+        let sampled_compute = Access::ComputeShaderReadSampledImageOrUniformTexelBuffer;
+        g.clear_color("clear accumulation", accum, [0.0; 4]);
+        match &self.path {
+            OitPath::DepthBased(db) => {
+                let maps: Vec<ImageHandle> = db
+                    .depth_maps
+                    .iter()
+                    .enumerate()
+                    .map(|(c, m)| g.import_image(&format!("stochastic depth {c}"), m))
+                    .collect();
+                let sum = g.import_image("oit layer sum", &db.layer_sum);
+                let weights = g.import_image("oit layer weight", &db.layer_weight);
+                let transmittance = g.import_image("oit total transmittance", &db.total_transmittance);
+                let totals = [0, 1, 2].map(|i| g.import_image(&format!("oit total {i}"), &db.totals[i]));
+                for t in totals {
+                    g.clear_color("clear oit total", t, [0.0; 4]);
+                }
+                let composite = DepthCompositePush {
+                    weight,
+                    msaa,
+                    alpha_correction: db.alpha_correction as u32,
+                    finish: 0,
+                };
+                let depth_maps = maps.len() as u32;
+                g.repeat(self.samples.len() as u32, |g| {
+                    self.opaque_pass(g, &inputs, opaque_color, opaque_depth, background);
+                    for (c, &map) in maps.iter().enumerate() {
+                        let channel = if depth_maps == 3 { c as u32 } else { 3 };
+                        g.pass("oit stochastic depth").depth(map, Load::Clear(0.0), Store::Store).record(
+                            move |ctx| {
+                                self.draw_transparent(
+                                    ctx,
+                                    &inputs,
+                                    &db.stochastic_depth,
+                                    &db.draw_layout,
+                                    None,
+                                    |p| p.channel = channel,
+                                );
+                                Ok(())
+                            },
+                        );
+                    }
+                    let mut layers = g
+                        .pass("oit layers")
+                        .color(sum, Load::Clear([0.0; 4]), Store::Store)
+                        .color(weights, Load::Clear([0.0; 4]), Store::Store)
+                        .color(transmittance, Load::Clear([1.0; 4]), Store::Store)
+                        .depth_read_only(opaque_depth);
+                    for &map in &maps {
+                        layers = layers.access(map, sampled_fragment);
+                    }
+                    layers.record(move |ctx| {
+                        let set = Some(db.layers_set);
+                        self.draw_transparent(ctx, &inputs, &db.layers, &db.draw_layout, set, |p| {
+                            p.depth_maps = depth_maps
+                        });
+                        ctx.device.begin_label(ctx.cmd, "oit transmittance");
+                        self.draw_transparent(ctx, &inputs, &db.transmittance, &db.draw_layout, None, |_| {});
+                        ctx.device.end_label(ctx.cmd);
+                        Ok(())
+                    });
+                    let push = DepthCompositePush { finish: 0, ..composite };
+                    g.pass("oit composite")
+                        .access(opaque_color, sampled_compute)
+                        .access(sum, sampled_compute)
+                        .access(weights, sampled_compute)
+                        .access(transmittance, sampled_compute)
+                        .access(accum, Access::ComputeShaderReadWrite)
+                        .accesses(totals.map(|t| (t.into(), Access::ComputeShaderReadWrite)))
+                        .record(move |ctx| {
+                            db.composite.record(ctx, &push, size);
+                            Ok(())
+                        });
+                    Ok(())
+                })?;
+                let push = DepthCompositePush { finish: 1, ..composite };
+                // Every image the pipeline binds is declared, so that each is in its layout.
+                g.pass("oit composite finish")
+                    .access(opaque_color, sampled_compute)
+                    .access(sum, sampled_compute)
+                    .access(weights, sampled_compute)
+                    .access(transmittance, sampled_compute)
+                    .access(accum, Access::ComputeShaderReadWrite)
+                    .accesses(totals.map(|t| (t.into(), Access::ComputeShaderReadWrite)))
+                    .record(move |ctx| {
+                        db.composite.record(ctx, &push, size);
+                        Ok(())
+                    });
+            }
+            OitPath::Peeling(p) => {
+                let depth = [
+                    g.import_image("peel depth 0", &p.depth[0]),
+                    g.import_image("peel depth 1", &p.depth[1]),
+                ];
+                let layer_color = g.import_image("peel layer color", &p.layer_color);
+                let layer_transmittance = g.import_image("peel layer transmittance", &p.layer_transmittance);
+                let accumulators = g.import_buffer("peel accumulators", &p.accumulators);
+                g.repeat(self.samples.len() as u32, |g| {
+                    self.opaque_pass(g, &inputs, opaque_color, opaque_depth, background);
+                    for layer in 0..p.layers {
+                        let (current, previous) = (layer as usize % 2, 1 - layer as usize % 2);
+                        g.pass("oit peel")
+                            .color(layer_color, Load::Clear([0.0; 4]), Store::Store)
+                            .color(layer_transmittance, Load::Clear([1.0; 4]), Store::Store)
+                            .depth(depth[current], Load::Clear(0.0), Store::Store)
+                            .access(opaque_depth, sampled_fragment)
+                            // Layer 0 does not read it, but its pipeline binds it.
+                            .access(depth[previous], sampled_fragment)
+                            .record(move |ctx| {
+                                let set = Some(p.peel_sets[current]);
+                                self.draw_transparent(ctx, &inputs, &p.peel, &p.peel_layout, set, |push| {
+                                    push.layer = layer
+                                });
+                                Ok(())
+                            });
+                        let push =
+                            PeelUnderPush { weight, msaa, layer, last: (layer + 1 == p.layers) as u32 };
+                        // Every layer's pass declares the opaque colour and the accumulation image,
+                        // which the pipeline binds, though only the last one reads and writes them.
+                        g.pass("oit peel under")
+                            .access(layer_color, sampled_compute)
+                            .access(layer_transmittance, sampled_compute)
+                            .access(opaque_color, sampled_compute)
+                            .access(accumulators, Access::ComputeShaderReadWrite)
+                            .access(accum, Access::ComputeShaderReadWrite)
+                            .record(move |ctx| {
+                                p.under.record(ctx, &push, size);
+                                Ok(())
+                            });
+                    }
+                    Ok(())
+                })?;
+            }
+        }
+        let readback = g.read_back(accum)?;
+        let mut result = frame.run(g)?;
+        Ok(result.take_image(readback))
+    }
+
+    /// The opaque objects into the opaque colour and depth (both kept for the passes after it).
+    fn opaque_pass<'a>(
+        &'a self,
+        g: &mut crate::graph::FrameGraph<'a>,
+        inputs: &FrameInputs<'a>,
+        color: ImageHandle,
+        depth: ImageHandle,
+        background: [f32; 4],
+    ) {
+        let inputs = *inputs;
+        g.pass("oit opaque")
+            .color(color, Load::Clear(background), Store::Store)
+            .depth(depth, Load::Clear(0.0), Store::Store)
+            .record(move |ctx| {
+                let pass = &self.samples[ctx.iteration as usize];
+                let opaque = |i: usize| !self.objects[i].transparent;
+                self.opaque.record_draws(ctx.device, ctx.cmd, inputs.world, inputs.camera, pass, opaque);
+                Ok(())
+            });
+    }
+}
+
+impl FrameTechnique for OitTechnique {
+    fn render(&mut self, inputs: &FrameInputs<'_>, frame: &mut FrameContext<'_>) -> Result<TechniqueFrame> {
+        let image = self.render_frame(frame, inputs)?;
+        Ok(TechniqueFrame {
+            image,
+            passes: self.samples.len() as u32,
+            msaa_samples: self.msaa,
+            counters: None,
+            clusters: vec![],
+        })
+    }
+
+    fn transparency(&self) -> Option<TransparencyMethod> {
+        Some(self.method)
+    }
+}
+
+/// What `oit/` expects of its pipelines' layouts: sets 0 and 1, set 3 per pipeline, the pushes above.
+pub const SHADER_INTERFACES: &[crate::gpu::layout::ShaderInterface] = &[
+    crate::gpu::layout::ShaderInterface::technique(
+        &["oit/stochastic_depth.frag", "oit/transmittance.frag"],
+        None,
+        None,
+        Some(OIT_STRUCTS[0]),
+    ),
+    crate::gpu::layout::ShaderInterface::technique(
+        &["oit/layers.frag"],
+        None,
+        Some(&LAYERS_SET),
+        Some(OIT_STRUCTS[0]),
+    ),
+    crate::gpu::layout::ShaderInterface::technique(
+        &["oit/peel.frag"],
+        None,
+        Some(&PEEL_SET),
+        Some(OIT_STRUCTS[0]),
+    ),
+    crate::gpu::layout::ShaderInterface::technique(
+        &["oit/depth_composite.comp"],
+        None,
+        Some(&DEPTH_COMPOSITE_SET),
+        Some(OIT_STRUCTS[1]),
+    ),
+    crate::gpu::layout::ShaderInterface::technique(
+        &["oit/peel_under.comp"],
+        None,
+        Some(&PEEL_UNDER_SET),
+        Some(OIT_STRUCTS[2]),
+    ),
+];

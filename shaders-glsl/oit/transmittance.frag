@@ -1,0 +1,22 @@
+#version 460
+// Depth-based stochastic transparency, the total transmittance (engine/src/techniques/oit.rs): drawn
+// in the layers pass' rendering after layers.frag, in front of the opaque depth only, with
+// multiplicative blending: the third attachment ends as the product of (1 - alpha) * tint over every
+// transparent surface in front of the opaque one — exact, and order independent because a product is.
+// The two sums get 1, which multiplicative blending leaves unchanged.
+#include "common/frame.glsl"
+#include "common/object.glsl"
+#include "oit/draw.glsl"
+
+layout(location = 0) out vec4 out_sum;
+layout(location = 1) out vec4 out_weight;
+layout(location = 2) out vec4 out_transmittance;
+
+void main() {
+    Material m = materials[pc.object];
+    float alpha = oit_alpha(m);
+    vec3 t = oit_degenerate() ? vec3(1.0) : (1.0 - alpha) * pc.tint.rgb;
+    out_sum = vec4(1.0);
+    out_weight = vec4(1.0);
+    out_transmittance = vec4(t, 1.0);
+}
