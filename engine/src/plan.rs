@@ -22,7 +22,7 @@ use std::fmt;
 use glam::Vec2;
 
 use crate::scene::{Intrinsics, Light, Scene, View};
-use crate::shadows::{ShadowKind, SPOT_CUBE_DEG};
+use crate::shadows::{casters_move, ShadowKind, SPOT_CUBE_DEG};
 
 /// Blur below which an effect is not simulated, in pixels (circle-of-confusion radius; screen-motion
 /// length). Ignoring a blur of b px moves edges by at most b px, so the error grows about linearly in
@@ -195,8 +195,7 @@ impl Plan {
             tinted_objects: transparent().filter(|o| o.material.tint != glam::Vec3::ONE).count(),
             texture_alpha_objects: transparent().filter(|o| o.material.alpha_from_texture).count(),
             // Lights do not move in the world: maps change only when an object moves there.
-            shadows_follow_motion: !shadow_lights.is_empty()
-                && scene.objects.iter().any(|o| o.transforms.iter().any(|&(_, m)| m != o.transforms[0].1)),
+            shadows_follow_motion: !shadow_lights.is_empty() && casters_move(scene),
             shadow_lights,
             shadow_kind,
         }
@@ -209,8 +208,8 @@ impl Plan {
 
     /// The frame technique `auto` renders, and why when it is not the obvious one: the pinhole
     /// technique when nothing needs blur; the stochastic frame when something does — unless the scene
-    /// has what the stochastic frame does not render yet (tints, texture alpha, shadow maps), when
-    /// it is `accumulation`, which renders all of them with the blur.
+    /// has what the stochastic frame does not render yet (tints, texture alpha, shadow maps of moving
+    /// casters), when it is `accumulation`, which renders all of them with the blur.
     pub fn auto_frame(&self) -> (AutoFrame, Option<String>) {
         if !self.needs_stochastic() {
             return (AutoFrame::Pinhole, None);
@@ -222,8 +221,8 @@ impl Plan {
         if self.texture_alpha_objects > 0 {
             missing.push("texture alpha");
         }
-        if !self.shadow_lights.is_empty() {
-            missing.push("shadow maps");
+        if self.shadows_follow_motion {
+            missing.push("shadow maps of moving casters");
         }
         if missing.is_empty() {
             (AutoFrame::Stochastic, None)
@@ -430,14 +429,19 @@ mod tests {
         let p = Plan::new(&s, 64, 36);
         let (frame, why) = p.auto_frame();
         assert_eq!(frame, AutoFrame::Accumulation);
-        assert!(why.unwrap().contains("shadow maps"));
+        assert!(why.unwrap().contains("shadow maps of moving casters"));
         assert_eq!(p.shadow_lights, vec![(s.lights.len() - 1, "point: a cube of six maps")]);
         assert_eq!(p.shadow_kind, Some(ShadowKind::Plain));
         assert!(p.shadows_follow_motion, "the default scene's sphere moves");
         assert!(p.to_string().contains("shadows: light["), "{p}");
         let foliage = plan_of("foliage");
         assert_eq!(foliage.auto_frame().0, AutoFrame::Accumulation);
-        assert!(foliage.auto_frame().1.unwrap().contains("texture alpha or shadow maps"));
+        assert_eq!(foliage.auto_frame().1.unwrap(), "the stochastic frame renders no texture alpha yet");
+        // Shadows of still casters are rendered by the stochastic frame.
+        let mut still = builtin_scene("focus-sweep").unwrap().unwrap();
+        still.lights[0] = Light::Directional { direction: -Vec3::Y, color: Vec3::ONE, shadows: true };
+        let p = Plan::new(&still, 64, 36);
+        assert_eq!((p.auto_frame().0, p.shadows_follow_motion), (AutoFrame::Stochastic, false));
         assert_eq!(
             (foliage.shadow_kind, foliage.shadows_follow_motion),
             (Some(ShadowKind::Stochastic), false)

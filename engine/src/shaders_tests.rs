@@ -5,7 +5,7 @@
 
 use std::collections::{BTreeMap, BTreeSet};
 
-use crate::shaders::axes::{Effects, Hull, Shading};
+use crate::shaders::axes::{Effects, Hull, Shading, Shadows};
 use crate::shaders::{self, ExpandComp, ShadeComp, ShaderSource, StochasticFrag, StochasticGeom};
 
 const DECLARATION: &str = include_str!("../../shaders-glsl/permutations.toml");
@@ -126,16 +126,22 @@ fn shade_comp_key_selects_the_declared_defines() {
     for shading in Shading::ALL {
         for instrumented in [false, true] {
             for effects in Effects::ALL {
-                let key = ShadeComp { shading, instrumented, effects };
-                let pairs = [
-                    ("shading", shading.name()),
-                    ("instrumented", bool_name(instrumented)),
-                    ("effects", effects.name()),
-                ];
-                check(&d, key.source(), "stochastic/shade.comp", &pairs);
-                assert!(same(ShadeComp::SOURCES[n], key.source()));
-                assert_eq!(ShadeComp::ALL[n], key);
-                n += 1;
+                for shadows in Shadows::ALL {
+                    for shadow_color in [false, true] {
+                        let key = ShadeComp { shading, instrumented, effects, shadows, shadow_color };
+                        let pairs = [
+                            ("shading", shading.name()),
+                            ("instrumented", bool_name(instrumented)),
+                            ("effects", effects.name()),
+                            ("shadows", shadows.name()),
+                            ("shadow_color", bool_name(shadow_color)),
+                        ];
+                        check(&d, key.source(), "stochastic/shade.comp", &pairs);
+                        assert!(same(ShadeComp::SOURCES[n], key.source()));
+                        assert_eq!(ShadeComp::ALL[n], key);
+                        n += 1;
+                    }
+                }
             }
         }
     }
@@ -222,7 +228,7 @@ fn each_file_has_the_product_of_its_axes() {
         }
     }
     assert_eq!(d.count("stochastic/stochastic.frag"), 24);
-    assert_eq!(d.count("stochastic/shade.comp"), 16);
+    assert_eq!(d.count("stochastic/shade.comp"), 96); // 2 shading × 2 instrumented × 4 effects × 3 shadows × 2 colour
     assert_eq!(d.count("stochastic/stochastic.geom"), 8);
     assert_eq!(d.count("stochastic/expand.comp"), 4);
     assert_eq!(d.count("stochastic/clusters.comp"), 4);
@@ -340,7 +346,13 @@ fn the_former_hand_written_permutations_keep_their_names_and_defines() {
     // Spot checks of the key structs against the old constants.
     let key = StochasticFrag { hull: Hull::Compute, instrumented: true, effects: Effects::Motion };
     assert!(same(key.source(), STOCHASTIC_STOCHASTIC_FRAG_COMPUTE_HULL_INSTRUMENTED_MOTION));
-    let key = ShadeComp { shading: Shading::PerSample, instrumented: true, effects: Effects::Motion };
+    let key = ShadeComp {
+        shading: Shading::PerSample,
+        instrumented: true,
+        effects: Effects::Motion,
+        shadows: Shadows::None,
+        shadow_color: false,
+    };
     assert!(same(key.source(), STOCHASTIC_SHADE_COMP_PER_SAMPLE_INSTRUMENTED_MOTION));
     let key = StochasticGeom { bound_debug: true, effects: Effects::Both };
     assert!(same(key.source(), STOCHASTIC_STOCHASTIC_GEOM_BOUND_DEBUG));

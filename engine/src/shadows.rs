@@ -340,6 +340,13 @@ fn cube_views(scene: &Scene, name: &str, position: Vec3, size: u32) -> Option<(V
     Some((lookup, faces))
 }
 
+/// Whether anything in `scene` moves in the world over the shutter (lights do not): then shadow maps
+/// change with time — rendered per pass on the forward path; the stochastic frame, whose samples each
+/// have their own time, has no maps for that yet.
+pub fn casters_move(scene: &Scene) -> bool {
+    scene.objects.iter().any(|o| o.transforms.iter().any(|&(_, m)| m != o.transforms[0].1))
+}
+
 /// What the lookup needs of one face's projection (`ShadowView` in `common/shadow.glsl`).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FaceProjection {

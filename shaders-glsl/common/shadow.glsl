@@ -13,6 +13,10 @@
 #define SHUTTER_SHADOW_GLSL
 #include "common/frame.glsl"
 
+// The forward pipelines bind the shadow maps as set 3 (their technique set; sets 2 is empty); a
+// stage whose sets 2 and 3 are its technique's defines SHADOW_SET 4 first (gpu/layout.rs
+// SHADOW_SET_INDEX). Lavapipe (Mesa 22.3) crashes building a pipeline whose layout has two empty
+// sets in a row, so the forward pipelines do not use set 4.
 #ifndef SHADOW_SET
 #define SHADOW_SET 3
 #endif

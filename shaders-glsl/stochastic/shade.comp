@@ -12,6 +12,11 @@
 //   PER_SAMPLE: every hit shaded.
 //   INSTRUMENTED: counts shading evaluations.
 //   NO_MOTION / NO_DEFOCUS: as in stochastic.frag.
+//   SHADOWS (SHADOW_MSAA, SHADOW_COLOR): lights attenuated by their shadow maps at the sample's
+//               surface point (common/shadow.glsl), bound as set 4 — sets 2 and 3 are this
+//               technique's. The maps are rendered once per frame: the stochastic frame takes them
+//               only when nothing moves in the world (shadows::casters_move).
+#define SHADOW_SET 4
 #include "common/object.glsl"
 #include "common/shading.glsl"
 #include "stochastic/inside.glsl"
@@ -115,6 +120,21 @@ vec3 shade_hit(uint prim, SampleHit h) {
     else n = -h.rd;
     if (dot(geometric, h.rd) > 0.0) n = -n;
     vec3 position = w.x * h.a + w.y * h.b + w.z * h.c;
+#ifdef SHADOWS
+    // The same surface point in object space, for the shadow lookup in the light's own space.
+    vec3 object_position = vec3(0.0), object_normal = vec3(0.0);
+    for (int k = 0; k < 3; k++) {
+        object_position += w[k] * vec3(tv[k].position[0], tv[k].position[1], tv[k].position[2]);
+        object_normal += w[k] * vec3(tv[k].normal[0], tv[k].normal[1], tv[k].normal[2]);
+    }
+    if (dot(object_normal, object_normal) == 0.0) {
+        vec3 a = vec3(tv[0].position[0], tv[0].position[1], tv[0].position[2]);
+        vec3 b = vec3(tv[1].position[0], tv[1].position[1], tv[1].position[2]);
+        vec3 c = vec3(tv[2].position[0], tv[2].position[1], tv[2].position[2]);
+        object_normal = cross(b - a, c - a);
+    }
+    shadow_receiver = ShadowReceiver(object_position, object_normal, h.seg, h.s);
+#endif
     vec3 albedo = object_material.albedo_specular.rgb;
     if (object_material.params.y > 0.5) {
         vec2 uv = w.x * vec2(tv[0].uv[0], tv[0].uv[1]) + w.y * vec2(tv[1].uv[0], tv[1].uv[1])

@@ -7,7 +7,10 @@
 //!   as the map's resolution grows and is small at the largest; no acne (a lit surface stays lit);
 //! * stochastic maps (an alpha caster) and coloured stochastic maps (a tinted one): unbiased (the
 //!   mean over the shadow matches the reference's per channel) and the noise falls as S grows;
-//! * a moving caster: the maps follow each pass' shutter time.
+//! * a moving caster: the maps follow each pass' shutter time;
+//! * the stochastic rasterizer with depth of field: its shading pass reads the same maps (still
+//!   casters), against the reference with its samples; moving casters it refuses, and `auto` takes
+//!   accumulation for them.
 
 use std::sync::Arc;
 
@@ -18,8 +21,9 @@ use shutter::scene::builtin::builtin_mesh;
 use shutter::scene::{Environment, ImageSettings, Light, Material, Mesh, Object, Scene};
 use shutter::shadows::ShadowSettings;
 use shutter::techniques::accumulation::accumulation_samples;
+use shutter::techniques::ShadingRate;
 use shutter::techniques::{RenderSettings, Renderer, Technique};
-use shutter_tests::{camera, renderer, save_comparison, square};
+use shutter_tests::{camera, renderer, same_sample_reference, save_comparison, square};
 
 const W: u32 = 64;
 const H: u32 = 48;
@@ -223,4 +227,40 @@ fn shadow_maps_follow_a_moving_caster() {
     let (e, _) = errors(&got, &want);
     save_comparison("shadows-moving", &want, &got);
     assert!(e < 4e-3, "moving caster: mean |error| {e}");
+}
+
+/// The stochastic rasterizer with depth of field (aperture 0.08, focused on the box): its shading pass
+/// looks the maps up at each sample's surface point; against the reference with its very samples the
+/// error falls with the map's resolution as `accumulation`'s does. With a moving caster it refuses
+/// (maps at one time), and `auto` renders that scene with `accumulation`.
+#[test]
+fn the_stochastic_rasterizer_reads_the_maps_of_still_casters() {
+    let mut r = renderer();
+    for (name, light) in [("directional", directional()), ("point", point())] {
+        let mut s = scene(light, still_box());
+        s.camera.aperture_radius = 0.08;
+        s.camera.focus_distance = 4.5;
+        let mut errs = vec![];
+        for size in [64u32, 512] {
+            let mut settings = RenderSettings::new(W, H, 4, SEED);
+            settings.shadows = ShadowSettings { size, ..ShadowSettings::default() };
+            let out = r.render(&s, Technique::STOCHASTIC, &settings).expect("stochastic with shadows");
+            let want = same_sample_reference(&s, (W, H), 4, SEED, ShadingRate::PerPixel, &out);
+            let (e, _) = errors(&out.image, &want);
+            errs.push(e);
+            if size == 512 {
+                save_comparison(&format!("shadows-stochastic-{name}"), &want, &out.image);
+            }
+        }
+        println!("stochastic {name}: mean |error| at 64, 512 texels: {errs:?}");
+        assert!(errs[1] < 0.5 * errs[0] && errs[1] < 4e-3, "{name}: {errs:?}");
+    }
+    let at = |x: f32| Mat4::from_translation(Vec3::new(x, 0.8, 0.0)) * Mat4::from_scale(Vec3::splat(0.5));
+    let mut moving = scene(directional(), a_box(vec![(0.0, at(-0.8)), (1.0, at(0.8))]));
+    moving.camera.aperture_radius = 0.08;
+    let settings = RenderSettings::new(W, H, 4, SEED);
+    let err = r.render(&moving, Technique::STOCHASTIC, &settings).expect_err("moving casters").to_string();
+    assert!(err.contains("moving") && err.contains("accumulation"), "{err}");
+    let out = r.render(&moving, Technique::AUTO, &settings).expect("auto takes accumulation");
+    assert_eq!((out.stats.passes, out.stats.msaa_samples), (4, 1));
 }

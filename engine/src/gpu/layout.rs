@@ -32,6 +32,10 @@ pub const FRAME_SET_INDEX: u32 = 0;
 pub const OBJECT_SET_INDEX: u32 = 1;
 pub const TECHNIQUE_OBJECT_SET_INDEX: u32 = 2;
 pub const TECHNIQUE_SET_INDEX: u32 = 3;
+/// The shadow maps a shading stage reads ([`crate::techniques::shadow_maps::SHADOW_SET`]) when its
+/// technique's own sets 2 and 3 are taken (the stochastic shading pass); the forward pipelines, whose
+/// set 3 is free, bind them there (`common/shadow.glsl`).
+pub const SHADOW_SET_INDEX: u32 = 4;
 
 const fn binding(binding: u32, ty: vk::DescriptorType, block: &'static str) -> Binding {
     Binding { binding, ty, block }
@@ -299,7 +303,7 @@ pub struct ShaderInterface {
     /// Stage files under `shaders-glsl/` (all their permutations).
     pub files: &'static [&'static str],
     /// The binding table of each set, by set number; `None`: no bindings in that set.
-    pub sets: [Option<&'static [Binding]>; 4],
+    pub sets: [Option<&'static [Binding]>; 5],
     /// The push-constant block; `None`: none.
     pub push: Option<SharedStruct>,
 }
@@ -315,8 +319,14 @@ impl ShaderInterface {
     ) -> Self {
         ShaderInterface {
             files,
-            sets: [Some(&FRAME_SET), Some(&OBJECT_SET), technique_object_set, technique_set],
+            sets: [Some(&FRAME_SET), Some(&OBJECT_SET), technique_object_set, technique_set, None],
             push,
         }
+    }
+
+    /// The same whose shading reads shadow maps in set [`SHADOW_SET_INDEX`] (`shadow` its table).
+    pub const fn with_shadows(self, shadow: &'static [Binding]) -> Self {
+        let [frame, object, technique_object, technique, _] = self.sets;
+        ShaderInterface { sets: [frame, object, technique_object, technique, Some(shadow)], ..self }
     }
 }

@@ -216,7 +216,10 @@ fn compiled_shaders_match_the_rust_layouts() {
                 }
             };
             let Some(table) = interface.sets.get(set as usize) else {
-                m.shader(source, format!("{at}: no set {set} (sets: 0 frame, 1 object, 2 and 3 technique)"));
+                m.shader(
+                    source,
+                    format!("{at}: no set {set} (sets: 0 frame, 1 object, 2 and 3 technique, 4 shadow maps)"),
+                );
                 continue;
             };
             let Some(entry) = table.unwrap_or(&[]).iter().find(|b| b.binding == binding) else {

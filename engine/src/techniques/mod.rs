@@ -619,10 +619,10 @@ pub fn check_opaque(scene: &Scene, who: &str) -> Result<()> {
 
 /// Techniques that render shadow maps.
 pub const SHADOW_TECHNIQUES: &str =
-    "pinhole and accumulation (with --transparency stochastic), and auto (taking accumulation for blur)";
+    "pinhole and accumulation (with --transparency stochastic), stochastic (still casters) and auto";
 
-/// No light casts shadows: for the techniques without shadow maps (`stochastic`, `auto`'s
-/// stochastic path), which say who they are in `who`.
+/// No light casts shadows: for the paths without shadow maps (the depth-based and peeling
+/// transparency methods), which say who they are in `who`.
 pub fn check_unshadowed(scene: &Scene, who: &str) -> Result<()> {
     if let Some(i) = scene.lights.iter().position(|l| l.shadows()) {
         return Err(Error::Unsupported(format!(

@@ -1,7 +1,8 @@
 //! Shadow maps on the GPU (docs/SHADOWS.md; the plan and the lookup math: [`crate::shadows`]): every
 //! shadow-casting light's faces rendered through the frame graph into one depth atlas — a light is a
 //! second view ([`GpuView`]), drawn by the forward vertex stage — and, for tinted casters, a hue atlas;
-//! and the descriptor set (set 3 of the forward pipelines) with which a receiving fragment stage reads
+//! and the descriptor set (set 3 of a receiving forward pipeline, set 4 of the stochastic shading
+//! pass: `gpu::layout::SHADOW_SET_INDEX`) with which a receiving fragment stage reads
 //! them (`shaders-glsl/common/shadow.glsl`).
 //!
 //! Per frame (or per pass when anything moves: the maps follow each pass' shutter time):
@@ -45,7 +46,8 @@ pub const SHADOW_HUE_FORMAT: vk::Format = vk::Format::R32G32B32A32_SFLOAT;
 const SAMPLER: vk::DescriptorType = vk::DescriptorType::COMBINED_IMAGE_SAMPLER;
 const SSBO: vk::DescriptorType = vk::DescriptorType::STORAGE_BUFFER;
 
-/// Set 3 of a receiving forward pipeline (`common/shadow.glsl`).
+/// The receivers' set (`common/shadow.glsl`): set 3 of a forward pipeline, set 4 of the stochastic
+/// shading pass.
 pub const SHADOW_SET: [Binding; 4] = [
     Binding { binding: 0, ty: SAMPLER, block: "shadow_depth" },
     Binding { binding: 1, ty: SAMPLER, block: "shadow_color" },
@@ -181,7 +183,7 @@ impl ShadowMaps {
             device,
             "shadow set layout",
             &SHADOW_SET,
-            vk::ShaderStageFlags::FRAGMENT,
+            vk::ShaderStageFlags::FRAGMENT | vk::ShaderStageFlags::COMPUTE,
         )?;
         let pool = DescriptorPool::for_tables(device, 1, &[(&SHADOW_SET, 1)])?;
         let set = pool.allocate(&set_layout)?;
@@ -295,7 +297,7 @@ impl ShadowMaps {
         !self.pass_times.is_empty()
     }
 
-    /// The receivers' set 3 and its layout.
+    /// The receivers' set and its layout.
     pub fn set(&self) -> vk::DescriptorSet {
         self.set
     }
@@ -320,8 +322,13 @@ impl ShadowMaps {
 
     /// What a receiving raster pass reads.
     pub fn reads(h: ShadowHandles) -> Vec<(ResourceHandle, Access)> {
-        let read = Access::FragmentShaderReadSampledImageOrUniformTexelBuffer;
-        std::iter::once(h.depth).chain(h.hue).map(|i| (i.into(), read)).collect()
+        Self::reads_as(h, Access::FragmentShaderReadSampledImageOrUniformTexelBuffer)
+    }
+
+    /// What a receiving pass reads, by `access` (a compute shading pass:
+    /// `ComputeShaderReadSampledImageOrUniformTexelBuffer`).
+    pub fn reads_as(h: ShadowHandles, access: Access) -> Vec<(ResourceHandle, Access)> {
+        std::iter::once(h.depth).chain(h.hue).map(|i| (i.into(), access)).collect()
     }
 
     /// Adds the passes that render the maps: once (`per_pass` false: at mid-shutter) or, inside a

@@ -27,6 +27,7 @@ use gpu_allocator::MemoryLocation;
 
 use super::compute_hull::{ComputeHull, HullExpansion, INITIAL_VERTICES_PER_TRIANGLE};
 use super::multipass::accumulation_image;
+use super::shadow_maps::ShadowMaps;
 use super::{FrameContext, FrameInputs, FrameTechnique, PrepareContext, TechniqueFrame, TechniqueInfo};
 use crate::bounds::BoundKind;
 use crate::error::{Error, Result};
@@ -829,6 +830,9 @@ pub struct StochasticDraws {
     _pool: DescriptorPool,
     _set_layouts: [DescriptorSetLayout; 2],
     _shaders: Vec<ShaderModule>,
+    /// The shadow-casting lights' maps (static casters only: rendered once per frame), read by the
+    /// shading pass as set 4. Last, so dropped after the pipelines whose layouts name its set layout.
+    shadows: Option<ShadowMaps>,
 }
 
 impl StochasticDraws {
@@ -992,12 +996,45 @@ impl StochasticDraws {
         )?;
         let triangles_pipeline =
             Pipeline::compute(device, "camera-space triangles", &triangles_layout, &comp)?;
-        let shade_layout = world.pipeline_layout(
-            device,
-            &sets,
-            std::mem::size_of::<StochasticPush>() as u32,
-            vk::ShaderStageFlags::COMPUTE,
-        )?;
+        // Shadow maps: of still casters only (every sample has its own time; maps at one time are
+        // exact only when nothing moves), read by the shading pass as set 4.
+        let shadows = if ctx.scene.lights.iter().any(|l| l.shadows()) && ctx.settings.shadows.enabled {
+            if crate::shadows::casters_move(ctx.scene) {
+                return Err(Error::Unsupported(
+                    "shadow-casting lights with moving objects: the stochastic rasterizer renders shadow \
+                     maps once per frame, exact only when nothing moves (every sample has its own time); \
+                     accumulation renders them per pass (auto takes it for such scenes)"
+                        .into(),
+                ));
+            }
+            if caps.max_bound_descriptor_sets <= crate::gpu::layout::SHADOW_SET_INDEX {
+                return Err(Error::Unsupported(format!(
+                    "shadow maps in the stochastic shading pass are descriptor set {}; this device binds {} \
+                     sets (maxBoundDescriptorSets)",
+                    crate::gpu::layout::SHADOW_SET_INDEX,
+                    caps.max_bound_descriptor_sets
+                )));
+            }
+            ShadowMaps::new(device, world, ctx.scene, &ctx.settings.shadows, &[], seed)?
+        } else {
+            None
+        };
+        let shade_layout = match &shadows {
+            Some(maps) => world.pipeline_layout(
+                device,
+                &[&object_set_layout, &technique_set_layout, maps.set_layout()],
+                std::mem::size_of::<StochasticPush>() as u32,
+                vk::ShaderStageFlags::COMPUTE,
+            )?,
+            None => world.pipeline_layout(
+                device,
+                &sets,
+                std::mem::size_of::<StochasticPush>() as u32,
+                vk::ShaderStageFlags::COMPUTE,
+            )?,
+        };
+        let (shadow_axis, shadow_color) =
+            shadows.as_ref().map_or((axes::Shadows::None, false), |m| m.lookup());
         // The geometry stage is named only where the device has one.
         let mut push_stages = vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT;
         if caps.geometry_shader {
@@ -1062,6 +1099,8 @@ impl StochasticDraws {
                 shading: options.shading.axis(),
                 instrumented: options.instrumented,
                 effects: effects.shader_axis(),
+                shadows: shadow_axis,
+                shadow_color,
             };
             let shade = ShaderModule::new(device, shade.source())?;
             let name = format!("stochastic shading ({}, {})", effects.name(), options.shading.name());
@@ -1256,6 +1295,7 @@ impl StochasticDraws {
             _pool: pool,
             _set_layouts: [object_set_layout, technique_set_layout],
             _shaders: shader_modules,
+            shadows,
         })
     }
 
@@ -1578,6 +1618,12 @@ impl StochasticDraws {
             coverage_uses.push((h.into(), Access::GeometryShaderWrite));
             host_reads.push(h);
         }
+        if let Some(maps) = &self.shadows {
+            let h = maps.import(&mut g);
+            maps.add_passes(&mut g, h, inputs, false);
+            let read = Access::ComputeShaderReadSampledImageOrUniformTexelBuffer;
+            shading_uses.extend(ShadowMaps::reads_as(h, read));
+        }
         let visibility = g.import_buffer("stochastic visibility", &self.visibility);
         let accum = g.import_image("stochastic accumulation", &self.accum);
 
@@ -1788,6 +1834,10 @@ impl StochasticDraws {
                 &[self.technique_set],
                 &[],
             );
+            if let Some(maps) = &self.shadows {
+                let index = crate::gpu::layout::SHADOW_SET_INDEX;
+                d.raw.cmd_bind_descriptor_sets(cmd, bind, layout, index, &[maps.set()], &[]);
+            }
         }
         let mut first = true;
         let full = [0, 0, w, h];
@@ -1872,7 +1922,6 @@ impl StochasticTechnique {
         plan: &Plan,
         object_effects: &[Effects],
     ) -> Result<Self> {
-        super::check_unshadowed(ctx.scene, "the stochastic rasterizer (`stochastic`, `auto` with blur)")?;
         Ok(StochasticTechnique { draws: StochasticDraws::new(ctx, options, debug, plan, object_effects)? })
     }
 
@@ -1914,12 +1963,19 @@ pub const SHADER_INTERFACES: &[crate::gpu::layout::ShaderInterface] = &[
             "stochastic/hull.vert",
             "stochastic/cluster.vert",
             "stochastic/stochastic.frag",
-            "stochastic/shade.comp",
         ],
         Some(&STOCHASTIC_OBJECT_SET),
         Some(&STOCHASTIC_SET),
         Some(STOCHASTIC_STRUCTS[0]),
     ),
+    // The shading pass: the same sets, and the shadow maps as set 4.
+    crate::gpu::layout::ShaderInterface::technique(
+        &["stochastic/shade.comp"],
+        Some(&STOCHASTIC_OBJECT_SET),
+        Some(&STOCHASTIC_SET),
+        Some(STOCHASTIC_STRUCTS[0]),
+    )
+    .with_shadows(&super::shadow_maps::SHADOW_SET),
     crate::gpu::layout::ShaderInterface::technique(
         &["stochastic/triangles.comp"],
         Some(&STOCHASTIC_OBJECT_SET),

@@ -72,6 +72,8 @@ pub struct Capabilities {
     /// MSAA samples sit at the standard sample locations of the Vulkan spec.
     pub standard_sample_locations: bool,
     pub max_image_dimension_2d: u32,
+    /// `maxBoundDescriptorSets` (shadow maps use set 4).
+    pub max_bound_descriptor_sets: u32,
     /// Timestamps usable on the graphics queue.
     pub timestamps: bool,
     /// Nanoseconds per timestamp tick.
@@ -443,6 +445,7 @@ impl DeviceShared {
             max_storage_buffer_range: limits.max_storage_buffer_range,
             standard_sample_locations: limits.standard_sample_locations == vk::TRUE,
             max_image_dimension_2d: limits.max_image_dimension2_d,
+            max_bound_descriptor_sets: limits.max_bound_descriptor_sets,
             timestamps: limits.timestamp_compute_and_graphics == vk::TRUE
                 && families[queue_family as usize].timestamp_valid_bits > 0,
             timestamp_period_ns: limits.timestamp_period,
