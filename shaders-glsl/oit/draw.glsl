@@ -26,6 +26,10 @@ layout(push_constant) uniform Push {
 layout(location = 0) in vec3 v_position;
 layout(location = 1) in vec3 v_normal;
 layout(location = 2) in vec2 v_uv;
+#ifdef SHADOWS
+layout(location = 3) in vec3 v_object_position;
+layout(location = 4) in vec3 v_object_normal;
+#endif
 
 // Coverage alpha (x the texture's alpha when the material takes it from there), as transparent.frag.
 float oit_alpha(Material m) {
@@ -51,6 +55,9 @@ vec3 oit_shade(Material m) {
     vec3 to_eye = normalize(lens_point - v_position);
     vec3 albedo = m.albedo_specular.rgb;
     if (m.params.y > 0.5) albedo *= texture(albedo_texture, v_uv).rgb;
+#ifdef SHADOWS
+    shadow_receiver = ShadowReceiver(v_object_position, v_object_normal, pc.segment, pc.segment_time);
+#endif
     return shade(v_position, n, to_eye, albedo, m.albedo_specular.w, m.params.x, pc.time);
 }
 #endif

@@ -8,6 +8,8 @@
 // once per fragment. Tinted scenes have one stochastic depth map per channel, so vis is per channel.
 // The third attachment (the total transmittance, multiplied by transmittance.frag in the same
 // rendering) gets 0, which additive blending leaves unchanged.
+// SHADOWS: the shadow maps as set 4 (set 3 is this pipeline's own).
+#define SHADOW_SET 4
 #include "common/object.glsl"
 #include "common/shading.glsl"
 #include "oit/draw.glsl"

@@ -8,6 +8,8 @@
 // The depth written is gl_FragCoord.z, the value the next layer compares with, so the surface peeled
 // here is behind nothing and in front of nothing in the next layer: it is excluded exactly, without a
 // bias. Surfaces that do nothing (alpha 0, white tint) take no layer.
+// SHADOWS: the shadow maps as set 4 (set 3 is this pipeline's own).
+#define SHADOW_SET 4
 #include "common/object.glsl"
 #include "common/shading.glsl"
 #include "oit/draw.glsl"

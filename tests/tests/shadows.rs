@@ -23,6 +23,7 @@ use shutter::shadows::ShadowSettings;
 use shutter::techniques::accumulation::accumulation_samples;
 use shutter::techniques::ShadingRate;
 use shutter::techniques::{RenderSettings, Renderer, Technique};
+use shutter::transparency::TransparencyMethod;
 use shutter_tests::{camera, renderer, same_sample_reference, save_comparison, square};
 
 const W: u32 = 64;
@@ -263,4 +264,46 @@ fn the_stochastic_rasterizer_reads_the_maps_of_still_casters() {
     assert!(err.contains("moving") && err.contains("accumulation"), "{err}");
     let out = r.render(&moving, Technique::AUTO, &settings).expect("auto takes accumulation");
     assert_eq!((out.stats.passes, out.stats.msaa_samples), (4, 1));
+}
+
+/// Depth-based stochastic transparency and depth peeling read the same maps (their opaque pass and
+/// their shading draws). They estimate the transparency differently from the reference's samples, so
+/// what is compared is the shadows' effect: each method's image with the maps minus the same without
+/// them, against the reference's with its shadow rays minus without, on a tinted alpha pane over the
+/// ground; the mismatch is a small fraction of the effect.
+#[test]
+fn depth_based_and_peeling_read_the_shadow_maps() {
+    let mut r = renderer();
+    for light in [directional(), point()] {
+        let s = scene(light, pane(0.35, Vec3::new(1.0, 0.6, 0.4)));
+        let mut unshadowed = s.clone();
+        unshadowed.lights = unshadowed.lights.iter().map(|l| without_shadows(*l)).collect();
+        let (want_on, want_off) = (reference(&s, 4), reference(&unshadowed, 4));
+        let effect = |on: &LinearImage, off: &LinearImage| -> Vec<[f32; 3]> {
+            on.pixels.iter().zip(&off.pixels).map(|(a, b)| [a[0] - b[0], a[1] - b[1], a[2] - b[2]]).collect()
+        };
+        let want = effect(&want_on, &want_off);
+        let size: f64 = want.iter().flat_map(|p| p.iter()).map(|v| v.abs() as f64).sum();
+        for method in [
+            TransparencyMethod::Stochastic,
+            TransparencyMethod::DepthBased { alpha_correction: true },
+            TransparencyMethod::Peeling { layers: 4 },
+        ] {
+            let mut settings = RenderSettings::new(W, H, 4, SEED);
+            settings.transparency = method;
+            settings.shadows = ShadowSettings { size: 512, samples: 16, ..ShadowSettings::default() };
+            let on = r.render(&s, Technique::ACCUMULATION, &settings).expect("render");
+            assert!(on.stats.shadows.is_some(), "{method}");
+            settings.shadows.enabled = false;
+            let off = r.render(&s, Technique::ACCUMULATION, &settings).expect("render").image;
+            let got = effect(&on.image, &off);
+            let mismatch: f64 = got
+                .iter()
+                .zip(&want)
+                .flat_map(|(g, w)| (0..3).map(move |c| (g[c] - w[c]).abs() as f64))
+                .sum();
+            println!("{method}: shadow effect mismatch {:.4} of its size", mismatch / size);
+            assert!(mismatch < 0.2 * size, "{method}: mismatch {mismatch} of an effect of {size}");
+        }
+    }
 }

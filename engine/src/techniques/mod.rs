@@ -523,16 +523,7 @@ pub fn shader_interfaces() -> impl Iterator<Item = &'static crate::gpu::layout::
 
 /// Techniques that render coverage below 1 and tints (stochastic transparency, `--transparency`);
 /// `stochastic` and `auto` with blur render constant coverage only ([`check_untinted`]).
-pub const TRANSPARENCY_TECHNIQUES: &str = "pinhole, accumulation, and auto when nothing needs blur";
-
-/// What a GPU technique does not render yet (issue 12): coverage below 1, coloured transmission and
-/// coverage from a texture's alpha anywhere but on the forward path (`pinhole`, `accumulation`,
-/// `auto` without blur), and shadow-casting lights anywhere. The CPU reference renders all of them
-/// (`reference` module docs).
-pub fn check_opaque_and_unshadowed(scene: &Scene) -> Result<()> {
-    check_opaque(scene, "this technique")?;
-    check_unshadowed(scene, "this technique")
-}
+pub const TRANSPARENCY_TECHNIQUES: &str = "pinhole, accumulation and auto";
 
 /// Refuses coverage below 1 for `technique` unless it renders it: `pinhole` and `accumulation` do;
 /// `stochastic` renders constant coverage but no tint or texture alpha yet ([`check_untinted`]);
@@ -617,38 +608,23 @@ pub fn check_opaque(scene: &Scene, who: &str) -> Result<()> {
     Ok(())
 }
 
-/// Techniques that render shadow maps.
-pub const SHADOW_TECHNIQUES: &str =
-    "pinhole and accumulation (with --transparency stochastic), stochastic (still casters) and auto";
-
-/// No light casts shadows: for the paths without shadow maps (the depth-based and peeling
-/// transparency methods), which say who they are in `who`.
-pub fn check_unshadowed(scene: &Scene, who: &str) -> Result<()> {
-    if let Some(i) = scene.lights.iter().position(|l| l.shadows()) {
-        return Err(Error::Unsupported(format!(
-            "light[{i}] casts shadows (shadows = true): {who} has no shadow maps yet; shadow maps render \
-             them in {SHADOW_TECHNIQUES} (the CPU reference renders them with shadow rays)"
-        )));
-    }
-    Ok(())
-}
-
 #[cfg(test)]
 mod opaque_check_tests {
     use glam::Vec3;
 
-    use super::check_opaque_and_unshadowed;
+    use super::check_opaque;
     use crate::scene::builtin::builtin_scene;
     use crate::scene::Light;
 
     #[test]
-    fn transparency_and_shadows_are_refused_with_the_reason() {
+    fn transparency_is_refused_with_the_reason() {
         let base = builtin_scene("static").expect("built-in").expect("parses");
-        assert!(check_opaque_and_unshadowed(&base).is_ok());
+        let check = |s: &crate::scene::Scene| check_opaque(s, "this technique");
+        assert!(check(&base).is_ok());
         let refused = |edit: &dyn Fn(&mut crate::scene::Scene)| {
             let mut s = base.clone();
             edit(&mut s);
-            check_opaque_and_unshadowed(&s).map(|_| ()).unwrap_err().to_string()
+            check(&s).map(|_| ()).unwrap_err().to_string()
         };
         let e = refused(&|s| s.objects[0].material.alpha = 0.5);
         assert!(e.contains("alpha 0.5"), "{e}");
@@ -659,11 +635,8 @@ mod opaque_check_tests {
         assert!(e.contains("tint"), "{e}");
         let e = refused(&|s| s.objects[0].material.alpha_from_texture = true);
         assert!(e.contains("alpha_from_texture"), "{e}");
-        let e = refused(&|s| {
-            s.lights.push(Light::Point { position: Vec3::Y, color: Vec3::ONE, shadows: true });
-        });
-        assert!(e.contains("shadows") && e.contains("shadow maps") && e.contains("CPU reference"), "{e}");
-        // An opaque tinted surface (tint irrelevant) and a spot light without shadows are fine.
+        assert!(e.contains("pinhole, accumulation and auto") && e.contains("CPU reference"), "{e}");
+        // An opaque tinted surface (tint irrelevant) and lights, with shadows or not, are fine.
         let mut ok = base.clone();
         ok.objects[0].material.tint = Vec3::new(0.5, 0.5, 1.0);
         ok.lights.push(Light::Spot {
@@ -672,8 +645,8 @@ mod opaque_check_tests {
             inner_deg: 10.0,
             outer_deg: 20.0,
             color: Vec3::ONE,
-            shadows: false,
+            shadows: true,
         });
-        assert!(check_opaque_and_unshadowed(&ok).is_ok());
+        assert!(check(&ok).is_ok());
     }
 }

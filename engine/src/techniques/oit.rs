@@ -61,13 +61,16 @@ use bytemuck::{Pod, Zeroable};
 
 use super::forward::{has_transparency, ForwardPipeline, ForwardPush, ForwardTechnique, PassSample};
 use super::multipass::{accumulation_image, COLOR_FORMAT, DEPTH_FORMAT};
-use super::{check_unshadowed, FrameContext, FrameInputs, FrameTechnique, PrepareContext, TechniqueFrame};
+use super::shadow_maps::ShadowMaps;
+use super::{FrameContext, FrameInputs, FrameTechnique, PrepareContext, TechniqueFrame};
 use crate::error::{Error, Result};
 use crate::gpu::layout::{shared_struct, vertex_input, Binding, SharedStruct, TECHNIQUE_SET_INDEX};
 use crate::gpu::{GpuView, GpuWorld};
+use crate::graph::ResourceHandle;
 use crate::graph::{Access, ImageHandle, Load, PassContext, Store, Tracked};
 use crate::image::LinearImage;
 use crate::shaders;
+use crate::shaders::axes::Shadows;
 use crate::transparency::{coverage_seed, TransparencyMethod, MAX_PEELING_LAYERS};
 use crate::vk::{
     write_descriptors, Buffer, ColorBlend, DescriptorPool, DescriptorSetLayout, DescriptorWrite, Device,
@@ -378,6 +381,9 @@ pub struct OitTechnique {
     // Sets die with the pool; the pool and the sampler outlive nothing that names them.
     _pool: DescriptorPool,
     _sampler: Sampler,
+    /// The shadow-casting lights' maps; last, so dropped after the pipelines whose layouts name its
+    /// set layout.
+    shadows: Option<ShadowMaps>,
 }
 
 impl OitTechnique {
@@ -389,9 +395,6 @@ impl OitTechnique {
         samples: Vec<PassSample>,
         method: TransparencyMethod,
     ) -> Result<Self> {
-        // Shadow maps are read by the forward path's pipelines (forward.rs); these methods' own draws
-        // do not read them yet.
-        check_unshadowed(ctx.scene, &format!("--transparency {method}"))?;
         let (device, world) = (ctx.device, ctx.world);
         let size = ctx.camera.size();
         let sampled = vk::ImageUsageFlags::SAMPLED;
@@ -403,9 +406,32 @@ impl OitTechnique {
         let sampler = Sampler::nearest_clamp(device, "oit pass images")?;
         let objects = oit_objects(ctx.scene);
         let multisampled = msaa > 1;
+        // Shadow maps (docs/SHADOWS.md): rendered before the passes (per pass when something moves),
+        // read by the opaque pass and by the shading draws (layers, peel) as set 4.
+        let times: Vec<f32> = samples.iter().map(|p| p.time).collect();
+        let shadows =
+            ShadowMaps::new(device, world, ctx.scene, &ctx.settings.shadows, &times, ctx.settings.seed)?;
+        let (shadow_axis, shadow_color) = shadows.as_ref().map_or((Shadows::None, false), |m| m.lookup());
         let vert = || ShaderModule::new(device, shaders::FORWARD_FORWARD_VERT);
+        // The shading draws' vertex stage: with the object-space outputs the shadow lookup reads.
+        let receiver_vert = || {
+            ShaderModule::new(device, shaders::ForwardVert { shadow_receiver: shadows.is_some() }.source())
+        };
+        let draw_layout_with = |set3: &DescriptorSetLayout| match &shadows {
+            Some(maps) => world.pipeline_layout(
+                device,
+                &[&world.empty_layout, set3, maps.set_layout()],
+                std::mem::size_of::<OitPush>() as u32,
+                vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT,
+            ),
+            None => world.pipeline_layout(
+                device,
+                &[&world.empty_layout, set3],
+                std::mem::size_of::<OitPush>() as u32,
+                vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT,
+            ),
+        };
         let (bindings, attributes) = vertex_input();
-        let draw_stages = vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT;
         let sampled_image = |binding, image: &Image| DescriptorWrite::SampledImage {
             binding,
             view: image.view,
@@ -456,19 +482,18 @@ impl OitTechnique {
                 let layers_set = pool.allocate(&layers_set_layout)?;
                 let map = |c: usize| &*depth_maps[c.min(maps - 1)];
                 write_descriptors(device, layers_set, &[0, 1, 2].map(|c| sampled_image(c as u32, map(c))));
-                let draw_layout = world.pipeline_layout(
-                    device,
-                    &[&world.empty_layout, &layers_set_layout],
-                    std::mem::size_of::<OitPush>() as u32,
-                    draw_stages,
-                )?;
+                let draw_layout = draw_layout_with(&layers_set_layout)?;
                 let v = vert()?;
+                let rv = receiver_vert()?;
                 let depth_frag = ShaderModule::new(device, shaders::OIT_STOCHASTIC_DEPTH_FRAG)?;
-                let layers_frag = ShaderModule::new(device, shaders::LayersFrag { multisampled }.source())?;
+                let layers_frag = ShaderModule::new(
+                    device,
+                    shaders::LayersFrag { shadows: shadow_axis, shadow_color, multisampled }.source(),
+                )?;
                 let transmittance_frag = ShaderModule::new(device, shaders::OIT_TRANSMITTANCE_FRAG)?;
                 let three = [OIT_FORMAT; 3];
                 let depth_stages = [&v, &depth_frag];
-                let layers_stages = [&v, &layers_frag];
+                let layers_stages = [&rv, &layers_frag];
                 let transmittance_stages = [&v, &transmittance_frag];
                 let desc = |name, stages, color_formats, depth_write| GraphicsDesc {
                     name,
@@ -535,7 +560,7 @@ impl OitTechnique {
                     total_transmittance,
                     totals,
                     _layers_set_layout: layers_set_layout,
-                    _shaders: vec![v, depth_frag, layers_frag, transmittance_frag],
+                    _shaders: vec![v, rv, depth_frag, layers_frag, transmittance_frag],
                 };
                 (pool, OitPath::DepthBased(Box::new(path)))
             }
@@ -583,14 +608,12 @@ impl OitTechnique {
                         &[sampled_image(0, &opaque_depth), sampled_image(1, &depth[1 - i])],
                     );
                 }
-                let peel_layout = world.pipeline_layout(
+                let peel_layout = draw_layout_with(&peel_set_layout)?;
+                let v = receiver_vert()?;
+                let peel_frag = ShaderModule::new(
                     device,
-                    &[&world.empty_layout, &peel_set_layout],
-                    std::mem::size_of::<OitPush>() as u32,
-                    draw_stages,
+                    shaders::PeelFrag { shadows: shadow_axis, shadow_color, multisampled }.source(),
                 )?;
-                let v = vert()?;
-                let peel_frag = ShaderModule::new(device, shaders::PeelFrag { multisampled }.source())?;
                 let peel = Pipeline::graphics(
                     device,
                     &peel_layout,
@@ -648,13 +671,14 @@ impl OitTechnique {
             samples,
             objects,
             coverage_seed: coverage_seed(ctx.settings.seed),
-            opaque: ForwardPipeline::new(device, world, msaa)?,
+            opaque: ForwardPipeline::with_shadows(device, world, msaa, shadows.as_ref())?,
             opaque_color,
             opaque_depth,
             accum,
             path,
             _pool: pool,
             _sampler: sampler,
+            shadows,
         })
     }
 
@@ -700,6 +724,10 @@ impl OitTechnique {
             if let Some(set) = set {
                 d.raw.cmd_bind_descriptor_sets(cmd, bind, layout.raw, TECHNIQUE_SET_INDEX, &[set], &[]);
             }
+            if let Some(maps) = &self.shadows {
+                let index = crate::gpu::layout::SHADOW_SET_INDEX;
+                d.raw.cmd_bind_descriptor_sets(cmd, bind, layout.raw, index, &[maps.set()], &[]);
+            }
         }
         let push = |i: usize| {
             let mut p = self.push(inputs.camera, i, ctx.iteration);
@@ -736,6 +764,18 @@ impl OitTechnique {
         let sampled_fragment = Access::FragmentShaderReadSampledImageOrUniformTexelBuffer;
         let sampled_compute = Access::ComputeShaderReadSampledImageOrUniformTexelBuffer;
         g.clear_color("clear accumulation", accum, [0.0; 4]);
+        let shadows = self.shadows.as_ref().map(|s| (s, s.import(&mut g)));
+        if let Some((s, h)) = shadows.filter(|(s, _)| !s.per_pass()) {
+            s.add_passes(&mut g, h, &inputs, false);
+        }
+        let shadow_reads = shadows.map(|(_, h)| ShadowMaps::reads(h)).unwrap_or_default();
+        let shadow_reads = &shadow_reads;
+        // Before each pass' draws: its shadow maps, when something moves.
+        let per_pass_shadows = move |g: &mut crate::graph::FrameGraph<'a>| {
+            if let Some((s, h)) = shadows.filter(|(s, _)| s.per_pass()) {
+                s.add_passes(g, h, &inputs, true);
+            }
+        };
         match &self.path {
             OitPath::DepthBased(db) => {
                 let maps: Vec<ImageHandle> = db
@@ -759,7 +799,8 @@ impl OitTechnique {
                 };
                 let depth_maps = maps.len() as u32;
                 g.repeat(self.samples.len() as u32, |g| {
-                    self.opaque_pass(g, &inputs, opaque_color, opaque_depth, background);
+                    per_pass_shadows(g);
+                    self.opaque_pass(g, &inputs, opaque_color, opaque_depth, background, shadow_reads);
                     for (c, &map) in maps.iter().enumerate() {
                         let channel = if depth_maps == 3 { c as u32 } else { 3 };
                         g.pass("oit stochastic depth").depth(map, Load::Clear(0.0), Store::Store).record(
@@ -781,7 +822,8 @@ impl OitTechnique {
                         .color(sum, Load::Clear([0.0; 4]), Store::Store)
                         .color(weights, Load::Clear([0.0; 4]), Store::Store)
                         .color(transmittance, Load::Clear([1.0; 4]), Store::Store)
-                        .depth_read_only(opaque_depth);
+                        .depth_read_only(opaque_depth)
+                        .accesses(shadow_reads.iter().copied());
                     for &map in &maps {
                         layers = layers.access(map, sampled_fragment);
                     }
@@ -832,7 +874,8 @@ impl OitTechnique {
                 let layer_transmittance = g.import_image("peel layer transmittance", &p.layer_transmittance);
                 let accumulators = g.import_buffer("peel accumulators", &p.accumulators);
                 g.repeat(self.samples.len() as u32, |g| {
-                    self.opaque_pass(g, &inputs, opaque_color, opaque_depth, background);
+                    per_pass_shadows(g);
+                    self.opaque_pass(g, &inputs, opaque_color, opaque_depth, background, shadow_reads);
                     for layer in 0..p.layers {
                         let (current, previous) = (layer as usize % 2, 1 - layer as usize % 2);
                         g.pass("oit peel")
@@ -842,6 +885,7 @@ impl OitTechnique {
                             .access(opaque_depth, sampled_fragment)
                             // Layer 0 does not read it, but its pipeline binds it.
                             .access(depth[previous], sampled_fragment)
+                            .accesses(shadow_reads.iter().copied())
                             .record(move |ctx| {
                                 let set = Some(p.peel_sets[current]);
                                 self.draw_transparent(ctx, &inputs, &p.peel, &p.peel_layout, set, |push| {
@@ -881,11 +925,13 @@ impl OitTechnique {
         color: ImageHandle,
         depth: ImageHandle,
         background: [f32; 4],
+        shadow_reads: &[(ResourceHandle, Access)],
     ) {
         let inputs = *inputs;
         g.pass("oit opaque")
             .color(color, Load::Clear(background), Store::Store)
             .depth(depth, Load::Clear(0.0), Store::Store)
+            .accesses(shadow_reads.iter().copied())
             .record(move |ctx| {
                 let pass = &self.samples[ctx.iteration as usize];
                 let opaque = |i: usize| !self.objects[i].transparent;
@@ -910,6 +956,13 @@ impl FrameTechnique for OitTechnique {
     fn transparency(&self) -> Option<TransparencyMethod> {
         Some(self.method)
     }
+
+    fn shadows(&self) -> Option<String> {
+        self.shadows.as_ref().map(|s| {
+            let when = if s.per_pass() { "before every pass" } else { "once per frame" };
+            format!("{}, rendered {when}", s.plan().summary())
+        })
+    }
 }
 
 /// What `oit/` expects of its pipelines' layouts: sets 0 and 1, set 3 per pipeline, the pushes above.
@@ -925,13 +978,15 @@ pub const SHADER_INTERFACES: &[crate::gpu::layout::ShaderInterface] = &[
         None,
         Some(&LAYERS_SET),
         Some(OIT_STRUCTS[0]),
-    ),
+    )
+    .with_shadows(&super::shadow_maps::SHADOW_SET),
     crate::gpu::layout::ShaderInterface::technique(
         &["oit/peel.frag"],
         None,
         Some(&PEEL_SET),
         Some(OIT_STRUCTS[0]),
-    ),
+    )
+    .with_shadows(&super::shadow_maps::SHADOW_SET),
     crate::gpu::layout::ShaderInterface::technique(
         &["oit/depth_composite.comp"],
         None,
