@@ -208,8 +208,8 @@ impl Plan {
 
     /// The frame technique `auto` renders, and why when it is not the obvious one: the pinhole
     /// technique when nothing needs blur; the stochastic frame when something does — unless the scene
-    /// has what the stochastic frame does not render yet (tints, texture alpha, shadow maps of moving
-    /// casters), when it is `accumulation`, which renders all of them with the blur.
+    /// has what the stochastic frame does not render yet (tints, shadow maps of moving casters), when
+    /// it is `accumulation`, which renders all of them with the blur.
     pub fn auto_frame(&self) -> (AutoFrame, Option<String>) {
         if !self.needs_stochastic() {
             return (AutoFrame::Pinhole, None);
@@ -217,9 +217,6 @@ impl Plan {
         let mut missing = vec![];
         if self.tinted_objects > 0 {
             missing.push("tints");
-        }
-        if self.texture_alpha_objects > 0 {
-            missing.push("texture alpha");
         }
         if self.shadows_follow_motion {
             missing.push("shadow maps of moving casters");
@@ -434,9 +431,10 @@ mod tests {
         assert_eq!(p.shadow_kind, Some(ShadowKind::Plain));
         assert!(p.shadows_follow_motion, "the default scene's sphere moves");
         assert!(p.to_string().contains("shadows: light["), "{p}");
+        // Texture alpha and shadows of still casters: the stochastic frame renders both.
         let foliage = plan_of("foliage");
-        assert_eq!(foliage.auto_frame().0, AutoFrame::Accumulation);
-        assert_eq!(foliage.auto_frame().1.unwrap(), "the stochastic frame renders no texture alpha yet");
+        assert_eq!(foliage.auto_frame(), (AutoFrame::Stochastic, None));
+        assert_eq!(foliage.texture_alpha_objects, 4);
         // Shadows of still casters are rendered by the stochastic frame.
         let mut still = builtin_scene("focus-sweep").unwrap().unwrap();
         still.lights[0] = Light::Directional { direction: -Vec3::Y, color: Vec3::ONE, shadows: true };

@@ -35,6 +35,8 @@ layout(push_constant) uniform Push {
     // (common/coverage.glsl).
     float alpha;
     uint coverage_seed;
+    // 1: the coverage is alpha times the texture's alpha at each hit's uv (stochastic.frag).
+    uint alpha_from_texture;
 } pc;
 
 #endif

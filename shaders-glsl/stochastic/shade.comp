@@ -19,6 +19,7 @@
 #define SHADOW_SET 4
 #include "common/object.glsl"
 #include "common/shading.glsl"
+#include "common/texture_sample.glsl"
 #include "stochastic/inside.glsl"
 #include "stochastic/push.glsl"
 #include "stochastic/visibility.glsl"
@@ -39,23 +40,6 @@ layout(set = 3, binding = 6, rgba32f) uniform image2D accum;
 const uint SAMPLE_TILE_SIZE = 64u;
 const uint SHADE_BACKGROUND = 0xffffffffu;
 const uint SHADE_GROUPS = 8u;  // engine/src/reference: PER_PIXEL_SHADING_GROUPS
-
-// The reference's texture lookup (Texture::sample_bilinear): bilinear at the base level, repeat.
-// Visibility first means every sample is shaded at its own point and the S samples of the pixel do
-// the filtering; a mip level from the sample footprint would blur against the ground truth.
-vec3 texture_bilinear(vec2 uv) {
-    ivec2 size = textureSize(albedo_texture, 0);
-    vec2 p = uv * vec2(size) - 0.5;
-    vec2 p0 = floor(p);
-    vec2 f = p - p0;
-    ivec2 i0 = ivec2(p0);
-    ivec2 t00 = ivec2(mod(vec2(i0), vec2(size))), t11 = ivec2(mod(vec2(i0 + 1), vec2(size)));
-    vec3 a = texelFetch(albedo_texture, ivec2(t00.x, t00.y), 0).rgb;
-    vec3 b = texelFetch(albedo_texture, ivec2(t11.x, t00.y), 0).rgb;
-    vec3 c = texelFetch(albedo_texture, ivec2(t00.x, t11.y), 0).rgb;
-    vec3 d = texelFetch(albedo_texture, ivec2(t11.x, t11.y), 0).rgb;
-    return mix(mix(a, b, f.x), mix(c, d, f.x), f.y);
-}
 
 // The sample's ray and the triangle at its time.
 struct SampleHit {

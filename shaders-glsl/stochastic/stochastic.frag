@@ -22,6 +22,7 @@
 #include "stochastic/visibility.glsl"
 #include "stochastic/camera_triangles.glsl"
 #include "common/coverage.glsl"
+#include "common/texture_sample.glsl"
 
 // The sample tile (sampling::SampleTile): 64 x 64 pixels x S samples; xy in [0,1) within the pixel,
 // lens already mapped to the aperture shape, time already warped by the shutter curve.
@@ -69,15 +70,29 @@ struct Coverage {
 
 Coverage triangle_coverage(uvec2 pix, uint tri) {
     Coverage c = Coverage(0u, 0u);
-    if (pc.alpha < 1.0) {
+    if (pc.alpha < 1.0 || pc.alpha_from_texture != 0u) {
         c.key = coverage_key(pc.coverage_seed, pix, tri);
         c.count = coverage_count(pc.alpha, pc.spp, c.key);
     }
     return c;
 }
 
-// Does that triangle cover sample i of this pass?
-bool sample_covered(Coverage c, uint i) {
+// Does that triangle cover sample i of this pass, hit at barycentrics w? With texture alpha the
+// coverage is the hit's (the reference's Tracer::coverage: alpha × the texture's alpha at the hit's
+// uv), so the count is drawn for it; the rank is the triangle's in this pixel either way.
+bool sample_covered(Coverage c, uint i, uint prim, vec3 w) {
+    if (pc.alpha_from_texture != 0u) {
+        vec2 uv = vec2(0.0);
+        vec2 uvs[3];
+        for (uint k = 0u; k < 3u; k++) {
+            Vertex v = vertices[indices[3u * prim + k]];
+            uvs[k] = vec2(v.uv[0], v.uv[1]);
+        }
+        uv = w.x * uvs[0] + w.y * uvs[1] + w.z * uvs[2];
+        float alpha = pc.alpha * texture_alpha_bilinear(uv);
+        uint count = coverage_count(alpha, pc.spp, c.key);
+        return coverage_rank(pc.pass_index * pc.per_pass + i, pc.spp, c.key) < count;
+    }
     return pc.alpha >= 1.0 || coverage_rank(pc.pass_index * pc.per_pass + i, pc.spp, c.key) < c.count;
 }
 
@@ -145,7 +160,7 @@ void main() {
         vec3 b = shutter_lerp(p_open[1], p_close[1], s);
         vec3 c = shutter_lerp(p_open[2], p_close[2], s);
 #endif
-        if (sample_hit(a, b, c, ro, rd, z, w, back) && in_segment && sample_covered(coverage, i)) {
+        if (sample_hit(a, b, c, ro, rd, z, w, back) && in_segment && sample_covered(coverage, i, prim, w)) {
             atomicMax(visibility[visibility_index(pix, i, pc.per_pass)], visibility_pack(z, pc.triangle_base + prim, back));
             hits++;
         }
@@ -199,7 +214,7 @@ void main() {
                 float z;
                 vec3 w;
                 bool back;
-                if (sample_hit(a, b, c, ro, rd, z, w, back) && sample_covered(coverage, i)) {
+                if (sample_hit(a, b, c, ro, rd, z, w, back) && sample_covered(coverage, i, prim, w)) {
                     atomicMax(visibility[visibility_index(pix, i, pc.per_pass)], visibility_pack(z, pc.triangle_base + prim, back));
                     hits++;
                 }

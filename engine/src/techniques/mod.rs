@@ -561,23 +561,24 @@ pub fn check_transparency_method(
     )))
 }
 
-/// What the stochastic rasterizer's transparency renders (issue 12): constant coverage (`alpha`),
-/// each sample kept where the surface covers it. Tints and coverage from a texture's alpha are
-/// refused with the techniques that render them.
+/// What the stochastic rasterizer's transparency renders (issue 12): coverage (`alpha`, times the
+/// texture's alpha with `alpha_from_texture`), each sample kept where the surface covers it. Tints
+/// are refused with the techniques that render them.
 pub fn check_untinted(scene: &Scene, who: &str) -> Result<()> {
     for o in &scene.objects {
         let m = &o.material;
-        let what = if m.alpha < 1.0 && m.tint != glam::Vec3::ONE {
-            format!("has alpha {} < 1 and tint {}", m.alpha, m.tint)
-        } else if m.alpha_from_texture {
-            "takes alpha from its texture (alpha_from_texture)".to_string()
-        } else {
+        if m.is_opaque() || m.tint == glam::Vec3::ONE {
             continue;
+        }
+        let what = if m.alpha < 1.0 {
+            format!("has alpha {} < 1 and tint {}", m.alpha, m.tint)
+        } else {
+            format!("takes alpha from its texture and has tint {}", m.tint)
         };
         return Err(Error::Unsupported(format!(
-            "object `{}` {what}: {who} renders constant coverage (alpha) only, not tints or texture \
-             alpha yet; stochastic transparency renders them in {TRANSPARENCY_TECHNIQUES} (the CPU \
-             reference renders them too)",
+            "object `{}` {what}: {who} renders coverage (alpha, texture alpha) but not tints yet; \
+             stochastic transparency renders them in {TRANSPARENCY_TECHNIQUES} (the CPU reference renders \
+             them too)",
             o.name,
         )));
     }

@@ -576,6 +576,8 @@ pub struct StochasticPush {
     pub alpha: f32,
     /// [`crate::transparency::coverage_seed`] of the render seed.
     pub coverage_seed: u32,
+    /// 1: coverage is `alpha` × the texture's alpha at each hit's uv (the reference's).
+    pub alpha_from_texture: u32,
 }
 
 /// Push constants of `clusters.comp`.
@@ -660,7 +662,8 @@ pub const STOCHASTIC_STRUCTS: &[SharedStruct] = &[
             segment,
             cluster_size,
             alpha,
-            coverage_seed
+            coverage_seed,
+            alpha_from_texture
         ]
     ),
     shared_struct!("Push", TrianglesPush, [segment_first, keys, triangle_count]),
@@ -804,6 +807,8 @@ pub struct StochasticDraws {
     bounds: Vec<BoundKind>,
     /// Each object's coverage α (stochastic transparency; 1 for opaque objects).
     object_alpha: Vec<f32>,
+    /// Per object: coverage from the texture's alpha too (with a texture and uvs, as the reference).
+    object_texture_alpha: Vec<bool>,
     /// [`crate::transparency::coverage_seed`] of the render seed.
     coverage_seed: u32,
     spp: u32,
@@ -1275,6 +1280,12 @@ impl StochasticDraws {
             options,
             bounds: plan.objects.iter().map(|o| options.bound.resolve(caps, o.max_coc_px)).collect(),
             object_alpha: ctx.scene.objects.iter().map(|o| o.material.alpha).collect(),
+            object_texture_alpha: ctx
+                .scene
+                .objects
+                .iter()
+                .map(|o| o.material.alpha_from_texture && o.material.texture.is_some() && o.mesh.has_uvs())
+                .collect(),
             coverage_seed: crate::transparency::coverage_seed(seed),
             spp,
             per_pass,
@@ -1518,6 +1529,7 @@ impl StochasticDraws {
             cluster_size: self.object_clusters.get(o).copied().unwrap_or(0).max(1),
             alpha: self.object_alpha.get(o).copied().unwrap_or(1.0),
             coverage_seed: self.coverage_seed,
+            alpha_from_texture: self.object_texture_alpha.get(o).copied().unwrap_or(false) as u32,
         }
     }
 
@@ -1941,10 +1953,8 @@ impl FrameTechnique for StochasticTechnique {
     /// Stochastic transparency, when an object covers partly: its coverage stage keeps a hit only on
     /// the samples the object covers.
     fn transparency(&self) -> Option<crate::transparency::TransparencyMethod> {
-        self.draws
-            .object_alpha
-            .iter()
-            .any(|&a| a < 1.0)
+        let d = &self.draws;
+        (d.object_alpha.iter().any(|&a| a < 1.0) || d.object_texture_alpha.iter().any(|&t| t))
             .then_some(crate::transparency::TransparencyMethod::Stochastic)
     }
 }
