@@ -415,7 +415,7 @@ mod tests {
     }
 
     /// `auto` takes pinhole without blur, the stochastic frame with blur, and accumulation with blur
-    /// and what the stochastic frame lacks (shadow maps, tints, texture alpha); the plan says which
+    /// and what the stochastic frame lacks (shadow maps of moving casters, tints); the plan says which
     /// shadow maps a scene needs and whether they follow motion.
     #[test]
     fn auto_frame_follows_blur_and_what_the_stochastic_frame_renders() {

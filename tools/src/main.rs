@@ -399,12 +399,21 @@ fn run() -> Result<()> {
                 println!("  plan: {}", paths.join(", "));
             }
             if let Some(method) = output.stats.transparency {
-                println!(
-                    "  transparency {method}: S = {} samples per pixel (MSAA {}x × {} passes)",
-                    output.stats.msaa_samples * output.stats.passes,
-                    output.stats.msaa_samples,
-                    output.stats.passes
-                );
+                // The stochastic frame takes all S samples of a pixel in its pass(es); the forward
+                // path's are MSAA × passes.
+                if output.stats.msaa_samples == 1 && output.stats.passes < settings.spp {
+                    println!(
+                        "  transparency {method}: S = {} samples per pixel (the stochastic frame's)",
+                        settings.spp
+                    );
+                } else {
+                    println!(
+                        "  transparency {method}: S = {} samples per pixel (MSAA {}x × {} passes)",
+                        output.stats.msaa_samples * output.stats.passes,
+                        output.stats.msaa_samples,
+                        output.stats.passes
+                    );
+                }
             }
             if let Some(shadows) = &output.stats.shadows {
                 println!("  shadows: {shadows}");

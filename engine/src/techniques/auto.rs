@@ -10,9 +10,9 @@
 //!   defocus-only, motion-only or full one; all meet in one visibility buffer, so occlusion between
 //!   paths is per sample. Without a geometry shader the stochastic path takes the compute-expanded
 //!   hull;
-//! * blur to simulate in a scene with what the stochastic frame does not render yet (tints, texture
-//!   alpha, shadow maps: [`Plan::auto_frame`]) → the `accumulation` technique, which renders all of it
-//!   with the blur, S passes.
+//! * blur to simulate in a scene with what the stochastic frame does not render yet (tints, shadow
+//!   maps of moving casters: [`Plan::auto_frame`]) → the `accumulation` technique, which renders all
+//!   of it with the blur, S passes.
 
 use super::accumulation::accumulation_passes;
 use super::forward::ForwardTechnique;

@@ -1957,6 +1957,10 @@ impl FrameTechnique for StochasticTechnique {
         (d.object_alpha.iter().any(|&a| a < 1.0) || d.object_texture_alpha.iter().any(|&t| t))
             .then_some(crate::transparency::TransparencyMethod::Stochastic)
     }
+
+    fn shadows(&self) -> Option<String> {
+        self.draws.shadows.as_ref().map(|s| format!("{}, rendered once per frame", s.plan().summary()))
+    }
 }
 
 /// What the stochastic rasterizer's shaders expect of the layouts [`StochasticTechnique::new`] builds:
