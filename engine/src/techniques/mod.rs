@@ -522,11 +522,12 @@ pub fn shader_interfaces() -> impl Iterator<Item = &'static crate::gpu::layout::
 }
 
 /// Techniques that render coverage below 1 and tints (stochastic transparency, `--transparency`);
-/// `stochastic` and `auto` with blur render constant coverage only ([`check_untinted`]).
+/// `stochastic` renders coverage but no tints ([`check_untinted`]), and `auto` takes accumulation
+/// for tints with blur.
 pub const TRANSPARENCY_TECHNIQUES: &str = "pinhole, accumulation and auto";
 
 /// Refuses coverage below 1 for `technique` unless it renders it: `pinhole` and `accumulation` do;
-/// `stochastic` renders constant coverage but no tint or texture alpha yet ([`check_untinted`]);
+/// `stochastic` renders coverage (alpha, texture alpha) but no tint yet ([`check_untinted`]);
 /// `auto` decides in its own `prepare` (its pinhole path renders all of it, its stochastic path what
 /// `stochastic` does).
 pub fn check_transparency_supported(scene: &Scene, technique: Technique) -> Result<()> {
