@@ -237,16 +237,72 @@ impl ForwardPipeline {
     }
 }
 
-/// Per object, what stochastic transparency needs to know of it.
+/// Per object, what a stochastic coverage draw needs to know of it: the forward transparency draws,
+/// the shadow casters ([`super::shadow_maps`]) and the OIT draws ([`super::oit`]).
 #[derive(Clone, Copy, Debug)]
-struct TransparentObject {
+pub struct TransparentObject {
     /// Coverage below 1 somewhere (alpha < 1 or from the texture).
-    transparent: bool,
-    /// Transparent with a tint other than white: drawn again by the tint pass.
-    tinted: bool,
-    tint: [f32; 4],
-    alpha_from_texture: bool,
-    first_triangle: u32,
+    pub transparent: bool,
+    /// Transparent with a tint other than white: drawn again by the tint (or hue) pass.
+    pub tinted: bool,
+    pub tint: [f32; 4],
+    /// The texture's alpha counts: as the reference, only with a texture and uvs.
+    pub alpha_from_texture: bool,
+    /// The object's first triangle in the scene's numbering (the reference's).
+    pub first_triangle: u32,
+}
+
+/// Every object of `scene`, in order.
+pub fn transparent_objects(scene: &Scene) -> Vec<TransparentObject> {
+    let mut first_triangle = 0u32;
+    scene
+        .objects
+        .iter()
+        .map(|o| {
+            let m = &o.material;
+            let transparent = !m.is_opaque();
+            let t = TransparentObject {
+                transparent,
+                tinted: transparent && m.tint != glam::Vec3::ONE,
+                tint: m.tint.extend(0.0).to_array(),
+                alpha_from_texture: m.alpha_from_texture && m.texture.is_some() && o.mesh.has_uvs(),
+                first_triangle,
+            };
+            first_triangle += (o.mesh.indices.len() / 3) as u32;
+            t
+        })
+        .collect()
+}
+
+/// Which of a pixel's S samples a coverage draw decides: the coverage hashes' seed, S, the index of
+/// the draw's first MSAA sample among the S, and its MSAA count.
+#[derive(Clone, Copy, Debug)]
+pub struct CoverageSamples {
+    pub seed: u32,
+    pub samples: u32,
+    pub base: u32,
+    pub msaa: u32,
+}
+
+impl TransparentPush {
+    /// The push of a coverage draw of object `o` moved as `f` says, deciding the samples `c`.
+    pub fn new(f: ForwardPush, o: &TransparentObject, c: CoverageSamples) -> Self {
+        TransparentPush {
+            object: f.object,
+            time: f.time,
+            lens: f.lens,
+            jitter: f.jitter,
+            segment: f.segment,
+            segment_time: f.segment_time,
+            tint: o.tint,
+            coverage_seed: c.seed,
+            samples: c.samples,
+            sample_base: c.base,
+            msaa: c.msaa,
+            first_triangle: o.first_triangle,
+            alpha_from_texture: o.alpha_from_texture as u32,
+        }
+    }
 }
 
 /// Stochastic transparency on the forward path (module docs): the coverage and tint pipelines and
@@ -335,25 +391,7 @@ impl TransparentDraws {
             &desc("forward transparency tint", &tint_stages, false),
             ColorBlend::Multiply,
         )?;
-        let mut first_triangle = 0u32;
-        let objects = scene
-            .objects
-            .iter()
-            .map(|o| {
-                let m = &o.material;
-                let transparent = !m.is_opaque();
-                let t = TransparentObject {
-                    transparent,
-                    tinted: transparent && m.tint != glam::Vec3::ONE,
-                    tint: m.tint.extend(0.0).to_array(),
-                    // As the reference: the texture's alpha counts only where the mesh has uvs.
-                    alpha_from_texture: m.alpha_from_texture && m.texture.is_some() && o.mesh.has_uvs(),
-                    first_triangle,
-                };
-                first_triangle += (o.mesh.indices.len() / 3) as u32;
-                t
-            })
-            .collect();
+        let objects = transparent_objects(scene);
         Ok(TransparentDraws {
             coverage,
             tint,
@@ -368,23 +406,13 @@ impl TransparentDraws {
     }
 
     fn push(&self, view: &GpuView, object: usize, pass: &PassSample, pass_index: u32) -> TransparentPush {
-        let f = ForwardPush::new(view, object, pass);
-        let o = &self.objects[object];
-        TransparentPush {
-            object: f.object,
-            time: f.time,
-            lens: f.lens,
-            jitter: f.jitter,
-            segment: f.segment,
-            segment_time: f.segment_time,
-            tint: o.tint,
-            coverage_seed: self.coverage_seed,
+        let c = CoverageSamples {
+            seed: self.coverage_seed,
             samples: self.samples,
-            sample_base: pass_index * self.msaa,
+            base: pass_index * self.msaa,
             msaa: self.msaa,
-            first_triangle: o.first_triangle,
-            alpha_from_texture: o.alpha_from_texture as u32,
-        }
+        };
+        TransparentPush::new(ForwardPush::new(view, object, pass), &self.objects[object], c)
     }
 
     fn is_transparent(&self, object: usize) -> bool {

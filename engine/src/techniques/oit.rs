@@ -59,7 +59,10 @@
 use ash::vk;
 use bytemuck::{Pod, Zeroable};
 
-use super::forward::{has_transparency, ForwardPipeline, ForwardPush, ForwardTechnique, PassSample};
+use super::forward::{
+    has_transparency, transparent_objects, CoverageSamples, ForwardPipeline, ForwardPush, ForwardTechnique,
+    PassSample, TransparentObject, TransparentPush,
+};
 use super::multipass::{accumulation_image, COLOR_FORMAT, DEPTH_FORMAT};
 use super::shadow_maps::ShadowMaps;
 use super::{FrameContext, FrameInputs, FrameTechnique, PrepareContext, TechniqueFrame};
@@ -223,37 +226,6 @@ pub const PEEL_UNDER_SET: [Binding; 5] = [
     binding(4, vk::DescriptorType::STORAGE_IMAGE, "accum"),
 ];
 
-/// Per object, what the OIT draws push.
-#[derive(Clone, Copy, Debug)]
-struct OitObject {
-    /// Coverage below 1 somewhere (alpha < 1 or from the texture): drawn by the OIT passes, not the
-    /// opaque one.
-    transparent: bool,
-    tint: [f32; 4],
-    alpha_from_texture: bool,
-    first_triangle: u32,
-}
-
-fn oit_objects(scene: &crate::scene::Scene) -> Vec<OitObject> {
-    let mut first_triangle = 0u32;
-    scene
-        .objects
-        .iter()
-        .map(|o| {
-            let m = &o.material;
-            let t = OitObject {
-                transparent: !m.is_opaque(),
-                tint: m.tint.extend(0.0).to_array(),
-                // As the reference: the texture's alpha counts only where the mesh has uvs.
-                alpha_from_texture: m.alpha_from_texture && m.texture.is_some() && o.mesh.has_uvs(),
-                first_triangle,
-            };
-            first_triangle += (o.mesh.indices.len() / 3) as u32;
-            t
-        })
-        .collect()
-}
-
 /// A persistent `size` image of `msaa` samples.
 fn target(
     device: &Device,
@@ -371,7 +343,7 @@ pub struct OitTechnique {
     size: (u32, u32),
     msaa: u32,
     samples: Vec<PassSample>,
-    objects: Vec<OitObject>,
+    objects: Vec<TransparentObject>,
     coverage_seed: u32,
     opaque: ForwardPipeline,
     opaque_color: Tracked<Image>,
@@ -404,7 +376,7 @@ impl OitTechnique {
         let opaque_depth = target(device, "oit opaque depth", size, DEPTH_FORMAT, msaa, depth_usage)?;
         let accum = Tracked::new(accumulation_image(device, "accumulation", size)?);
         let sampler = Sampler::nearest_clamp(device, "oit pass images")?;
-        let objects = oit_objects(ctx.scene);
+        let objects = transparent_objects(ctx.scene);
         let multisampled = msaa > 1;
         // Shadow maps (docs/SHADOWS.md): rendered before the passes (per pass when something moves),
         // read by the opaque pass and by the shading draws (layers, peel) as set 4.
@@ -417,19 +389,18 @@ impl OitTechnique {
         let receiver_vert = || {
             ShaderModule::new(device, shaders::ForwardVert { shadow_receiver: shadows.is_some() }.source())
         };
-        let draw_layout_with = |set3: &DescriptorSetLayout| match &shadows {
-            Some(maps) => world.pipeline_layout(
+        // Sets 2 (empty) and 3 (the pipeline's own), and 4 the shadow maps when there are any.
+        let draw_layout_with = |set3: &DescriptorSetLayout| {
+            let sets: Vec<&DescriptorSetLayout> = [&world.empty_layout, set3]
+                .into_iter()
+                .chain(shadows.as_ref().map(ShadowMaps::set_layout))
+                .collect();
+            world.pipeline_layout(
                 device,
-                &[&world.empty_layout, set3, maps.set_layout()],
+                &sets,
                 std::mem::size_of::<OitPush>() as u32,
                 vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT,
-            ),
-            None => world.pipeline_layout(
-                device,
-                &[&world.empty_layout, set3],
-                std::mem::size_of::<OitPush>() as u32,
-                vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT,
-            ),
+            )
         };
         let (bindings, attributes) = vertex_input();
         let sampled_image = |binding, image: &Image| DescriptorWrite::SampledImage {
@@ -450,7 +421,7 @@ impl OitTechnique {
                     "depth-based stochastic transparency (the fragment stage reads gl_PrimitiveID to name \
                      the triangle)",
                 )?;
-                let tinted = objects.iter().any(|o| o.transparent && o.tint[..3] != [1.0; 3]);
+                let tinted = objects.iter().any(|o| o.tinted);
                 let maps = if tinted { 3 } else { 1 };
                 let depth_maps = (0..maps)
                     .map(|c| {
@@ -684,22 +655,28 @@ impl OitTechnique {
 
     /// What every OIT draw of `object` pushes in pass `pass`.
     fn push(&self, view: &GpuView, object: usize, pass: u32) -> OitPush {
-        let f = ForwardPush::new(view, object, &self.samples[pass as usize]);
-        let o = &self.objects[object];
-        OitPush {
-            object: f.object,
-            time: f.time,
-            lens: f.lens,
-            jitter: f.jitter,
-            segment: f.segment,
-            segment_time: f.segment_time,
-            tint: o.tint,
-            coverage_seed: self.coverage_seed,
+        let c = CoverageSamples {
+            seed: self.coverage_seed,
             samples: self.msaa * self.samples.len() as u32,
-            sample_base: pass * self.msaa,
+            base: pass * self.msaa,
             msaa: self.msaa,
-            first_triangle: o.first_triangle,
-            alpha_from_texture: o.alpha_from_texture as u32,
+        };
+        let f = ForwardPush::new(view, object, &self.samples[pass as usize]);
+        let t = TransparentPush::new(f, &self.objects[object], c);
+        OitPush {
+            object: t.object,
+            time: t.time,
+            lens: t.lens,
+            jitter: t.jitter,
+            segment: t.segment,
+            segment_time: t.segment_time,
+            tint: t.tint,
+            coverage_seed: t.coverage_seed,
+            samples: t.samples,
+            sample_base: t.sample_base,
+            msaa: t.msaa,
+            first_triangle: t.first_triangle,
+            alpha_from_texture: t.alpha_from_texture,
             channel: 3,
             depth_maps: 1,
             layer: 0,
@@ -725,8 +702,7 @@ impl OitTechnique {
                 d.raw.cmd_bind_descriptor_sets(cmd, bind, layout.raw, TECHNIQUE_SET_INDEX, &[set], &[]);
             }
             if let Some(maps) = &self.shadows {
-                let index = crate::gpu::layout::SHADOW_SET_INDEX;
-                d.raw.cmd_bind_descriptor_sets(cmd, bind, layout.raw, index, &[maps.set()], &[]);
+                maps.bind(d, cmd, bind, layout.raw, crate::gpu::layout::SHADOW_SET_INDEX);
             }
         }
         let push = |i: usize| {
@@ -958,10 +934,7 @@ impl FrameTechnique for OitTechnique {
     }
 
     fn shadows(&self) -> Option<String> {
-        self.shadows.as_ref().map(|s| {
-            let when = if s.per_pass() { "before every pass" } else { "once per frame" };
-            format!("{}, rendered {when}", s.plan().summary())
-        })
+        self.shadows.as_ref().map(ShadowMaps::summary)
     }
 }
 

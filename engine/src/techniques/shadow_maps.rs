@@ -18,9 +18,11 @@
 //! Shaders: `shaders-glsl/shadow/caster.frag` with `forward/forward.vert`.
 
 use ash::vk;
-use glam::Vec3;
+use glam::Vec2;
 
-use super::forward::TransparentPush;
+use super::forward::{
+    transparent_objects, CoverageSamples, ForwardPush, PassSample, TransparentObject, TransparentPush,
+};
 use super::FrameInputs;
 use crate::error::Result;
 use crate::gpu::layout::{
@@ -55,18 +57,6 @@ pub const SHADOW_SET: [Binding; 4] = [
     Binding { binding: 3, ty: SSBO, block: "ShadowObjectViews" },
 ];
 
-/// Per object, what the caster passes need of it.
-#[derive(Clone, Copy, Debug)]
-struct Caster {
-    /// Coverage below 1 somewhere: drawn by `caster.frag`.
-    transparent: bool,
-    /// Transparent and tinted: drawn again by the hue pass.
-    tinted: bool,
-    tint: [f32; 4],
-    alpha_from_texture: bool,
-    first_triangle: u32,
-}
-
 /// The atlas handles of one graph.
 #[derive(Clone, Copy, Debug)]
 pub struct ShadowHandles {
@@ -79,7 +69,7 @@ pub struct ShadowMaps {
     plan: ShadowPlan,
     faces: Vec<GpuView>,
     origins: Vec<[u32; 2]>,
-    casters: Vec<Caster>,
+    casters: Vec<TransparentObject>,
     depth_atlas: Tracked<Image>,
     hue_atlas: Option<Tracked<Image>>,
     depth_only: Pipeline,
@@ -229,26 +219,7 @@ impl ShadowMaps {
                 Pipeline::graphics_blended(device, &layout, &d, blend)
             };
         let depth_only = desc("shadow depth", &[&vert], &[], true)?;
-        let casters: Vec<Caster> = {
-            let mut first_triangle = 0u32;
-            scene
-                .objects
-                .iter()
-                .map(|o| {
-                    let m = &o.material;
-                    let transparent = !m.is_opaque();
-                    let c = Caster {
-                        transparent,
-                        tinted: transparent && m.tint != Vec3::ONE,
-                        tint: m.tint.extend(0.0).to_array(),
-                        alpha_from_texture: m.alpha_from_texture && m.texture.is_some() && o.mesh.has_uvs(),
-                        first_triangle,
-                    };
-                    first_triangle += (o.mesh.indices.len() / 3) as u32;
-                    c
-                })
-                .collect()
-        };
+        let casters = transparent_objects(scene);
         let mut modules = vec![];
         let (mut coverage, mut hue) = (None, None);
         if plan.kind != ShadowKind::Plain {
@@ -263,7 +234,7 @@ impl ShadowMaps {
             }
         }
         modules.push(vert);
-        let moving = plan.lights.iter().any(|l| l.lookup.space.objects.iter().any(|o| o.is_moving()));
+        let moving = crate::shadows::casters_move(scene);
         Ok(Some(ShadowMaps {
             plan,
             faces,
@@ -290,6 +261,24 @@ impl ShadowMaps {
     /// The plan the maps follow.
     pub fn plan(&self) -> &ShadowPlan {
         &self.plan
+    }
+
+    /// One line for a render's report: the plan's summary and when the maps are rendered.
+    pub fn summary(&self) -> String {
+        let when = if self.per_pass() { "before every pass" } else { "once per frame" };
+        format!("{}, rendered {when}", self.plan.summary())
+    }
+
+    /// Binds the receivers' set as set `index` of `layout`.
+    pub fn bind(
+        &self,
+        d: &Device,
+        cmd: vk::CommandBuffer,
+        bind_point: vk::PipelineBindPoint,
+        layout: vk::PipelineLayout,
+        index: u32,
+    ) {
+        unsafe { d.raw.cmd_bind_descriptor_sets(cmd, bind_point, layout, index, &[self.set], &[]) };
     }
 
     /// Whether the maps are rendered before every pass (something moves) rather than once per frame.
@@ -391,24 +380,15 @@ impl ShadowMaps {
                     d.raw.cmd_set_viewport(cmd, 0, &[viewport]);
                     d.raw.cmd_set_scissor(cmd, 0, &[scissor]);
                 }
+                let samples = CoverageSamples {
+                    seed,
+                    samples: self.plan.samples(),
+                    base: j * self.plan.msaa,
+                    msaa: self.plan.msaa,
+                };
+                let sample = PassSample { time, lens: Vec2::ZERO, jitter: Vec2::ZERO };
                 let push = |i: usize| {
-                    let (segment, segment_time) = view.segment_at(i, time);
-                    let c = &self.casters[i];
-                    TransparentPush {
-                        object: i as u32,
-                        time,
-                        lens: [0.0; 2],
-                        jitter: [0.0; 2],
-                        segment,
-                        segment_time,
-                        tint: c.tint,
-                        coverage_seed: seed,
-                        samples: self.plan.samples(),
-                        sample_base: j * self.plan.msaa,
-                        msaa: self.plan.msaa,
-                        first_triangle: c.first_triangle,
-                        alpha_from_texture: c.alpha_from_texture as u32,
-                    }
+                    TransparentPush::new(ForwardPush::new(view, i, &sample), &self.casters[i], samples)
                 };
                 let draw = |pipeline: &Pipeline, include: &dyn Fn(usize) -> bool| unsafe {
                     d.raw.cmd_bind_pipeline(cmd, bind, pipeline.raw);

@@ -1024,20 +1024,14 @@ impl StochasticDraws {
         } else {
             None
         };
-        let shade_layout = match &shadows {
-            Some(maps) => world.pipeline_layout(
-                device,
-                &[&object_set_layout, &technique_set_layout, maps.set_layout()],
-                std::mem::size_of::<StochasticPush>() as u32,
-                vk::ShaderStageFlags::COMPUTE,
-            )?,
-            None => world.pipeline_layout(
-                device,
-                &sets,
-                std::mem::size_of::<StochasticPush>() as u32,
-                vk::ShaderStageFlags::COMPUTE,
-            )?,
-        };
+        let shade_sets: Vec<&DescriptorSetLayout> =
+            sets.iter().copied().chain(shadows.as_ref().map(ShadowMaps::set_layout)).collect();
+        let shade_layout = world.pipeline_layout(
+            device,
+            &shade_sets,
+            std::mem::size_of::<StochasticPush>() as u32,
+            vk::ShaderStageFlags::COMPUTE,
+        )?;
         let (shadow_axis, shadow_color) =
             shadows.as_ref().map_or((axes::Shadows::None, false), |m| m.lookup());
         // The geometry stage is named only where the device has one.
@@ -1280,11 +1274,9 @@ impl StochasticDraws {
             options,
             bounds: plan.objects.iter().map(|o| options.bound.resolve(caps, o.max_coc_px)).collect(),
             object_alpha: ctx.scene.objects.iter().map(|o| o.material.alpha).collect(),
-            object_texture_alpha: ctx
-                .scene
-                .objects
+            object_texture_alpha: super::forward::transparent_objects(ctx.scene)
                 .iter()
-                .map(|o| o.material.alpha_from_texture && o.material.texture.is_some() && o.mesh.has_uvs())
+                .map(|o| o.alpha_from_texture)
                 .collect(),
             coverage_seed: crate::transparency::coverage_seed(seed),
             spp,
@@ -1847,8 +1839,7 @@ impl StochasticDraws {
                 &[],
             );
             if let Some(maps) = &self.shadows {
-                let index = crate::gpu::layout::SHADOW_SET_INDEX;
-                d.raw.cmd_bind_descriptor_sets(cmd, bind, layout, index, &[maps.set()], &[]);
+                maps.bind(d, cmd, bind, layout, crate::gpu::layout::SHADOW_SET_INDEX);
             }
         }
         let mut first = true;
@@ -1959,7 +1950,7 @@ impl FrameTechnique for StochasticTechnique {
     }
 
     fn shadows(&self) -> Option<String> {
-        self.draws.shadows.as_ref().map(|s| format!("{}, rendered once per frame", s.plan().summary()))
+        self.draws.shadows.as_ref().map(ShadowMaps::summary)
     }
 }
 
