@@ -10,92 +10,19 @@
 //!   stochastic transparency at equal S;
 //! * what the methods refuse.
 
-use std::sync::Arc;
-
 use glam::Vec3;
 use shutter::image::LinearImage;
 use shutter::metrics::compare;
 use shutter::reference::{render_reference, ReferenceSettings};
-use shutter::scene::{Camera, Material, Mesh, Object, Scene};
+use shutter::scene::Scene;
 use shutter::techniques::{RenderOutput, RenderSettings, Renderer, Technique};
 use shutter::transparency::TransparencyMethod;
-use shutter_tests::{camera, renderer, save_comparison, single_object_scene, square};
-
-const W: u32 = 48;
-const H: u32 = 32;
+use shutter_tests::panes::{composite, composite_layers, pane_scene, panes, PaneSpec, H, W};
+use shutter_tests::{renderer, save_comparison};
 
 const PEELING: TransparencyMethod = TransparencyMethod::Peeling { layers: 8 };
 const DEPTH_BASED: TransparencyMethod = TransparencyMethod::DepthBased { alpha_correction: true };
 const UNCORRECTED: TransparencyMethod = TransparencyMethod::DepthBased { alpha_correction: false };
-
-/// One triangle covering pixel rectangle `[x0, x1] × [y0, y1]` at view depth `z`, its other two
-/// edges far outside the image (as in `transparency.rs`: no edge shared by two triangles crosses it).
-fn pixel_triangle(cam: &Camera, [x0, x1, y0, y1]: [f32; 4], z: f32) -> Arc<Mesh> {
-    let s = cam.intrinsics(W, H).pixel_scale;
-    let p = |x: f32, y: f32| Vec3::new((x - W as f32 / 2.0) / s * z, -(y - H as f32 / 2.0) / s * z, -z);
-    let width = x1 - x0;
-    let d = 2.0 * (y1 - y0) + 10.0;
-    let apex = p(x0 - 4.0 * width - 10.0, 0.5 * (y0 + y1));
-    Arc::new(
-        Mesh::new("pane", vec![apex, p(x1, y1 + d), p(x1, y0 - d)], vec![], vec![], vec![0, 1, 2])
-            .expect("triangle"),
-    )
-}
-
-/// Front to back: (pixel rectangle, depth, alpha, colour, tint). The nearest pane covers the left
-/// half only; the last is a pure filter (alpha 0).
-type PaneSpec = ([f32; 4], f32, f32, Vec3, Vec3);
-const BACKGROUND: Vec3 = Vec3::new(0.6, 0.7, 0.8);
-
-fn panes() -> Vec<PaneSpec> {
-    let full = [-1.0, W as f32 + 1.0, -1.0, H as f32 + 1.0];
-    let left = [-1.0, W as f32 / 2.0, -1.0, H as f32 + 1.0];
-    vec![
-        (left, 2.0, 0.3, Vec3::new(0.9, 0.2, 0.1), Vec3::new(1.0, 0.6, 0.3)),
-        (full, 3.0, 0.5, Vec3::new(0.1, 0.8, 0.3), Vec3::new(0.4, 1.0, 0.7)),
-        (full, 4.0, 0.2, Vec3::new(0.2, 0.3, 0.9), Vec3::new(0.9, 0.9, 0.2)),
-        (full, 5.0, 0.0, Vec3::ONE, Vec3::new(0.5, 0.8, 1.0)),
-    ]
-}
-
-/// The panes (untinted when `tinted` is false) under unit ambient light, each pane's colour its albedo.
-fn pane_scene(tinted: bool, reversed: bool) -> Scene {
-    let cam = camera(40.0, 0.0, 5.0);
-    let mut scene = single_object_scene(cam.clone(), square(1.0), glam::Mat4::IDENTITY, None, W, H);
-    scene.environment.background = BACKGROUND;
-    scene.objects = panes()
-        .into_iter()
-        .map(|(r, z, alpha, albedo, tint)| Object {
-            name: format!("pane {alpha}"),
-            mesh: pixel_triangle(&cam, r, z),
-            transforms: vec![(0.0, glam::Mat4::IDENTITY)],
-            material: Material {
-                albedo,
-                alpha,
-                tint: if tinted { tint } else { Vec3::ONE },
-                ..Material::default()
-            },
-        })
-        .collect();
-    if reversed {
-        scene.objects.reverse();
-    }
-    scene
-}
-
-/// The closed-form composite of `layers` (tints ignored unless `tinted`) over the background, the
-/// variance of one independent stochastic-coverage sample, and the total transmittance (per channel).
-fn composite(layers: &[PaneSpec], tinted: bool) -> ([f64; 3], [f64; 3]) {
-    shutter::transparency::composite(&composite_layers(layers, tinted), BACKGROUND.as_dvec3().to_array())
-}
-
-fn composite_layers(layers: &[PaneSpec], tinted: bool) -> Vec<(f64, [f64; 3], [f64; 3])> {
-    let f64x3 = |v: Vec3| v.as_dvec3().to_array();
-    layers
-        .iter()
-        .map(|&(_, _, a, c, t)| (a as f64, f64x3(c), f64x3(if tinted { t } else { Vec3::ONE })))
-        .collect()
-}
 
 /// How far a pixel may be from the exact composite of `layers`, per channel, when only rounding
 /// differs: the opaque pass' RGBA16F colour target holds the background (in [0.5, 1)) to within one

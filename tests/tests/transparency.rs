@@ -17,32 +17,12 @@ use glam::{Vec2, Vec3};
 use shutter::image::LinearImage;
 use shutter::metrics::compare;
 use shutter::reference::{render_reference_shared_samples, ReferenceSettings};
-use shutter::scene::{Camera, Material, Mesh, Object, Scene, Texture};
+use shutter::scene::{Camera, Mesh, Scene, Texture};
 use shutter::techniques::accumulation::accumulation_samples;
 use shutter::techniques::{RenderSettings, Technique};
 use shutter::transparency::TransparencyMethod;
+use shutter_tests::panes::{composite, pane, pane_scene, panes, H, W};
 use shutter_tests::{camera, max_abs_diff, renderer, save_comparison, single_object_scene, square};
-
-const W: u32 = 48;
-const H: u32 = 32;
-
-/// One triangle covering pixel rectangle `[x0, x1] × [y0, y1]` at view depth `z` (its three edges
-/// are x = x1 and two edges far outside the image on the other sides, so no edge shared by two
-/// triangles crosses the image: a sample on such an edge may go to either triangle, and the
-/// rasterizer's tie rule is not the reference's).
-fn pixel_triangle(cam: &Camera, [x0, x1, y0, y1]: [f32; 4], z: f32) -> Arc<Mesh> {
-    let s = cam.intrinsics(W, H).pixel_scale;
-    let p = |x: f32, y: f32| Vec3::new((x - W as f32 / 2.0) / s * z, -(y - H as f32 / 2.0) / s * z, -z);
-    // The apex far left; the right edge from (x1, y0 − d) to (x1, y1 + d) with d large enough that
-    // the other two edges pass outside [x0, x1] × [y0, y1].
-    let width = x1 - x0;
-    let d = 2.0 * (y1 - y0) + 10.0;
-    let apex = p(x0 - 4.0 * width - 10.0, 0.5 * (y0 + y1));
-    Arc::new(
-        Mesh::new("pane", vec![apex, p(x1, y1 + d), p(x1, y0 - d)], vec![], vec![], vec![0, 1, 2])
-            .expect("triangle"),
-    )
-}
 
 /// A quad covering pixel rectangle `[x0, x1] × [y0, y1]` at view depth `z`, uv (0..1) across it.
 fn pixel_quad(cam: &Camera, [x0, x1, y0, y1]: [f32; 4], z: f32) -> Arc<Mesh> {
@@ -58,58 +38,6 @@ fn pixel_quad(cam: &Camera, [x0, x1, y0, y1]: [f32; 4], z: f32) -> Arc<Mesh> {
         )
         .expect("quad"),
     )
-}
-
-fn pane(mesh: Arc<Mesh>, albedo: Vec3, alpha: f32, tint: Vec3) -> Object {
-    Object {
-        name: format!("pane {alpha}"),
-        mesh,
-        transforms: vec![(0.0, glam::Mat4::IDENTITY)],
-        material: Material { albedo, alpha, tint, ..Material::default() },
-    }
-}
-
-/// Front to back: (pixel rectangle, depth, alpha, colour, tint). The nearest pane covers the left
-/// half only; one is a pure filter (alpha 0).
-type PaneSpec = ([f32; 4], f32, f32, Vec3, Vec3);
-const BACKGROUND: Vec3 = Vec3::new(0.6, 0.7, 0.8);
-
-fn panes() -> Vec<PaneSpec> {
-    let full = [-1.0, W as f32 + 1.0, -1.0, H as f32 + 1.0];
-    let left = [-1.0, W as f32 / 2.0, -1.0, H as f32 + 1.0];
-    vec![
-        (left, 2.0, 0.3, Vec3::new(0.9, 0.2, 0.1), Vec3::new(1.0, 0.6, 0.3)),
-        (full, 3.0, 0.5, Vec3::new(0.1, 0.8, 0.3), Vec3::new(0.4, 1.0, 0.7)),
-        (full, 4.0, 0.2, Vec3::new(0.2, 0.3, 0.9), Vec3::new(0.9, 0.9, 0.2)),
-        (full, 5.0, 0.0, Vec3::ONE, Vec3::new(0.5, 0.8, 1.0)),
-    ]
-}
-
-/// The panes (untinted when `tinted` is false) under unit ambient light: each pane's colour is its
-/// albedo.
-fn pane_scene(tinted: bool, reversed: bool) -> Scene {
-    let cam = camera(40.0, 0.0, 5.0);
-    let mut scene = single_object_scene(cam.clone(), square(1.0), glam::Mat4::IDENTITY, None, W, H);
-    scene.environment.background = BACKGROUND;
-    scene.objects = panes()
-        .into_iter()
-        .map(|(r, z, a, c, t)| pane(pixel_triangle(&cam, r, z), c, a, if tinted { t } else { Vec3::ONE }))
-        .collect();
-    if reversed {
-        scene.objects.reverse();
-    }
-    scene
-}
-
-/// Closed-form composite of `layers` (tints ignored unless `tinted`) over the background and the
-/// variance of one independent stochastic-coverage sample, per channel (`transparency::composite`).
-fn composite(layers: &[PaneSpec], tinted: bool) -> ([f64; 3], [f64; 3]) {
-    let f64x3 = |v: Vec3| v.as_dvec3().to_array();
-    let layers: Vec<(f64, [f64; 3], [f64; 3])> = layers
-        .iter()
-        .map(|&(_, _, a, c, t)| (a as f64, f64x3(c), f64x3(if tinted { t } else { Vec3::ONE })))
-        .collect();
-    shutter::transparency::composite(&layers, f64x3(BACKGROUND))
 }
 
 /// Per patch (left: all four panes, right: the last three) and channel: (mean error, per-pixel RMS
