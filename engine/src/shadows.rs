@@ -26,7 +26,7 @@
 use glam::{Mat4, Vec2, Vec3};
 
 use crate::error::{Error, Result};
-use crate::scene::view::{scene_bounds, CUBE_FACES};
+use crate::scene::view::CUBE_FACES;
 use crate::scene::{Light, Projection, Scene, View};
 
 /// A spot light whose outer half-angle exceeds this many degrees is mapped through a cube like a
@@ -320,7 +320,6 @@ impl ShadowPlan {
 
 /// A point light's lookup space (its position, the world's axes) and its six faces.
 fn cube_views(scene: &Scene, name: &str, position: Vec3, size: u32) -> Option<(View, Vec<(View, Mat4)>)> {
-    let (_, _) = scene_bounds(scene)?;
     let faces: Vec<(View, Mat4)> = CUBE_FACES
         .iter()
         .enumerate()

@@ -26,7 +26,9 @@ use crate::scene::Scene;
 use crate::shaders;
 use crate::shaders::axes::{Shadows, TransparencyPass};
 use crate::transparency::{coverage_seed, TransparencyMethod};
-use crate::vk::{ColorBlend, Device, Feature, GraphicsDesc, Pipeline, PipelineLayout, ShaderModule};
+use crate::vk::{
+    ColorBlend, DescriptorSetLayout, Device, Feature, GraphicsDesc, Pipeline, PipelineLayout, ShaderModule,
+};
 
 /// One pass' sample of the lens and shutter.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -137,7 +139,7 @@ impl ShadowLookup {
 }
 
 /// The vertex stage of a forward pipeline: with the object-space outputs a shadow receiver reads.
-fn forward_vert(device: &Device, receives_shadows: bool) -> Result<ShaderModule> {
+pub(super) fn forward_vert(device: &Device, receives_shadows: bool) -> Result<ShaderModule> {
     ShaderModule::new(device, shaders::ForwardVert { shadow_receiver: receives_shadows }.source())
 }
 
@@ -150,15 +152,11 @@ fn forward_layout(
     push_bytes: usize,
 ) -> Result<PipelineLayout> {
     let stages = vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT;
-    match shadows {
-        Some(maps) => world.pipeline_layout(
-            device,
-            &[&world.empty_layout, maps.set_layout()],
-            push_bytes as u32,
-            stages,
-        ),
-        None => world.pipeline_layout(device, &[], push_bytes as u32, stages),
-    }
+    let sets: Vec<&DescriptorSetLayout> = match shadows {
+        Some(maps) => vec![&world.empty_layout, maps.set_layout()],
+        None => vec![],
+    };
+    world.pipeline_layout(device, &sets, push_bytes as u32, stages)
 }
 
 /// Binds the shadow maps' set 3, when the pipeline receives shadows.
@@ -581,10 +579,7 @@ impl FrameTechnique for ForwardTechnique {
     }
 
     fn shadows(&self) -> Option<String> {
-        self.shadows.as_ref().map(|s| {
-            let when = if s.per_pass() { "before every pass" } else { "once per frame" };
-            format!("{}, rendered {when}", s.plan().summary())
-        })
+        self.shadows.as_ref().map(ShadowMaps::summary)
     }
 }
 

@@ -180,8 +180,8 @@ impl MultipassFrame {
     ) -> Result<LinearImage> {
         let mut g = frame.graph();
         let shadows = shadows.map(|s| (s, s.import(&mut g)));
-        if let Some((s, h)) = shadows.filter(|(s, _)| !s.per_pass()) {
-            s.add_passes(&mut g, h, inputs, false);
+        if let Some((s, h)) = shadows {
+            s.add_frame_passes(&mut g, h, inputs);
         }
         let shadow_reads = shadows.map(|(_, h)| ShadowMaps::reads(h)).unwrap_or_default();
         let mut uses = Vec::with_capacity(draws.len());
@@ -211,8 +211,8 @@ impl MultipassFrame {
         let weight = 1.0 / self.passes.max(1) as f32;
         let inputs = *inputs;
         g.repeat(self.passes, |g| {
-            if let Some((s, h)) = shadows.filter(|(s, _)| s.per_pass()) {
-                s.add_passes(g, h, &inputs, true);
+            if let Some((s, h)) = shadows {
+                s.add_pass_passes(g, h, &inputs);
             }
             let mut pass = g.pass(self.name);
             pass = match color_ms {

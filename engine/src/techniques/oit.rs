@@ -60,8 +60,8 @@ use ash::vk;
 use bytemuck::{Pod, Zeroable};
 
 use super::forward::{
-    has_transparency, transparent_objects, CoverageSamples, ForwardPipeline, ForwardPush, ForwardTechnique,
-    PassSample, TransparentObject, TransparentPush,
+    forward_vert, has_transparency, transparent_objects, CoverageSamples, ForwardPipeline, ForwardPush,
+    ForwardTechnique, PassSample, TransparentObject, TransparentPush,
 };
 use super::multipass::{accumulation_image, COLOR_FORMAT, DEPTH_FORMAT};
 use super::shadow_maps::ShadowMaps;
@@ -384,11 +384,9 @@ impl OitTechnique {
         let shadows =
             ShadowMaps::new(device, world, ctx.scene, &ctx.settings.shadows, &times, ctx.settings.seed)?;
         let (shadow_axis, shadow_color) = shadows.as_ref().map_or((Shadows::None, false), |m| m.lookup());
-        let vert = || ShaderModule::new(device, shaders::FORWARD_FORWARD_VERT);
+        let vert = || forward_vert(device, false);
         // The shading draws' vertex stage: with the object-space outputs the shadow lookup reads.
-        let receiver_vert = || {
-            ShaderModule::new(device, shaders::ForwardVert { shadow_receiver: shadows.is_some() }.source())
-        };
+        let receiver_vert = || forward_vert(device, shadows.is_some());
         // Sets 2 (empty) and 3 (the pipeline's own), and 4 the shadow maps when there are any.
         let draw_layout_with = |set3: &DescriptorSetLayout| {
             let sets: Vec<&DescriptorSetLayout> = [&world.empty_layout, set3]
@@ -741,15 +739,15 @@ impl OitTechnique {
         let sampled_compute = Access::ComputeShaderReadSampledImageOrUniformTexelBuffer;
         g.clear_color("clear accumulation", accum, [0.0; 4]);
         let shadows = self.shadows.as_ref().map(|s| (s, s.import(&mut g)));
-        if let Some((s, h)) = shadows.filter(|(s, _)| !s.per_pass()) {
-            s.add_passes(&mut g, h, &inputs, false);
+        if let Some((s, h)) = shadows {
+            s.add_frame_passes(&mut g, h, &inputs);
         }
         let shadow_reads = shadows.map(|(_, h)| ShadowMaps::reads(h)).unwrap_or_default();
         let shadow_reads = &shadow_reads;
         // Before each pass' draws: its shadow maps, when something moves.
         let per_pass_shadows = move |g: &mut crate::graph::FrameGraph<'a>| {
-            if let Some((s, h)) = shadows.filter(|(s, _)| s.per_pass()) {
-                s.add_passes(g, h, &inputs, true);
+            if let Some((s, h)) = shadows {
+                s.add_pass_passes(g, h, &inputs);
             }
         };
         match &self.path {

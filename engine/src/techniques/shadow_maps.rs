@@ -320,9 +320,30 @@ impl ShadowMaps {
         std::iter::once(h.depth).chain(h.hue).map(|i| (i.into(), access)).collect()
     }
 
-    /// Adds the passes that render the maps: once (`per_pass` false: at mid-shutter) or, inside a
-    /// repeat of the frame's passes, at the shutter time of the iteration's pass.
-    pub fn add_passes<'a>(
+    /// Adds the passes that render the maps once per frame, ahead of the frame's passes — when
+    /// nothing moves (otherwise [`ShadowMaps::add_pass_passes`] does, per pass).
+    pub fn add_frame_passes<'a>(
+        &'a self,
+        g: &mut FrameGraph<'a>,
+        h: ShadowHandles,
+        inputs: &FrameInputs<'a>,
+    ) {
+        if !self.per_pass() {
+            self.add_passes(g, h, inputs, false);
+        }
+    }
+
+    /// Inside the repeat of the frame's passes: the passes that render the maps at the shutter time
+    /// of the iteration's pass — when something moves.
+    pub fn add_pass_passes<'a>(&'a self, g: &mut FrameGraph<'a>, h: ShadowHandles, inputs: &FrameInputs<'a>) {
+        if self.per_pass() {
+            self.add_passes(g, h, inputs, true);
+        }
+    }
+
+    /// The passes that render the maps: at mid-shutter, or (`per_pass`) at the time of the
+    /// repeat's iteration's pass.
+    fn add_passes<'a>(
         &'a self,
         g: &mut FrameGraph<'a>,
         h: ShadowHandles,

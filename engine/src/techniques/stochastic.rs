@@ -1624,7 +1624,7 @@ impl StochasticDraws {
         }
         if let Some(maps) = &self.shadows {
             let h = maps.import(&mut g);
-            maps.add_passes(&mut g, h, inputs, false);
+            maps.add_frame_passes(&mut g, h, inputs);
             let read = Access::ComputeShaderReadSampledImageOrUniformTexelBuffer;
             shading_uses.extend(ShadowMaps::reads_as(h, read));
         }
