@@ -41,8 +41,13 @@ mod shaders_tests;
 /// them.
 ///
 /// ```
-/// use shutter::shaders::{self, axes::{Effects, Hull}, StochasticFrag};
-/// let key = StochasticFrag { hull: Hull::Compute, instrumented: false, effects: Effects::Defocus };
+/// use shutter::shaders::{self, axes::{Effects, Hull, TransparencyPass}, StochasticFrag};
+/// let key = StochasticFrag {
+///     hull: Hull::Compute,
+///     instrumented: false,
+///     effects: Effects::Defocus,
+///     transparency_pass: TransparencyPass::Coverage,
+/// };
 /// let source = key.source();
 /// assert_eq!(source.permutation, "COMPUTE_HULL_DEFOCUS");
 /// assert_eq!(source.defines, ["COMPUTE_HULL", "NO_MOTION"]);

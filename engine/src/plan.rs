@@ -208,29 +208,17 @@ impl Plan {
 
     /// The frame technique `auto` renders, and why when it is not the obvious one: the pinhole
     /// technique when nothing needs blur; the stochastic frame when something does — unless the scene
-    /// has what the stochastic frame does not render yet (tints, shadow maps of moving casters), when
-    /// it is `accumulation`, which renders all of them with the blur.
+    /// has what the stochastic frame does not render yet (shadow maps of moving casters), when it is
+    /// `accumulation`, which renders them with the blur.
     pub fn auto_frame(&self) -> (AutoFrame, Option<String>) {
         if !self.needs_stochastic() {
             return (AutoFrame::Pinhole, None);
         }
-        let mut missing = vec![];
-        if self.tinted_objects > 0 {
-            missing.push("tints");
-        }
         if self.shadows_follow_motion {
-            missing.push("shadow maps of moving casters");
-        }
-        if missing.is_empty() {
-            (AutoFrame::Stochastic, None)
+            let why = "the stochastic frame renders no shadow maps of moving casters yet";
+            (AutoFrame::Accumulation, Some(why.to_string()))
         } else {
-            let list = match missing.split_last() {
-                Some((last, [])) => last.to_string(),
-                Some((last, rest)) => format!("{} or {last}", rest.join(", ")),
-                None => unreachable!("not empty"),
-            };
-            let why = format!("the stochastic frame renders no {list} yet");
-            (AutoFrame::Accumulation, Some(why))
+            (AutoFrame::Stochastic, None)
         }
     }
 
@@ -415,7 +403,7 @@ mod tests {
     }
 
     /// `auto` takes pinhole without blur, the stochastic frame with blur, and accumulation with blur
-    /// and what the stochastic frame lacks (shadow maps of moving casters, tints); the plan says which
+    /// and what the stochastic frame lacks (shadow maps of moving casters); the plan says which
     /// shadow maps a scene needs and whether they follow motion.
     #[test]
     fn auto_frame_follows_blur_and_what_the_stochastic_frame_renders() {
@@ -431,7 +419,8 @@ mod tests {
         assert_eq!(p.shadow_kind, Some(ShadowKind::Plain));
         assert!(p.shadows_follow_motion, "the default scene's sphere moves");
         assert!(p.to_string().contains("shadows: light["), "{p}");
-        // Texture alpha and shadows of still casters: the stochastic frame renders both.
+        // Tints, texture alpha and shadows of still casters: the stochastic frame renders them all.
+        assert_eq!(plan_of("glass").auto_frame(), (AutoFrame::Stochastic, None));
         let foliage = plan_of("foliage");
         assert_eq!(foliage.auto_frame(), (AutoFrame::Stochastic, None));
         assert_eq!(foliage.texture_alpha_objects, 4);

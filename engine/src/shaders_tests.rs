@@ -5,7 +5,7 @@
 
 use std::collections::{BTreeMap, BTreeSet};
 
-use crate::shaders::axes::{Effects, Hull, Shading, Shadows};
+use crate::shaders::axes::{Effects, Hull, Shading, Shadows, TransparencyPass};
 use crate::shaders::{self, ExpandComp, ShadeComp, ShaderSource, StochasticFrag, StochasticGeom};
 
 const DECLARATION: &str = include_str!("../../shaders-glsl/permutations.toml");
@@ -102,16 +102,19 @@ fn stochastic_frag_key_selects_the_declared_defines() {
     for hull in Hull::ALL {
         for instrumented in [false, true] {
             for effects in Effects::ALL {
-                let key = StochasticFrag { hull, instrumented, effects };
-                let pairs = [
-                    ("hull", hull.name()),
-                    ("instrumented", bool_name(instrumented)),
-                    ("effects", effects.name()),
-                ];
-                check(&d, key.source(), "stochastic/stochastic.frag", &pairs);
-                assert!(same(StochasticFrag::SOURCES[n], key.source()));
-                assert_eq!(StochasticFrag::ALL[n], key);
-                n += 1;
+                for transparency_pass in TransparencyPass::ALL {
+                    let key = StochasticFrag { hull, instrumented, effects, transparency_pass };
+                    let pairs = [
+                        ("hull", hull.name()),
+                        ("instrumented", bool_name(instrumented)),
+                        ("effects", effects.name()),
+                        ("transparency_pass", transparency_pass.name()),
+                    ];
+                    check(&d, key.source(), "stochastic/stochastic.frag", &pairs);
+                    assert!(same(StochasticFrag::SOURCES[n], key.source()));
+                    assert_eq!(StochasticFrag::ALL[n], key);
+                    n += 1;
+                }
             }
         }
     }
@@ -128,18 +131,22 @@ fn shade_comp_key_selects_the_declared_defines() {
             for effects in Effects::ALL {
                 for shadows in Shadows::ALL {
                     for shadow_color in [false, true] {
-                        let key = ShadeComp { shading, instrumented, effects, shadows, shadow_color };
-                        let pairs = [
-                            ("shading", shading.name()),
-                            ("instrumented", bool_name(instrumented)),
-                            ("effects", effects.name()),
-                            ("shadows", shadows.name()),
-                            ("shadow_color", bool_name(shadow_color)),
-                        ];
-                        check(&d, key.source(), "stochastic/shade.comp", &pairs);
-                        assert!(same(ShadeComp::SOURCES[n], key.source()));
-                        assert_eq!(ShadeComp::ALL[n], key);
-                        n += 1;
+                        for tints in [false, true] {
+                            let key =
+                                ShadeComp { shading, instrumented, effects, shadows, shadow_color, tints };
+                            let pairs = [
+                                ("shading", shading.name()),
+                                ("instrumented", bool_name(instrumented)),
+                                ("effects", effects.name()),
+                                ("shadows", shadows.name()),
+                                ("shadow_color", bool_name(shadow_color)),
+                                ("tints", bool_name(tints)),
+                            ];
+                            check(&d, key.source(), "stochastic/shade.comp", &pairs);
+                            assert!(same(ShadeComp::SOURCES[n], key.source()));
+                            assert_eq!(ShadeComp::ALL[n], key);
+                            n += 1;
+                        }
                     }
                 }
             }
@@ -227,8 +234,8 @@ fn each_file_has_the_product_of_its_axes() {
             assert!(seen.insert(p.permutation), "{} [{}] twice", f.file, p.permutation);
         }
     }
-    assert_eq!(d.count("stochastic/stochastic.frag"), 24);
-    assert_eq!(d.count("stochastic/shade.comp"), 96); // 2 shading × 2 instrumented × 4 effects × 3 shadows × 2 colour
+    assert_eq!(d.count("stochastic/stochastic.frag"), 48); // 3 hulls × 2 instrumented × 4 effects × 2 passes
+    assert_eq!(d.count("stochastic/shade.comp"), 192); // 2 shading × 2 instrumented × 4 effects × 3 shadows × 2 colour × 2 tints
     assert_eq!(d.count("stochastic/stochastic.geom"), 8);
     assert_eq!(d.count("stochastic/expand.comp"), 4);
     assert_eq!(d.count("stochastic/clusters.comp"), 4);
@@ -344,7 +351,12 @@ fn the_former_hand_written_permutations_keep_their_names_and_defines() {
         assert_eq!((default.permutation, default.defines), ("DEFAULT", &[][..]), "{}", f.file);
     }
     // Spot checks of the key structs against the old constants.
-    let key = StochasticFrag { hull: Hull::Compute, instrumented: true, effects: Effects::Motion };
+    let key = StochasticFrag {
+        hull: Hull::Compute,
+        instrumented: true,
+        effects: Effects::Motion,
+        transparency_pass: TransparencyPass::Coverage,
+    };
     assert!(same(key.source(), STOCHASTIC_STOCHASTIC_FRAG_COMPUTE_HULL_INSTRUMENTED_MOTION));
     let key = ShadeComp {
         shading: Shading::PerSample,
@@ -352,6 +364,7 @@ fn the_former_hand_written_permutations_keep_their_names_and_defines() {
         effects: Effects::Motion,
         shadows: Shadows::None,
         shadow_color: false,
+        tints: false,
     };
     assert!(same(key.source(), STOCHASTIC_SHADE_COMP_PER_SAMPLE_INSTRUMENTED_MOTION));
     let key = StochasticGeom { bound_debug: true, effects: Effects::Both };

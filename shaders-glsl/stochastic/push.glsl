@@ -37,6 +37,11 @@ layout(push_constant) uniform Push {
     uint coverage_seed;
     // 1: the coverage is alpha times the texture's alpha at each hit's uv (stochastic.frag).
     uint alpha_from_texture;
+    // TINT_PASS (stochastic.frag): the object's tint as transparency::tint_log, −log2 T per channel
+    // in 16.16 fixed point.
+    uint tint_log_r;
+    uint tint_log_g;
+    uint tint_log_b;
 } pc;
 
 #endif

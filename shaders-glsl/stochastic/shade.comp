@@ -16,6 +16,9 @@
 //               surface point (common/shadow.glsl), bound as set 4 — sets 2 and 3 are this
 //               technique's. The maps are rendered once per frame: the stochastic frame takes them
 //               only when nothing moves in the world (shadows::casters_move).
+//   TINTS:      every sample's radiance (or background) times the product of the tints in front of
+//               it, from the tint buffer stochastic.frag's tint pass filled (transparency::tint_from_log);
+//               per-pixel groups weigh their radiance by the sum of their samples' tints.
 #define SHADOW_SET 4
 #include "common/object.glsl"
 #include "common/shading.glsl"
@@ -38,6 +41,26 @@ layout(set = 3, binding = 2, std430) buffer Counters {
 layout(set = 3, binding = 6, rgba32f) uniform image2D accum;
 
 const uint SAMPLE_TILE_SIZE = 64u;
+
+#ifdef TINTS
+layout(set = 3, binding = 7, std430) readonly buffer TintLog { uint tint_log[]; };
+const uint TINT_LOG_ONE = 65536u;        // transparency::TINT_LOG_ONE
+const uint TINT_LOG_CAP = 64u * 65536u;  // transparency::TINT_LOG_CAP
+
+float tint_from_log(uint l) {
+    return l >= TINT_LOG_CAP ? 0.0 : exp2(-float(l) / float(TINT_LOG_ONE));
+}
+
+// The product of the tints in front of what sample i of pixel pix sees.
+vec3 sample_tint(uvec2 pix, uint i) {
+    uint at = 3u * visibility_index(pix, i, pc.per_pass);
+    return vec3(tint_from_log(tint_log[at]), tint_from_log(tint_log[at + 1u]), tint_from_log(tint_log[at + 2u]));
+}
+#else
+vec3 sample_tint(uvec2 pix, uint i) {
+    return vec3(1.0);
+}
+#endif
 const uint SHADE_BACKGROUND = 0xffffffffu;
 const uint SHADE_GROUPS = 8u;  // engine/src/reference: PER_PIXEL_SHADING_GROUPS
 
@@ -144,17 +167,27 @@ uint pick(uvec4 lo, uvec4 hi, uint g) {
     return k == 0u ? v.x : (k == 1u ? v.y : (k == 2u ? v.z : v.w));
 }
 
+float pickf(vec4 lo, vec4 hi, uint g) {
+    vec4 v = g < 4u ? lo : hi;
+    uint k = g & 3u;
+    return k == 0u ? v.x : (k == 1u ? v.y : (k == 2u ? v.z : v.w));
+}
+
 void main() {
     uvec2 pix = gl_GlobalInvocationID.xy + uvec2(pc.origin_x, pc.origin_y);
     if (any(greaterThanEqual(pix, uvec2(view.viewport.xy)))) return;
     float inv_spp = 1.0 / float(pc.spp);
     if (pc.object == SHADE_BACKGROUND) {
         uint empty = 0u;
+        vec3 through = vec3(0.0);  // Σ of the empty samples' tints
         for (uint i = 0u; i < pc.per_pass; i++) {
-            if (visibility[visibility_index(pix, i, pc.per_pass)] == 0UL) empty++;
+            if (visibility[visibility_index(pix, i, pc.per_pass)] == 0UL) {
+                empty++;
+                through += sample_tint(pix, i);
+            }
         }
         if (empty > 0u) {
-            vec4 add = vec4(world.background.rgb, 1.0) * (float(empty) * inv_spp);
+            vec4 add = vec4(world.background.rgb * through, float(empty)) * inv_spp;
             imageStore(accum, ivec2(pix), imageLoad(accum, ivec2(pix)) + add);
         }
         return;
@@ -180,7 +213,7 @@ void main() {
             uint i = chunk + uint(findLSB(mine));
             mine &= mine - 1u;
             uint prim = triangle_of(visibility_payload(visibility[visibility_index(pix, i, pc.per_pass)]));
-            sum += shade_hit(prim, sample_at(prim, base + i, pix));
+            sum += sample_tint(pix, i) * shade_hit(prim, sample_at(prim, base + i, pix));
             shaded++;
         }
     }
@@ -194,6 +227,11 @@ void main() {
     uvec4 key_lo = uvec4(NO_KEY), key_hi = uvec4(NO_KEY);
     uvec4 first_lo = uvec4(0u), first_hi = uvec4(0u);
     uvec4 count_lo = uvec4(0u), count_hi = uvec4(0u);
+#ifdef TINTS
+    // Per group and channel: Σ of its samples' tints (the weight of its radiance).
+    vec4 tr_lo = vec4(0.0), tr_hi = vec4(0.0), tg_lo = vec4(0.0), tg_hi = vec4(0.0);
+    vec4 tb_lo = vec4(0.0), tb_hi = vec4(0.0);
+#endif
     uint groups = 0u;
     bool overflow = false;
     // Branch-free but for the rare overflow: llvmpipe pays every branch's masking per sample.
@@ -215,6 +253,16 @@ void main() {
         first_hi = mix(first_hi, uvec4(i), bvec4(at_hi));
         count_lo += in_lo + at_lo;
         count_hi += in_hi + at_hi;
+#ifdef TINTS
+        vec3 tint = sample_tint(pix, i);
+        vec4 g_lo = vec4(in_lo + at_lo), g_hi = vec4(in_hi + at_hi);
+        tr_lo += g_lo * tint.r;
+        tr_hi += g_hi * tint.r;
+        tg_lo += g_lo * tint.g;
+        tg_hi += g_hi * tint.g;
+        tb_lo += g_lo * tint.b;
+        tb_hi += g_hi * tint.b;
+#endif
         groups += insert ? 1u : 0u;
         count += mine ? 1u : 0u;
         overflow = overflow || (mine && !found && !insert);
@@ -228,14 +276,19 @@ void main() {
         bool grouped = any(equal(key_lo, uvec4(key))) || any(equal(key_hi, uvec4(key)));
         if (v != 0UL && is_object_key(payload) && !grouped) {
             uint prim = triangle_of(key);
-            sum += shade_hit(prim, sample_at(prim, base + i, pix));
+            sum += sample_tint(pix, i) * shade_hit(prim, sample_at(prim, base + i, pix));
             shaded++;
         }
     }
     for (uint g = 0u; g < groups; g++) {
         uint prim = triangle_of(pick(key_lo, key_hi, g));
         uint first = pick(first_lo, first_hi, g);
-        sum += float(pick(count_lo, count_hi, g)) * shade_hit(prim, sample_at(prim, base + first, pix));
+#ifdef TINTS
+        vec3 weight = vec3(pickf(tr_lo, tr_hi, g), pickf(tg_lo, tg_hi, g), pickf(tb_lo, tb_hi, g));
+#else
+        vec3 weight = vec3(float(pick(count_lo, count_hi, g)));
+#endif
+        sum += weight * shade_hit(prim, sample_at(prim, base + first, pix));
         shaded++;
     }
 #endif

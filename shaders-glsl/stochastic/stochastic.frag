@@ -14,6 +14,12 @@
 //   COMPUTE_HULL: behind the compute-expanded hull (hull.vert) rather than the geometry shader.
 // A partly covering object (pc.alpha < 1) keeps a hit only on the samples it covers (stochastic
 // transparency, docs/TRANSPARENCY.md); "samples hit" then counts covered hits.
+//   TINT_PASS: after the coverage pass, the tinted objects again (behind a one-piece bound, so every
+//              sample is tested once per triangle): each sample the triangle hits but does NOT cover,
+//              strictly in front of the hit the visibility buffer holds for it, gets the tint added to
+//              its entry of the tint buffer as −log2 T in fixed point (transparency::tint_log) — an
+//              integer sum, so the product of the tints in front of a sample's visible surface comes
+//              out the same whatever order the atomics run in. shade.comp (TINTS) multiplies it in.
 // llvmpipe runs this for every pixel a bound touches and masks SIMD lanes rather than branching, so
 // the work here is only what a miss must pay anyway: load the triangle, test the samples.
 #include "common/frame.glsl"
@@ -58,6 +64,31 @@ bool sample_sees_cluster(vec2 q, vec2 lens, vec4 pin, vec4 phi) {
 #endif
 
 const uint SAMPLE_TILE_SIZE = 64u;
+
+#ifdef TINT_PASS
+layout(set = 3, binding = 7, std430) buffer TintLog { uint tint_log[]; };
+#endif
+
+// A hit of sample i of this pass at view depth z on triangle `tri` (the frame's numbering), seen from
+// the back or not, that the triangle's coverage does or does not keep: into the visibility buffer
+// (coverage pass) or, uncovered and in front of the sample's visible hit, into the tint buffer (tint
+// pass). Whether it counted.
+bool keep_hit(uvec2 pix, uint i, float z, uint tri, bool back, bool covered) {
+    uint at = visibility_index(pix, i, pc.per_pass);
+#ifdef TINT_PASS
+    if (covered) return false;
+    uint64_t v = visibility[at];
+    // No hit (0): the background, behind everything.
+    if (v != 0UL && !(z < uintBitsToFloat(~uint(v >> 32)))) return false;
+    atomicAdd(tint_log[3u * at], pc.tint_log_r);
+    atomicAdd(tint_log[3u * at + 1u], pc.tint_log_g);
+    atomicAdd(tint_log[3u * at + 2u], pc.tint_log_b);
+#else
+    if (!covered) return false;
+    atomicMax(visibility[at], visibility_pack(z, tri, back));
+#endif
+    return true;
+}
 
 // Stochastic transparency: the reference's coverage decisions (common/coverage.glsl) for triangle `tri`
 // (the frame's numbering, the reference's) in this pixel — its key and covered count, drawn once per
@@ -160,9 +191,9 @@ void main() {
         vec3 b = shutter_lerp(p_open[1], p_close[1], s);
         vec3 c = shutter_lerp(p_open[2], p_close[2], s);
 #endif
-        if (sample_hit(a, b, c, ro, rd, z, w, back) && in_segment && sample_covered(coverage, i, prim, w)) {
-            atomicMax(visibility[visibility_index(pix, i, pc.per_pass)], visibility_pack(z, pc.triangle_base + prim, back));
-            hits++;
+        if (sample_hit(a, b, c, ro, rd, z, w, back) && in_segment) {
+            bool covered = sample_covered(coverage, i, prim, w);
+            if (keep_hit(pix, i, z, pc.triangle_base + prim, back, covered)) hits++;
         }
         tested++;
     }
@@ -214,9 +245,9 @@ void main() {
                 float z;
                 vec3 w;
                 bool back;
-                if (sample_hit(a, b, c, ro, rd, z, w, back) && sample_covered(coverage, i, prim, w)) {
-                    atomicMax(visibility[visibility_index(pix, i, pc.per_pass)], visibility_pack(z, pc.triangle_base + prim, back));
-                    hits++;
+                if (sample_hit(a, b, c, ro, rd, z, w, back)) {
+                    bool covered = sample_covered(coverage, i, prim, w);
+                    if (keep_hit(pix, i, z, pc.triangle_base + prim, back, covered)) hits++;
                 }
                 tested++;
             }

@@ -55,11 +55,11 @@ fn missing_device_feature_is_a_clear_error() {
     assert!(r.device().caps.require(shutter::vk::Feature::TimestampQueries, "bench").is_ok());
 }
 
-/// Tinted transparency is refused by the techniques without it (the stochastic rasterizer renders
-/// constant coverage only, for now), and shadows of moving casters by the stochastic rasterizer
-/// (its maps are of one time).
+/// The transparency methods a technique does not have are refused with the ones it has (the stochastic
+/// rasterizer renders stochastic transparency, tints included, but not depth-based ST or peeling), and
+/// shadows of moving casters by the stochastic rasterizer (its maps are of one time).
 #[test]
-fn translucent_material_is_refused_by_opaque_techniques() {
+fn transparency_methods_and_moving_shadows_are_refused_where_missing() {
     let mut scene = single_object_scene(
         camera(40.0, 0.0, 5.0),
         square(1.0),
@@ -71,8 +71,12 @@ fn translucent_material_is_refused_by_opaque_techniques() {
     scene.objects[0].material.alpha = 0.5;
     scene.objects[0].material.tint = Vec3::new(1.0, 0.5, 0.5);
     let mut r = renderer();
-    let err = r.render(&scene, Technique::STOCHASTIC, &RenderSettings::new(8, 8, 1, 0)).unwrap_err();
-    assert!(err.to_string().contains("tint") && err.to_string().contains("pinhole"), "{err}");
+    r.render(&scene, Technique::STOCHASTIC, &RenderSettings::new(8, 8, 1, 0)).expect("tints in stochastic");
+    let mut depth_based = RenderSettings::new(8, 8, 1, 0);
+    depth_based.transparency =
+        shutter::transparency::TransparencyMethod::DepthBased { alpha_correction: true };
+    let err = r.render(&scene, Technique::STOCHASTIC, &depth_based).unwrap_err();
+    assert!(err.to_string().contains("depth-based") && err.to_string().contains("pinhole"), "{err}");
     scene.objects[0].material.tint = Vec3::ONE;
     scene.objects[0].material.alpha = 1.0;
     scene.lights = vec![shutter::scene::Light::Point { position: Vec3::Y, color: Vec3::ONE, shadows: true }];

@@ -966,19 +966,20 @@ fn per_object_bounds_follow_each_objects_blur() {
 
 /// Stochastic transparency in the stochastic rasterizer (issue 12): the coverage stage keeps a hit of
 /// a partly covering object only on the samples it covers — the reference's decision for the same
-/// sample (`transparency::covered`) — so blur and transparency come out of one frame, exact against
-/// the same-sample reference. On `glass` without its tints (three panes of coverage 0.1 over the wall,
-/// untextured here, and Spot, one pane sliding, a small aperture), with panes of coverage 0.5, and
-/// opaque (1, the baseline): per-pixel and per-sample shading, two bounds, and S split over 4 passes
-/// (the sample index runs across passes).
+/// sample (`transparency::covered`) — and the tint pass multiplies each tinted object's tint into the
+/// samples it does not cover in front of what they see, so blur, coverage and tints come out of one
+/// frame, exact against the same-sample reference. On `glass` (three tinted panes of coverage 0.1 over
+/// the wall, untextured here, and Spot, one pane sliding, a small aperture), with panes of coverage
+/// 0.5, and opaque (1, the baseline: tints then do nothing): per-pixel and per-sample shading, two
+/// bounds, S split over 4 passes (the sample index runs across passes), and the compute-expanded hull
+/// for the coverage pass (the tint pass draws behind the geometry shader either way).
 #[test]
 fn stochastic_transparency_matches_the_reference_sample_for_sample() {
     let mut scene = builtin_scene("glass").unwrap().unwrap();
-    // Untinted (the stochastic rasterizer renders constant coverage only, so far); the wall without
-    // Spot's texture, whose sRGB decoding alone differs by up to 1e-3 between lavapipe and the CPU
-    // over the whole wall (an RMSE floor of 4e-4 with or without the panes).
+    // The wall without Spot's texture, whose sRGB decoding alone differs by up to 1e-3 between
+    // lavapipe and the CPU over the whole wall (an RMSE floor of 4e-4 with or without the panes).
+    assert!(scene.objects.iter().any(|o| o.material.tint != Vec3::ONE), "glass has tinted panes");
     for o in &mut scene.objects {
-        o.material.tint = Vec3::ONE;
         if o.name == "wall" {
             o.material.texture = None;
         }
@@ -989,16 +990,23 @@ fn stochastic_transparency_matches_the_reference_sample_for_sample() {
         for o in scene.objects.iter_mut().filter(|o| o.name.starts_with("pane")) {
             o.material.alpha = alpha;
         }
-        for (shading, kind, per_pass) in [
-            (ShadingRate::PerPixel, BoundKind::BoundingBox, None),
-            (ShadingRate::PerSample, BoundKind::Adaptive, None),
-            (ShadingRate::PerPixel, BoundKind::Adaptive, Some(4)),
+        for (shading, kind, per_pass, expansion) in [
+            (ShadingRate::PerPixel, BoundKind::BoundingBox, None, HullExpansion::GeometryShader),
+            (ShadingRate::PerSample, BoundKind::Adaptive, None, HullExpansion::GeometryShader),
+            (ShadingRate::PerPixel, BoundKind::Adaptive, Some(4), HullExpansion::GeometryShader),
+            (ShadingRate::PerSample, BoundKind::ConvexHull, None, HullExpansion::Compute),
         ] {
-            let o = StochasticOptions { per_pass, ..options(kind, shading) };
+            let o = StochasticOptions { per_pass, expansion, ..options(kind, shading) };
             let out = render(&mut r, &scene, w, h, spp, 5, o);
+            assert_eq!(out.timings.get("stochastic tint").is_some(), alpha < 1.0, "a tint pass when tinted");
             let same = same_sample_reference(&scene, (w, h), spp, 5, shading, &out);
             let m = compare(&same, &out.image).unwrap();
-            let name = format!("transparency-a{alpha}-{}-{}-{per_pass:?}", shading.name(), kind.name());
+            let name = format!(
+                "transparency-a{alpha}-{}-{}-{per_pass:?}-{}",
+                shading.name(),
+                kind.name(),
+                expansion.name()
+            );
             let differing = (0..(w * h) as usize)
                 .filter(|&i| (0..3).any(|c| (same.pixels[i][c] - out.image.pixels[i][c]).abs() > 1e-3))
                 .count();

@@ -10,9 +10,10 @@
 //!   defocus-only, motion-only or full one; all meet in one visibility buffer, so occlusion between
 //!   paths is per sample. Without a geometry shader the stochastic path takes the compute-expanded
 //!   hull;
-//! * blur to simulate in a scene with what the stochastic frame does not render yet (tints, shadow
-//!   maps of moving casters: [`Plan::auto_frame`]) → the `accumulation` technique, which renders all
-//!   of it with the blur, S passes.
+//! * blur to simulate in a scene with what the stochastic frame does not render yet (shadow maps of
+//!   moving casters: [`Plan::auto_frame`]), or tints on a device without a geometry shader (the tint
+//!   pass draws behind it) → the `accumulation` technique, which renders all of it with the blur, S
+//!   passes.
 
 use super::accumulation::accumulation_passes;
 use super::forward::ForwardTechnique;
@@ -34,7 +35,11 @@ pub const INFO: TechniqueInfo = TechniqueInfo {
 
 fn prepare(ctx: &PrepareContext<'_>) -> Result<Box<dyn FrameTechnique>> {
     let plan = Plan::for_view(ctx.scene, ctx.camera, crate::plan::DEFAULT_THRESHOLD_PX);
-    match plan.auto_frame().0 {
+    let mut frame = plan.auto_frame().0;
+    if frame == AutoFrame::Stochastic && plan.tinted_objects > 0 && !ctx.device.caps.geometry_shader {
+        frame = AutoFrame::Accumulation;
+    }
+    match frame {
         AutoFrame::Pinhole => {
             let msaa = ctx.device.caps.msaa_samples(PINHOLE_MSAA);
             let inner = ForwardTechnique::new(ctx, msaa, pinhole_passes())?;
@@ -48,8 +53,6 @@ fn prepare(ctx: &PrepareContext<'_>) -> Result<Box<dyn FrameTechnique>> {
         }
         AutoFrame::Stochastic => {}
     }
-    // The stochastic path renders constant coverage (its coverage stage keeps covered samples only).
-    super::check_untinted(ctx.scene, "technique `auto` with blur (its stochastic path)")?;
     let effects = plan.effects();
     let mut options = ctx.settings.stochastic;
     if !ctx.device.caps.geometry_shader {

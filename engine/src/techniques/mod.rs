@@ -521,21 +521,16 @@ pub fn shader_interfaces() -> impl Iterator<Item = &'static crate::gpu::layout::
     .flatten()
 }
 
-/// Techniques that render coverage below 1 and tints (stochastic transparency, `--transparency`);
-/// `stochastic` renders coverage but no tints ([`check_untinted`]), and `auto` takes accumulation
-/// for tints with blur.
-pub const TRANSPARENCY_TECHNIQUES: &str = "pinhole, accumulation and auto";
+/// Techniques that render coverage below 1 and tints (stochastic transparency, `--transparency`).
+pub const TRANSPARENCY_TECHNIQUES: &str = "pinhole, accumulation, stochastic and auto";
 
-/// Refuses coverage below 1 for `technique` unless it renders it: `pinhole` and `accumulation` do;
-/// `stochastic` renders coverage (alpha, texture alpha) but no tint yet ([`check_untinted`]);
-/// `auto` decides in its own `prepare` (its pinhole path renders all of it, its stochastic path what
-/// `stochastic` does).
+/// Refuses coverage below 1 for `technique` unless it renders it: `pinhole`, `accumulation`,
+/// `stochastic` (coverage in its coverage pass, tints in its tint pass) and `auto` do.
 pub fn check_transparency_supported(scene: &Scene, technique: Technique) -> Result<()> {
-    if [Technique::PINHOLE, Technique::ACCUMULATION, Technique::AUTO].contains(&technique) {
+    if [Technique::PINHOLE, Technique::ACCUMULATION, Technique::STOCHASTIC, Technique::AUTO]
+        .contains(&technique)
+    {
         return Ok(());
-    }
-    if technique == Technique::STOCHASTIC {
-        return check_untinted(scene, &format!("technique `{technique}`"));
     }
     check_opaque(scene, &format!("technique `{technique}`"))
 }
@@ -560,30 +555,6 @@ pub fn check_transparency_method(
          stochastic), not `{method}`: depth-based stochastic transparency and depth peeling are rendered by \
          pinhole and accumulation"
     )))
-}
-
-/// What the stochastic rasterizer's transparency renders (issue 12): coverage (`alpha`, times the
-/// texture's alpha with `alpha_from_texture`), each sample kept where the surface covers it. Tints
-/// are refused with the techniques that render them.
-pub fn check_untinted(scene: &Scene, who: &str) -> Result<()> {
-    for o in &scene.objects {
-        let m = &o.material;
-        if m.is_opaque() || m.tint == glam::Vec3::ONE {
-            continue;
-        }
-        let what = if m.alpha < 1.0 {
-            format!("has alpha {} < 1 and tint {}", m.alpha, m.tint)
-        } else {
-            format!("takes alpha from its texture and has tint {}", m.tint)
-        };
-        return Err(Error::Unsupported(format!(
-            "object `{}` {what}: {who} renders coverage (alpha, texture alpha) but not tints yet; \
-             stochastic transparency renders them in {TRANSPARENCY_TECHNIQUES} (the CPU reference renders \
-             them too)",
-            o.name,
-        )));
-    }
-    Ok(())
 }
 
 /// Every object opaque (coverage 1, no texture alpha), or an error saying that `who` renders opaque
@@ -637,7 +608,10 @@ mod opaque_check_tests {
         assert!(e.contains("tint"), "{e}");
         let e = refused(&|s| s.objects[0].material.alpha_from_texture = true);
         assert!(e.contains("alpha_from_texture"), "{e}");
-        assert!(e.contains("pinhole, accumulation and auto") && e.contains("CPU reference"), "{e}");
+        assert!(
+            e.contains("pinhole, accumulation, stochastic and auto") && e.contains("CPU reference"),
+            "{e}"
+        );
         // An opaque tinted surface (tint irrelevant) and lights, with shadows or not, are fine.
         let mut ok = base.clone();
         ok.objects[0].material.tint = Vec3::new(0.5, 0.5, 1.0);

@@ -578,6 +578,10 @@ pub struct StochasticPush {
     pub coverage_seed: u32,
     /// 1: coverage is `alpha` × the texture's alpha at each hit's uv (the reference's).
     pub alpha_from_texture: u32,
+    /// The tint pass: the object's tint as [`crate::transparency::tint_log`] (0 elsewhere).
+    pub tint_log_r: u32,
+    pub tint_log_g: u32,
+    pub tint_log_b: u32,
 }
 
 /// Push constants of `clusters.comp`.
@@ -615,7 +619,7 @@ pub const STOCHASTIC_OBJECT_SET: [Binding; 5] = [
 
 /// Set 3 of the stochastic rasterizer: the sample tile, counters, bound debug output, hull counts, the
 /// visibility buffer and the accumulation image.
-pub const STOCHASTIC_SET: [Binding; 7] = [
+pub const STOCHASTIC_SET: [Binding; 8] = [
     Binding { binding: 0, ty: vk::DescriptorType::STORAGE_BUFFER, block: "SamplesXyLens" },
     Binding { binding: 1, ty: vk::DescriptorType::STORAGE_BUFFER, block: "SamplesTime" },
     Binding { binding: 2, ty: vk::DescriptorType::STORAGE_BUFFER, block: "Counters" },
@@ -623,6 +627,7 @@ pub const STOCHASTIC_SET: [Binding; 7] = [
     Binding { binding: 4, ty: vk::DescriptorType::STORAGE_BUFFER, block: "HullCounts" },
     Binding { binding: 5, ty: vk::DescriptorType::STORAGE_BUFFER, block: "Visibility" },
     Binding { binding: 6, ty: vk::DescriptorType::STORAGE_IMAGE, block: "accum" },
+    Binding { binding: 7, ty: vk::DescriptorType::STORAGE_BUFFER, block: "TintLog" },
 ];
 
 /// `StochasticPush::object` of the shading pass' dispatch that adds the background for the samples
@@ -636,6 +641,11 @@ pub const MAX_FRAME_TRIANGLES: u64 = (1 << 31) - 1;
 /// Largest visibility buffer (8 bytes per pixel and sample of a pass) before S is split into more
 /// passes.
 pub const VISIBILITY_BUDGET_BYTES: u64 = 256 << 20;
+
+/// Bytes per pixel and sample of a pass of the visibility buffer (`visibility.glsl`) and of the tint
+/// buffer (`stochastic.frag`, TINT_PASS: `−log₂ T` per channel).
+pub const VISIBILITY_BYTES: u64 = 8;
+pub const TINT_BYTES: u64 = 12;
 
 /// For the reflection test.
 pub const STOCHASTIC_STRUCTS: &[SharedStruct] = &[
@@ -663,25 +673,36 @@ pub const STOCHASTIC_STRUCTS: &[SharedStruct] = &[
             cluster_size,
             alpha,
             coverage_seed,
-            alpha_from_texture
+            alpha_from_texture,
+            tint_log_r,
+            tint_log_g,
+            tint_log_b
         ]
     ),
     shared_struct!("Push", TrianglesPush, [segment_first, keys, triangle_count]),
     shared_struct!("Push", ClustersPush, [triangle_count, cluster_size, segment_count, segment, t0, t1]),
 ];
 
-/// Samples per pixel and pass M and passes P (S = M × P) for `pixels` pixels, the visibility buffer
-/// (8 bytes per pixel and sample of a pass) at most `max_bytes` — [`VISIBILITY_BUDGET_BYTES`] or the
-/// device's `maxStorageBufferRange`, whichever is less: `forced` when given (it must divide S and
-/// fit), else the largest divisor of S that fits.
-pub fn samples_per_pass(spp: u32, forced: Option<u32>, pixels: u64, max_bytes: u64) -> Result<(u32, u32)> {
-    let fits = |m: u32| pixels * m as u64 * 8 <= max_bytes;
+/// Samples per pixel and pass M and passes P (S = M × P) for `pixels` pixels, the per-sample buffers
+/// (`bytes` per pixel and sample of a pass: [`VISIBILITY_BYTES`], plus [`TINT_BYTES`] with tints) at
+/// most `max_bytes` — [`VISIBILITY_BUDGET_BYTES`] or the device's `maxStorageBufferRange`, whichever is
+/// less: `forced` when given (it must divide S and fit), else the largest divisor of S that fits.
+pub fn samples_per_pass(
+    spp: u32,
+    forced: Option<u32>,
+    pixels: u64,
+    bytes: u64,
+    max_bytes: u64,
+) -> Result<(u32, u32)> {
+    let fits = |m: u32| pixels * m as u64 * bytes <= max_bytes;
     match forced {
         Some(m) if m > 0 && spp.is_multiple_of(m) && fits(m) => Ok((m, spp / m)),
         Some(m) if m > 0 && spp.is_multiple_of(m) => Err(Error::Limit {
             what: "samples per pass",
             value: m.to_string(),
-            limit: format!("a visibility buffer of {pixels} pixels × M × 8 bytes within {max_bytes} bytes"),
+            limit: format!(
+                "per-sample buffers of {pixels} pixels × M × {bytes} bytes within {max_bytes} bytes"
+            ),
         }),
         Some(m) => Err(Error::Unsupported(format!("{m} samples per pass for S = {spp}: it must divide S"))),
         None => match (1..=spp).rev().find(|&m| spp.is_multiple_of(m) && fits(m)) {
@@ -690,7 +711,7 @@ pub fn samples_per_pass(spp: u32, forced: Option<u32>, pixels: u64, max_bytes: u
                 what: "image size",
                 value: format!("{pixels} pixels"),
                 limit: format!(
-                    "a visibility buffer of one sample per pixel (8 bytes each) within {max_bytes} bytes"
+                    "per-sample buffers of one sample per pixel ({bytes} bytes each) within {max_bytes} bytes"
                 ),
             }),
         },
@@ -773,6 +794,12 @@ pub const BOUND_DEBUG_STRIDE: usize = 8 + 2 * 48;
 pub struct StochasticDraws {
     pipelines: Vec<(Effects, Pipeline)>,
     shade_pipelines: Vec<(Effects, Pipeline)>,
+    /// The tint pass' pipelines (geometry-shader hull), per path with a tinted object.
+    tint_pipelines: Vec<(Effects, Pipeline)>,
+    /// Each object's tint as [`crate::transparency::tint_log`] (None: not tinted).
+    object_tint_log: Vec<Option<[u32; 3]>>,
+    /// Σ −log₂ T per channel, pixel and sample of a pass (with tinted objects only).
+    tints: Option<Tracked<Buffer>>,
     object_effects: Vec<Effects>,
     /// Interval bounds per object and pass ([`Intervals`]; 1 on the still and defocus-only paths).
     object_intervals: Vec<u32>,
@@ -912,9 +939,24 @@ impl StochasticDraws {
                 });
             }
         }
+        // Tinted objects (coverage below 1 and a tint): a tint pass per frame pass behind the geometry
+        // shader's one-piece convex hull (every sample tested once per triangle), and a tint buffer.
+        let transparent = super::forward::transparent_objects(ctx.scene);
+        let object_tint_log: Vec<Option<[u32; 3]>> = transparent
+            .iter()
+            .map(|o| o.tinted.then(|| crate::transparency::tint_log([o.tint[0], o.tint[1], o.tint[2]])))
+            .collect();
+        let tinted = object_tint_log.iter().any(Option::is_some);
+        if tinted {
+            caps.require(
+                Feature::GeometryShader,
+                "tints in technique `stochastic` (the tint pass draws behind the geometry-shader hull)",
+            )?;
+        }
         let max_bytes = VISIBILITY_BUDGET_BYTES.min(caps.max_storage_buffer_range as u64);
         let pixels = width as u64 * height as u64;
-        let (per_pass, passes) = samples_per_pass(spp, options.per_pass, pixels, max_bytes)?;
+        let sample_bytes = VISIBILITY_BYTES + if tinted { TINT_BYTES } else { 0 };
+        let (per_pass, passes) = samples_per_pass(spp, options.per_pass, pixels, sample_bytes, max_bytes)?;
         // Cluster bounds: with the geometry-shader path (the compute hull and the bound debug output
         // are per triangle), per object (0: one bound per triangle).
         let intrinsics = ctx.scene.camera.intrinsics(width, height);
@@ -1051,11 +1093,48 @@ impl StochasticDraws {
         let mut shader_modules = vec![];
         let mut pipelines = Vec::with_capacity(paths.len());
         let mut shade_pipelines = Vec::with_capacity(paths.len());
+        let mut tint_pipelines = Vec::new();
+        let raster = |name: &str, stages: &[&ShaderModule], vertex_input: bool| {
+            Pipeline::graphics(
+                device,
+                &layout,
+                &GraphicsDesc {
+                    name,
+                    stages,
+                    vertex_bindings: if vertex_input { &bindings } else { &[] },
+                    vertex_attributes: if vertex_input { &attributes[..1] } else { &[] },
+                    color_formats: &[],
+                    depth_format: None,
+                    samples: 1,
+                    sample_shading: None,
+                    cull_mode: vk::CullModeFlags::NONE,
+                    front_face: vk::FrontFace::COUNTER_CLOCKWISE,
+                    depth_compare: vk::CompareOp::ALWAYS,
+                    depth_write: false,
+                },
+            )
+        };
         for &effects in &paths {
+            if (0..object_effects.len()).any(|i| object_effects[i] == effects && object_tint_log[i].is_some())
+            {
+                let frag = StochasticFrag {
+                    hull: axes::Hull::GeometryShader,
+                    instrumented: false,
+                    effects: effects.shader_axis(),
+                    transparency_pass: axes::TransparencyPass::Tint,
+                };
+                let frag = ShaderModule::new(device, frag.source())?;
+                let geom = StochasticGeom { bound_debug: false, effects: effects.shader_axis() };
+                let geom = ShaderModule::new(device, geom.source())?;
+                let name = format!("stochastic tint ({})", effects.name());
+                tint_pipelines.push((effects, raster(&name, &[&vert, &geom, &frag], true)?));
+                shader_modules.extend([geom, frag]);
+            }
             let frag = StochasticFrag {
                 hull: options.expansion.axis(),
                 instrumented: options.instrumented,
                 effects: effects.shader_axis(),
+                transparency_pass: axes::TransparencyPass::Coverage,
             };
             let frag = ShaderModule::new(device, frag.source())?;
             let (first, geom) = if compute {
@@ -1069,28 +1148,8 @@ impl StochasticDraws {
             };
             let stages: Vec<&ShaderModule> =
                 [Some(first), geom.as_ref(), Some(&frag)].into_iter().flatten().collect();
-            let pipeline = Pipeline::graphics(
-                device,
-                &layout,
-                &GraphicsDesc {
-                    name: &format!(
-                        "stochastic coverage ({}, {} hull)",
-                        effects.name(),
-                        options.expansion.name()
-                    ),
-                    stages: &stages,
-                    vertex_bindings: if compute { &[] } else { &bindings },
-                    vertex_attributes: if compute { &[] } else { &attributes[..1] },
-                    color_formats: &[],
-                    depth_format: None,
-                    samples: 1,
-                    sample_shading: None,
-                    cull_mode: vk::CullModeFlags::NONE,
-                    front_face: vk::FrontFace::COUNTER_CLOCKWISE,
-                    depth_compare: vk::CompareOp::ALWAYS,
-                    depth_write: false,
-                },
-            )?;
+            let name = format!("stochastic coverage ({}, {} hull)", effects.name(), options.expansion.name());
+            let pipeline = raster(&name, &stages, !compute)?;
             pipelines.push((effects, pipeline));
             shader_modules.extend(geom);
             shader_modules.push(frag);
@@ -1100,6 +1159,7 @@ impl StochasticDraws {
                 effects: effects.shader_axis(),
                 shadows: shadow_axis,
                 shadow_color,
+                tints: tinted,
             };
             let shade = ShaderModule::new(device, shade.source())?;
             let name = format!("stochastic shading ({}, {})", effects.name(), options.shading.name());
@@ -1125,26 +1185,11 @@ impl StochasticDraws {
                 hull: axes::Hull::Cluster,
                 instrumented: options.instrumented,
                 effects: effects.shader_axis(),
+                transparency_pass: axes::TransparencyPass::Coverage,
             };
             let frag = ShaderModule::new(device, frag.source())?;
-            let pipeline = Pipeline::graphics(
-                device,
-                &layout,
-                &GraphicsDesc {
-                    name: &format!("stochastic coverage ({}, clusters)", effects.name()),
-                    stages: &[&cluster_vert, &frag],
-                    vertex_bindings: &[],
-                    vertex_attributes: &[],
-                    color_formats: &[],
-                    depth_format: None,
-                    samples: 1,
-                    sample_shading: None,
-                    cull_mode: vk::CullModeFlags::NONE,
-                    front_face: vk::FrontFace::COUNTER_CLOCKWISE,
-                    depth_compare: vk::CompareOp::ALWAYS,
-                    depth_write: false,
-                },
-            )?;
+            let name = format!("stochastic coverage ({}, clusters)", effects.name());
+            let pipeline = raster(&name, &[&cluster_vert, &frag], false)?;
             cluster_pipelines.push((effects, pipeline));
             shader_modules.push(frag);
             let comp = ShaderModule::new(device, ClustersComp { effects: effects.shader_axis() }.source())?;
@@ -1170,10 +1215,21 @@ impl StochasticDraws {
         let visibility = Tracked::new(Buffer::new(
             device,
             "stochastic visibility",
-            width as u64 * height as u64 * per_pass as u64 * 8,
+            pixels * per_pass as u64 * VISIBILITY_BYTES,
             storage | vk::BufferUsageFlags::TRANSFER_DST,
             MemoryLocation::GpuOnly,
         )?);
+        let tints = if tinted {
+            Some(Tracked::new(Buffer::new(
+                device,
+                "stochastic tints",
+                pixels * per_pass as u64 * TINT_BYTES,
+                storage | vk::BufferUsageFlags::TRANSFER_DST,
+                MemoryLocation::GpuOnly,
+            )?))
+        } else {
+            None
+        };
         let accum = Tracked::new(accumulation_image(device, "stochastic accumulation", (width, height))?);
 
         let n_objects = world.objects.len() as u32;
@@ -1192,6 +1248,9 @@ impl StochasticDraws {
         ];
         if let Some(b) = &bound_debug {
             writes.push(DescriptorWrite::storage_buffer(3, b));
+        }
+        if let Some(b) = &tints {
+            writes.push(DescriptorWrite::storage_buffer(7, b));
         }
         write_descriptors(device, technique_set, &writes);
         let mut object_sets = Vec::with_capacity(world.objects.len());
@@ -1253,6 +1312,9 @@ impl StochasticDraws {
         Ok(StochasticDraws {
             pipelines,
             shade_pipelines,
+            tint_pipelines,
+            object_tint_log,
+            tints,
             object_effects: object_effects.to_vec(),
             object_intervals,
             object_clusters,
@@ -1274,10 +1336,7 @@ impl StochasticDraws {
             options,
             bounds: plan.objects.iter().map(|o| options.bound.resolve(caps, o.max_coc_px)).collect(),
             object_alpha: ctx.scene.objects.iter().map(|o| o.material.alpha).collect(),
-            object_texture_alpha: super::forward::transparent_objects(ctx.scene)
-                .iter()
-                .map(|o| o.alpha_from_texture)
-                .collect(),
+            object_texture_alpha: transparent.iter().map(|o| o.alpha_from_texture).collect(),
             coverage_seed: crate::transparency::coverage_seed(seed),
             spp,
             per_pass,
@@ -1500,6 +1559,7 @@ impl StochasticDraws {
         let o = object as usize;
         let (segment_first, segment_count) =
             if o < self.object_keys.len() { view.segments(o) } else { (0, 1) };
+        let tint = self.object_tint_log.get(o).copied().flatten().unwrap_or([0; 3]);
         StochasticPush {
             object,
             bound: self.bounds.get(o).map_or(0, |b| b.id()),
@@ -1522,6 +1582,9 @@ impl StochasticDraws {
             alpha: self.object_alpha.get(o).copied().unwrap_or(1.0),
             coverage_seed: self.coverage_seed,
             alpha_from_texture: self.object_texture_alpha.get(o).copied().unwrap_or(false) as u32,
+            tint_log_r: tint[0],
+            tint_log_g: tint[1],
+            tint_log_b: tint[2],
         }
     }
 
@@ -1571,7 +1634,8 @@ impl StochasticDraws {
     }
 
     /// The frame as a graph: `triangles` → `clear accumulation` → repeat P × { `clear visibility` →
-    /// `stochastic coverage` (raster, no attachments) → `stochastic shading` (compute) } → readback.
+    /// `stochastic coverage` (raster, no attachments) → with tinted objects `stochastic tint` (raster,
+    /// no attachments) → `stochastic shading` (compute) } → readback.
     fn render<'a>(&'a self, frame: &mut FrameContext<'_>, inputs: &FrameInputs<'a>) -> Result<LinearImage> {
         let mut g = frame.graph();
         if self.hull.is_none() {
@@ -1630,14 +1694,24 @@ impl StochasticDraws {
         }
         let visibility = g.import_buffer("stochastic visibility", &self.visibility);
         let accum = g.import_image("stochastic accumulation", &self.accum);
+        let tints = self.tints.as_ref().map(|t| g.import_buffer("stochastic tints", t));
+        if let Some(t) = tints {
+            shading_uses.push((t.into(), Access::ComputeShaderReadOther));
+        }
 
         g.clear_color("clear accumulation", accum, [0.0; 4]);
         let inputs = *inputs;
         let (w, h) = self.size;
         g.repeat(self.passes, |g| {
-            g.pass("clear visibility").overwrite(visibility, Access::TransferWrite).record(move |ctx| {
-                let b = ctx.buffer(visibility);
-                unsafe { ctx.device.raw.cmd_fill_buffer(ctx.cmd, b.raw, 0, vk::WHOLE_SIZE, 0) };
+            let mut clear = g.pass("clear visibility").overwrite(visibility, Access::TransferWrite);
+            if let Some(t) = tints {
+                clear = clear.overwrite(t, Access::TransferWrite);
+            }
+            clear.record(move |ctx| {
+                for b in std::iter::once(visibility).chain(tints) {
+                    let b = ctx.buffer(b);
+                    unsafe { ctx.device.raw.cmd_fill_buffer(ctx.cmd, b.raw, 0, vk::WHOLE_SIZE, 0) };
+                }
                 Ok(())
             });
             g.pass("stochastic coverage")
@@ -1650,6 +1724,20 @@ impl StochasticDraws {
                     self.record_cluster_coverage(ctx, &inputs, ctx.iteration);
                     Ok(())
                 });
+            if let Some(t) = tints {
+                // The finished visibility buffer says what each sample sees; the tinted objects
+                // multiply their tint into the samples they pass in front of it.
+                g.pass("stochastic tint")
+                    .render_area(w, h)
+                    .access(visibility, Access::FragmentShaderReadOther)
+                    .access(t, Access::FragmentShaderReadOther)
+                    .access(t, Access::FragmentShaderWrite)
+                    .accesses(coverage_uses.iter().copied())
+                    .record(move |ctx| {
+                        self.record_tints(ctx, &inputs, ctx.iteration);
+                        Ok(())
+                    });
+            }
             g.pass("stochastic shading")
                 .access(visibility, Access::ComputeShaderReadOther)
                 .access(accum, Access::ComputeShaderReadWrite)
@@ -1737,6 +1825,52 @@ impl StochasticDraws {
                     let sets = [o.set, self.object_sets[i]];
                     d.raw.cmd_bind_descriptor_sets(cmd, bind, self.layout.raw, OBJECT_SET_INDEX, &sets, &[]);
                     d.raw.cmd_draw(cmd, self.hull_counts[i], 1, 0, 0);
+                }
+            }
+        }
+    }
+
+    /// The tint draws of pass `pass` (module docs of `stochastic.frag`, TINT_PASS): every tinted
+    /// object's coverage draws again behind the geometry shader's convex hull — one convex piece, so
+    /// the rasterizer's fill rule runs the fragment stage once per pixel and triangle, and each
+    /// uncovered sample adds the tint once — per run and key segment as the coverage draws.
+    fn record_tints(&self, ctx: &mut PassContext<'_>, inputs: &FrameInputs<'_>, pass: u32) {
+        let (d, cmd) = (ctx.device, ctx.cmd);
+        let bind = vk::PipelineBindPoint::GRAPHICS;
+        let (world, view) = (inputs.world, inputs.camera);
+        let max_runs = self.object_intervals.iter().copied().max().unwrap_or(1);
+        let max_segments = self.object_keys.iter().map(|k| k.segments()).max().unwrap_or(1);
+        let hull = BoundKind::ConvexHull.id();
+        for (effects, pipeline) in &self.tint_pipelines {
+            unsafe {
+                d.raw.cmd_bind_pipeline(cmd, bind, pipeline.raw);
+                d.raw.cmd_bind_descriptor_sets(
+                    cmd,
+                    bind,
+                    self.layout.raw,
+                    TECHNIQUE_SET_INDEX,
+                    &[self.technique_set],
+                    &[],
+                );
+            }
+            let include = |i: usize| self.object_effects[i] == *effects && self.object_tint_log[i].is_some();
+            // The coverage draws' runs (1 for objects with clusters or the compute hull).
+            for run in 0..max_runs {
+                for seg in 0..max_segments {
+                    let piece = |i: usize| {
+                        self.coverage_push(view, i, pass, run, self.object_intervals[i], seg)
+                            .map(|p| StochasticPush { bound: hull, ..p })
+                    };
+                    world.record_object_draws(
+                        d,
+                        cmd,
+                        view,
+                        &self.layout,
+                        self.push_stages,
+                        |i| include(i) && run < self.object_intervals[i] && piece(i).is_some(),
+                        |i| piece(i).expect("included"),
+                        |i| Some(self.object_sets[i]),
+                    );
                 }
             }
         }
@@ -2123,17 +2257,17 @@ mod tests {
     #[test]
     fn samples_per_pass_fits_the_budget() {
         let budget = VISIBILITY_BUDGET_BYTES;
-        assert_eq!(samples_per_pass(16, None, 320 * 180, budget).unwrap(), (16, 1));
+        assert_eq!(samples_per_pass(16, None, 320 * 180, 8, budget).unwrap(), (16, 1));
         let pixels = 1920 * 1080;
         for max in [budget, 128 << 20] {
-            let (m, p) = samples_per_pass(256, None, pixels, max).unwrap();
+            let (m, p) = samples_per_pass(256, None, pixels, 8, max).unwrap();
             assert!(m * p == 256 && pixels * m as u64 * 8 <= max && m >= 1, "{m} {p}");
         }
-        assert_eq!(samples_per_pass(16, Some(4), 100, budget).unwrap(), (4, 4));
-        assert!(samples_per_pass(16, Some(3), 100, budget).is_err());
-        assert!(samples_per_pass(16, Some(0), 100, budget).is_err());
+        assert_eq!(samples_per_pass(16, Some(4), 100, 8, budget).unwrap(), (4, 4));
+        assert!(samples_per_pass(16, Some(3), 100, 8, budget).is_err());
+        assert!(samples_per_pass(16, Some(0), 100, 8, budget).is_err());
         // Forced past the device's range, or not even one sample per pass fits: refused, not clipped.
-        assert!(samples_per_pass(16, Some(16), pixels, 128 << 20).is_err());
-        assert!(samples_per_pass(16, None, 1 << 30, 128 << 20).is_err());
+        assert!(samples_per_pass(16, Some(16), pixels, 8, 128 << 20).is_err());
+        assert!(samples_per_pass(16, None, 1 << 30, 8, 128 << 20).is_err());
     }
 }
