@@ -158,6 +158,11 @@ pub enum TransparencyMethod {
     /// Stochastic transparency (Enderton et al. 2011) with per-pixel stratified masks: the default.
     #[default]
     Stochastic,
+    /// Stochastic transparency with Enderton's alpha correction (`stochastic/corrected`,
+    /// `techniques/oit.rs`): the transparent samples' colour is rescaled so that their share of the
+    /// pixel is the exact total alpha `1 − Π(1 − α)` from a multiplicative pass, and what lies behind
+    /// every transparent surface is weighted by the exact transmittance `Π (1 − α)·T`.
+    StochasticCorrected,
     /// Depth-based stochastic transparency (Enderton et al. 2011): the stochastic masks write depth
     /// only, and every transparent fragment adds `vis(z)·α·C` with `vis` estimated from the pixel's
     /// stochastic depths (`techniques/oit.rs`). `alpha_correction`: normalise the layer sum by the
@@ -177,6 +182,7 @@ impl TransparencyMethod {
     /// One of each kind (peeling with its default layer count).
     pub const ALL: &'static [TransparencyMethod] = &[
         TransparencyMethod::Stochastic,
+        TransparencyMethod::StochasticCorrected,
         TransparencyMethod::DepthBased { alpha_correction: true },
         TransparencyMethod::DepthBased { alpha_correction: false },
         TransparencyMethod::Peeling { layers: DEFAULT_PEELING_LAYERS },
@@ -187,6 +193,7 @@ impl fmt::Display for TransparencyMethod {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             TransparencyMethod::Stochastic => f.write_str("stochastic"),
+            TransparencyMethod::StochasticCorrected => f.write_str("stochastic/corrected"),
             TransparencyMethod::DepthBased { alpha_correction: true } => f.write_str("depth-based"),
             TransparencyMethod::DepthBased { alpha_correction: false } => {
                 f.write_str("depth-based/uncorrected")
@@ -201,13 +208,14 @@ impl FromStr for TransparencyMethod {
     fn from_str(s: &str) -> Result<Self> {
         let unknown = || {
             Error::Unsupported(format!(
-                "unknown transparency method `{s}`; available: stochastic, depth-based, \
-                 depth-based/uncorrected, peeling/K (K layers, 1..={MAX_PEELING_LAYERS}; `peeling` is \
+                "unknown transparency method `{s}`; available: stochastic, stochastic/corrected, \
+                 depth-based, depth-based/uncorrected, peeling/K (K layers, 1..={MAX_PEELING_LAYERS}; `peeling` is \
                  peeling/{DEFAULT_PEELING_LAYERS})"
             ))
         };
         match s {
             "stochastic" => Ok(TransparencyMethod::Stochastic),
+            "stochastic/corrected" => Ok(TransparencyMethod::StochasticCorrected),
             "depth-based" => Ok(TransparencyMethod::DepthBased { alpha_correction: true }),
             "depth-based/uncorrected" => Ok(TransparencyMethod::DepthBased { alpha_correction: false }),
             "peeling" => Ok(TransparencyMethod::Peeling { layers: DEFAULT_PEELING_LAYERS }),

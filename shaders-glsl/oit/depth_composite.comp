@@ -12,6 +12,10 @@
 // The ratio is formed from the frame's sums over all S = M x passes samples, not per pass: at one
 // sample per pass (accumulation) a per-pass ratio would be a ratio of one-sample estimates, whose
 // bias does not average away over the passes.
+// Alpha-corrected stochastic transparency (alpha_correction == 2) uses the same sums: the layer sum
+// holds the colour of the samples whose nearest covered surface is transparent (alpha = 1 on each of
+// them), so its weight is that count, and what it must sum to is the exact total alpha 1 - prod(1 - a),
+// 1 minus the transmittance's alpha, in every channel.
 layout(local_size_x = 8, local_size_y = 8) in;
 
 #ifdef MULTISAMPLED
@@ -35,7 +39,7 @@ layout(set = 3, binding = 7, rgba32f) uniform image2D absorbed_total;
 layout(push_constant) uniform Push {
     float weight;  // 1 / passes
     uint msaa;
-    uint alpha_correction;
+    uint alpha_correction;  // 0 none, 1 per channel (depth-based), 2 stochastic (oit.rs CORRECTION_*)
     uint finish;   // 1: after the last pass, add the (corrected) layer sum
 } pc;
 
@@ -55,11 +59,17 @@ void main() {
     }
     vec3 behind = vec3(0.0), sum = vec3(0.0), w = vec3(0.0), absorbed = vec3(0.0);
     for (uint s = 0u; s < pc.msaa; ++s) {
-        vec3 t = FETCH(total_transmittance, p, s).rgb;
-        behind += FETCH(opaque_color, p, s).rgb * t;
-        sum += FETCH(layer_sum, p, s).rgb;
-        w += FETCH(layer_weight, p, s).rgb;
-        absorbed += 1.0 - t;
+        vec4 t = FETCH(total_transmittance, p, s);
+        vec4 layer = FETCH(layer_sum, p, s);
+        behind += FETCH(opaque_color, p, s).rgb * t.rgb;
+        sum += layer.rgb;
+        if (pc.alpha_correction == 2u) {
+            w += vec3(layer.a);
+            absorbed += vec3(1.0 - t.a);
+        } else {
+            w += FETCH(layer_weight, p, s).rgb;
+            absorbed += 1.0 - t.rgb;
+        }
     }
     float k = pc.weight / float(pc.msaa);
     imageStore(accum, p, imageLoad(accum, p) + vec4(k * behind, pc.weight));

@@ -73,13 +73,14 @@ enum Command {
         /// object.
         #[arg(long, default_value = "auto")]
         clusters: String,
-        /// How pinhole and accumulation (and auto without blur) render alpha < 1, alpha_from_texture
-        /// and tints: `stochastic` (stochastic transparency, stratified per-pixel masks over the
-        /// S = MSAA × passes samples, tints multiplied into the uncovered samples); pinhole and
-        /// accumulation only: `depth-based` (depth-based stochastic transparency: the masks write
-        /// depth only, every fragment adds vis(z)·α·C, alpha-corrected), `depth-based/uncorrected`,
-        /// `peeling/K` (depth peeling of K layers, default 8: exact up to K layers). Used only when
-        /// the scene has transparency.
+        /// How alpha < 1, alpha_from_texture and tints are rendered: `stochastic` (stochastic
+        /// transparency, stratified per-pixel masks over the S = MSAA × passes samples, tints
+        /// multiplied into the uncovered samples; every technique); pinhole and accumulation only:
+        /// `stochastic/corrected` (with Enderton's alpha correction: the transparent samples' share
+        /// rescaled to the exact total alpha, the exact transmittance behind), `depth-based`
+        /// (depth-based stochastic transparency: the masks write depth only, every fragment adds
+        /// vis(z)·α·C, alpha-corrected), `depth-based/uncorrected`, `peeling/K` (depth peeling of K
+        /// layers, default 8: exact up to K layers). Used only when the scene has transparency.
         #[arg(long, default_value = "stochastic")]
         transparency: String,
         /// Shadow maps of lights with `shadows = true` (pinhole, accumulation, auto without blur):

@@ -303,6 +303,20 @@ impl TransparentPush {
     }
 }
 
+/// The colour attachments of the pass a [`TransparentDraws`] draws in, and the one it writes (the
+/// others keep their contents): the forward pass' one target, or the OIT frame's three for
+/// `stochastic/corrected` (`techniques/oit.rs`), which draws into the first.
+#[derive(Clone, Copy, Debug)]
+pub struct TransparentTargets {
+    pub formats: &'static [vk::Format],
+    pub written: usize,
+}
+
+impl TransparentTargets {
+    /// The forward pass' colour target.
+    pub const FORWARD: TransparentTargets = TransparentTargets { formats: &[COLOR_FORMAT], written: 0 };
+}
+
 /// Stochastic transparency on the forward path (module docs): the coverage and tint pipelines and
 /// what they push per object.
 pub struct TransparentDraws {
@@ -324,16 +338,17 @@ pub fn has_transparency(scene: &Scene) -> bool {
 }
 
 impl TransparentDraws {
-    /// For `scene`'s objects at `msaa` samples × `passes` passes, with the render seed `seed`; the
-    /// covered samples' shading attenuated by `shadows`' maps when given.
+    /// For `scene`'s objects at `msaa` samples × `passes` passes, with the render seed `seed`, into
+    /// `targets`; the covered samples' shading attenuated by `shadows`' maps when given.
+    #[allow(clippy::too_many_arguments)]
     pub fn new(
         device: &Device,
         world: &GpuWorld,
         scene: &Scene,
-        msaa: u32,
-        passes: u32,
+        (msaa, passes): (u32, u32),
         seed: u64,
         shadows: Option<&ShadowMaps>,
+        targets: TransparentTargets,
     ) -> Result<Self> {
         device.caps.require(
             Feature::GeometryShader,
@@ -371,7 +386,7 @@ impl TransparentDraws {
             stages,
             vertex_bindings: &bindings,
             vertex_attributes: &attributes,
-            color_formats: &[COLOR_FORMAT],
+            color_formats: targets.formats,
             depth_format: Some(DEPTH_FORMAT),
             samples: msaa,
             sample_shading: None,
@@ -381,13 +396,20 @@ impl TransparentDraws {
             depth_compare: vk::CompareOp::GREATER,
             depth_write,
         };
-        let coverage =
-            Pipeline::graphics(device, &layout, &desc("forward transparency", &coverage_stages, true))?;
-        let tint = Pipeline::graphics_blended(
+        let written: Vec<bool> = (0..targets.formats.len()).map(|i| i == targets.written).collect();
+        let coverage = Pipeline::graphics_written(
+            device,
+            &layout,
+            &desc("forward transparency", &coverage_stages, true),
+            ColorBlend::Replace,
+            Some(&written),
+        )?;
+        let tint = Pipeline::graphics_written(
             device,
             &layout,
             &desc("forward transparency tint", &tint_stages, false),
             ColorBlend::Multiply,
+            Some(&written),
         )?;
         let objects = transparent_objects(scene);
         Ok(TransparentDraws {
@@ -417,8 +439,9 @@ impl TransparentDraws {
         self.objects[object].transparent
     }
 
-    /// The coverage draws (every transparent object), then the tint draws (the tinted ones).
-    fn record(
+    /// The coverage draws (every transparent object), then the tint draws (the tinted ones), of pass
+    /// `index` (its sample `pass`), each pipeline with its own layout and sets.
+    pub(super) fn record(
         &self,
         d: &Device,
         cmd: vk::CommandBuffer,
@@ -491,10 +514,14 @@ impl ForwardDraws {
         let transparent = match method {
             _ if !has_transparency(scene) => None,
             TransparencyMethod::Stochastic => {
-                Some(TransparentDraws::new(device, world, scene, msaa, samples.len() as u32, seed, shadows)?)
+                let passes = samples.len() as u32;
+                let targets = TransparentTargets::FORWARD;
+                Some(TransparentDraws::new(device, world, scene, (msaa, passes), seed, shadows, targets)?)
             }
             // Several raster passes per frame pass: their own frame (oit::prepare_forward).
-            TransparencyMethod::DepthBased { .. } | TransparencyMethod::Peeling { .. } => {
+            TransparencyMethod::StochasticCorrected
+            | TransparencyMethod::DepthBased { .. }
+            | TransparencyMethod::Peeling { .. } => {
                 return Err(crate::error::Error::Unsupported(format!(
                     "transparency method `{method}` is rendered by the OIT frame (techniques/oit.rs), not \
                      the forward passes"

@@ -552,7 +552,8 @@ pub fn check_transparency_method(
     }
     Err(Error::Unsupported(format!(
         "technique `{technique}` renders transparency by stochastic transparency only (--transparency \
-         stochastic), not `{method}`: depth-based stochastic transparency and depth peeling are rendered by \
+         stochastic), not `{method}`: alpha-corrected and depth-based stochastic transparency and depth peeling \
+         are rendered by \
          pinhole and accumulation"
     )))
 }

@@ -1,6 +1,6 @@
 //! Order-independent transparency with more than one raster pass per frame pass, for `pinhole` and
-//! `accumulation` (`--transparency depth-based`, `depth-based/uncorrected`, `peeling/K`;
-//! docs/TRANSPARENCY.md). [`prepare_forward`] gives those techniques this frame when the scene has
+//! `accumulation` (`--transparency stochastic/corrected`, `depth-based`, `depth-based/uncorrected`,
+//! `peeling/K`; docs/TRANSPARENCY.md). [`prepare_forward`] gives those techniques this frame when the scene has
 //! transparency and one of these methods is chosen, and the plain forward frame otherwise.
 //!
 //! Per frame pass (one [`PassSample`] each, M MSAA samples), as a graph, after `clear accumulation`:
@@ -22,6 +22,19 @@
 //!      layer sum, of its weight and of `1 − T`, added with weight 1/P into four frame totals; after
 //!      the last pass, `oit composite finish` adds the layer sum `L` behind which nothing remains:
 //!      with alpha correction `L = ΣL·Σ(1 − T)/Σweight` (Enderton's normalisation), without it `ΣL`.
+//! * **Alpha-corrected stochastic transparency** (Enderton et al. 2011, the alpha correction of plain
+//!   ST): `oit stochastic` (raster, the opaque depth loaded and written) draws first the total
+//!   transmittance as above — `Π (1 − α)·T` per channel and `Π (1 − α)` in alpha, in front of the
+//!   opaque depth alone — then the forward path's own stochastic coverage and tint draws
+//!   ([`TransparentDraws`], the same masks as `--transparency stochastic`) into the layer sum only
+//!   (the other attachments write-masked: `independentBlend`): each sample ends with the colour of
+//!   its nearest covered transparent surface times the tints in front of it, and alpha 1, or 0 where
+//!   it stops at no transparent surface. `oit composite` then adds `C_opaque·T` (exact, per sample)
+//!   and sums the layer colour, its count (the weight) and the exact total alpha `1 − Π (1 − α)`; the
+//!   finish rescales the colour by total alpha ÷ count, over the frame's S samples. Tints do not enter
+//!   the normaliser: whether a sample stops at a transparent surface does not depend on them, so its
+//!   expected count is the untinted total alpha; they are in the sampled colour and the exact
+//!   transmittance behind.
 //! * **Depth peeling** (K layers), per sample: K times `oit peel` (raster: of the transparent surfaces
 //!   in front of the opaque depth and strictly behind the previous layer's depth, the nearest writes
 //!   α·C and (1 − α)·T) then `oit peel under` (compute: the layer composited under the ones before it,
@@ -61,7 +74,7 @@ use bytemuck::{Pod, Zeroable};
 
 use super::forward::{
     forward_vert, has_transparency, transparent_objects, CoverageSamples, ForwardPipeline, ForwardPush,
-    ForwardTechnique, PassSample, TransparentObject, TransparentPush,
+    ForwardTechnique, PassSample, TransparentDraws, TransparentObject, TransparentPush, TransparentTargets,
 };
 use super::multipass::{accumulation_image, COLOR_FORMAT, DEPTH_FORMAT};
 use super::shadow_maps::ShadowMaps;
@@ -141,11 +154,20 @@ pub struct DepthCompositePush {
     /// 1 / passes.
     pub weight: f32,
     pub msaa: u32,
-    /// 1: Enderton's alpha correction.
+    /// Enderton's alpha correction: 0 none; [`CORRECTION_PER_CHANNEL`] (depth-based); or
+    /// [`CORRECTION_STOCHASTIC`] (alpha-corrected ST).
     pub alpha_correction: u32,
     /// 1: after the last pass, add the (corrected) layer sum of the frame.
     pub finish: u32,
 }
+
+/// [`DepthCompositePush::alpha_correction`] of depth-based ST: the layer weights (`vis·a_c` per
+/// channel) are rescaled to the absorbed fraction `1 − T_c` per channel.
+pub const CORRECTION_PER_CHANNEL: u32 = 1;
+/// [`DepthCompositePush::alpha_correction`] of alpha-corrected ST: the layer sum's alpha counts the
+/// samples that stopped at a transparent surface, which is rescaled to the exact total alpha
+/// `1 − Π (1 − α)` (the transmittance's alpha channel) in every channel.
+pub const CORRECTION_STOCHASTIC: u32 = 2;
 
 /// Push constants of `oit/peel_under.comp`.
 #[repr(C)]
@@ -295,24 +317,37 @@ impl ComputeStep {
     }
 }
 
-/// Depth-based stochastic transparency's pipelines and targets (module docs).
-struct DepthBased {
-    alpha_correction: bool,
-    stochastic_depth: Pipeline,
-    layers: Pipeline,
+/// How the layers pass fills the layer sum and its weight (module docs).
+enum LayerDraws {
+    /// Depth-based ST: the stochastic depth maps, then every transparent fragment adds `vis·α·C`.
+    DepthBased {
+        stochastic_depth: Pipeline,
+        layers: Pipeline,
+        layers_set: vk::DescriptorSet,
+        /// One stochastic depth map, or one per channel when a transparent object is tinted.
+        depth_maps: Vec<Tracked<Image>>,
+        _layers_set_layout: DescriptorSetLayout,
+    },
+    /// Alpha-corrected ST: the forward path's coverage and tint draws into the layer sum, against
+    /// the opaque depth, after the transmittance draws.
+    Stochastic(Box<TransparentDraws>),
+}
+
+/// The frames that composite a layer sum over the opaque colour behind the exact transmittance —
+/// depth-based ST and alpha-corrected ST — their pipelines and targets (module docs).
+struct Composited {
+    /// [`DepthCompositePush::alpha_correction`].
+    correction: u32,
+    draws: LayerDraws,
     transmittance: Pipeline,
     draw_layout: PipelineLayout,
-    layers_set: vk::DescriptorSet,
     composite: ComputeStep,
-    /// One stochastic depth map, or one per channel when a transparent object is tinted.
-    depth_maps: Vec<Tracked<Image>>,
     layer_sum: Tracked<Image>,
     layer_weight: Tracked<Image>,
     total_transmittance: Tracked<Image>,
     /// The frame's sums (means over each pass' samples, weighted 1/P) of the layer sum, its weight and
     /// the absorbed fraction 1 − T, from which the last step forms the alpha correction's ratio.
     totals: [Tracked<Image>; 3],
-    _layers_set_layout: DescriptorSetLayout,
     _shaders: Vec<ShaderModule>,
 }
 
@@ -333,7 +368,7 @@ struct Peeling {
 }
 
 enum OitPath {
-    DepthBased(Box<DepthBased>),
+    Composited(Box<Composited>),
     Peeling(Box<Peeling>),
 }
 
@@ -413,26 +448,15 @@ impl OitTechnique {
                         .into(),
                 ))
             }
-            TransparencyMethod::DepthBased { alpha_correction } => {
+            TransparencyMethod::StochasticCorrected | TransparencyMethod::DepthBased { .. } => {
+                let what = match method {
+                    TransparencyMethod::StochasticCorrected => "alpha-corrected stochastic transparency",
+                    _ => "depth-based stochastic transparency",
+                };
                 device.caps.require(
                     Feature::GeometryShader,
-                    "depth-based stochastic transparency (the fragment stage reads gl_PrimitiveID to name \
-                     the triangle)",
+                    &format!("{what} (the fragment stage reads gl_PrimitiveID to name the triangle)"),
                 )?;
-                let tinted = objects.iter().any(|o| o.tinted);
-                let maps = if tinted { 3 } else { 1 };
-                let depth_maps = (0..maps)
-                    .map(|c| {
-                        target(
-                            device,
-                            &format!("stochastic depth {c}"),
-                            size,
-                            DEPTH_FORMAT,
-                            msaa,
-                            depth_usage,
-                        )
-                    })
-                    .collect::<Result<Vec<_>>>()?;
                 let layer_sum = target(device, "oit layer sum", size, OIT_FORMAT, msaa, color_usage)?;
                 let layer_weight = target(device, "oit layer weight", size, OIT_FORMAT, msaa, color_usage)?;
                 let total_transmittance =
@@ -442,61 +466,123 @@ impl OitTechnique {
                     [total("oit sum total")?, total("oit weight total")?, total("oit absorbed total")?];
                 let pool =
                     DescriptorPool::for_tables(device, 2, &[(&LAYERS_SET, 1), (&DEPTH_COMPOSITE_SET, 1)])?;
-                let layers_set_layout = DescriptorSetLayout::from_table(
-                    device,
-                    "oit layers set layout",
-                    &LAYERS_SET,
-                    vk::ShaderStageFlags::FRAGMENT,
-                )?;
-                let layers_set = pool.allocate(&layers_set_layout)?;
-                let map = |c: usize| &*depth_maps[c.min(maps - 1)];
-                write_descriptors(device, layers_set, &[0, 1, 2].map(|c| sampled_image(c as u32, map(c))));
-                let draw_layout = draw_layout_with(&layers_set_layout)?;
                 let v = vert()?;
-                let rv = receiver_vert()?;
-                let depth_frag = ShaderModule::new(device, shaders::OIT_STOCHASTIC_DEPTH_FRAG)?;
-                let layers_frag = ShaderModule::new(
-                    device,
-                    shaders::LayersFrag { shadows: shadow_axis, shadow_color, multisampled }.source(),
-                )?;
                 let transmittance_frag = ShaderModule::new(device, shaders::OIT_TRANSMITTANCE_FRAG)?;
                 let three = [OIT_FORMAT; 3];
-                let depth_stages = [&v, &depth_frag];
-                let layers_stages = [&rv, &layers_frag];
-                let transmittance_stages = [&v, &transmittance_frag];
-                let desc = |name, stages, color_formats, depth_write| GraphicsDesc {
-                    name,
-                    stages,
-                    vertex_bindings: &bindings,
-                    vertex_attributes: &attributes,
-                    color_formats,
-                    depth_format: Some(DEPTH_FORMAT),
-                    samples: msaa,
-                    sample_shading: None,
-                    // Two-sided surfaces, as the forward pipeline.
-                    cull_mode: vk::CullModeFlags::NONE,
-                    front_face: vk::FrontFace::COUNTER_CLOCKWISE,
-                    // Reversed Z: nearer is greater.
-                    depth_compare: vk::CompareOp::GREATER,
-                    depth_write,
+                let raster = |layout: &PipelineLayout,
+                              name: &str,
+                              stages: &[&ShaderModule],
+                              color_formats: &[vk::Format],
+                              depth_write: bool,
+                              blend: ColorBlend| {
+                    let desc = GraphicsDesc {
+                        name,
+                        stages,
+                        vertex_bindings: &bindings,
+                        vertex_attributes: &attributes,
+                        color_formats,
+                        depth_format: Some(DEPTH_FORMAT),
+                        samples: msaa,
+                        sample_shading: None,
+                        // Two-sided surfaces, as the forward pipeline.
+                        cull_mode: vk::CullModeFlags::NONE,
+                        front_face: vk::FrontFace::COUNTER_CLOCKWISE,
+                        // Reversed Z: nearer is greater.
+                        depth_compare: vk::CompareOp::GREATER,
+                        depth_write,
+                    };
+                    Pipeline::graphics_blended(device, layout, &desc, blend)
                 };
-                let stochastic_depth = Pipeline::graphics(
-                    device,
+                let mut shader_modules = vec![];
+                let (correction, draws, draw_layout) = match method {
+                    TransparencyMethod::DepthBased { alpha_correction } => {
+                        let tinted = objects.iter().any(|o| o.tinted);
+                        let maps = if tinted { 3 } else { 1 };
+                        let depth_maps = (0..maps)
+                            .map(|c| {
+                                target(
+                                    device,
+                                    &format!("stochastic depth {c}"),
+                                    size,
+                                    DEPTH_FORMAT,
+                                    msaa,
+                                    depth_usage,
+                                )
+                            })
+                            .collect::<Result<Vec<_>>>()?;
+                        let layers_set_layout = DescriptorSetLayout::from_table(
+                            device,
+                            "oit layers set layout",
+                            &LAYERS_SET,
+                            vk::ShaderStageFlags::FRAGMENT,
+                        )?;
+                        let layers_set = pool.allocate(&layers_set_layout)?;
+                        let map = |c: usize| &*depth_maps[c.min(maps - 1)];
+                        write_descriptors(
+                            device,
+                            layers_set,
+                            &[0, 1, 2].map(|c| sampled_image(c as u32, map(c))),
+                        );
+                        let draw_layout = draw_layout_with(&layers_set_layout)?;
+                        let rv = receiver_vert()?;
+                        let depth_frag = ShaderModule::new(device, shaders::OIT_STOCHASTIC_DEPTH_FRAG)?;
+                        let layers_frag = ShaderModule::new(
+                            device,
+                            shaders::LayersFrag { shadows: shadow_axis, shadow_color, multisampled }.source(),
+                        )?;
+                        let stochastic_depth = raster(
+                            &draw_layout,
+                            "oit stochastic depth",
+                            &[&v, &depth_frag],
+                            &[],
+                            true,
+                            ColorBlend::Replace,
+                        )?;
+                        let layers = raster(
+                            &draw_layout,
+                            "oit layers",
+                            &[&rv, &layers_frag],
+                            &three,
+                            false,
+                            ColorBlend::Add,
+                        )?;
+                        shader_modules.extend([rv, depth_frag, layers_frag]);
+                        let correction = if alpha_correction { CORRECTION_PER_CHANNEL } else { 0 };
+                        let draws = LayerDraws::DepthBased {
+                            stochastic_depth,
+                            layers,
+                            layers_set,
+                            depth_maps,
+                            _layers_set_layout: layers_set_layout,
+                        };
+                        (correction, draws, draw_layout)
+                    }
+                    _ => {
+                        // The forward path's stochastic transparency, into the layer sum only.
+                        let targets = TransparentTargets { formats: &[OIT_FORMAT; 3], written: 0 };
+                        let passes = samples.len() as u32;
+                        let st = TransparentDraws::new(
+                            device,
+                            world,
+                            ctx.scene,
+                            (msaa, passes),
+                            ctx.settings.seed,
+                            shadows.as_ref(),
+                            targets,
+                        )?;
+                        let draw_layout = draw_layout_with(&world.empty_layout)?;
+                        (CORRECTION_STOCHASTIC, LayerDraws::Stochastic(Box::new(st)), draw_layout)
+                    }
+                };
+                let transmittance = raster(
                     &draw_layout,
-                    &desc("oit stochastic depth", &depth_stages, &[], true),
-                )?;
-                let layers = Pipeline::graphics_blended(
-                    device,
-                    &draw_layout,
-                    &desc("oit layers", &layers_stages, &three, false),
-                    ColorBlend::Add,
-                )?;
-                let transmittance = Pipeline::graphics_blended(
-                    device,
-                    &draw_layout,
-                    &desc("oit transmittance", &transmittance_stages, &three, false),
+                    "oit transmittance",
+                    &[&v, &transmittance_frag],
+                    &three,
+                    false,
                     ColorBlend::Multiply,
                 )?;
+                shader_modules.extend([v, transmittance_frag]);
                 let composite = ComputeStep::new::<DepthCompositePush>(
                     device,
                     world,
@@ -515,23 +601,19 @@ impl OitTechnique {
                         DescriptorWrite::StorageImage { binding: 7, view: totals[2].view },
                     ],
                 )?;
-                let path = DepthBased {
-                    alpha_correction,
-                    stochastic_depth,
-                    layers,
+                let path = Composited {
+                    correction,
+                    draws,
                     transmittance,
                     draw_layout,
-                    layers_set,
                     composite,
-                    depth_maps,
                     layer_sum,
                     layer_weight,
                     total_transmittance,
                     totals,
-                    _layers_set_layout: layers_set_layout,
-                    _shaders: vec![v, rv, depth_frag, layers_frag, transmittance_frag],
+                    _shaders: shader_modules,
                 };
-                (pool, OitPath::DepthBased(Box::new(path)))
+                (pool, OitPath::Composited(Box::new(path)))
             }
             TransparencyMethod::Peeling { layers } => {
                 if layers == 0 || layers > MAX_PEELING_LAYERS {
@@ -751,13 +833,15 @@ impl OitTechnique {
             }
         };
         match &self.path {
-            OitPath::DepthBased(db) => {
-                let maps: Vec<ImageHandle> = db
-                    .depth_maps
-                    .iter()
-                    .enumerate()
-                    .map(|(c, m)| g.import_image(&format!("stochastic depth {c}"), m))
-                    .collect();
+            OitPath::Composited(db) => {
+                let maps: Vec<ImageHandle> = match &db.draws {
+                    LayerDraws::DepthBased { depth_maps, .. } => depth_maps
+                        .iter()
+                        .enumerate()
+                        .map(|(c, m)| g.import_image(&format!("stochastic depth {c}"), m))
+                        .collect(),
+                    LayerDraws::Stochastic(_) => vec![],
+                };
                 let sum = g.import_image("oit layer sum", &db.layer_sum);
                 let weights = g.import_image("oit layer weight", &db.layer_weight);
                 let transmittance = g.import_image("oit total transmittance", &db.total_transmittance);
@@ -765,52 +849,85 @@ impl OitTechnique {
                 for t in totals {
                     g.clear_color("clear oit total", t, [0.0; 4]);
                 }
-                let composite = DepthCompositePush {
-                    weight,
-                    msaa,
-                    alpha_correction: db.alpha_correction as u32,
-                    finish: 0,
-                };
+                let composite =
+                    DepthCompositePush { weight, msaa, alpha_correction: db.correction, finish: 0 };
                 let depth_maps = maps.len() as u32;
                 g.repeat(self.samples.len() as u32, |g| {
                     per_pass_shadows(g);
                     self.opaque_pass(g, &inputs, opaque_color, opaque_depth, background, shadow_reads);
-                    for (c, &map) in maps.iter().enumerate() {
-                        let channel = if depth_maps == 3 { c as u32 } else { 3 };
-                        g.pass("oit stochastic depth").depth(map, Load::Clear(0.0), Store::Store).record(
-                            move |ctx| {
+                    match &db.draws {
+                        LayerDraws::DepthBased { stochastic_depth, layers, layers_set, .. } => {
+                            for (c, &map) in maps.iter().enumerate() {
+                                let channel = if depth_maps == 3 { c as u32 } else { 3 };
+                                g.pass("oit stochastic depth")
+                                    .depth(map, Load::Clear(0.0), Store::Store)
+                                    .record(move |ctx| {
+                                        self.draw_transparent(
+                                            ctx,
+                                            &inputs,
+                                            stochastic_depth,
+                                            &db.draw_layout,
+                                            None,
+                                            |p| p.channel = channel,
+                                        );
+                                        Ok(())
+                                    });
+                            }
+                            let mut pass = g
+                                .pass("oit layers")
+                                .color(sum, Load::Clear([0.0; 4]), Store::Store)
+                                .color(weights, Load::Clear([0.0; 4]), Store::Store)
+                                .color(transmittance, Load::Clear([1.0; 4]), Store::Store)
+                                .depth_read_only(opaque_depth)
+                                .accesses(shadow_reads.iter().copied());
+                            for &map in &maps {
+                                pass = pass.access(map, sampled_fragment);
+                            }
+                            pass.record(move |ctx| {
+                                let set = Some(*layers_set);
+                                self.draw_transparent(ctx, &inputs, layers, &db.draw_layout, set, |p| {
+                                    p.depth_maps = depth_maps
+                                });
+                                ctx.device.begin_label(ctx.cmd, "oit transmittance");
                                 self.draw_transparent(
                                     ctx,
                                     &inputs,
-                                    &db.stochastic_depth,
+                                    &db.transmittance,
                                     &db.draw_layout,
                                     None,
-                                    |p| p.channel = channel,
+                                    |_| {},
                                 );
+                                ctx.device.end_label(ctx.cmd);
                                 Ok(())
-                            },
-                        );
-                    }
-                    let mut layers = g
-                        .pass("oit layers")
-                        .color(sum, Load::Clear([0.0; 4]), Store::Store)
-                        .color(weights, Load::Clear([0.0; 4]), Store::Store)
-                        .color(transmittance, Load::Clear([1.0; 4]), Store::Store)
-                        .depth_read_only(opaque_depth)
-                        .accesses(shadow_reads.iter().copied());
-                    for &map in &maps {
-                        layers = layers.access(map, sampled_fragment);
-                    }
-                    layers.record(move |ctx| {
-                        let set = Some(db.layers_set);
-                        self.draw_transparent(ctx, &inputs, &db.layers, &db.draw_layout, set, |p| {
-                            p.depth_maps = depth_maps
-                        });
-                        ctx.device.begin_label(ctx.cmd, "oit transmittance");
-                        self.draw_transparent(ctx, &inputs, &db.transmittance, &db.draw_layout, None, |_| {});
-                        ctx.device.end_label(ctx.cmd);
-                        Ok(())
-                    });
+                            });
+                        }
+                        LayerDraws::Stochastic(st) => {
+                            // The transmittance first, against the opaque depth alone; then the
+                            // stochastic coverage draws write their depth over it.
+                            g.pass("oit stochastic")
+                                .color(sum, Load::Clear([0.0; 4]), Store::Store)
+                                .color(weights, Load::Clear([0.0; 4]), Store::Store)
+                                .color(transmittance, Load::Clear([1.0; 4]), Store::Store)
+                                .depth(opaque_depth, Load::Load, Store::DontCare)
+                                .accesses(shadow_reads.iter().copied())
+                                .record(move |ctx| {
+                                    ctx.device.begin_label(ctx.cmd, "oit transmittance");
+                                    self.draw_transparent(
+                                        ctx,
+                                        &inputs,
+                                        &db.transmittance,
+                                        &db.draw_layout,
+                                        None,
+                                        |_| {},
+                                    );
+                                    ctx.device.end_label(ctx.cmd);
+                                    let index = ctx.iteration;
+                                    let pass = &self.samples[index as usize];
+                                    st.record(ctx.device, ctx.cmd, &inputs, pass, index);
+                                    Ok(())
+                                });
+                        }
+                    };
                     let push = DepthCompositePush { finish: 0, ..composite };
                     g.pass("oit composite")
                         .access(opaque_color, sampled_compute)

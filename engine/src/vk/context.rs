@@ -57,6 +57,8 @@ pub struct Capabilities {
     pub framebuffer_sample_counts: Vec<u32>,
     pub geometry_shader: bool,
     pub sample_rate_shading: bool,
+    /// `independentBlend`: colour attachments of one pipeline blended (or write-masked) differently.
+    pub independent_blend: bool,
     pub fragment_stores_and_atomics: bool,
     /// Stores from vertex/geometry stages (the bound readback test's debug output).
     pub vertex_pipeline_stores_and_atomics: bool,
@@ -86,6 +88,7 @@ pub struct Capabilities {
 pub enum Feature {
     GeometryShader,
     SampleRateShading,
+    IndependentBlend,
     FragmentStoresAndAtomics,
     VertexPipelineStoresAndAtomics,
     ConservativeRasterization,
@@ -101,6 +104,7 @@ impl Feature {
         match self {
             Feature::GeometryShader => "geometryShader".into(),
             Feature::SampleRateShading => "sampleRateShading".into(),
+            Feature::IndependentBlend => "independentBlend".into(),
             Feature::FragmentStoresAndAtomics => "fragmentStoresAndAtomics".into(),
             Feature::VertexPipelineStoresAndAtomics => "vertexPipelineStoresAndAtomics".into(),
             Feature::ConservativeRasterization => "VK_EXT_conservative_rasterization".into(),
@@ -123,6 +127,7 @@ impl Capabilities {
         match feature {
             Feature::GeometryShader => self.geometry_shader,
             Feature::SampleRateShading => self.sample_rate_shading,
+            Feature::IndependentBlend => self.independent_blend,
             Feature::FragmentStoresAndAtomics => self.fragment_stores_and_atomics,
             Feature::VertexPipelineStoresAndAtomics => self.vertex_pipeline_stores_and_atomics,
             Feature::ConservativeRasterization => self.conservative_rasterization,
@@ -166,6 +171,7 @@ impl std::fmt::Display for Capabilities {
             self.max_geometry_output_vertices, self.max_geometry_total_output_components
         )?;
         writeln!(f, "sample-rate shading {}", self.sample_rate_shading)?;
+        writeln!(f, "independent blend {}", self.independent_blend)?;
         writeln!(f, "fragment stores/atomics {}", self.fragment_stores_and_atomics)?;
         writeln!(f, "vertex-pipeline stores/atomics {}", self.vertex_pipeline_stores_and_atomics)?;
         writeln!(f, "VK_EXT_conservative_rasterization {}", self.conservative_rasterization)?;
@@ -434,6 +440,7 @@ impl DeviceShared {
             framebuffer_sample_counts,
             geometry_shader: supported.geometry_shader == vk::TRUE,
             sample_rate_shading: supported.sample_rate_shading == vk::TRUE,
+            independent_blend: supported.independent_blend == vk::TRUE,
             fragment_stores_and_atomics: supported.fragment_stores_and_atomics == vk::TRUE,
             vertex_pipeline_stores_and_atomics: supported.vertex_pipeline_stores_and_atomics == vk::TRUE,
             conservative_rasterization: conservative,
@@ -456,6 +463,7 @@ impl DeviceShared {
         let features = vk::PhysicalDeviceFeatures::default()
             .geometry_shader(caps.geometry_shader)
             .sample_rate_shading(caps.sample_rate_shading)
+            .independent_blend(caps.independent_blend)
             .fragment_stores_and_atomics(caps.fragment_stores_and_atomics)
             .vertex_pipeline_stores_and_atomics(caps.vertex_pipeline_stores_and_atomics)
             .shader_int64(caps.buffer_int64_atomics)

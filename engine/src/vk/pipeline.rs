@@ -298,6 +298,34 @@ impl Pipeline {
         d: &GraphicsDesc,
         blend: ColorBlend,
     ) -> Result<Pipeline> {
+        Self::graphics_written(device, layout, d, blend, None)
+    }
+
+    /// [`Pipeline::graphics_blended`] writing only the colour attachments `written[i]` says (the
+    /// others keep their contents: write mask 0); `None` writes them all.
+    pub fn graphics_written(
+        device: &Device,
+        layout: &PipelineLayout,
+        d: &GraphicsDesc,
+        blend: ColorBlend,
+        written: Option<&[bool]>,
+    ) -> Result<Pipeline> {
+        if let Some(w) = written {
+            if w.len() != d.color_formats.len() {
+                return Err(crate::error::Error::Unsupported(format!(
+                    "pipeline `{}`: {} write flags for {} colour attachments",
+                    d.name,
+                    w.len(),
+                    d.color_formats.len()
+                )));
+            }
+            if w.iter().any(|&x| x != w[0]) {
+                device.caps.require(
+                    super::Feature::IndependentBlend,
+                    &format!("pipeline `{}` (it writes some colour attachments and keeps others)", d.name),
+                )?;
+            }
+        }
         let stages: Vec<_> = d.stages.iter().map(|s| s.stage_info()).collect();
         let vertex_input = vk::PipelineVertexInputStateCreateInfo::default()
             .vertex_binding_descriptions(d.vertex_bindings)
@@ -319,12 +347,13 @@ impl Pipeline {
             .depth_test_enable(d.depth_format.is_some())
             .depth_write_enable(d.depth_write)
             .depth_compare_op(d.depth_compare);
-        let blend_attachments: Vec<_> = d
-            .color_formats
-            .iter()
-            .map(|_| {
-                let state = vk::PipelineColorBlendAttachmentState::default()
-                    .color_write_mask(vk::ColorComponentFlags::RGBA);
+        let blend_attachments: Vec<_> = (0..d.color_formats.len())
+            .map(|i| {
+                let mask = match written {
+                    Some(w) if !w[i] => vk::ColorComponentFlags::empty(),
+                    _ => vk::ColorComponentFlags::RGBA,
+                };
+                let state = vk::PipelineColorBlendAttachmentState::default().color_write_mask(mask);
                 match blend {
                     ColorBlend::Replace => state,
                     // result = src · dst + dst · 0
