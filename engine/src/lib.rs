@@ -24,6 +24,7 @@ pub mod scene;
 pub mod shading;
 pub mod shadows;
 pub mod techniques;
+pub mod texture_space;
 pub mod transparency;
 pub mod vk;
 
