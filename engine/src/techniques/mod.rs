@@ -29,6 +29,7 @@ pub mod pinhole;
 pub mod registry;
 pub mod shadow_maps;
 pub mod stochastic;
+pub mod texture_space;
 
 use std::any::Any;
 use std::rc::Rc;
@@ -516,6 +517,7 @@ pub fn shader_interfaces() -> impl Iterator<Item = &'static crate::gpu::layout::
         graph_probe::SHADER_INTERFACES,
         shadow_maps::SHADER_INTERFACES,
         oit::SHADER_INTERFACES,
+        texture_space::SHADER_INTERFACES,
     ]
     .into_iter()
     .flatten()
