@@ -1,9 +1,14 @@
-//! Adaptive texture-space shading (Andersson et al. 2014; docs/ATSS.md), on the GPU — so far the
-//! first of its pieces: the per-triangle shading rate (`shaders-glsl/texture_space/rate.glsl`, the
-//! port of [`crate::texture_space::rate`]), run by [`ShadingRates`] over every triangle of every object
-//! at mid-shutter and read back, so that tests compare it with the CPU mirror. Pass 1 of the
-//! technique will compute the same in its geometry shader. Not in the registry: it renders no image
-//! (its frame is black).
+//! Adaptive texture-space shading (Andersson et al. 2014; docs/ATSS.md), on the GPU — so far its
+//! first pieces, as probes outside the registry (their frames are black; their results are read back
+//! for tests):
+//!
+//! * [`ShadingRates`]: the per-triangle shading rate (`shaders-glsl/texture_space/rate.glsl`, the
+//!   port of [`crate::texture_space::rate`]) by a compute pass over every triangle of every object at
+//!   mid-shutter, so that tests compare it with the CPU mirror;
+//! * [`ShadingAtlas`]: pass 1 — every object shaded into its own mip atlas at each triangle's level
+//!   (`atlas.geom` computes the rate as above and places the triangle), in the "shade" sub-pass, then
+//!   the "conservative" sub-pass adds each triangle's outer hull behind it by the depth trick (the
+//!   paper's Figures 6–8), or not (the ablation).
 
 use ash::vk;
 use bytemuck::{Pod, Zeroable};
@@ -13,13 +18,15 @@ use super::{FrameContext, FrameInputs, FrameTechnique, PrepareContext, Technique
 use crate::error::Result;
 use crate::gpu::layout::{shared_struct, Binding, SharedStruct, OBJECT_SET_INDEX, TECHNIQUE_SET_INDEX};
 use crate::graph::{Access, Tracked};
+use crate::graph::{Load, Store};
 use crate::image::LinearImage;
 use crate::shaders;
-use crate::texture_space::atlas::{shading_space_of, triangle_charts, ShadingSpace};
+use crate::texture_space::atlas::{shading_space_of, triangle_charts, MipAtlas, ShadingSpace};
 use crate::vk::{
     write_descriptors, Buffer, DescriptorPool, DescriptorSetLayout, DescriptorWrite, Pipeline,
     PipelineLayout, ShaderModule,
 };
+use crate::vk::{Feature, GraphicsDesc, Image, ImageDesc};
 
 /// Set 3 of `levels.comp`.
 pub const LEVELS_SET: [Binding; 2] = [
@@ -40,8 +47,57 @@ pub struct LevelsPush {
 }
 
 /// For the reflection test.
-pub const TEXTURE_SPACE_STRUCTS: &[SharedStruct] =
-    &[shared_struct!("Push", LevelsPush, [triangle_count, segment, segment_time, level_count])];
+pub const TEXTURE_SPACE_STRUCTS: &[SharedStruct] = &[
+    shared_struct!("Push", LevelsPush, [triangle_count, segment, segment_time, level_count]),
+    shared_struct!(
+        "Push",
+        AtlasPush,
+        [
+            object,
+            segment,
+            segment_time,
+            finest,
+            gutter,
+            level_count,
+            hull_texels,
+            time,
+            atlas_width,
+            atlas_height
+        ]
+    ),
+];
+
+/// Push constants of the atlas passes (`texture_space/atlas_push.glsl`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct AtlasPush {
+    pub object: u32,
+    pub segment: u32,
+    pub segment_time: f32,
+    pub finest: u32,
+    pub gutter: u32,
+    pub level_count: u32,
+    /// Half-size of the box the conservative sub-pass dilates each triangle by, texels.
+    pub hull_texels: f32,
+    /// Mid-shutter, the lights' time.
+    pub time: f32,
+    pub atlas_width: u32,
+    pub atlas_height: u32,
+}
+
+/// The shading coordinates of every corner of `mesh` (3 per triangle, index order) in texels of a
+/// `finest²` level 0: its own uvs mapped onto the unit square, or generated charts with `gutter`
+/// texels around each.
+fn shading_coords(mesh: &crate::scene::Mesh, finest: u32, gutter: u32) -> Result<(ShadingSpace, Vec<Vec2>)> {
+    let space = shading_space_of(mesh);
+    let unit: Vec<Vec2> = match space {
+        ShadingSpace::OwnUvs { .. } => {
+            mesh.indices.iter().map(|&i| space.to_unit(mesh.uvs[i as usize])).collect()
+        }
+        ShadingSpace::Charts(_) => triangle_charts(mesh, finest, gutter)?.uvs,
+    };
+    Ok((space, unit.iter().map(|&t| t * finest as f32).collect()))
+}
 
 /// One triangle's shading rate as the GPU computed it.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -104,14 +160,7 @@ impl ShadingRates {
                 objects.push(None);
                 continue;
             }
-            let space = shading_space_of(&o.mesh);
-            let unit: Vec<Vec2> = match space {
-                ShadingSpace::OwnUvs { .. } => {
-                    o.mesh.indices.iter().map(|&i| space.to_unit(o.mesh.uvs[i as usize])).collect()
-                }
-                ShadingSpace::Charts(_) => triangle_charts(&o.mesh, finest, 2)?.uvs,
-            };
-            let coords: Vec<Vec2> = unit.iter().map(|&t| t * finest as f32).collect();
+            let (space, coords) = shading_coords(&o.mesh, finest, 2)?;
             let flat: Vec<[f32; 2]> = coords.iter().map(|c| c.to_array()).collect();
             let coords_buffer =
                 Buffer::with_data(device, &format!("shading coords:{}", o.name), storage, &flat)?;
@@ -243,11 +292,319 @@ impl FrameTechnique for ShadingRates {
     }
 }
 
-/// What `texture_space/levels.comp` expects of its layout.
-pub const SHADER_INTERFACES: &[crate::gpu::layout::ShaderInterface] =
-    &[crate::gpu::layout::ShaderInterface::technique(
+/// What `texture_space/` expects of its layouts.
+pub const SHADER_INTERFACES: &[crate::gpu::layout::ShaderInterface] = &[
+    crate::gpu::layout::ShaderInterface::technique(
         &["texture_space/levels.comp"],
         None,
         Some(&LEVELS_SET),
         Some(TEXTURE_SPACE_STRUCTS[0]),
-    )];
+    ),
+    crate::gpu::layout::ShaderInterface::technique(
+        &["texture_space/atlas.vert", "texture_space/atlas.geom", "texture_space/atlas.frag"],
+        None,
+        Some(&LEVELS_SET),
+        Some(TEXTURE_SPACE_STRUCTS[1]),
+    ),
+];
+
+/// The conservative sub-pass' dilation that covers every texel of a bilinear lookup inside a
+/// triangle: a whole texel. The paper's outer hull (half a texel: the texels whose square the triangle
+/// touches) leaves the lookups near an edge reading a texel whose square it misses — with weight up
+/// to ½ — which `tests/tests/texture_space.rs` counts; a departure on purpose.
+pub const BILINEAR_HULL_TEXELS: f32 = 1.0;
+
+/// The atlas' colour format: f32, so the read-back texels are the shaded values exactly.
+pub const ATLAS_FORMAT: vk::Format = vk::Format::R32G32B32A32_SFLOAT;
+/// Depth of the atlas' depth trick.
+pub const ATLAS_DEPTH_FORMAT: vk::Format = vk::Format::D32_SFLOAT;
+
+/// One object's atlas, its depth, its shading coordinates and levels.
+struct AtlasObject {
+    name: String,
+    space: ShadingSpace,
+    coords: Vec<Vec2>,
+    triangles: u32,
+    set: vk::DescriptorSet,
+    _coords: Buffer,
+    levels: Tracked<Buffer>,
+    color: Tracked<Image>,
+    depth: Tracked<Image>,
+}
+
+/// What pass 1 left for one object.
+#[derive(Clone, Debug)]
+pub struct AtlasResult {
+    pub name: String,
+    pub space: ShadingSpace,
+    /// Per corner, shading coordinates in texels of level 0.
+    pub coords: Vec<Vec2>,
+    /// Per triangle, the level the geometry stage chose.
+    pub levels: Vec<GpuLevel>,
+    /// The atlas: shaded texels with alpha 1 (shade sub-pass) or 0.5 (conservative), 0 elsewhere.
+    pub image: LinearImage,
+}
+
+/// Pass 1 of adaptive texture-space shading for every object (module docs).
+pub struct ShadingAtlas {
+    atlas: MipAtlas,
+    /// The conservative sub-pass' box half-size in texels (None: no conservative sub-pass).
+    hull_texels: Option<f32>,
+    objects: Vec<Option<AtlasObject>>,
+    shade: Pipeline,
+    hull: Pipeline,
+    layout: PipelineLayout,
+    /// Per object (None: no triangles): the last frame's atlas.
+    pub results: Vec<Option<AtlasResult>>,
+    size: (u32, u32),
+    _set_layout: DescriptorSetLayout,
+    _pool: DescriptorPool,
+    _shaders: Vec<ShaderModule>,
+}
+
+impl ShadingAtlas {
+    /// Every object into an atlas of `atlas`'s layout; with `hull_texels`, the conservative sub-pass
+    /// after the shade sub-pass, each triangle dilated by a box of that half-size in texels — 1.0
+    /// ([`BILINEAR_HULL_TEXELS`]) covers every texel a bilinear lookup inside the triangle reads, 0.5
+    /// only those whose square the triangle touches (the paper's outer hull); without it, the
+    /// no-gutter ablation.
+    pub fn new(ctx: &PrepareContext<'_>, atlas: MipAtlas, hull_texels: Option<f32>) -> Result<Self> {
+        let (device, world) = (ctx.device, ctx.world);
+        let caps = &device.caps;
+        caps.require(
+            Feature::GeometryShader,
+            "texture-space shading (pass 1 places triangles in its geometry stage)",
+        )?;
+        caps.require(
+            Feature::VertexPipelineStoresAndAtomics,
+            "texture-space shading (pass 1's geometry stage records each triangle's level)",
+        )?;
+        let (width, height) = atlas.size();
+        if width.max(height) > caps.max_image_dimension_2d {
+            return Err(crate::error::Error::Limit {
+                what: "shading atlas",
+                value: format!("{width}×{height} texels"),
+                limit: format!(
+                    "{} texels per side on this device (maxImageDimension2D)",
+                    caps.max_image_dimension_2d
+                ),
+            });
+        }
+        let stages =
+            vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::GEOMETRY | vk::ShaderStageFlags::FRAGMENT;
+        let set_layout =
+            DescriptorSetLayout::from_table(device, "shading atlas set layout", &LEVELS_SET, stages)?;
+        let layout = world.pipeline_layout(
+            device,
+            &[&world.empty_layout, &set_layout],
+            std::mem::size_of::<AtlasPush>() as u32,
+            stages,
+        )?;
+        let vert = ShaderModule::new(device, shaders::TEXTURE_SPACE_ATLAS_VERT)?;
+        let mut modules = vec![];
+        let mut pipeline = |conservative: bool| -> Result<Pipeline> {
+            let geom = ShaderModule::new(device, shaders::AtlasGeom { conservative }.source())?;
+            let frag = ShaderModule::new(device, shaders::AtlasFrag { conservative }.source())?;
+            let name = if conservative { "atlas conservative" } else { "atlas shade" };
+            let p = Pipeline::graphics(
+                device,
+                &layout,
+                &GraphicsDesc {
+                    name,
+                    stages: &[&vert, &geom, &frag],
+                    vertex_bindings: &[],
+                    vertex_attributes: &[],
+                    color_formats: &[ATLAS_FORMAT],
+                    depth_format: Some(ATLAS_DEPTH_FORMAT),
+                    samples: 1,
+                    sample_shading: None,
+                    cull_mode: vk::CullModeFlags::NONE,
+                    front_face: vk::FrontFace::COUNTER_CLOCKWISE,
+                    depth_compare: vk::CompareOp::LESS,
+                    depth_write: true,
+                },
+            )?;
+            modules.extend([geom, frag]);
+            Ok(p)
+        };
+        let shade = pipeline(false)?;
+        let hull = pipeline(true)?;
+        modules.push(vert);
+        let n = ctx.scene.objects.len() as u32;
+        let pool = DescriptorPool::for_tables(device, n.max(1), &[(&LEVELS_SET, n.max(1))])?;
+        let storage = vk::BufferUsageFlags::STORAGE_BUFFER;
+        let mut objects = Vec::with_capacity(ctx.scene.objects.len());
+        for o in &ctx.scene.objects {
+            let triangles = o.mesh.indices.len() / 3;
+            if triangles == 0 {
+                objects.push(None);
+                continue;
+            }
+            let (space, coords) = shading_coords(&o.mesh, atlas.finest(), 2)?;
+            let flat: Vec<[f32; 2]> = coords.iter().map(|c| c.to_array()).collect();
+            let coords_buffer =
+                Buffer::with_data(device, &format!("atlas coords:{}", o.name), storage, &flat)?;
+            let levels = Tracked::new(Buffer::with_data(
+                device,
+                &format!("atlas levels:{}", o.name),
+                storage,
+                &vec![[0f32; 4]; triangles],
+            )?);
+            let set = pool.allocate(&set_layout)?;
+            write_descriptors(
+                device,
+                set,
+                &[
+                    DescriptorWrite::storage_buffer(0, &coords_buffer),
+                    DescriptorWrite::storage_buffer(1, &levels),
+                ],
+            );
+            let usage = vk::ImageUsageFlags::COLOR_ATTACHMENT | vk::ImageUsageFlags::TRANSFER_SRC;
+            let color = Tracked::new(Image::new(
+                device,
+                &format!("shading atlas:{}", o.name),
+                ImageDesc::new_2d(width, height, ATLAS_FORMAT, usage),
+            )?);
+            let depth = Tracked::new(Image::new(
+                device,
+                &format!("shading atlas depth:{}", o.name),
+                ImageDesc::new_2d(
+                    width,
+                    height,
+                    ATLAS_DEPTH_FORMAT,
+                    vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT,
+                ),
+            )?);
+            objects.push(Some(AtlasObject {
+                name: o.name.clone(),
+                space,
+                coords,
+                triangles: triangles as u32,
+                set,
+                _coords: coords_buffer,
+                levels,
+                color,
+                depth,
+            }));
+        }
+        Ok(ShadingAtlas {
+            atlas,
+            hull_texels,
+            objects,
+            shade,
+            hull,
+            layout,
+            results: vec![],
+            size: ctx.camera.size(),
+            _set_layout: set_layout,
+            _pool: pool,
+            _shaders: modules,
+        })
+    }
+
+    /// Draws object `i`'s triangles with `pipeline` inside its atlas pass.
+    fn record(
+        &self,
+        ctx: &crate::graph::PassContext<'_>,
+        world: &crate::gpu::GpuWorld,
+        view: &crate::gpu::GpuView,
+        i: usize,
+        pipeline: &Pipeline,
+    ) {
+        let Some(o) = &self.objects[i] else { return };
+        let (d, cmd, bind) = (ctx.device, ctx.cmd, vk::PipelineBindPoint::GRAPHICS);
+        let layout = self.layout.raw;
+        let (width, height) = self.atlas.size();
+        let (segment, segment_time) = view.segment_at(i, 0.5);
+        let push = AtlasPush {
+            object: i as u32,
+            segment,
+            segment_time,
+            finest: self.atlas.finest(),
+            gutter: self.atlas.gutter(),
+            level_count: self.atlas.levels(),
+            hull_texels: self.hull_texels.unwrap_or(0.0),
+            time: 0.5,
+            atlas_width: width,
+            atlas_height: height,
+        };
+        let stages =
+            vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::GEOMETRY | vk::ShaderStageFlags::FRAGMENT;
+        unsafe {
+            d.raw.cmd_bind_pipeline(cmd, bind, pipeline.raw);
+            d.raw.cmd_bind_descriptor_sets(cmd, bind, layout, 0, &[view.frame_set], &[]);
+            d.raw.cmd_bind_descriptor_sets(cmd, bind, layout, OBJECT_SET_INDEX, &[world.objects[i].set], &[]);
+            d.raw.cmd_bind_descriptor_sets(cmd, bind, layout, TECHNIQUE_SET_INDEX, &[o.set], &[]);
+            d.raw.cmd_push_constants(cmd, layout, stages, 0, bytemuck::bytes_of(&push));
+            d.raw.cmd_draw(cmd, 3 * o.triangles, 1, 0, 0);
+        }
+    }
+}
+
+impl FrameTechnique for ShadingAtlas {
+    fn render(&mut self, inputs: &FrameInputs<'_>, frame: &mut FrameContext<'_>) -> Result<TechniqueFrame> {
+        let this = &*self;
+        let (world, view) = (inputs.world, inputs.camera);
+        let mut g = frame.graph();
+        let mut readbacks = vec![];
+        for (i, o) in this.objects.iter().enumerate() {
+            let Some(o) = o else { continue };
+            let color = g.import_image("shading atlas", &o.color);
+            let depth = g.import_image("shading atlas depth", &o.depth);
+            let levels = g.import_buffer("atlas levels", &o.levels);
+            g.pass("atlas shade")
+                .color(color, Load::Clear([0.0; 4]), Store::Store)
+                .depth(depth, Load::Clear(1.0), Store::Store)
+                .overwrite(levels, Access::GeometryShaderWrite)
+                .record(move |ctx| {
+                    this.record(ctx, world, view, i, &this.shade);
+                    Ok(())
+                });
+            if this.hull_texels.is_some() {
+                g.pass("atlas conservative")
+                    .color(color, Load::Load, Store::Store)
+                    .depth(depth, Load::Load, Store::DontCare)
+                    .access(levels, Access::GeometryShaderReadOther)
+                    .record(move |ctx| {
+                        this.record(ctx, world, view, i, &this.hull);
+                        Ok(())
+                    });
+            }
+            g.host_read(levels);
+            readbacks.push((i, g.read_back(color)?));
+        }
+        let mut result = frame.run(g)?;
+        let mut results = vec![None; this.objects.len()];
+        for (i, r) in readbacks {
+            let o = this.objects[i].as_ref().expect("read back");
+            let raw = o.levels.mapped()?;
+            let floats: Vec<f32> =
+                raw.chunks_exact(4).map(|c| f32::from_ne_bytes([c[0], c[1], c[2], c[3]])).collect();
+            let levels = floats
+                .chunks_exact(4)
+                .map(|v| GpuLevel {
+                    radius_texels: v[0],
+                    spacing_px: v[1],
+                    level: v[2] as u32,
+                    valid: v[3] > 0.5,
+                })
+                .collect();
+            results[i] = Some(AtlasResult {
+                name: o.name.clone(),
+                space: o.space,
+                coords: o.coords.clone(),
+                levels,
+                image: result.take_image(r),
+            });
+        }
+        self.results = results;
+        let (w, h) = self.size;
+        Ok(TechniqueFrame {
+            image: LinearImage::new(w, h),
+            passes: 1,
+            msaa_samples: 1,
+            counters: None,
+            clusters: vec![],
+        })
+    }
+}

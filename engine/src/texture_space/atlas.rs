@@ -44,6 +44,16 @@ impl MipAtlas {
         Ok(MipAtlas { finest, gutter })
     }
 
+    /// Level 0's side, texels.
+    pub fn finest(&self) -> u32 {
+        self.finest
+    }
+
+    /// Texels between levels.
+    pub fn gutter(&self) -> u32 {
+        self.gutter
+    }
+
     /// Levels down to 1 × 1.
     pub fn levels(&self) -> u32 {
         self.finest.trailing_zeros() + 1
