@@ -235,7 +235,7 @@ fn each_file_has_the_product_of_its_axes() {
         }
     }
     assert_eq!(d.count("stochastic/stochastic.frag"), 48); // 3 hulls × 2 instrumented × 4 effects × 2 passes
-    assert_eq!(d.count("stochastic/shade.comp"), 192); // 2 shading × 2 instrumented × 4 effects × 3 shadows × 2 colour × 2 tints
+    assert_eq!(d.count("stochastic/shade.comp"), 288); // 3 shading × 2 instrumented × 4 effects × 3 shadows × 2 colour × 2 tints
     assert_eq!(d.count("stochastic/stochastic.geom"), 8);
     assert_eq!(d.count("stochastic/expand.comp"), 4);
     assert_eq!(d.count("stochastic/clusters.comp"), 4);

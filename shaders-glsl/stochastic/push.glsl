@@ -42,6 +42,9 @@ layout(push_constant) uniform Push {
     uint tint_log_r;
     uint tint_log_g;
     uint tint_log_b;
+    // TEXTURE_SPACE (shade.comp): the objects' atlas layout (texture_space::atlas::MipAtlas).
+    uint atlas_finest;
+    uint atlas_gutter;
 } pc;
 
 #endif

@@ -16,6 +16,9 @@
 //               surface point (common/shadow.glsl), bound as set 4 — sets 2 and 3 are this
 //               technique's. The maps are rendered once per frame: the stochastic frame takes them
 //               only when nothing moves in the world (shadows::casters_move).
+//   TEXTURE_SPACE (with PER_SAMPLE): adaptive texture-space shading's pass 2 — each hit looks its
+//               radiance up in its object's shading atlas (pass 1, techniques/texture_space.rs) at
+//               its shading coordinate and its triangle's level, bilinear, instead of shading.
 //   TINTS:      every sample's radiance (or background) times the product of the tints in front of
 //               it, from the tint buffer stochastic.frag's tint pass filled (transparency::tint_from_log);
 //               per-pixel groups weigh their radiance by the sum of their samples' tints.
@@ -100,6 +103,38 @@ SampleHit sample_at(uint prim, uint tile_index, uvec2 pix) {
     return h;
 }
 
+#ifdef TEXTURE_SPACE
+// Set 2 (STOCHASTIC_OBJECT_SET): the object's shading atlas, each triangle's level (levels.comp's
+// layout: radius, spacing, level, valid) and each corner's shading coordinate in texels of level 0.
+layout(set = 2, binding = 5) uniform sampler2D atlas;
+layout(set = 2, binding = 6, std430) readonly buffer AtlasLevels { vec4 atlas_levels[]; };
+layout(set = 2, binding = 7, std430) readonly buffer AtlasCoords { vec2 atlas_coords[]; };
+
+// MipAtlas::level_rect's corner.
+vec2 atlas_level_offset(uint level) {
+    if (level == 0u) return vec2(0.0);
+    uint y = 0u;
+    for (uint k = 1u; k < level; k++) y += (pc.atlas_finest >> k) + pc.atlas_gutter;
+    return vec2(float(pc.atlas_finest + pc.atlas_gutter), float(y));
+}
+
+// The shaded radiance at barycentrics w of triangle prim: a bilinear lookup at its level.
+vec3 atlas_lookup(uint prim, vec3 w) {
+    uint level = uint(atlas_levels[prim].z);
+    vec2 t = w.x * atlas_coords[3u * prim] + w.y * atlas_coords[3u * prim + 1u] + w.z * atlas_coords[3u * prim + 2u];
+    vec2 p = t / float(1u << level) + atlas_level_offset(level) - 0.5;
+    vec2 p0 = floor(p);
+    vec2 f = p - p0;
+    ivec2 size = textureSize(atlas, 0);
+    ivec2 i0 = clamp(ivec2(p0), ivec2(0), size - 1), i1 = clamp(ivec2(p0) + 1, ivec2(0), size - 1);
+    vec3 a = texelFetch(atlas, ivec2(i0.x, i0.y), 0).rgb;
+    vec3 b = texelFetch(atlas, ivec2(i1.x, i0.y), 0).rgb;
+    vec3 c = texelFetch(atlas, ivec2(i0.x, i1.y), 0).rgb;
+    vec3 d = texelFetch(atlas, ivec2(i1.x, i1.y), 0).rgb;
+    return mix(mix(a, b, f.x), mix(c, d, f.x), f.y);
+}
+#endif
+
 // The object's material, loaded once per invocation.
 Material object_material;
 
@@ -113,6 +148,9 @@ vec3 shade_hit(uint prim, SampleHit h) {
         bool ok;
         w = plane_barycentrics(h.a, h.b, h.c, h.ro, h.rd, ok);
     }
+#ifdef TEXTURE_SPACE
+    return atlas_lookup(prim, w);
+#endif
     Vertex tv[3];
     for (uint k = 0u; k < 3u; k++) tv[k] = vertices[indices[3u * prim + k]];
     vec3 geometric = cross(h.b - h.a, h.c - h.a);

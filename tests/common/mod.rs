@@ -31,7 +31,8 @@ pub fn same_sample_reference(
     out: &RenderOutput,
 ) -> LinearImage {
     let shading = match shading {
-        ShadingRate::PerSample => ReferenceShading::PerSample,
+        // Texture-space shading approximates per-sample shading; the reference does not mirror it.
+        ShadingRate::PerSample | ShadingRate::TextureSpace => ReferenceShading::PerSample,
         ShadingRate::PerPixel => ReferenceShading::PerPixel { per_pass: spp / out.stats.passes.max(1) },
     };
     render_reference(scene, &ReferenceSettings { width: w, height: h, spp, seed, progress: false, shading })

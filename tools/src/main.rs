@@ -50,7 +50,9 @@ enum Command {
         /// object from its blur, the thesis §4.7). The image does not depend on it.
         #[arg(long, default_value = "device")]
         bound: String,
-        /// Stochastic shading rate: per-pixel | per-sample.
+        /// Stochastic shading rate: per-pixel | per-sample | texture-space (adaptive texture-space
+        /// shading: each object shaded once into a mip atlas at a level per triangle, looked up per
+        /// sample; docs/ATSS.md).
         #[arg(long, default_value = "per-pixel")]
         shading: String,
         /// Stochastic: count samples tested / hit and shading invocations (atomics; slower).
@@ -462,6 +464,14 @@ fn run() -> Result<()> {
             let shading = match shading.parse::<ShadingRate>()? {
                 ShadingRate::PerSample => ReferenceShading::PerSample,
                 ShadingRate::PerPixel => ReferenceShading::PerPixel { per_pass: per_pass.unwrap_or(spp) },
+                ShadingRate::TextureSpace => {
+                    return Err(shutter::Error::Unsupported(
+                        "the reference shades per sample or per pixel; texture-space shading is a GPU \
+                         approximation of per-sample shading (compare it with `--shading per-sample`)"
+                            .into(),
+                    )
+                    .into())
+                }
             };
             let seed = seed.unwrap_or(sc.image.seed);
             let settings = ReferenceSettings { width, height, spp, seed, progress: true, shading };

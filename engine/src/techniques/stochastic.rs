@@ -73,14 +73,29 @@ pub enum ShadingRate {
     PerPixel,
     /// Every sample shaded with its own hit, time and lens point.
     PerSample,
+    /// Adaptive texture-space shading (Andersson et al. 2014; docs/ATSS.md): every object shaded once
+    /// per frame into its own mip atlas at a level chosen per triangle ([`super::texture_space`],
+    /// level 0 [`TEXTURE_SPACE_FINEST`]²), at the lens centre and mid-shutter; every sample looks its
+    /// radiance up there. Not mirrored by the reference (its shading is view-independent).
+    TextureSpace,
 }
 
+/// Level 0's side of the atlases of [`ShadingRate::TextureSpace`], texels.
+pub const TEXTURE_SPACE_FINEST: u32 = 1024;
+/// Texels between the atlas' levels.
+pub const TEXTURE_SPACE_GUTTER: u32 = 4;
+
 impl ShadingRate {
+    /// The rates the reference mirrors sample for sample ([`crate::reference::ReferenceShading`]).
     pub const ALL: [ShadingRate; 2] = [ShadingRate::PerPixel, ShadingRate::PerSample];
+    /// Every rate, by name.
+    pub const NAMED: [ShadingRate; 3] =
+        [ShadingRate::PerPixel, ShadingRate::PerSample, ShadingRate::TextureSpace];
     pub fn name(&self) -> &'static str {
         match self {
             ShadingRate::PerPixel => "per-pixel",
             ShadingRate::PerSample => "per-sample",
+            ShadingRate::TextureSpace => "texture-space",
         }
     }
 }
@@ -88,7 +103,7 @@ impl ShadingRate {
 impl std::str::FromStr for ShadingRate {
     type Err = Error;
     fn from_str(s: &str) -> Result<Self> {
-        crate::error::parse_named(&ShadingRate::ALL, |r| r.name(), "shading rate", s)
+        crate::error::parse_named(&ShadingRate::NAMED, |r| r.name(), "shading rate", s)
     }
 }
 
@@ -582,6 +597,9 @@ pub struct StochasticPush {
     pub tint_log_r: u32,
     pub tint_log_g: u32,
     pub tint_log_b: u32,
+    /// Texture-space shading: the atlases' level 0 side and gutter (0 elsewhere).
+    pub atlas_finest: u32,
+    pub atlas_gutter: u32,
 }
 
 /// Push constants of `clusters.comp`.
@@ -608,13 +626,20 @@ pub struct TrianglesPush {
     pub triangle_count: u32,
 }
 
-/// Set 2 of the stochastic rasterizer, per object: the view's triangles and the compute-expanded hull.
-pub const STOCHASTIC_OBJECT_SET: [Binding; 5] = [
+/// The bindings of [`STOCHASTIC_OBJECT_SET`] before the shading atlas' (5–7, texture-space only).
+pub const STOCHASTIC_OBJECT_BINDINGS_WITHOUT_ATLAS: usize = 5;
+
+/// Set 2 of the stochastic rasterizer, per object: the view's triangles, the compute-expanded hull,
+/// the cluster bounds and, with texture-space shading, the object's shading atlas.
+pub const STOCHASTIC_OBJECT_SET: [Binding; 8] = [
     Binding { binding: 0, ty: vk::DescriptorType::STORAGE_BUFFER, block: "Triangles" },
     Binding { binding: 1, ty: vk::DescriptorType::STORAGE_BUFFER, block: "Hull" },
     Binding { binding: 2, ty: vk::DescriptorType::STORAGE_BUFFER, block: "HullTriangles" },
     Binding { binding: 3, ty: vk::DescriptorType::STORAGE_BUFFER, block: "Clusters" },
     Binding { binding: 4, ty: vk::DescriptorType::STORAGE_BUFFER, block: "ClusterTriangles" },
+    Binding { binding: 5, ty: vk::DescriptorType::COMBINED_IMAGE_SAMPLER, block: "atlas" },
+    Binding { binding: 6, ty: vk::DescriptorType::STORAGE_BUFFER, block: "AtlasLevels" },
+    Binding { binding: 7, ty: vk::DescriptorType::STORAGE_BUFFER, block: "AtlasCoords" },
 ];
 
 /// Set 3 of the stochastic rasterizer: the sample tile, counters, bound debug output, hull counts, the
@@ -676,7 +701,9 @@ pub const STOCHASTIC_STRUCTS: &[SharedStruct] = &[
             alpha_from_texture,
             tint_log_r,
             tint_log_g,
-            tint_log_b
+            tint_log_b,
+            atlas_finest,
+            atlas_gutter
         ]
     ),
     shared_struct!("Push", TrianglesPush, [segment_first, keys, triangle_count]),
@@ -745,6 +772,7 @@ impl ShadingRate {
         match self {
             ShadingRate::PerPixel => axes::Shading::PerPixel,
             ShadingRate::PerSample => axes::Shading::PerSample,
+            ShadingRate::TextureSpace => axes::Shading::TextureSpace,
         }
     }
 }
@@ -800,6 +828,10 @@ pub struct StochasticDraws {
     object_tint_log: Vec<Option<[u32; 3]>>,
     /// Σ −log₂ T per channel, pixel and sample of a pass (with tinted objects only).
     tints: Option<Tracked<Buffer>>,
+    /// Texture-space shading's pass 1 ([`ShadingRate::TextureSpace`]), and the sampler its shading
+    /// pass reads the atlases with.
+    atlas: Option<super::texture_space::AtlasPasses>,
+    _atlas_sampler: Option<crate::vk::Sampler>,
     object_effects: Vec<Effects>,
     /// Interval bounds per object and pass ([`Intervals`]; 1 on the still and defocus-only paths).
     object_intervals: Vec<u32>,
@@ -1021,10 +1053,17 @@ impl StochasticDraws {
             .collect();
         let shade_rects = plan.objects.iter().map(|o| shading_rect(o.screen_box, (width, height))).collect();
 
+        // Bindings 5–7 (the shading atlas) only with texture-space shading: lavapipe (Mesa 22.3) crashes
+        // binding a set whose combined image sampler was never written.
+        let object_table: &[Binding] = if options.shading == ShadingRate::TextureSpace {
+            &STOCHASTIC_OBJECT_SET
+        } else {
+            &STOCHASTIC_OBJECT_SET[..STOCHASTIC_OBJECT_BINDINGS_WITHOUT_ATLAS]
+        };
         let object_set_layout = DescriptorSetLayout::from_table(
             device,
             "stochastic object set layout",
-            &STOCHASTIC_OBJECT_SET,
+            object_table,
             vk::ShaderStageFlags::ALL_GRAPHICS | vk::ShaderStageFlags::COMPUTE,
         )?;
         let technique_set_layout = DescriptorSetLayout::from_table(
@@ -1065,6 +1104,29 @@ impl StochasticDraws {
             ShadowMaps::new(device, world, ctx.scene, &ctx.settings.shadows, &[], seed)?
         } else {
             None
+        };
+        // Texture-space shading: pass 1's atlases (shaded without shadows so far).
+        let atlas = if options.shading == ShadingRate::TextureSpace {
+            if shadows.is_some() {
+                return Err(Error::Unsupported(
+                    "texture-space shading with shadow maps: the atlas is shaded without shadows so far \
+                     (docs/ATSS.md); use --shading per-sample or per-pixel, or --shadow-map off"
+                        .into(),
+                ));
+            }
+            let layout =
+                crate::texture_space::atlas::MipAtlas::new(TEXTURE_SPACE_FINEST, TEXTURE_SPACE_GUTTER)?;
+            Some(super::texture_space::AtlasPasses::new(
+                ctx,
+                layout,
+                Some(super::texture_space::BILINEAR_HULL_TEXELS),
+            )?)
+        } else {
+            None
+        };
+        let atlas_sampler = match &atlas {
+            Some(_) => Some(crate::vk::Sampler::nearest_clamp(device, "texture-space atlas")?),
+            None => None,
         };
         let shade_sets: Vec<&DescriptorSetLayout> =
             sets.iter().copied().chain(shadows.as_ref().map(ShadowMaps::set_layout)).collect();
@@ -1236,7 +1298,7 @@ impl StochasticDraws {
         let pool = DescriptorPool::for_tables(
             device,
             n_objects + 1,
-            &[(&STOCHASTIC_OBJECT_SET, n_objects), (&STOCHASTIC_SET, 1)],
+            &[(object_table, n_objects), (&STOCHASTIC_SET, 1)],
         )?;
         let technique_set = pool.allocate(&technique_set_layout)?;
         let mut writes = vec![
@@ -1269,6 +1331,23 @@ impl StochasticDraws {
             )?;
             let set = pool.allocate(&object_set_layout)?;
             write_descriptors(device, set, &[DescriptorWrite::storage_buffer(0, &t)]);
+            if let (Some(a), Some(sampler)) = (&atlas, &atlas_sampler) {
+                if let Some((image, levels, coords)) = a.object_resources(object_sets.len()) {
+                    write_descriptors(
+                        device,
+                        set,
+                        &[
+                            DescriptorWrite::SampledImage {
+                                binding: 5,
+                                view: image.view,
+                                sampler: sampler.raw,
+                            },
+                            DescriptorWrite::storage_buffer(6, levels),
+                            DescriptorWrite::storage_buffer(7, coords),
+                        ],
+                    );
+                }
+            }
             let n = object_clusters[object_sets.len()];
             let cluster_buffer = if n > 0 {
                 let per_segment = (o.triangle_count() as u64).div_ceil(n as u64);
@@ -1315,6 +1394,8 @@ impl StochasticDraws {
             tint_pipelines,
             object_tint_log,
             tints,
+            atlas,
+            _atlas_sampler: atlas_sampler,
             object_effects: object_effects.to_vec(),
             object_intervals,
             object_clusters,
@@ -1585,6 +1666,8 @@ impl StochasticDraws {
             tint_log_r: tint[0],
             tint_log_g: tint[1],
             tint_log_b: tint[2],
+            atlas_finest: self.atlas.as_ref().map_or(0, |a| a.atlas().finest()),
+            atlas_gutter: self.atlas.as_ref().map_or(0, |a| a.atlas().gutter()),
         }
     }
 
@@ -1695,6 +1778,13 @@ impl StochasticDraws {
         let visibility = g.import_buffer("stochastic visibility", &self.visibility);
         let accum = g.import_image("stochastic accumulation", &self.accum);
         let tints = self.tints.as_ref().map(|t| g.import_buffer("stochastic tints", t));
+        if let Some(a) = &self.atlas {
+            for h in a.add_passes(&mut g, inputs).into_iter().flatten() {
+                shading_uses
+                    .push((h.color.into(), Access::ComputeShaderReadSampledImageOrUniformTexelBuffer));
+                shading_uses.push((h.levels.into(), Access::ComputeShaderReadOther));
+            }
+        }
         if let Some(t) = tints {
             shading_uses.push((t.into(), Access::ComputeShaderReadOther));
         }

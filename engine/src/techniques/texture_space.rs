@@ -345,8 +345,9 @@ pub struct AtlasResult {
     pub image: LinearImage,
 }
 
-/// Pass 1 of adaptive texture-space shading for every object (module docs).
-pub struct ShadingAtlas {
+/// Pass 1 of adaptive texture-space shading for every object (module docs): the pipelines, each
+/// object's atlas, depth, shading coordinates and levels.
+pub struct AtlasPasses {
     atlas: MipAtlas,
     /// The conservative sub-pass' box half-size in texels (None: no conservative sub-pass).
     hull_texels: Option<f32>,
@@ -354,15 +355,19 @@ pub struct ShadingAtlas {
     shade: Pipeline,
     hull: Pipeline,
     layout: PipelineLayout,
-    /// Per object (None: no triangles): the last frame's atlas.
-    pub results: Vec<Option<AtlasResult>>,
-    size: (u32, u32),
     _set_layout: DescriptorSetLayout,
     _pool: DescriptorPool,
     _shaders: Vec<ShaderModule>,
 }
 
-impl ShadingAtlas {
+/// One object's pass-1 outputs in a frame graph.
+#[derive(Clone, Copy)]
+pub struct AtlasHandles {
+    pub color: crate::graph::ImageHandle,
+    pub levels: crate::graph::BufferHandle,
+}
+
+impl AtlasPasses {
     /// Every object into an atlas of `atlas`'s layout; with `hull_texels`, the conservative sub-pass
     /// after the shade sub-pass, each triangle dilated by a box of that half-size in texels — 1.0
     /// ([`BILINEAR_HULL_TEXELS`]) covers every texel a bilinear lookup inside the triangle reads, 0.5
@@ -459,7 +464,9 @@ impl ShadingAtlas {
                     DescriptorWrite::storage_buffer(1, &levels),
                 ],
             );
-            let usage = vk::ImageUsageFlags::COLOR_ATTACHMENT | vk::ImageUsageFlags::TRANSFER_SRC;
+            let usage = vk::ImageUsageFlags::COLOR_ATTACHMENT
+                | vk::ImageUsageFlags::TRANSFER_SRC
+                | vk::ImageUsageFlags::SAMPLED;
             let color = Tracked::new(Image::new(
                 device,
                 &format!("shading atlas:{}", o.name),
@@ -487,19 +494,68 @@ impl ShadingAtlas {
                 depth,
             }));
         }
-        Ok(ShadingAtlas {
+        Ok(AtlasPasses {
             atlas,
             hull_texels,
             objects,
             shade,
             hull,
             layout,
-            results: vec![],
-            size: ctx.camera.size(),
             _set_layout: set_layout,
             _pool: pool,
             _shaders: modules,
         })
+    }
+
+    /// The atlas layout every object's atlas has.
+    pub fn atlas(&self) -> MipAtlas {
+        self.atlas
+    }
+
+    /// Object `i`'s atlas image, levels buffer and per-corner shading coordinates buffer (None: an
+    /// object without triangles).
+    pub fn object_resources(&self, i: usize) -> Option<(&Image, &Buffer, &Buffer)> {
+        self.objects[i].as_ref().map(|o| (&*o.color, &*o.levels, &o._coords))
+    }
+
+    /// Pass 1 of every object into `g` (the shade sub-pass, then the conservative one when set);
+    /// per object its atlas and levels.
+    pub fn add_passes<'a>(
+        &'a self,
+        g: &mut crate::graph::FrameGraph<'a>,
+        inputs: &FrameInputs<'a>,
+    ) -> Vec<Option<AtlasHandles>> {
+        let (world, view) = (inputs.world, inputs.camera);
+        let mut out = Vec::with_capacity(self.objects.len());
+        for (i, o) in self.objects.iter().enumerate() {
+            let Some(o) = o else {
+                out.push(None);
+                continue;
+            };
+            let color = g.import_image("shading atlas", &o.color);
+            let depth = g.import_image("shading atlas depth", &o.depth);
+            let levels = g.import_buffer("atlas levels", &o.levels);
+            g.pass("atlas shade")
+                .color(color, Load::Clear([0.0; 4]), Store::Store)
+                .depth(depth, Load::Clear(1.0), Store::Store)
+                .overwrite(levels, Access::GeometryShaderWrite)
+                .record(move |ctx| {
+                    self.record(ctx, world, view, i, &self.shade);
+                    Ok(())
+                });
+            if self.hull_texels.is_some() {
+                g.pass("atlas conservative")
+                    .color(color, Load::Load, Store::Store)
+                    .depth(depth, Load::Load, Store::DontCare)
+                    .access(levels, Access::GeometryShaderReadOther)
+                    .record(move |ctx| {
+                        self.record(ctx, world, view, i, &self.hull);
+                        Ok(())
+                    });
+            }
+            out.push(Some(AtlasHandles { color, levels }));
+        }
+        out
     }
 
     /// Draws object `i`'s triangles with `pipeline` inside its atlas pass.
@@ -541,42 +597,40 @@ impl ShadingAtlas {
     }
 }
 
+/// Pass 1 as a probe (module docs): every object's atlas and levels read back after each frame.
+pub struct ShadingAtlas {
+    passes: AtlasPasses,
+    /// Per object (None: no triangles): the last frame's atlas.
+    pub results: Vec<Option<AtlasResult>>,
+    size: (u32, u32),
+}
+
+impl ShadingAtlas {
+    /// [`AtlasPasses::new`] for every object of the scene.
+    pub fn new(ctx: &PrepareContext<'_>, atlas: MipAtlas, hull_texels: Option<f32>) -> Result<Self> {
+        Ok(ShadingAtlas {
+            passes: AtlasPasses::new(ctx, atlas, hull_texels)?,
+            results: vec![],
+            size: ctx.camera.size(),
+        })
+    }
+}
+
 impl FrameTechnique for ShadingAtlas {
     fn render(&mut self, inputs: &FrameInputs<'_>, frame: &mut FrameContext<'_>) -> Result<TechniqueFrame> {
-        let this = &*self;
-        let (world, view) = (inputs.world, inputs.camera);
+        let passes = &self.passes;
         let mut g = frame.graph();
+        let handles = passes.add_passes(&mut g, inputs);
         let mut readbacks = vec![];
-        for (i, o) in this.objects.iter().enumerate() {
-            let Some(o) = o else { continue };
-            let color = g.import_image("shading atlas", &o.color);
-            let depth = g.import_image("shading atlas depth", &o.depth);
-            let levels = g.import_buffer("atlas levels", &o.levels);
-            g.pass("atlas shade")
-                .color(color, Load::Clear([0.0; 4]), Store::Store)
-                .depth(depth, Load::Clear(1.0), Store::Store)
-                .overwrite(levels, Access::GeometryShaderWrite)
-                .record(move |ctx| {
-                    this.record(ctx, world, view, i, &this.shade);
-                    Ok(())
-                });
-            if this.hull_texels.is_some() {
-                g.pass("atlas conservative")
-                    .color(color, Load::Load, Store::Store)
-                    .depth(depth, Load::Load, Store::DontCare)
-                    .access(levels, Access::GeometryShaderReadOther)
-                    .record(move |ctx| {
-                        this.record(ctx, world, view, i, &this.hull);
-                        Ok(())
-                    });
-            }
-            g.host_read(levels);
-            readbacks.push((i, g.read_back(color)?));
+        for (i, h) in handles.iter().enumerate() {
+            let Some(h) = h else { continue };
+            g.host_read(h.levels);
+            readbacks.push((i, g.read_back(h.color)?));
         }
         let mut result = frame.run(g)?;
-        let mut results = vec![None; this.objects.len()];
+        let mut results = vec![None; passes.objects.len()];
         for (i, r) in readbacks {
-            let o = this.objects[i].as_ref().expect("read back");
+            let o = passes.objects[i].as_ref().expect("read back");
             let raw = o.levels.mapped()?;
             let floats: Vec<f32> =
                 raw.chunks_exact(4).map(|c| f32::from_ne_bytes([c[0], c[1], c[2], c[3]])).collect();
