@@ -5,7 +5,7 @@
 #ifndef SHUTTER_FRAME_GLSL
 #define SHUTTER_FRAME_GLSL
 
-#define MAX_LIGHTS 16
+#define MAX_LIGHTS 256
 #define LIGHT_DIRECTIONAL 0.0
 #define LIGHT_POINT 1.0
 #define LIGHT_SPOT 2.0

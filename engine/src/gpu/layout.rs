@@ -25,7 +25,7 @@ use bytemuck::{Pod, Zeroable};
 pub use crate::vk::Binding;
 
 /// `MAX_LIGHTS` in `common/frame.glsl`.
-pub const MAX_LIGHTS: usize = 16;
+pub const MAX_LIGHTS: usize = 256;
 
 /// Descriptor set numbers ([module docs](self)).
 pub const FRAME_SET_INDEX: u32 = 0;

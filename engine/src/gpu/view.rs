@@ -118,6 +118,18 @@ pub fn object_view_records(view: &View) -> (Vec<GpuObjectView>, Vec<(u32, KeyTim
 impl GpuView {
     /// Uploads `view`'s block for `world` (whose objects it must list in the same order).
     pub fn new(device: &Device, world: &GpuWorld, view: &View) -> Result<GpuView> {
+        let bytes = std::mem::size_of::<ViewUniforms>();
+        if bytes as u64 > device.caps.max_uniform_buffer_range as u64 {
+            return Err(Error::Limit {
+                what: "view uniforms",
+                value: format!("{bytes} bytes ({MAX_LIGHTS} lights)"),
+                limit: format!(
+                    "{} bytes on this device (maxUniformBufferRange; lower MAX_LIGHTS in gpu/layout.rs and \
+                     common/frame.glsl)",
+                    device.caps.max_uniform_buffer_range
+                ),
+            });
+        }
         let uniforms = Buffer::with_data(
             device,
             &format!("view uniforms:{}", view.name),

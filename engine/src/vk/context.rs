@@ -71,6 +71,9 @@ pub struct Capabilities {
     pub max_push_constants_size: u32,
     /// Largest range one storage-buffer descriptor may cover, bytes.
     pub max_storage_buffer_range: u32,
+    /// Largest range one uniform-buffer descriptor may cover, bytes (the view's uniforms hold
+    /// `MAX_LIGHTS` lights).
+    pub max_uniform_buffer_range: u32,
     /// MSAA samples sit at the standard sample locations of the Vulkan spec.
     pub standard_sample_locations: bool,
     pub max_image_dimension_2d: u32,
@@ -450,6 +453,7 @@ impl DeviceShared {
             max_geometry_total_output_components: limits.max_geometry_total_output_components,
             max_push_constants_size: limits.max_push_constants_size,
             max_storage_buffer_range: limits.max_storage_buffer_range,
+            max_uniform_buffer_range: limits.max_uniform_buffer_range,
             standard_sample_locations: limits.standard_sample_locations == vk::TRUE,
             max_image_dimension_2d: limits.max_image_dimension2_d,
             max_bound_descriptor_sets: limits.max_bound_descriptor_sets,
