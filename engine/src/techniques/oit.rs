@@ -851,6 +851,22 @@ impl OitTechnique {
                 }
                 let composite =
                     DepthCompositePush { weight, msaa, alpha_correction: db.correction, finish: 0 };
+                // `oit composite` after each pass, `finish` 1 once after the last. Every image the
+                // pipeline binds is declared, so that each is in its layout.
+                let composite_pass = move |g: &mut crate::graph::FrameGraph<'a>, name: &str, finish: u32| {
+                    let push = DepthCompositePush { finish, ..composite };
+                    g.pass(name)
+                        .access(opaque_color, sampled_compute)
+                        .access(sum, sampled_compute)
+                        .access(weights, sampled_compute)
+                        .access(transmittance, sampled_compute)
+                        .access(accum, Access::ComputeShaderReadWrite)
+                        .accesses(totals.map(|t| (t.into(), Access::ComputeShaderReadWrite)))
+                        .record(move |ctx| {
+                            db.composite.record(ctx, &push, size);
+                            Ok(())
+                        });
+                };
                 let depth_maps = maps.len() as u32;
                 g.repeat(self.samples.len() as u32, |g| {
                     per_pass_shadows(g);
@@ -928,33 +944,10 @@ impl OitTechnique {
                                 });
                         }
                     };
-                    let push = DepthCompositePush { finish: 0, ..composite };
-                    g.pass("oit composite")
-                        .access(opaque_color, sampled_compute)
-                        .access(sum, sampled_compute)
-                        .access(weights, sampled_compute)
-                        .access(transmittance, sampled_compute)
-                        .access(accum, Access::ComputeShaderReadWrite)
-                        .accesses(totals.map(|t| (t.into(), Access::ComputeShaderReadWrite)))
-                        .record(move |ctx| {
-                            db.composite.record(ctx, &push, size);
-                            Ok(())
-                        });
+                    composite_pass(g, "oit composite", 0);
                     Ok(())
                 })?;
-                let push = DepthCompositePush { finish: 1, ..composite };
-                // Every image the pipeline binds is declared, so that each is in its layout.
-                g.pass("oit composite finish")
-                    .access(opaque_color, sampled_compute)
-                    .access(sum, sampled_compute)
-                    .access(weights, sampled_compute)
-                    .access(transmittance, sampled_compute)
-                    .access(accum, Access::ComputeShaderReadWrite)
-                    .accesses(totals.map(|t| (t.into(), Access::ComputeShaderReadWrite)))
-                    .record(move |ctx| {
-                        db.composite.record(ctx, &push, size);
-                        Ok(())
-                    });
+                composite_pass(&mut g, "oit composite finish", 1);
             }
             OitPath::Peeling(p) => {
                 let depth = [

@@ -1851,41 +1851,12 @@ impl StochasticDraws {
         let (d, cmd) = (ctx.device, ctx.cmd);
         let bind = vk::PipelineBindPoint::GRAPHICS;
         let world = inputs.world;
-        let max_runs = self.object_intervals.iter().copied().max().unwrap_or(1);
-        let max_segments = self.object_keys.iter().map(|k| k.segments()).max().unwrap_or(1);
         for (effects, pipeline) in &self.pipelines {
-            unsafe {
-                d.raw.cmd_bind_pipeline(cmd, bind, pipeline.raw);
-                d.raw.cmd_bind_descriptor_sets(
-                    cmd,
-                    bind,
-                    self.layout.raw,
-                    TECHNIQUE_SET_INDEX,
-                    &[self.technique_set],
-                    &[],
-                );
-            }
+            self.bind_raster(ctx, pipeline);
             let include = |i: usize| self.object_effects[i] == *effects && self.object_clusters[i] == 0;
             let view = inputs.camera;
             if self.hull.is_none() {
-                // One draw per run and key segment of every object with that many runs or more whose
-                // samples of the run can lie in the segment.
-                for run in 0..max_runs {
-                    for seg in 0..max_segments {
-                        let piece =
-                            |i: usize| self.coverage_push(view, i, pass, run, self.object_intervals[i], seg);
-                        world.record_object_draws(
-                            d,
-                            cmd,
-                            view,
-                            &self.layout,
-                            self.push_stages,
-                            |i| include(i) && run < self.object_intervals[i] && piece(i).is_some(),
-                            |i| piece(i).expect("included"),
-                            |i| Some(self.object_sets[i]),
-                        );
-                    }
-                }
+                self.record_runs(ctx, inputs, pass, include, |p| p);
                 continue;
             }
             // The compute-expanded hull bounds every segment (fragments name theirs); NO_MOTION: the
@@ -1925,43 +1896,60 @@ impl StochasticDraws {
     /// the rasterizer's fill rule runs the fragment stage once per pixel and triangle, and each
     /// uncovered sample adds the tint once — per run and key segment as the coverage draws.
     fn record_tints(&self, ctx: &mut PassContext<'_>, inputs: &FrameInputs<'_>, pass: u32) {
-        let (d, cmd) = (ctx.device, ctx.cmd);
-        let bind = vk::PipelineBindPoint::GRAPHICS;
+        let hull = BoundKind::ConvexHull.id();
+        for (effects, pipeline) in &self.tint_pipelines {
+            self.bind_raster(ctx, pipeline);
+            let include = |i: usize| self.object_effects[i] == *effects && self.object_tint_log[i].is_some();
+            self.record_runs(ctx, inputs, pass, include, |p| StochasticPush { bound: hull, ..p });
+        }
+    }
+
+    /// Binds a raster pipeline of the frame and its set 3.
+    fn bind_raster(&self, ctx: &PassContext<'_>, pipeline: &Pipeline) {
+        let (d, cmd, bind) = (ctx.device, ctx.cmd, vk::PipelineBindPoint::GRAPHICS);
+        unsafe {
+            d.raw.cmd_bind_pipeline(cmd, bind, pipeline.raw);
+            d.raw.cmd_bind_descriptor_sets(
+                cmd,
+                bind,
+                self.layout.raw,
+                TECHNIQUE_SET_INDEX,
+                &[self.technique_set],
+                &[],
+            );
+        }
+    }
+
+    /// The geometry-shader draws of pass `pass` of the objects `include` admits with the pipeline
+    /// bound: one per interval run and key segment of every object with that many runs or more whose
+    /// samples of the run can lie in the segment, each with its [`Self::coverage_push`] as `edit`
+    /// changes it.
+    fn record_runs(
+        &self,
+        ctx: &mut PassContext<'_>,
+        inputs: &FrameInputs<'_>,
+        pass: u32,
+        include: impl Fn(usize) -> bool,
+        edit: impl Fn(StochasticPush) -> StochasticPush,
+    ) {
         let (world, view) = (inputs.world, inputs.camera);
         let max_runs = self.object_intervals.iter().copied().max().unwrap_or(1);
         let max_segments = self.object_keys.iter().map(|k| k.segments()).max().unwrap_or(1);
-        let hull = BoundKind::ConvexHull.id();
-        for (effects, pipeline) in &self.tint_pipelines {
-            unsafe {
-                d.raw.cmd_bind_pipeline(cmd, bind, pipeline.raw);
-                d.raw.cmd_bind_descriptor_sets(
-                    cmd,
-                    bind,
-                    self.layout.raw,
-                    TECHNIQUE_SET_INDEX,
-                    &[self.technique_set],
-                    &[],
+        for run in 0..max_runs {
+            for seg in 0..max_segments {
+                let piece = |i: usize| {
+                    self.coverage_push(view, i, pass, run, self.object_intervals[i], seg).map(&edit)
+                };
+                world.record_object_draws(
+                    ctx.device,
+                    ctx.cmd,
+                    view,
+                    &self.layout,
+                    self.push_stages,
+                    |i| include(i) && run < self.object_intervals[i] && piece(i).is_some(),
+                    |i| piece(i).expect("included"),
+                    |i| Some(self.object_sets[i]),
                 );
-            }
-            let include = |i: usize| self.object_effects[i] == *effects && self.object_tint_log[i].is_some();
-            // The coverage draws' runs (1 for objects with clusters or the compute hull).
-            for run in 0..max_runs {
-                for seg in 0..max_segments {
-                    let piece = |i: usize| {
-                        self.coverage_push(view, i, pass, run, self.object_intervals[i], seg)
-                            .map(|p| StochasticPush { bound: hull, ..p })
-                    };
-                    world.record_object_draws(
-                        d,
-                        cmd,
-                        view,
-                        &self.layout,
-                        self.push_stages,
-                        |i| include(i) && run < self.object_intervals[i] && piece(i).is_some(),
-                        |i| piece(i).expect("included"),
-                        |i| Some(self.object_sets[i]),
-                    );
-                }
             }
         }
     }

@@ -110,20 +110,83 @@ pub struct GpuLevel {
     pub valid: bool,
 }
 
-/// Per object: its shading space, the per-corner shading coordinates (texels of level 0) and the
-/// buffers `levels.comp` reads and writes.
-struct ObjectRates {
+/// Per object: its shading space, the per-corner shading coordinates (texels of level 0), the
+/// buffers of both (`LEVELS_SET`: `levels.comp` and the atlas passes read the coordinates and write
+/// one level record per triangle) and the set that binds them.
+struct ObjectShading {
+    name: String,
     space: ShadingSpace,
     coords: Vec<Vec2>,
+    triangles: u32,
     set: vk::DescriptorSet,
-    _coords: Buffer,
+    coords_buffer: Buffer,
     levels: Tracked<Buffer>,
+}
+
+impl ObjectShading {
+    /// Object `o`'s, for a `finest²` level 0, its set from `pool` (None without triangles).
+    fn new(
+        device: &crate::vk::Device,
+        pool: &DescriptorPool,
+        set_layout: &DescriptorSetLayout,
+        o: &crate::scene::Object,
+        finest: u32,
+    ) -> Result<Option<Self>> {
+        let triangles = o.mesh.indices.len() / 3;
+        if triangles == 0 {
+            return Ok(None);
+        }
+        let storage = vk::BufferUsageFlags::STORAGE_BUFFER;
+        let (space, coords) = shading_coords(&o.mesh, finest, 2)?;
+        let flat: Vec<[f32; 2]> = coords.iter().map(|c| c.to_array()).collect();
+        let coords_buffer = Buffer::with_data(device, &format!("shading coords:{}", o.name), storage, &flat)?;
+        let levels = Tracked::new(Buffer::with_data(
+            device,
+            &format!("shading levels:{}", o.name),
+            storage,
+            &vec![[0f32; 4]; triangles],
+        )?);
+        let set = pool.allocate(set_layout)?;
+        write_descriptors(
+            device,
+            set,
+            &[
+                DescriptorWrite::storage_buffer(0, &coords_buffer),
+                DescriptorWrite::storage_buffer(1, &levels),
+            ],
+        );
+        Ok(Some(ObjectShading {
+            name: o.name.clone(),
+            space,
+            coords,
+            triangles: triangles as u32,
+            set,
+            coords_buffer,
+            levels,
+        }))
+    }
+
+    /// The level records of the last frame (after a host read of the levels buffer).
+    fn read_levels(&self) -> Result<Vec<GpuLevel>> {
+        let raw = self.levels.mapped()?;
+        let floats: Vec<f32> =
+            raw.chunks_exact(4).map(|c| f32::from_ne_bytes([c[0], c[1], c[2], c[3]])).collect();
+        Ok(floats
+            .chunks_exact(4)
+            .map(|v| GpuLevel {
+                radius_texels: v[0],
+                spacing_px: v[1],
+                level: v[2] as u32,
+                valid: v[3] > 0.5,
+            })
+            .collect())
+    }
 }
 
 /// Runs `levels.comp` over every object with triangles (module docs).
 pub struct ShadingRates {
     finest: u32,
-    objects: Vec<Option<ObjectRates>>,
+    objects: Vec<Option<ObjectShading>>,
     pipeline: Pipeline,
     layout: PipelineLayout,
     /// Per object (None: no triangles): the last frame's levels.
@@ -152,41 +215,12 @@ impl ShadingRates {
         let pipeline = Pipeline::compute(device, "texture-space shading rates", &layout, &shader)?;
         let n = ctx.scene.objects.len() as u32;
         let pool = DescriptorPool::for_tables(device, n.max(1), &[(&LEVELS_SET, n.max(1))])?;
-        let storage = vk::BufferUsageFlags::STORAGE_BUFFER;
-        let mut objects = Vec::with_capacity(ctx.scene.objects.len());
-        for o in &ctx.scene.objects {
-            let triangles = o.mesh.indices.len() / 3;
-            if triangles == 0 {
-                objects.push(None);
-                continue;
-            }
-            let (space, coords) = shading_coords(&o.mesh, finest, 2)?;
-            let flat: Vec<[f32; 2]> = coords.iter().map(|c| c.to_array()).collect();
-            let coords_buffer =
-                Buffer::with_data(device, &format!("shading coords:{}", o.name), storage, &flat)?;
-            let levels_buffer = Tracked::new(Buffer::with_data(
-                device,
-                &format!("shading rates:{}", o.name),
-                storage,
-                &vec![[0f32; 4]; triangles],
-            )?);
-            let set = pool.allocate(&set_layout)?;
-            write_descriptors(
-                device,
-                set,
-                &[
-                    DescriptorWrite::storage_buffer(0, &coords_buffer),
-                    DescriptorWrite::storage_buffer(1, &levels_buffer),
-                ],
-            );
-            objects.push(Some(ObjectRates {
-                space,
-                coords,
-                set,
-                _coords: coords_buffer,
-                levels: levels_buffer,
-            }));
-        }
+        let objects = ctx
+            .scene
+            .objects
+            .iter()
+            .map(|o| ObjectShading::new(device, &pool, &set_layout, o, finest))
+            .collect::<Result<Vec<_>>>()?;
         Ok(ShadingRates {
             finest,
             objects,
@@ -265,20 +299,7 @@ impl FrameTechnique for ShadingRates {
         let mut results = vec![None; this.objects.len()];
         for (i, o) in this.objects.iter().enumerate() {
             let Some(o) = o else { continue };
-            let raw = o.levels.mapped()?;
-            let floats: Vec<f32> =
-                raw.chunks_exact(4).map(|c| f32::from_ne_bytes([c[0], c[1], c[2], c[3]])).collect();
-            results[i] = Some(
-                floats
-                    .chunks_exact(4)
-                    .map(|v| GpuLevel {
-                        radius_texels: v[0],
-                        spacing_px: v[1],
-                        level: v[2] as u32,
-                        valid: v[3] > 0.5,
-                    })
-                    .collect(),
-            );
+            results[i] = Some(o.read_levels()?);
         }
         self.results = results;
         let (w, h) = self.size;
@@ -319,15 +340,9 @@ pub const ATLAS_FORMAT: vk::Format = vk::Format::R32G32B32A32_SFLOAT;
 /// Depth of the atlas' depth trick.
 pub const ATLAS_DEPTH_FORMAT: vk::Format = vk::Format::D32_SFLOAT;
 
-/// One object's atlas, its depth, its shading coordinates and levels.
+/// One object's atlas and its depth, with its shading coordinates and levels.
 struct AtlasObject {
-    name: String,
-    space: ShadingSpace,
-    coords: Vec<Vec2>,
-    triangles: u32,
-    set: vk::DescriptorSet,
-    _coords: Buffer,
-    levels: Tracked<Buffer>,
+    shading: ObjectShading,
     color: Tracked<Image>,
     depth: Tracked<Image>,
 }
@@ -437,33 +452,12 @@ impl AtlasPasses {
         modules.push(vert);
         let n = ctx.scene.objects.len() as u32;
         let pool = DescriptorPool::for_tables(device, n.max(1), &[(&LEVELS_SET, n.max(1))])?;
-        let storage = vk::BufferUsageFlags::STORAGE_BUFFER;
         let mut objects = Vec::with_capacity(ctx.scene.objects.len());
         for o in &ctx.scene.objects {
-            let triangles = o.mesh.indices.len() / 3;
-            if triangles == 0 {
+            let Some(shading) = ObjectShading::new(device, &pool, &set_layout, o, atlas.finest())? else {
                 objects.push(None);
                 continue;
-            }
-            let (space, coords) = shading_coords(&o.mesh, atlas.finest(), 2)?;
-            let flat: Vec<[f32; 2]> = coords.iter().map(|c| c.to_array()).collect();
-            let coords_buffer =
-                Buffer::with_data(device, &format!("atlas coords:{}", o.name), storage, &flat)?;
-            let levels = Tracked::new(Buffer::with_data(
-                device,
-                &format!("atlas levels:{}", o.name),
-                storage,
-                &vec![[0f32; 4]; triangles],
-            )?);
-            let set = pool.allocate(&set_layout)?;
-            write_descriptors(
-                device,
-                set,
-                &[
-                    DescriptorWrite::storage_buffer(0, &coords_buffer),
-                    DescriptorWrite::storage_buffer(1, &levels),
-                ],
-            );
+            };
             let usage = vk::ImageUsageFlags::COLOR_ATTACHMENT
                 | vk::ImageUsageFlags::TRANSFER_SRC
                 | vk::ImageUsageFlags::SAMPLED;
@@ -482,17 +476,7 @@ impl AtlasPasses {
                     vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT,
                 ),
             )?);
-            objects.push(Some(AtlasObject {
-                name: o.name.clone(),
-                space,
-                coords,
-                triangles: triangles as u32,
-                set,
-                _coords: coords_buffer,
-                levels,
-                color,
-                depth,
-            }));
+            objects.push(Some(AtlasObject { shading, color, depth }));
         }
         Ok(AtlasPasses {
             atlas,
@@ -515,7 +499,7 @@ impl AtlasPasses {
     /// Object `i`'s atlas image, levels buffer and per-corner shading coordinates buffer (None: an
     /// object without triangles).
     pub fn object_resources(&self, i: usize) -> Option<(&Image, &Buffer, &Buffer)> {
-        self.objects[i].as_ref().map(|o| (&*o.color, &*o.levels, &o._coords))
+        self.objects[i].as_ref().map(|o| (&*o.color, &*o.shading.levels, &o.shading.coords_buffer))
     }
 
     /// Pass 1 of every object into `g` (the shade sub-pass, then the conservative one when set);
@@ -534,7 +518,7 @@ impl AtlasPasses {
             };
             let color = g.import_image("shading atlas", &o.color);
             let depth = g.import_image("shading atlas depth", &o.depth);
-            let levels = g.import_buffer("atlas levels", &o.levels);
+            let levels = g.import_buffer("atlas levels", &o.shading.levels);
             g.pass("atlas shade")
                 .color(color, Load::Clear([0.0; 4]), Store::Store)
                 .depth(depth, Load::Clear(1.0), Store::Store)
@@ -590,9 +574,9 @@ impl AtlasPasses {
             d.raw.cmd_bind_pipeline(cmd, bind, pipeline.raw);
             d.raw.cmd_bind_descriptor_sets(cmd, bind, layout, 0, &[view.frame_set], &[]);
             d.raw.cmd_bind_descriptor_sets(cmd, bind, layout, OBJECT_SET_INDEX, &[world.objects[i].set], &[]);
-            d.raw.cmd_bind_descriptor_sets(cmd, bind, layout, TECHNIQUE_SET_INDEX, &[o.set], &[]);
+            d.raw.cmd_bind_descriptor_sets(cmd, bind, layout, TECHNIQUE_SET_INDEX, &[o.shading.set], &[]);
             d.raw.cmd_push_constants(cmd, layout, stages, 0, bytemuck::bytes_of(&push));
-            d.raw.cmd_draw(cmd, 3 * o.triangles, 1, 0, 0);
+            d.raw.cmd_draw(cmd, 3 * o.shading.triangles, 1, 0, 0);
         }
     }
 }
@@ -630,19 +614,8 @@ impl FrameTechnique for ShadingAtlas {
         let mut result = frame.run(g)?;
         let mut results = vec![None; passes.objects.len()];
         for (i, r) in readbacks {
-            let o = passes.objects[i].as_ref().expect("read back");
-            let raw = o.levels.mapped()?;
-            let floats: Vec<f32> =
-                raw.chunks_exact(4).map(|c| f32::from_ne_bytes([c[0], c[1], c[2], c[3]])).collect();
-            let levels = floats
-                .chunks_exact(4)
-                .map(|v| GpuLevel {
-                    radius_texels: v[0],
-                    spacing_px: v[1],
-                    level: v[2] as u32,
-                    valid: v[3] > 0.5,
-                })
-                .collect();
+            let o = &passes.objects[i].as_ref().expect("read back").shading;
+            let levels = o.read_levels()?;
             results[i] = Some(AtlasResult {
                 name: o.name.clone(),
                 space: o.space,
