@@ -1120,6 +1120,7 @@ impl StochasticDraws {
                 ctx,
                 layout,
                 Some(super::texture_space::BILINEAR_HULL_TEXELS),
+                super::texture_space::ATLAS_FORMAT,
             )?)
         } else {
             None
