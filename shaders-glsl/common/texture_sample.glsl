@@ -18,28 +18,30 @@ void texture_footprint(vec2 uv, out ivec2 t00, out ivec2 t11, out vec2 f) {
     t11 = ivec2(mod(vec2(i0 + 1), vec2(size)));
 }
 
-vec3 texture_bilinear(vec2 uv) {
+// The four texels of the lookup at uv (top-left, top-right, bottom-left, bottom-right) and the weights.
+void texture_texels(vec2 uv, out vec4 t[4], out vec2 f) {
     ivec2 t00, t11;
-    vec2 f;
     texture_footprint(uv, t00, t11, f);
-    vec3 a = texelFetch(albedo_texture, ivec2(t00.x, t00.y), 0).rgb;
-    vec3 b = texelFetch(albedo_texture, ivec2(t11.x, t00.y), 0).rgb;
-    vec3 c = texelFetch(albedo_texture, ivec2(t00.x, t11.y), 0).rgb;
-    vec3 d = texelFetch(albedo_texture, ivec2(t11.x, t11.y), 0).rgb;
-    return mix(mix(a, b, f.x), mix(c, d, f.x), f.y);
+    t[0] = texelFetch(albedo_texture, ivec2(t00.x, t00.y), 0);
+    t[1] = texelFetch(albedo_texture, ivec2(t11.x, t00.y), 0);
+    t[2] = texelFetch(albedo_texture, ivec2(t00.x, t11.y), 0);
+    t[3] = texelFetch(albedo_texture, ivec2(t11.x, t11.y), 0);
+}
+
+vec3 texture_bilinear(vec2 uv) {
+    vec4 t[4];
+    vec2 f;
+    texture_texels(uv, t, f);
+    return mix(mix(t[0].rgb, t[1].rgb, f.x), mix(t[2].rgb, t[3].rgb, f.x), f.y);
 }
 
 // The alpha channel (linear), with the reference's operations in its order: a + (b - a) * f.
 float texture_alpha_bilinear(vec2 uv) {
-    ivec2 t00, t11;
+    vec4 t[4];
     vec2 f;
-    texture_footprint(uv, t00, t11, f);
-    float a = texelFetch(albedo_texture, ivec2(t00.x, t00.y), 0).a;
-    float b = texelFetch(albedo_texture, ivec2(t11.x, t00.y), 0).a;
-    float c = texelFetch(albedo_texture, ivec2(t00.x, t11.y), 0).a;
-    float d = texelFetch(albedo_texture, ivec2(t11.x, t11.y), 0).a;
-    float top = a + (b - a) * f.x;
-    float bottom = c + (d - c) * f.x;
+    texture_texels(uv, t, f);
+    float top = t[0].a + (t[1].a - t[0].a) * f.x;
+    float bottom = t[2].a + (t[3].a - t[2].a) * f.x;
     return top + (bottom - top) * f.y;
 }
 

@@ -803,6 +803,13 @@ impl OitTechnique {
         );
     }
 
+    /// The total transmittance draws of the layers or stochastic pass (debug label `oit transmittance`).
+    fn draw_transmittance(&self, ctx: &PassContext<'_>, inputs: &FrameInputs<'_>, db: &Composited) {
+        ctx.device.begin_label(ctx.cmd, "oit transmittance");
+        self.draw_transparent(ctx, inputs, &db.transmittance, &db.draw_layout, None, |_| {});
+        ctx.device.end_label(ctx.cmd);
+    }
+
     /// The frame's graph: the passes of the module docs, then the read-back.
     fn render_frame<'a>(
         &'a self,
@@ -904,16 +911,7 @@ impl OitTechnique {
                                 self.draw_transparent(ctx, &inputs, layers, &db.draw_layout, set, |p| {
                                     p.depth_maps = depth_maps
                                 });
-                                ctx.device.begin_label(ctx.cmd, "oit transmittance");
-                                self.draw_transparent(
-                                    ctx,
-                                    &inputs,
-                                    &db.transmittance,
-                                    &db.draw_layout,
-                                    None,
-                                    |_| {},
-                                );
-                                ctx.device.end_label(ctx.cmd);
+                                self.draw_transmittance(ctx, &inputs, db);
                                 Ok(())
                             });
                         }
@@ -927,16 +925,7 @@ impl OitTechnique {
                                 .depth(opaque_depth, Load::Load, Store::DontCare)
                                 .accesses(shadow_reads.iter().copied())
                                 .record(move |ctx| {
-                                    ctx.device.begin_label(ctx.cmd, "oit transmittance");
-                                    self.draw_transparent(
-                                        ctx,
-                                        &inputs,
-                                        &db.transmittance,
-                                        &db.draw_layout,
-                                        None,
-                                        |_| {},
-                                    );
-                                    ctx.device.end_label(ctx.cmd);
+                                    self.draw_transmittance(ctx, &inputs, db);
                                     let index = ctx.iteration;
                                     let pass = &self.samples[index as usize];
                                     st.record(ctx.device, ctx.cmd, &inputs, pass, index);

@@ -1962,22 +1962,14 @@ impl StochasticDraws {
         let bind = vk::PipelineBindPoint::GRAPHICS;
         let (world, view) = (inputs.world, inputs.camera);
         for (effects, pipeline) in &self.cluster_pipelines {
+            self.bind_raster(ctx, pipeline);
             unsafe {
-                d.raw.cmd_bind_pipeline(cmd, bind, pipeline.raw);
                 d.raw.cmd_bind_descriptor_sets(
                     cmd,
                     bind,
                     self.layout.raw,
                     FRAME_SET_INDEX,
                     &[view.frame_set],
-                    &[],
-                );
-                d.raw.cmd_bind_descriptor_sets(
-                    cmd,
-                    bind,
-                    self.layout.raw,
-                    TECHNIQUE_SET_INDEX,
-                    &[self.technique_set],
                     &[],
                 );
             }

@@ -99,6 +99,27 @@ fn shading_coords(mesh: &crate::scene::Mesh, finest: u32, gutter: u32) -> Result
     Ok((space, unit.iter().map(|&t| t * finest as f32).collect()))
 }
 
+/// The set layout of [`LEVELS_SET`] for `stages`, a pipeline layout with it as set 3 and `P` as push
+/// constants, and a pool with one such set per object of the scene.
+fn levels_layouts<P>(
+    ctx: &PrepareContext<'_>,
+    name: &str,
+    stages: vk::ShaderStageFlags,
+) -> Result<(DescriptorSetLayout, PipelineLayout, DescriptorPool)> {
+    let (device, world) = (ctx.device, ctx.world);
+    let set_layout =
+        DescriptorSetLayout::from_table(device, &format!("{name} set layout"), &LEVELS_SET, stages)?;
+    let layout = world.pipeline_layout(
+        device,
+        &[&world.empty_layout, &set_layout],
+        std::mem::size_of::<P>() as u32,
+        stages,
+    )?;
+    let n = (ctx.scene.objects.len() as u32).max(1);
+    let pool = DescriptorPool::for_tables(device, n, &[(&LEVELS_SET, n)])?;
+    Ok((set_layout, layout, pool))
+}
+
 /// One triangle's shading rate as the GPU computed it.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct GpuLevel {
@@ -185,7 +206,7 @@ impl ObjectShading {
 
 /// Runs `levels.comp` over every object with triangles (module docs).
 pub struct ShadingRates {
-    finest: u32,
+    atlas: MipAtlas,
     objects: Vec<Option<ObjectShading>>,
     pipeline: Pipeline,
     layout: PipelineLayout,
@@ -200,21 +221,12 @@ pub struct ShadingRates {
 impl ShadingRates {
     /// For every object of the scene, an atlas of `finest²` texels at level 0 (a power of two).
     pub fn new(ctx: &PrepareContext<'_>, finest: u32) -> Result<Self> {
-        let (device, world) = (ctx.device, ctx.world);
-        crate::texture_space::atlas::MipAtlas::new(finest, 0)?;
-        let stages = vk::ShaderStageFlags::COMPUTE;
-        let set_layout =
-            DescriptorSetLayout::from_table(device, "shading rate set layout", &LEVELS_SET, stages)?;
-        let layout = world.pipeline_layout(
-            device,
-            &[&world.empty_layout, &set_layout],
-            std::mem::size_of::<LevelsPush>() as u32,
-            stages,
-        )?;
+        let device = ctx.device;
+        let atlas = MipAtlas::new(finest, 0)?;
+        let (set_layout, layout, pool) =
+            levels_layouts::<LevelsPush>(ctx, "shading rate", vk::ShaderStageFlags::COMPUTE)?;
         let shader = ShaderModule::new(device, shaders::TEXTURE_SPACE_LEVELS_COMP)?;
         let pipeline = Pipeline::compute(device, "texture-space shading rates", &layout, &shader)?;
-        let n = ctx.scene.objects.len() as u32;
-        let pool = DescriptorPool::for_tables(device, n.max(1), &[(&LEVELS_SET, n.max(1))])?;
         let objects = ctx
             .scene
             .objects
@@ -222,7 +234,7 @@ impl ShadingRates {
             .map(|o| ObjectShading::new(device, &pool, &set_layout, o, finest))
             .collect::<Result<Vec<_>>>()?;
         Ok(ShadingRates {
-            finest,
+            atlas,
             objects,
             pipeline,
             layout,
@@ -242,7 +254,7 @@ impl ShadingRates {
 
     /// Levels of the objects' atlases.
     pub fn levels(&self) -> u32 {
-        self.finest.trailing_zeros() + 1
+        self.atlas.levels()
     }
 }
 
@@ -399,7 +411,7 @@ impl AtlasPasses {
         hull_texels: Option<f32>,
         format: vk::Format,
     ) -> Result<Self> {
-        let (device, world) = (ctx.device, ctx.world);
+        let device = ctx.device;
         let caps = &device.caps;
         caps.require(
             Feature::GeometryShader,
@@ -422,14 +434,7 @@ impl AtlasPasses {
         }
         let stages =
             vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::GEOMETRY | vk::ShaderStageFlags::FRAGMENT;
-        let set_layout =
-            DescriptorSetLayout::from_table(device, "shading atlas set layout", &LEVELS_SET, stages)?;
-        let layout = world.pipeline_layout(
-            device,
-            &[&world.empty_layout, &set_layout],
-            std::mem::size_of::<AtlasPush>() as u32,
-            stages,
-        )?;
+        let (set_layout, layout, pool) = levels_layouts::<AtlasPush>(ctx, "shading atlas", stages)?;
         let vert = ShaderModule::new(device, shaders::TEXTURE_SPACE_ATLAS_VERT)?;
         let mut modules = vec![];
         let mut pipeline = |conservative: bool| -> Result<Pipeline> {
@@ -460,8 +465,6 @@ impl AtlasPasses {
         let shade = pipeline(false)?;
         let hull = pipeline(true)?;
         modules.push(vert);
-        let n = ctx.scene.objects.len() as u32;
-        let pool = DescriptorPool::for_tables(device, n.max(1), &[(&LEVELS_SET, n.max(1))])?;
         let mut objects = Vec::with_capacity(ctx.scene.objects.len());
         for o in &ctx.scene.objects {
             let Some(shading) = ObjectShading::new(device, &pool, &set_layout, o, atlas.finest())? else {
