@@ -120,6 +120,17 @@ fn levels_layouts<P>(
     Ok((set_layout, layout, pool))
 }
 
+/// A probe's frame: black (its results are read back instead), one pass, no MSAA.
+fn probe_frame((w, h): (u32, u32)) -> TechniqueFrame {
+    TechniqueFrame {
+        image: LinearImage::new(w, h),
+        passes: 1,
+        msaa_samples: 1,
+        counters: None,
+        clusters: vec![],
+    }
+}
+
 /// One triangle's shading rate as the GPU computed it.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct GpuLevel {
@@ -314,14 +325,7 @@ impl FrameTechnique for ShadingRates {
             results[i] = Some(o.read_levels()?);
         }
         self.results = results;
-        let (w, h) = self.size;
-        Ok(TechniqueFrame {
-            image: LinearImage::new(w, h),
-            passes: 1,
-            msaa_samples: 1,
-            counters: None,
-            clusters: vec![],
-        })
+        Ok(probe_frame(self.size))
     }
 }
 
@@ -638,13 +642,6 @@ impl FrameTechnique for ShadingAtlas {
             });
         }
         self.results = results;
-        let (w, h) = self.size;
-        Ok(TechniqueFrame {
-            image: LinearImage::new(w, h),
-            passes: 1,
-            msaa_samples: 1,
-            counters: None,
-            clusters: vec![],
-        })
+        Ok(probe_frame(self.size))
     }
 }
