@@ -10,17 +10,21 @@
 //     at depth 0.75 behind the shade sub-pass' 0.25 with the depth test LESS: texels the shade
 //     sub-pass wrote keep their values and only the gutters around edges, which a bilinear lookup
 //     near an edge reads, are added.
-// A triangle without a footprint (behind the camera or edge-on at every vertex) emits nothing.
+// A triangle without a footprint (behind the camera or edge-on at every vertex) emits nothing; nor
+// does one no sample can hit, at any lens point or time (texture_space/cull.glsl): its level record
+// says so (w = 2).
 #include "common/frame.glsl"
 #include "common/object.glsl"
 #include "texture_space/rate.glsl"
+#include "texture_space/cull.glsl"
 #include "texture_space/atlas_push.glsl"
 
 layout(triangles) in;
 layout(triangle_strip, max_vertices = 16) out;
 
 layout(set = 3, binding = 0, std430) readonly buffer ShadingCoords { vec2 shading_coords[]; };
-// Per triangle: minor radius, grid spacing, level, 1 if shaded (levels.comp's layout; pass 2 reads it).
+// Per triangle: minor radius, grid spacing, level, then 1 with a footprint, 2 with one but culled, 0
+// without (levels.comp's layout, but for the culled; pass 2 reads the level).
 layout(set = 3, binding = 1, std430) buffer Levels { vec4 levels[]; };
 
 layout(location = 0) out vec3 g_position;  // camera space, mid-shutter
@@ -70,9 +74,11 @@ void main() {
     uint prim = uint(gl_PrimitiveIDIn);
     ObjectView ov = object_views[pc.segment];
     vec2 tex[3];
+    vec3 object_p[3];
     for (uint k = 0u; k < 3u; k++) {
         Vertex v = vertices[indices[3u * prim + k]];
         vec4 p = vec4(v.position[0], v.position[1], v.position[2], 1.0);
+        object_p[k] = p.xyz;
         vec3 a = (ov.model_view[0] * p).xyz, b = (ov.model_view[1] * p).xyz;
         tri_p[k] = a + (b - a) * pc.segment_time;
         vec3 n = vec3(v.normal[0], v.normal[1], v.normal[2]);
@@ -83,10 +89,11 @@ void main() {
     float radius, spacing;
     uint level;
     bool ok = ts_triangle_level(tri_p, tex, pc.level_count, radius, spacing, level);
+    bool culled = ts_outside_frustum(object_p, pc.segment_first, pc.segment_count);
 #ifndef CONSERVATIVE
-    levels[prim] = vec4(radius, spacing, float(level), ok ? 1.0 : 0.0);
+    levels[prim] = vec4(radius, spacing, float(level), ok ? (culled ? 2.0 : 1.0) : 0.0);
 #endif
-    if (!ok) return;
+    if (!ok || culled) return;
     float scale = 1.0 / float(1u << level);
     vec2 corner = atlas_level_offset(level);
     for (int k = 0; k < 3; k++) atlas_p[k] = tex[k] * scale + corner;

@@ -14,6 +14,8 @@ layout(push_constant) uniform Push {
     float time;          // mid-shutter (the lights')
     uint atlas_width;    // the atlas image, texels
     uint atlas_height;
+    uint segment_first;  // the object's key segments (object_views), for culling over the shutter
+    uint segment_count;
 } pc;
 
 // MipAtlas::level_rect's corner.

@@ -132,7 +132,8 @@ fn unwritten_lookups(results: &[Option<AtlasResult>], atlas: MipAtlas, per_trian
     for res in results.iter().flatten() {
         let img = &res.image;
         for (t, l) in res.levels.iter().enumerate() {
-            if !l.valid {
+            // Culled triangles are shaded nowhere: no sample can hit them, so nothing looks them up.
+            if !l.valid || l.culled {
                 continue;
             }
             let [x, y, side, _] = atlas.level_rect(l.level);
@@ -207,6 +208,53 @@ fn the_conservative_sub_pass_fills_every_texel_a_lookup_reads() {
     assert!(misses_without > 0, "no lookup missed without the conservative sub-pass: the test shows nothing");
     assert!(misses_half < misses_without, "the half-texel hull fills some");
     assert_eq!(misses_with, 0, "lookups read unwritten texels with the conservative sub-pass");
+}
+
+/// Pass 1's frustum culling over the lens and the shutter (`texture_space/cull.glsl`) against its CPU
+/// mirror `texture_space::cull::outside_frustum`, triangle by triangle, on `default` (a large ground
+/// plane reaching behind the camera and out of the image, depth of field, a moving sphere and a
+/// panning camera): the same verdicts, but where the CPU's own verdict changes within ±1 % of the
+/// margin (f32 transforms differ in the last bits); and culling is not vacuous.
+#[test]
+fn gpu_culling_matches_the_cpu_mirror() {
+    use shutter::texture_space::cull::{outside_frustum, CULL_MARGIN_PX};
+    let scene = builtin_scene("default").expect("built-in").expect("parses");
+    let (w, h) = (160, 90);
+    let results = atlases(&scene, 256, Some(BILINEAR_HULL_TEXELS));
+    let intrinsics = scene.camera.intrinsics(w, h);
+    let space = shutter::scene::view::View::camera(&scene, w, h).space;
+    let (mut culled, mut kept, mut borderline) = (0usize, 0usize, 0usize);
+    for (i, o) in scene.objects.iter().enumerate() {
+        let Some(res) = &results[i] else { continue };
+        let keys = &space.objects[i].model_view;
+        for (t, l) in res.levels.iter().enumerate() {
+            if !l.valid {
+                continue;
+            }
+            let points: Vec<Vec3> = keys
+                .iter()
+                .flat_map(|mv| {
+                    (0..3).map(move |k| {
+                        mv.transform_point3(o.mesh.positions[o.mesh.indices[3 * t + k] as usize])
+                    })
+                })
+                .collect();
+            let cpu = outside_frustum(&intrinsics, &points, CULL_MARGIN_PX);
+            if l.culled != cpu {
+                let lo = outside_frustum(&intrinsics, &points, 0.99 * CULL_MARGIN_PX);
+                let hi = outside_frustum(&intrinsics, &points, 1.01 * CULL_MARGIN_PX);
+                assert_ne!(lo, hi, "`{}` triangle {t}: GPU culled {}, CPU {cpu}", o.name, l.culled);
+                borderline += 1;
+            }
+            if l.culled {
+                culled += 1;
+            } else {
+                kept += 1;
+            }
+        }
+    }
+    println!("default at {w}×{h}: {culled} triangles culled, {kept} kept, {borderline} borderline");
+    assert!(culled > 0 && kept > culled, "culled {culled}, kept {kept}");
 }
 
 /// Texture-space shading against a converged reference, beside per-sample shading of the same

@@ -75,13 +75,15 @@ pub enum ShadingRate {
     PerSample,
     /// Adaptive texture-space shading (Andersson et al. 2014; docs/ATSS.md): every object shaded once
     /// per frame into its own mip atlas at a level chosen per triangle ([`super::texture_space`],
-    /// level 0 [`TEXTURE_SPACE_FINEST`]²), at the lens centre and mid-shutter; every sample looks its
+    /// level 0 at most [`TEXTURE_SPACE_FINEST`]², fitted per object), at the lens centre and
+    /// mid-shutter; every sample looks its
     /// radiance up there. Not mirrored by the reference (its shading is view-independent).
     TextureSpace,
 }
 
-/// Level 0's side of the atlases of [`ShadingRate::TextureSpace`], texels.
-pub const TEXTURE_SPACE_FINEST: u32 = 1024;
+/// The largest level 0 side of the atlases of [`ShadingRate::TextureSpace`], texels — the paper's;
+/// each object's is fitted to what its triangles ask for ([`super::texture_space::AtlasSize`]).
+pub const TEXTURE_SPACE_FINEST: u32 = 2048;
 /// Texels between the atlas' levels.
 pub const TEXTURE_SPACE_GUTTER: u32 = 4;
 
@@ -1119,6 +1121,7 @@ impl StochasticDraws {
             Some(super::texture_space::AtlasPasses::new(
                 ctx,
                 layout,
+                super::texture_space::AtlasSize::Fitted,
                 Some(super::texture_space::BILINEAR_HULL_TEXELS),
                 super::texture_space::ATLAS_FORMAT,
             )?)
@@ -1667,8 +1670,8 @@ impl StochasticDraws {
             tint_log_r: tint[0],
             tint_log_g: tint[1],
             tint_log_b: tint[2],
-            atlas_finest: self.atlas.as_ref().map_or(0, |a| a.atlas().finest()),
-            atlas_gutter: self.atlas.as_ref().map_or(0, |a| a.atlas().gutter()),
+            atlas_finest: self.atlas.as_ref().and_then(|a| a.object_atlas(o)).map_or(0, |a| a.finest()),
+            atlas_gutter: self.atlas.as_ref().and_then(|a| a.object_atlas(o)).map_or(0, |a| a.gutter()),
         }
     }
 

@@ -62,7 +62,9 @@ pub const TEXTURE_SPACE_STRUCTS: &[SharedStruct] = &[
             hull_texels,
             time,
             atlas_width,
-            atlas_height
+            atlas_height,
+            segment_first,
+            segment_count
         ]
     ),
 ];
@@ -83,6 +85,9 @@ pub struct AtlasPush {
     pub time: f32,
     pub atlas_width: u32,
     pub atlas_height: u32,
+    /// The object's key segments (culling over the shutter).
+    pub segment_first: u32,
+    pub segment_count: u32,
 }
 
 /// The shading coordinates of every corner of `mesh` (3 per triangle, index order) in texels of a
@@ -140,6 +145,8 @@ pub struct GpuLevel {
     pub level: u32,
     /// Whether any vertex had a footprint.
     pub valid: bool,
+    /// Pass 1 only: whether it was culled (no sample can hit it: `texture_space::cull`).
+    pub culled: bool,
 }
 
 /// Per object: its shading space, the per-corner shading coordinates (texels of level 0), the
@@ -169,7 +176,7 @@ impl ObjectShading {
             return Ok(None);
         }
         let storage = vk::BufferUsageFlags::STORAGE_BUFFER;
-        let (space, coords) = shading_coords(&o.mesh, finest, 2)?;
+        let (space, coords) = shading_coords(&o.mesh, finest, CHART_GUTTER)?;
         let flat: Vec<[f32; 2]> = coords.iter().map(|c| c.to_array()).collect();
         let coords_buffer = Buffer::with_data(device, &format!("shading coords:{}", o.name), storage, &flat)?;
         let levels = Tracked::new(Buffer::with_data(
@@ -210,6 +217,7 @@ impl ObjectShading {
                 spacing_px: v[1],
                 level: v[2] as u32,
                 valid: v[3] > 0.5,
+                culled: v[3] > 1.5,
             })
             .collect())
     }
@@ -363,6 +371,8 @@ pub const ATLAS_DEPTH_FORMAT: vk::Format = vk::Format::D32_SFLOAT;
 
 /// One object's atlas and its depth, with its shading coordinates and levels.
 struct AtlasObject {
+    /// This object's layout ([`AtlasSize`]).
+    atlas: MipAtlas,
     shading: ObjectShading,
     color: Tracked<Image>,
     depth: Tracked<Image>,
@@ -384,7 +394,6 @@ pub struct AtlasResult {
 /// Pass 1 of adaptive texture-space shading for every object (module docs): the pipelines, each
 /// object's atlas, depth, shading coordinates and levels.
 pub struct AtlasPasses {
-    atlas: MipAtlas,
     /// The conservative sub-pass' box half-size in texels (None: no conservative sub-pass).
     hull_texels: Option<f32>,
     objects: Vec<Option<AtlasObject>>,
@@ -396,6 +405,77 @@ pub struct AtlasPasses {
     _shaders: Vec<ShaderModule>,
 }
 
+/// How large each object's atlas is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum AtlasSize {
+    /// Every object's the given layout (the probes: tests compare texels at known sizes).
+    Fixed,
+    /// Level 0 at most the given layout's, halved once per level that the object's triangles do not
+    /// need at the view's mid-shutter ([`crate::texture_space::rate::fitted_level`] on the CPU at
+    /// prepare time: triangles over at most [`FITTED_COARSER_AREA`] of its pixels may ask for finer;
+    /// never below [`MIN_FITTED_FINEST`]): the texels a frame clears and the memory follow the
+    /// object's size on screen and its blur. A triangle that asks for a finer level than the atlas
+    /// has — those few, one the GPU rounds a level finer than the CPU (a radius within f32 rounding
+    /// of a power of two), generated charts re-laid at the smaller size — is clamped to level 0:
+    /// shaded coarser, never misplaced.
+    Fitted,
+}
+
+/// The share of an object's pixels [`AtlasSize::Fitted`] may shade coarser than the rate asks
+/// ([`crate::texture_space::rate::fitted_level`]).
+pub const FITTED_COARSER_AREA: f64 = 0.01;
+
+/// The smallest level 0 [`AtlasSize::Fitted`] gives an object, texels.
+pub const MIN_FITTED_FINEST: u32 = 16;
+
+/// Texels around each generated per-triangle chart (objects without usable uvs of their own).
+const CHART_GUTTER: u32 = 2;
+
+/// Object `i`'s fitted layout: `largest` halved while no triangle needs its finest level (see
+/// [`AtlasSize::Fitted`]), with its shading (charts that no longer fit are laid at the next size up).
+fn fitted_shading(
+    ctx: &PrepareContext<'_>,
+    pool: &DescriptorPool,
+    set_layout: &DescriptorSetLayout,
+    i: usize,
+    largest: MipAtlas,
+) -> Result<Option<(MipAtlas, ObjectShading)>> {
+    let o = &ctx.scene.objects[i];
+    if o.mesh.indices.is_empty() {
+        return Ok(None);
+    }
+    let skip = match ctx.camera.intrinsics() {
+        Some(intrinsics) => {
+            let (_, coords) = shading_coords(&o.mesh, largest.finest(), CHART_GUTTER)?;
+            let motion = &ctx.camera.space.objects[i];
+            let levels = largest.levels();
+            crate::texture_space::rate::fitted_level(
+                &intrinsics,
+                &o.mesh,
+                motion,
+                &coords,
+                levels,
+                FITTED_COARSER_AREA,
+            )
+            // No triangle with a footprint: nothing of it can be seen; the smallest atlas.
+            .unwrap_or(largest.levels() - 1)
+        }
+        None => 0,
+    };
+    let mut finest = (largest.finest() >> skip).max(MIN_FITTED_FINEST).min(largest.finest());
+    loop {
+        match ObjectShading::new(ctx.device, pool, set_layout, o, finest) {
+            Ok(shading) => {
+                let shading = shading.expect("triangles");
+                return Ok(Some((MipAtlas::new(finest, largest.gutter())?, shading)));
+            }
+            // Generated charts that fit the larger atlas may not fit a smaller one.
+            Err(_) if finest < largest.finest() => finest *= 2,
+            Err(e) => return Err(e),
+        }
+    }
+}
+
 /// One object's pass-1 outputs in a frame graph.
 #[derive(Clone, Copy)]
 pub struct AtlasHandles {
@@ -404,7 +484,8 @@ pub struct AtlasHandles {
 }
 
 impl AtlasPasses {
-    /// Every object into an atlas of `atlas`'s layout; with `hull_texels`, the conservative sub-pass
+    /// Every object into an atlas of `atlas`'s layout (or, [`AtlasSize::Fitted`], at most that);
+    /// with `hull_texels`, the conservative sub-pass
     /// after the shade sub-pass, each triangle dilated by a box of that half-size in texels — 1.0
     /// ([`BILINEAR_HULL_TEXELS`]) covers every texel a bilinear lookup inside the triangle reads, 0.5
     /// only those whose square the triangle touches (the paper's outer hull); without it, the
@@ -412,6 +493,7 @@ impl AtlasPasses {
     pub fn new(
         ctx: &PrepareContext<'_>,
         atlas: MipAtlas,
+        size: AtlasSize,
         hull_texels: Option<f32>,
         format: vk::Format,
     ) -> Result<Self> {
@@ -470,11 +552,18 @@ impl AtlasPasses {
         let hull = pipeline(true)?;
         modules.push(vert);
         let mut objects = Vec::with_capacity(ctx.scene.objects.len());
-        for o in &ctx.scene.objects {
-            let Some(shading) = ObjectShading::new(device, &pool, &set_layout, o, atlas.finest())? else {
+        for (i, o) in ctx.scene.objects.iter().enumerate() {
+            let shading = match size {
+                AtlasSize::Fixed => {
+                    ObjectShading::new(device, &pool, &set_layout, o, atlas.finest())?.map(|s| (atlas, s))
+                }
+                AtlasSize::Fitted => fitted_shading(ctx, &pool, &set_layout, i, atlas)?,
+            };
+            let Some((atlas, shading)) = shading else {
                 objects.push(None);
                 continue;
             };
+            let (width, height) = atlas.size();
             let usage = vk::ImageUsageFlags::COLOR_ATTACHMENT
                 | vk::ImageUsageFlags::TRANSFER_SRC
                 | vk::ImageUsageFlags::SAMPLED;
@@ -493,10 +582,9 @@ impl AtlasPasses {
                     vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT,
                 ),
             )?);
-            objects.push(Some(AtlasObject { shading, color, depth }));
+            objects.push(Some(AtlasObject { atlas, shading, color, depth }));
         }
         Ok(AtlasPasses {
-            atlas,
             hull_texels,
             objects,
             shade,
@@ -508,9 +596,9 @@ impl AtlasPasses {
         })
     }
 
-    /// The atlas layout every object's atlas has.
-    pub fn atlas(&self) -> MipAtlas {
-        self.atlas
+    /// Object `i`'s atlas layout (None: an object without triangles).
+    pub fn object_atlas(&self, i: usize) -> Option<MipAtlas> {
+        self.objects.get(i)?.as_ref().map(|o| o.atlas)
     }
 
     /// Object `i`'s atlas image, levels buffer and per-corner shading coordinates buffer (None: an
@@ -571,19 +659,22 @@ impl AtlasPasses {
         let Some(o) = &self.objects[i] else { return };
         let (d, cmd, bind) = (ctx.device, ctx.cmd, vk::PipelineBindPoint::GRAPHICS);
         let layout = self.layout.raw;
-        let (width, height) = self.atlas.size();
+        let (width, height) = o.atlas.size();
         let (segment, segment_time) = view.segment_at(i, 0.5);
+        let (segment_first, segment_count) = view.segments(i);
         let push = AtlasPush {
             object: i as u32,
             segment,
             segment_time,
-            finest: self.atlas.finest(),
-            gutter: self.atlas.gutter(),
-            level_count: self.atlas.levels(),
+            finest: o.atlas.finest(),
+            gutter: o.atlas.gutter(),
+            level_count: o.atlas.levels(),
             hull_texels: self.hull_texels.unwrap_or(0.0),
             time: 0.5,
             atlas_width: width,
             atlas_height: height,
+            segment_first,
+            segment_count,
         };
         let stages =
             vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::GEOMETRY | vk::ShaderStageFlags::FRAGMENT;
@@ -610,7 +701,7 @@ impl ShadingAtlas {
     /// [`AtlasPasses::new`] for every object of the scene.
     pub fn new(ctx: &PrepareContext<'_>, atlas: MipAtlas, hull_texels: Option<f32>) -> Result<Self> {
         Ok(ShadingAtlas {
-            passes: AtlasPasses::new(ctx, atlas, hull_texels, PROBE_ATLAS_FORMAT)?,
+            passes: AtlasPasses::new(ctx, atlas, AtlasSize::Fixed, hull_texels, PROBE_ATLAS_FORMAT)?,
             results: vec![],
             size: ctx.camera.size(),
         })

@@ -6,8 +6,10 @@
 //! * [`rate`]: the per-triangle shading rate — the AAS grid spacing from the smallest circle of
 //!   confusion, the footprint's minor radius at the vertices, the level `⌊log₂ r⌋` — and a measure of
 //!   the paper's conjecture that the minimum over a triangle is at a vertex.
+//! * [`cull`]: conservative frustum culling of a triangle over every lens point and shutter time.
 //! * [`filter`]: the generalised Loviscach pre-filter over (x, y, u, v, t) and its per-sample scaling.
 
 pub mod atlas;
+pub mod cull;
 pub mod filter;
 pub mod rate;

@@ -20,6 +20,8 @@
 use glam::{Vec2, Vec3};
 
 use crate::scene::camera::Intrinsics;
+use crate::scene::camera_space::ObjectMotion;
+use crate::scene::Mesh;
 
 /// The smallest circle-of-confusion radius, in pixels, over a triangle with these view depths
 /// (`z > 0`): 0 when the triangle reaches both sides of the focus plane, else the smallest vertex's.
@@ -164,6 +166,101 @@ pub fn triangle_level(
         radius_texels: radius,
         level: level_of(radius, levels),
     })
+}
+
+/// Triangle `t` of `mesh` in camera space at shutter time `time`, its vertices interpolated linearly
+/// within the key segment of `motion` holding `time` (as the GPU passes do).
+pub fn camera_triangle(mesh: &Mesh, motion: &ObjectMotion, t: usize, time: f32) -> [Vec3; 3] {
+    let (j, s) = motion.keys.locate(time);
+    let (mv0, mv1) = (motion.model_view[j], motion.model_view[j + 1]);
+    [0, 1, 2].map(|k| {
+        let p = mesh.positions[mesh.indices[3 * t + k] as usize];
+        let (a, b) = (mv0.transform_point3(p), mv1.transform_point3(p));
+        a + (b - a) * s
+    })
+}
+
+/// The finest level an atlas of `mesh` needs at mid-shutter: the coarsest level `k` such that the
+/// triangles asking for a level finer than `k` ([`triangle_level`] with per-corner shading coordinates
+/// `coords`, texels of level 0 of an atlas of `levels` levels) cover at most `coarser_fraction` of the
+/// object's pixels ([`on_screen_area`]). `None` when no triangle has a footprint. An atlas whose
+/// level 0 is `2^k` times smaller holds every triangle at its level minus `k`; the few finer ones are
+/// clamped to its level 0 — shaded coarser than the rate asks, over at most that share of the
+/// object's pixels. (With 0, the finest level any triangle asks for: a single sliver whose uvs are
+/// squeezed — Spot has a few — would otherwise size the whole atlas.)
+pub fn fitted_level(
+    intrinsics: &Intrinsics,
+    mesh: &Mesh,
+    motion: &ObjectMotion,
+    coords: &[Vec2],
+    levels: u32,
+    coarser_fraction: f64,
+) -> Option<u32> {
+    let mut area = vec![0f64; levels as usize];
+    let mut any = false;
+    for t in 0..mesh.indices.len() / 3 {
+        let tri = camera_triangle(mesh, motion, t, 0.5);
+        let tex = [0, 1, 2].map(|k| coords[3 * t + k]);
+        let Some(choice) = triangle_level(intrinsics, tri, tex, levels) else { continue };
+        any = true;
+        area[choice.level as usize] += on_screen_area(intrinsics, tri);
+    }
+    if !any {
+        return None;
+    }
+    let total: f64 = area.iter().sum();
+    let (mut below, mut k) = (0.0, 0);
+    for (level, a) in area.iter().enumerate() {
+        if below > coarser_fraction * total {
+            break;
+        }
+        k = level as u32;
+        below += a;
+    }
+    Some(k)
+}
+
+/// The pixels camera-space triangle `tri` covers at the lens centre: clipped to the near plane, then
+/// to the image.
+pub fn on_screen_area(intrinsics: &Intrinsics, tri: [Vec3; 3]) -> f64 {
+    let near = intrinsics.near;
+    let mut clipped: Vec<Vec3> = Vec::with_capacity(4);
+    for k in 0..3 {
+        let (a, b) = (tri[k], tri[(k + 1) % 3]);
+        let (da, db) = (-a.z - near, -b.z - near);
+        if da >= 0.0 {
+            clipped.push(a);
+        }
+        if (da >= 0.0) != (db >= 0.0) {
+            clipped.push(a + (b - a) * (da / (da - db)));
+        }
+    }
+    let mut poly: Vec<Vec2> = clipped.iter().map(|&v| intrinsics.project(v, Vec2::ZERO)).collect();
+    // Sutherland–Hodgman against the four image edges: keep where `n·p − c ≥ 0`.
+    let edges: [(Vec2, f32); 4] =
+        [(Vec2::X, 0.0), (-Vec2::X, -intrinsics.width), (Vec2::Y, 0.0), (-Vec2::Y, -intrinsics.height)];
+    for (n, c) in edges {
+        let inside = |p: Vec2| n.dot(p) - c;
+        let mut out = Vec::with_capacity(poly.len() + 1);
+        for k in 0..poly.len() {
+            let (a, b) = (poly[k], poly[(k + 1) % poly.len()]);
+            let (ia, ib) = (inside(a), inside(b));
+            if ia >= 0.0 {
+                out.push(a);
+            }
+            if (ia >= 0.0) != (ib >= 0.0) {
+                out.push(a + (b - a) * (ia / (ia - ib)));
+            }
+        }
+        poly = out;
+    }
+    let twice: f64 = (0..poly.len()).map(|k| poly[k].perp_dot(poly[(k + 1) % poly.len()]) as f64).sum();
+    let area = 0.5 * twice.abs();
+    if area.is_finite() {
+        area
+    } else {
+        0.0
+    }
 }
 
 /// `⌊log₂ r⌋` clamped to `[0, levels)` (0 below one texel).
@@ -380,5 +477,64 @@ mod tests {
         let b1 = (p - tri[0]).cross(tri[2] - tri[0]).dot(n) / nn;
         let b2 = (tri[1] - tri[0]).cross(p - tri[0]).dot(n) / nn;
         Some(tex[0] + b1 * (tex[1] - tex[0]) + b2 * (tex[2] - tex[0]))
+    }
+}
+
+#[cfg(test)]
+mod fit_tests {
+    use super::*;
+    use crate::scene::builtin::builtin_scene;
+    use crate::scene::view::View;
+
+    /// The clipped on-screen area: a triangle inside the image keeps its projected area; one behind
+    /// the camera has none; one straddling the eye plane and the image is clipped to the image.
+    #[test]
+    fn on_screen_area_clips_to_the_near_plane_and_the_image() {
+        let scene = builtin_scene("glass").unwrap().unwrap();
+        let intr = View::camera(&scene, 160, 90).intrinsics().unwrap();
+        let inside = [Vec3::new(-0.2, -0.1, -3.0), Vec3::new(0.2, -0.1, -3.0), Vec3::new(0.0, 0.2, -3.0)];
+        let [a, b, c] = inside.map(|v| intr.project(v, Vec2::ZERO));
+        let projected = 0.5 * ((b - a).perp_dot(c - a) as f64).abs();
+        assert!((on_screen_area(&intr, inside) - projected).abs() < 1e-3 * projected);
+        let behind = inside.map(|v| v * Vec3::new(1.0, 1.0, -1.0));
+        assert_eq!(on_screen_area(&intr, behind), 0.0);
+        // A ground plane under the camera reaching behind it: at most the whole image, the part
+        // below the horizon.
+        let ground = [Vec3::new(-50.0, -1.0, 10.0), Vec3::new(50.0, -1.0, 10.0), Vec3::new(0.0, -1.0, -60.0)];
+        let area = on_screen_area(&intr, ground);
+        assert!(area > 0.3 * 160.0 * 90.0 && area <= 160.0 * 90.0 + 1e-3, "{area}");
+    }
+
+    /// `fitted_level` is the coarsest level whose finer triangles cover at most the given share of
+    /// the object's pixels (Spot in `glass`: a few uv slivers ask for level 0 of a 2048² atlas, the
+    /// bulk for levels 4–6); with 0 it is the finest level any triangle asks for.
+    #[test]
+    fn fitted_level_leaves_at_most_the_given_share_coarser() {
+        let scene = builtin_scene("glass").unwrap().unwrap();
+        let view = View::camera(&scene, 160, 90);
+        let intr = view.intrinsics().unwrap();
+        let i = scene.objects.iter().position(|o| o.name == "spot").unwrap();
+        let o = &scene.objects[i];
+        let space = crate::texture_space::atlas::shading_space_of(&o.mesh);
+        let coords: Vec<Vec2> =
+            o.mesh.indices.iter().map(|&k| space.to_unit(o.mesh.uvs[k as usize]) * 2048.0).collect();
+        let motion = &view.space.objects[i];
+        let mut by_level = vec![0f64; 12];
+        let mut finest = u32::MAX;
+        for t in 0..o.mesh.indices.len() / 3 {
+            let tri = camera_triangle(&o.mesh, motion, t, 0.5);
+            let tex = [0, 1, 2].map(|k| coords[3 * t + k]);
+            if let Some(c) = triangle_level(&intr, tri, tex, 12) {
+                by_level[c.level as usize] += on_screen_area(&intr, tri);
+                finest = finest.min(c.level);
+            }
+        }
+        let total: f64 = by_level.iter().sum();
+        assert_eq!(fitted_level(&intr, &o.mesh, motion, &coords, 12, 0.0), Some(finest));
+        let k = fitted_level(&intr, &o.mesh, motion, &coords, 12, 0.01).unwrap() as usize;
+        let below: f64 = by_level[..k].iter().sum();
+        assert!(below <= 0.01 * total, "{below} of {total} below level {k}");
+        assert!(below + by_level[k] > 0.01 * total, "level {k} is not the coarsest");
+        assert!(k >= 3 && finest == 0, "finest {finest}, fitted {k}: {by_level:?}");
     }
 }
