@@ -10,10 +10,13 @@
 //!   radially displaced by a smooth deterministic noise of ±4 % of the radius; the high-poly benchmark
 //!   mesh of the `focus-sweep` scene. No uvs.
 //! * `spot` — Keenan Crane's Spot (public domain, `assets/spot/README.txt`), normalized to `[-1, 1]³`
-//!   (largest half-extent 1), with uvs for the embedded texture (`texture = "spot"` in a scene file).
+//!   (largest half-extent 1), with uvs for the embedded texture (`texture = "spot"` in a scene file);
+//!   `detail` = rounds of midpoint subdivision that keep the surface exactly (default 0: the embedded
+//!   5,856 triangles; n gives 5,856·4ⁿ, at most [`MAX_SPOT_DETAIL`]), for a high-poly textured object.
 //!
-//! Textures: `spot` (Spot's, embedded PNG) and `leaves` ([`leaves_texture`], generated: leaf shapes on
-//! a transparent background, for alpha-tested cards).
+//! Textures: `spot` (Spot's, embedded PNG), `leaves` ([`leaves_texture`], generated: leaf shapes on
+//! a transparent background, for alpha-tested cards) and `checker` ([`checker_texture`], generated:
+//! a chess board's 8×8 squares).
 //!
 //! Scenes are TOML files in the repository's `scenes/` folder, embedded and parsed with
 //! [`parse_scene`](super::file::parse_scene): see [`BUILTIN_SCENES`].
@@ -33,9 +36,9 @@ use crate::error::{Error, Result};
 pub const BUILTIN_MESHES: &[&str] = &["plane", "box", "sphere", "displaced-sphere", "spot"];
 /// Names accepted by [`builtin_scene`].
 pub const BUILTIN_SCENES: &[&str] =
-    &["default", "static", "focus-sweep", "one-mover", "glass", "foliage", "smoke"];
+    &["default", "static", "focus-sweep", "one-mover", "glass", "foliage", "smoke", "arena", "chess"];
 /// Names of the built-in textures a scene file's `texture` may give instead of a PNG path.
-pub const BUILTIN_TEXTURES: &[&str] = &["spot", "leaves"];
+pub const BUILTIN_TEXTURES: &[&str] = &["spot", "leaves", "checker"];
 
 pub const MAX_PLANE_DETAIL: u32 = 1024;
 pub const MAX_SPHERE_DETAIL: u32 = 4096;
@@ -43,6 +46,8 @@ pub const MAX_SPHERE_DETAIL: u32 = 4096;
 pub const MAX_ICOSPHERE_DETAIL: u32 = 9;
 /// Default subdivision level of `displaced-sphere`: 20·4⁷ = 327,680 triangles (≥ 100k).
 pub const DEFAULT_ICOSPHERE_DETAIL: u32 = 7;
+/// 3 midpoint subdivisions of Spot = 5,856·4³ = 374,784 triangles.
+pub const MAX_SPOT_DETAIL: u32 = 3;
 
 const SPOT_OBJ: &[u8] = include_bytes!("../../../assets/spot/spot_triangulated.obj");
 const SPOT_PNG: &[u8] = include_bytes!("../../../assets/spot/spot_texture.png");
@@ -56,16 +61,18 @@ const SCENE_ONE_MOVER: &str = include_str!("../../../scenes/one-mover.toml");
 const SCENE_GLASS: &str = include_str!("../../../scenes/glass.toml");
 const SCENE_FOLIAGE: &str = include_str!("../../../scenes/foliage.toml");
 const SCENE_SMOKE: &str = include_str!("../../../scenes/smoke.toml");
+const SCENE_ARENA: &str = include_str!("../../../scenes/arena.toml");
+const SCENE_CHESS: &str = include_str!("../../../scenes/chess.toml");
 
 /// A procedural or embedded mesh by name; `None` when `name` is not a built-in mesh. `detail` is the
-/// tessellation level (ignored by `box` and `spot`).
+/// tessellation level (ignored by `box`).
 pub fn builtin_mesh(name: &str, detail: Option<u32>) -> Option<Result<Mesh>> {
     let mesh = match name {
         "plane" => plane(detail.unwrap_or(1)),
         "box" => unit_box(),
         "sphere" => uv_sphere(detail.unwrap_or(48)),
         "displaced-sphere" => displaced_sphere(detail.unwrap_or(DEFAULT_ICOSPHERE_DETAIL)),
-        "spot" => parse_obj(SPOT_OBJ, "built-in mesh `spot`", true),
+        "spot" => spot(detail.unwrap_or(0)),
         _ => return None,
     };
     Some(mesh)
@@ -127,11 +134,43 @@ pub fn leaves_texture() -> Arc<Texture> {
         .clone()
 }
 
+/// Side of the generated [`checker_texture`], texels: 8 squares of 32 texels.
+pub const CHECKER_SIZE: u32 = 256;
+/// The `checker` texture's light and dark squares, sRGB: cream and a walnut brown.
+pub const CHECKER_LIGHT: [u8; 3] = [236, 214, 176];
+pub const CHECKER_DARK: [u8; 3] = [120, 78, 48];
+
+/// The generated `checker` texture: [`CHECKER_SIZE`]² opaque texels of 8×8 squares, the square at
+/// (column i, row j) [`CHECKER_LIGHT`] when i + j is even and [`CHECKER_DARK`] otherwise — a chess board
+/// over uv `[0, 1]²` (on a `plane`, one square per eighth of its side). Deterministic.
+pub fn checker_texture() -> Arc<Texture> {
+    static CHECKER: OnceLock<Arc<Texture>> = OnceLock::new();
+    CHECKER
+        .get_or_init(|| {
+            let n = CHECKER_SIZE as usize;
+            let square = n / 8;
+            let mut rgba = Vec::with_capacity(n * n * 4);
+            for y in 0..n {
+                for x in 0..n {
+                    let c = if (x / square + y / square).is_multiple_of(2) {
+                        CHECKER_LIGHT
+                    } else {
+                        CHECKER_DARK
+                    };
+                    rgba.extend_from_slice(&[c[0], c[1], c[2], 255]);
+                }
+            }
+            Arc::new(Texture::from_srgb_rgba8("checker", CHECKER_SIZE, CHECKER_SIZE, rgba))
+        })
+        .clone()
+}
+
 /// A built-in texture by name (see [`BUILTIN_TEXTURES`]); `None` when there is no such texture.
 pub fn builtin_texture(name: &str) -> Option<Result<Arc<Texture>>> {
     match name {
         "spot" => Some(spot_texture()),
         "leaves" => Some(Ok(leaves_texture())),
+        "checker" => Some(Ok(checker_texture())),
         _ => None,
     }
 }
@@ -146,6 +185,8 @@ pub fn builtin_scene(name: &str) -> Option<Result<Scene>> {
         "glass" => SCENE_GLASS,
         "foliage" => SCENE_FOLIAGE,
         "smoke" => SCENE_SMOKE,
+        "arena" => SCENE_ARENA,
+        "chess" => SCENE_CHESS,
         _ => return None,
     };
     Some(super::file::parse_scene(text, Path::new("."), name))
@@ -237,6 +278,45 @@ fn uv_sphere(segments: u32) -> Result<Mesh> {
         }
     }
     Mesh::new("built-in mesh `sphere`", positions, normals, uvs, indices)
+}
+
+/// Spot after `rounds` of midpoint (1 → 4) subdivision. The surface is kept exactly: each new vertex is
+/// the midpoint of an edge, shared by the edge's two triangles (keyed by the sorted vertex pair and
+/// computed from the sorted pair, so it is bit-identical for both) with the edge's interpolated uv and
+/// interpolated, renormalised normal. Vertices duplicated at uv seams give duplicated midpoints at the
+/// same position, so the surface stays watertight where it was. Round 0 is the embedded mesh as is.
+fn spot(rounds: u32) -> Result<Mesh> {
+    detail_limit("spot detail", rounds, 0, MAX_SPOT_DETAIL)?;
+    let base = parse_obj(SPOT_OBJ, "built-in mesh `spot`", true)?;
+    if rounds == 0 {
+        return Ok(base);
+    }
+    let skipped = base.stats.skipped_degenerate;
+    let Mesh { mut positions, mut normals, mut uvs, mut indices, .. } = base;
+    for _ in 0..rounds {
+        let mut midpoints: HashMap<(u32, u32), u32> = HashMap::with_capacity(indices.len());
+        let mut next = Vec::with_capacity(indices.len() * 4);
+        for tri in indices.chunks_exact(3) {
+            let mut midpoint = |a: u32, b: u32| -> u32 {
+                let (a, b) = (a.min(b), a.max(b));
+                *midpoints.entry((a, b)).or_insert_with(|| {
+                    let (a, b) = (a as usize, b as usize);
+                    positions.push((positions[a] + positions[b]) * 0.5);
+                    normals.push(((normals[a] + normals[b]) * 0.5).normalize_or(normals[a]));
+                    uvs.push((uvs[a] + uvs[b]) * 0.5);
+                    positions.len() as u32 - 1
+                })
+            };
+            let [a, b, c] = [tri[0], tri[1], tri[2]];
+            let (ab, bc, ca) = (midpoint(a, b), midpoint(b, c), midpoint(c, a));
+            // The corner triangles and the middle one, each with its parent's winding.
+            next.extend_from_slice(&[a, ab, ca, ab, b, bc, ca, bc, c, ab, bc, ca]);
+        }
+        indices = next;
+    }
+    let mut mesh = Mesh::new("built-in mesh `spot`", positions, normals, uvs, indices)?;
+    mesh.stats.skipped_degenerate += skipped;
+    Ok(mesh)
 }
 
 /// Smooth deterministic noise on the unit sphere, in about [-1, 1]: a few sums of products of sines.
@@ -363,6 +443,68 @@ mod tests {
         let t = spot_texture().unwrap();
         assert!(t.width > 0 && t.height > 0);
         assert!(SPOT_README.contains("public domain"));
+    }
+
+    fn surface_area(m: &Mesh) -> f64 {
+        m.indices
+            .chunks_exact(3)
+            .map(|t| {
+                let [a, b, c] = [0, 1, 2].map(|i| m.positions[t[i] as usize].as_dvec3());
+                0.5 * (b - a).cross(c - a).length()
+            })
+            .sum()
+    }
+
+    /// Midpoint subdivision multiplies the triangles by 4 per round and keeps the surface: the same
+    /// area and bounds, uvs inside the original's range, unit normals, nothing newly degenerate.
+    #[test]
+    fn spot_detail_subdivides_without_changing_the_surface() {
+        let base = builtin_mesh("spot", None).unwrap().unwrap();
+        let zero = builtin_mesh("spot", Some(0)).unwrap().unwrap();
+        assert_eq!((zero.positions, zero.indices), (base.positions.clone(), base.indices.clone()));
+        let area = surface_area(&base);
+        let (uv_lo, uv_hi) =
+            base.uvs.iter().fold((Vec2::MAX, Vec2::MIN), |(lo, hi), uv| (lo.min(*uv), hi.max(*uv)));
+        for n in 1..=2u32 {
+            let m = builtin_mesh("spot", Some(n)).unwrap().unwrap();
+            assert_eq!(m.triangle_count(), 5856 * 4usize.pow(n), "detail {n}");
+            // What the embedded mesh skips is carried over; subdividing skips nothing more.
+            assert_eq!(m.stats.skipped_degenerate, base.stats.skipped_degenerate, "detail {n}");
+            assert!(((surface_area(&m) - area) / area).abs() < 1e-4, "detail {n}: area {}", surface_area(&m));
+            assert_eq!(m.bounds(), base.bounds(), "detail {n}");
+            assert_eq!(
+                m.positions[..base.positions.len()],
+                base.positions[..],
+                "detail {n}: old vertices moved"
+            );
+            assert!(m.uvs[base.uvs.len()..].iter().all(|uv| uv.cmpge(uv_lo).all() && uv.cmple(uv_hi).all()));
+            assert!(m.normals.iter().all(|v| (v.length() - 1.0).abs() < 1e-4));
+            assert!(m.has_uvs() && m.normals.len() == m.positions.len());
+        }
+        let e = builtin_mesh("spot", Some(MAX_SPOT_DETAIL + 1)).unwrap().unwrap_err().to_string();
+        assert!(e.contains("spot detail"), "{e}");
+    }
+
+    #[test]
+    fn checker_texture_is_eight_by_eight_squares() {
+        let t = checker_texture();
+        assert_eq!((t.width, t.height), (CHECKER_SIZE, CHECKER_SIZE));
+        let n = CHECKER_SIZE as usize;
+        let texel = |x: usize, y: usize| &t.srgb_rgba8[4 * (y * n + x)..4 * (y * n + x) + 4];
+        let square = n / 8;
+        for y in 0..n {
+            for x in 0..n {
+                let light = (x / square + y / square).is_multiple_of(2);
+                let c = if light { CHECKER_LIGHT } else { CHECKER_DARK };
+                assert_eq!(texel(x, y), [c[0], c[1], c[2], 255], "texel ({x}, {y})");
+            }
+        }
+        // Light squares are clearly lighter, and the corners alternate like a board's.
+        assert!(CHECKER_LIGHT.iter().zip(CHECKER_DARK).all(|(l, d)| *l > d + 60));
+        assert_eq!(texel(0, 0), texel(n - 1, n - 1));
+        assert_ne!(texel(0, 0), texel(n - 1, 0));
+        assert!(Arc::ptr_eq(&t, &checker_texture()));
+        assert!(builtin_texture("checker").unwrap().is_ok());
     }
 
     #[test]

@@ -32,7 +32,8 @@
 //! [[object]]                    # any number
 //! name = "spot"                 # default "object<i>" (i counts from 0)
 //! mesh = "spot"                 # built-in: plane, box, sphere, displaced-sphere, spot — or an .obj path
-//! detail = 3                    # optional tessellation level of procedural meshes
+//! detail = 3                    # optional tessellation level of procedural meshes; for `spot`,
+//!                               # rounds of midpoint subdivision (0..=3, default 0: 5,856 triangles)
 //! normalize = false             # OBJ only: fit into [-1, 1]³ centred at the origin
 //! simplify = 0.5                # optional, in (0, 1]: keep about this fraction of the triangles
 //!                               # (meshoptimizer's simplifier, see Mesh::simplified; default 1 = all)
@@ -50,7 +51,8 @@
 //! translate = [0, 0, 0]         # rotate_deg, scale as in [object.transform]
 //! [object.material]             # optional
 //! albedo = [0.8, 0.8, 0.8]      # linear RGB ≥ 0; default 0.8, or 1 when there is a texture
-//! texture = "spot.png"          # PNG path, or a built-in: "spot" (Spot's), "leaves" (generated foliage)
+//! texture = "spot.png"          # PNG path, or a built-in: "spot" (Spot's), "leaves" (generated
+//!                               # foliage), "checker" (generated 8×8 chess board squares)
 //! specular = 0.0                # ≥ 0
 //! roughness = 0.5               # in (0, 1]
 //! alpha = 1.0                   # coverage, in [0, 1] (1 = opaque)
@@ -750,6 +752,58 @@ mod tests {
         assert!(k.circle_of_confusion_px(z).abs() >= 8.0 && in_frame(&s, px));
         let (z, _, _) = centre(&s, "back-wall");
         assert!(z > 10.0 && k.circle_of_confusion_px(z - 0.3).abs() < 0.5);
+    }
+
+    /// `arena`: one 93,696-triangle textured Spot, sharp, between a blurred near post and blurred walls.
+    #[test]
+    fn arena_scene_is_one_high_poly_object_in_depth_of_field() {
+        let s = load_scene("arena").unwrap();
+        assert_eq!((s.image.width, s.image.height, s.image.spp), (160, 90, 16));
+        let k = s.camera.intrinsics(160, 90);
+        let coc = |name: &str| k.circle_of_confusion_px(centre(&s, name).0).abs();
+        let spot = s.objects.iter().find(|o| o.name == "spot").unwrap();
+        assert_eq!(spot.mesh.triangle_count(), 93_696);
+        assert!(spot.material.texture.is_some() && spot.mesh.has_uvs());
+        let others: usize =
+            s.objects.iter().filter(|o| o.name != "spot").map(|o| o.mesh.triangle_count()).sum();
+        assert!(others * 100 < 93_696, "the rest is low-poly: {others} triangles");
+        assert!(coc("spot") < 1.0, "spot is in focus: {}", coc("spot"));
+        assert!(coc("near-post") >= 6.0, "near post: {}", coc("near-post"));
+        assert!(coc("back-wall") >= 3.0, "back wall: {}", coc("back-wall"));
+        let (z, px, _) = centre(&s, "spot");
+        assert!(z > 0.0 && in_frame(&s, px));
+        assert!(s.camera.close.is_none() && s.objects.iter().all(|o| !o.is_moving()));
+        assert!(s.lights.iter().any(|l| matches!(l, Light::Directional { .. })));
+        assert!(s.lights.iter().any(|l| matches!(l, Light::Point { .. })));
+        assert_eq!(s.skipped_triangles(), 0);
+    }
+
+    /// `chess`: a dozen-ish pieces on a checker board, the middle one sharp, near and far ones blurred,
+    /// one moving.
+    #[test]
+    fn chess_scene_has_a_dozen_pieces_across_the_depth_of_field() {
+        let s = load_scene("chess").unwrap();
+        assert_eq!((s.image.width, s.image.height, s.image.spp), (160, 90, 16));
+        assert!((12..=14).contains(&s.objects.len()), "{} objects", s.objects.len());
+        let k = s.camera.intrinsics(160, 90);
+        let coc = |name: &str| k.circle_of_confusion_px(centre(&s, name).0).abs();
+        let board = s.objects.iter().find(|o| o.name == "board").unwrap();
+        assert_eq!(board.material.texture.as_ref().map(|t| t.name.as_str()), Some("checker"));
+        assert!(coc("white-knight-e4") < 0.5, "focus piece: {}", coc("white-knight-e4"));
+        assert!(coc("white-pawn-f2") >= 6.0, "near pawn: {}", coc("white-pawn-f2"));
+        for far in ["dark-pawn-c7", "dark-pawn-g7", "dark-rook-h8"] {
+            assert!(coc(far) >= 3.0, "{far}: {}", coc(far));
+        }
+        for o in s.objects.iter().filter(|o| !["table", "board-base", "board"].contains(&o.name.as_str())) {
+            let (z, a, b) = centre(&s, &o.name);
+            assert!(z > 0.0 && in_frame(&s, a) && in_frame(&s, b), "{} is off screen", o.name);
+            assert!(o.material.specular > 0.0, "{}", o.name);
+        }
+        let movers: Vec<&str> = s.objects.iter().filter(|o| o.is_moving()).map(|o| o.name.as_str()).collect();
+        assert_eq!(movers, ["dark-knight-f6"]);
+        let (_, a, b) = centre(&s, "dark-knight-f6");
+        assert!((b - a).length() >= 8.0, "the knight moves {} px", (b - a).length());
+        assert_eq!(s.skipped_triangles(), 0);
     }
 
     #[test]
