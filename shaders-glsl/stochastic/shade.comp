@@ -16,9 +16,11 @@
 //               surface point (common/shadow.glsl), bound as set 4 — sets 2 and 3 are this
 //               technique's. The maps are rendered once per frame: the stochastic frame takes them
 //               only when nothing moves in the world (shadows::casters_move).
-//   TEXTURE_SPACE (with PER_SAMPLE): adaptive texture-space shading's pass 2 — each hit looks its
-//               radiance up in its object's shading atlas (pass 1, techniques/texture_space.rs) at
-//               its shading coordinate and its triangle's level, bilinear, instead of shading.
+//   TEXTURE_SPACE: adaptive texture-space shading's pass 2 — each hit looks its radiance up in its
+//               object's shading atlas (pass 1, techniques/texture_space.rs) at its shading
+//               coordinate and its triangle's level, bilinear, instead of shading: with PER_SAMPLE
+//               every hit (the paper's per-sample lookup), without it once per group, at the group's
+//               first hit (the paper's per-pixel lookup takes the pixel centre).
 //   TINTS:      every sample's radiance (or background) times the product of the tints in front of
 //               it, from the tint buffer stochastic.frag's tint pass filled (transparency::tint_from_log);
 //               per-pixel groups weigh their radiance by the sum of their samples' tints.

@@ -30,10 +30,10 @@ pub fn same_sample_reference(
     shading: ShadingRate,
     out: &RenderOutput,
 ) -> LinearImage {
-    let shading = match shading {
-        // Texture-space shading approximates per-sample shading; the reference does not mirror it.
-        ShadingRate::PerSample | ShadingRate::TextureSpace => ReferenceShading::PerSample,
+    // Texture-space shading approximates the exact rates; the reference does not mirror it.
+    let shading = match shading.exact() {
         ShadingRate::PerPixel => ReferenceShading::PerPixel { per_pass: spp / out.stats.passes.max(1) },
+        _ => ReferenceShading::PerSample,
     };
     render_reference(scene, &ReferenceSettings { width: w, height: h, spp, seed, progress: false, shading })
         .expect("reference")

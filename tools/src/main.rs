@@ -464,7 +464,7 @@ fn run() -> Result<()> {
             let shading = match shading.parse::<ShadingRate>()? {
                 ShadingRate::PerSample => ReferenceShading::PerSample,
                 ShadingRate::PerPixel => ReferenceShading::PerPixel { per_pass: per_pass.unwrap_or(spp) },
-                ShadingRate::TextureSpace => {
+                ShadingRate::TextureSpace | ShadingRate::TextureSpacePerPixel => {
                     return Err(shutter::Error::Unsupported(
                         "the reference shades per sample or per pixel; texture-space shading is a GPU \
                          approximation of per-sample shading (compare it with `--shading per-sample`)"

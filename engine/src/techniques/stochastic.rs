@@ -79,6 +79,10 @@ pub enum ShadingRate {
     /// mid-shutter; every sample looks its
     /// radiance up there. Not mirrored by the reference (its shading is view-independent).
     TextureSpace,
+    /// [`ShadingRate::TextureSpace`]'s atlases, looked up once per pixel and (triangle, side) group as
+    /// [`ShadingRate::PerPixel`] shades — at the group's first hit (the paper's per-pixel, "MSAA",
+    /// lookup: at the pixel centre).
+    TextureSpacePerPixel,
 }
 
 /// The largest level 0 side of the atlases of [`ShadingRate::TextureSpace`], texels — the paper's;
@@ -91,13 +95,32 @@ impl ShadingRate {
     /// The rates the reference mirrors sample for sample ([`crate::reference::ReferenceShading`]).
     pub const ALL: [ShadingRate; 2] = [ShadingRate::PerPixel, ShadingRate::PerSample];
     /// Every rate, by name.
-    pub const NAMED: [ShadingRate; 3] =
-        [ShadingRate::PerPixel, ShadingRate::PerSample, ShadingRate::TextureSpace];
+    pub const NAMED: [ShadingRate; 4] = [
+        ShadingRate::PerPixel,
+        ShadingRate::PerSample,
+        ShadingRate::TextureSpace,
+        ShadingRate::TextureSpacePerPixel,
+    ];
     pub fn name(&self) -> &'static str {
         match self {
             ShadingRate::PerPixel => "per-pixel",
             ShadingRate::PerSample => "per-sample",
             ShadingRate::TextureSpace => "texture-space",
+            ShadingRate::TextureSpacePerPixel => "texture-space-per-pixel",
+        }
+    }
+
+    /// Whether samples look their radiance up in texture-space shading's atlases.
+    pub fn texture_space(&self) -> bool {
+        matches!(self, ShadingRate::TextureSpace | ShadingRate::TextureSpacePerPixel)
+    }
+
+    /// The exact rate whose samples and groups this one shades or looks up.
+    pub fn exact(&self) -> ShadingRate {
+        match self {
+            ShadingRate::TextureSpace => ShadingRate::PerSample,
+            ShadingRate::TextureSpacePerPixel => ShadingRate::PerPixel,
+            exact => *exact,
         }
     }
 }
@@ -775,6 +798,7 @@ impl ShadingRate {
             ShadingRate::PerPixel => axes::Shading::PerPixel,
             ShadingRate::PerSample => axes::Shading::PerSample,
             ShadingRate::TextureSpace => axes::Shading::TextureSpace,
+            ShadingRate::TextureSpacePerPixel => axes::Shading::TextureSpacePerPixel,
         }
     }
 }
@@ -1057,7 +1081,7 @@ impl StochasticDraws {
 
         // Bindings 5–7 (the shading atlas) only with texture-space shading: lavapipe (Mesa 22.3) crashes
         // binding a set whose combined image sampler was never written.
-        let object_table: &[Binding] = if options.shading == ShadingRate::TextureSpace {
+        let object_table: &[Binding] = if options.shading.texture_space() {
             &STOCHASTIC_OBJECT_SET
         } else {
             &STOCHASTIC_OBJECT_SET[..STOCHASTIC_OBJECT_BINDINGS_WITHOUT_ATLAS]
@@ -1108,7 +1132,7 @@ impl StochasticDraws {
             None
         };
         // Texture-space shading: pass 1's atlases (shaded without shadows so far).
-        let atlas = if options.shading == ShadingRate::TextureSpace {
+        let atlas = if options.shading.texture_space() {
             if shadows.is_some() {
                 return Err(Error::Unsupported(
                     "texture-space shading with shadow maps: the atlas is shaded without shadows so far \
