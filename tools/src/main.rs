@@ -259,6 +259,10 @@ enum Command {
         /// Blur (pixels) below which an effect is not simulated.
         #[arg(long, default_value_t = shutter::plan::DEFAULT_THRESHOLD_PX)]
         threshold: f32,
+        /// Also print what `--shading texture-space` gives each object: its shading space (own uvs or
+        /// generated charts, and why), its fitted atlas and its memory, the triangles pass 1 culls.
+        #[arg(long)]
+        atlases: bool,
     },
     /// Print the device, driver and capabilities.
     Probe,
@@ -318,6 +322,42 @@ fn default_out(scene: &str, what: &str, ext: &str) -> Result<PathBuf> {
     let stem = Path::new(scene).file_stem().and_then(|s| s.to_str()).unwrap_or("scene");
     std::fs::create_dir_all("out").context("creating out/")?;
     Ok(PathBuf::from(format!("out/{stem}-{what}.{ext}")))
+}
+
+/// `shutter plan --atlases`: texture-space shading's atlas per object (docs/ATSS.md).
+fn print_atlas_plan(sc: &shutter::scene::Scene, w: u32, h: u32) -> anyhow::Result<()> {
+    use shutter::techniques::stochastic::{TEXTURE_SPACE_FINEST, TEXTURE_SPACE_GUTTER};
+    let largest = shutter::texture_space::atlas::MipAtlas::new(TEXTURE_SPACE_FINEST, TEXTURE_SPACE_GUTTER)?;
+    let view = shutter::scene::view::View::camera(sc, w, h);
+    let t0 = std::time::Instant::now();
+    let rows = shutter::techniques::texture_space::plan_atlases(sc, &view, largest);
+    let ms = t0.elapsed().as_secs_f64() * 1e3;
+    println!(
+        "\n## texture-space shading (`--shading texture-space`)\n\nlevel 0 at most {TEXTURE_SPACE_FINEST}², \
+         fitted per object; RGBA32F atlas + D32 depth\n"
+    );
+    println!("| object | triangles | culled | shading space | level 0 | atlas texels | memory |");
+    println!("|---|---:|---:|---|---:|---:|---:|");
+    let mut total = 0;
+    for r in &rows {
+        match &r.layout {
+            Ok((atlas, space)) => {
+                let (aw, ah) = atlas.size();
+                total += r.bytes();
+                println!(
+                    "| {} | {} | {} | {space} | {}² | {aw}×{ah} | {:.2} MB |",
+                    r.object,
+                    r.triangles,
+                    r.culled,
+                    atlas.finest(),
+                    r.bytes() as f64 / 1e6
+                );
+            }
+            Err(why) => println!("| {} | {} | {} | {why} | - | - | - |", r.object, r.triangles, r.culled),
+        }
+    }
+    println!("\natlases: {:.2} MB in all; laid out in {ms:.1} ms on the CPU", total as f64 / 1e6);
+    Ok(())
 }
 
 fn main() {
@@ -705,7 +745,7 @@ fn run() -> Result<()> {
             quality::plot(&sc, &args, &points)?;
             eprintln!("wrote {} and {}", md_path.display(), out.with_extension("csv").display());
         }
-        Command::Plan { scene, size, threshold } => {
+        Command::Plan { scene, size, threshold, atlases } => {
             let sc = load_scene(&scene)?;
             let (w, h) = size.unwrap_or((sc.image.width, sc.image.height));
             println!("# plan of `{}`\n", sc.name);
@@ -716,6 +756,9 @@ fn run() -> Result<()> {
                 "{plan}\n\nplanned in {ms:.3} ms on the CPU ({} vertices)",
                 sc.objects.iter().map(|o| o.mesh.positions.len()).sum::<usize>()
             );
+            if atlases {
+                print_atlas_plan(&sc, w, h)?;
+            }
         }
         Command::Probe => {
             let device = shutter::vk::create_device()?;

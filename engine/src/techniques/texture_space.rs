@@ -163,20 +163,16 @@ struct ObjectShading {
 }
 
 impl ObjectShading {
-    /// Object `o`'s, for a `finest²` level 0, its set from `pool` (None without triangles).
+    /// Object `o`'s with its shading `space` and per-corner `coords`, its set from `pool`.
     fn new(
         device: &crate::vk::Device,
         pool: &DescriptorPool,
         set_layout: &DescriptorSetLayout,
         o: &crate::scene::Object,
-        finest: u32,
-    ) -> Result<Option<Self>> {
+        (space, coords): (ShadingSpace, Vec<Vec2>),
+    ) -> Result<Self> {
         let triangles = o.mesh.indices.len() / 3;
-        if triangles == 0 {
-            return Ok(None);
-        }
         let storage = vk::BufferUsageFlags::STORAGE_BUFFER;
-        let (space, coords) = shading_coords(&o.mesh, finest, CHART_GUTTER)?;
         let flat: Vec<[f32; 2]> = coords.iter().map(|c| c.to_array()).collect();
         let coords_buffer = Buffer::with_data(device, &format!("shading coords:{}", o.name), storage, &flat)?;
         let levels = Tracked::new(Buffer::with_data(
@@ -194,7 +190,7 @@ impl ObjectShading {
                 DescriptorWrite::storage_buffer(1, &levels),
             ],
         );
-        Ok(Some(ObjectShading {
+        Ok(ObjectShading {
             name: o.name.clone(),
             space,
             coords,
@@ -202,7 +198,7 @@ impl ObjectShading {
             set,
             coords_buffer,
             levels,
-        }))
+        })
     }
 
     /// The level records of the last frame (after a host read of the levels buffer).
@@ -250,7 +246,13 @@ impl ShadingRates {
             .scene
             .objects
             .iter()
-            .map(|o| ObjectShading::new(device, &pool, &set_layout, o, finest))
+            .map(|o| match o.mesh.indices.is_empty() {
+                true => Ok(None),
+                false => {
+                    let coords = shading_coords(&o.mesh, finest, CHART_GUTTER)?;
+                    ObjectShading::new(device, &pool, &set_layout, o, coords).map(Some)
+                }
+            })
             .collect::<Result<Vec<_>>>()?;
         Ok(ShadingRates {
             atlas,
@@ -431,49 +433,103 @@ pub const MIN_FITTED_FINEST: u32 = 16;
 /// Texels around each generated per-triangle chart (objects without usable uvs of their own).
 const CHART_GUTTER: u32 = 2;
 
-/// Object `i`'s fitted layout: `largest` halved while no triangle needs its finest level (see
-/// [`AtlasSize::Fitted`]), with its shading (charts that no longer fit are laid at the next size up).
-fn fitted_shading(
-    ctx: &PrepareContext<'_>,
-    pool: &DescriptorPool,
-    set_layout: &DescriptorSetLayout,
+/// Object `i`'s atlas layout, shading space and per-corner shading coordinates (texels of its
+/// level 0) for `size` at most `largest` (None: no triangles). Fitted: `largest` halved once per level
+/// [`crate::texture_space::rate::fitted_level`] finds unneeded in `view`; generated charts that do not
+/// fit the smaller atlas are laid at the next size up.
+pub fn object_atlas_layout(
+    scene: &crate::scene::Scene,
+    view: &crate::scene::view::View,
     i: usize,
     largest: MipAtlas,
-) -> Result<Option<(MipAtlas, ObjectShading)>> {
-    let o = &ctx.scene.objects[i];
+    size: AtlasSize,
+) -> Result<Option<(MipAtlas, ShadingSpace, Vec<Vec2>)>> {
+    let o = &scene.objects[i];
     if o.mesh.indices.is_empty() {
         return Ok(None);
     }
-    let skip = match ctx.camera.intrinsics() {
-        Some(intrinsics) => {
-            let (_, coords) = shading_coords(&o.mesh, largest.finest(), CHART_GUTTER)?;
-            let motion = &ctx.camera.space.objects[i];
-            let levels = largest.levels();
-            crate::texture_space::rate::fitted_level(
-                &intrinsics,
-                &o.mesh,
-                motion,
-                &coords,
-                levels,
-                FITTED_COARSER_AREA,
-            )
-            // No triangle with a footprint: nothing of it can be seen; the smallest atlas.
-            .unwrap_or(largest.levels() - 1)
-        }
-        None => 0,
+    let (space, coords) = shading_coords(&o.mesh, largest.finest(), CHART_GUTTER)?;
+    let skip = match (size, view.intrinsics()) {
+        (AtlasSize::Fitted, Some(intrinsics)) => crate::texture_space::rate::fitted_level(
+            &intrinsics,
+            &o.mesh,
+            &view.space.objects[i],
+            &coords,
+            largest.levels(),
+            FITTED_COARSER_AREA,
+        )
+        // No triangle with a footprint: nothing of it can be seen; the smallest atlas.
+        .unwrap_or(largest.levels() - 1),
+        _ => 0,
     };
     let mut finest = (largest.finest() >> skip).max(MIN_FITTED_FINEST).min(largest.finest());
+    if finest == largest.finest() {
+        return Ok(Some((largest, space, coords)));
+    }
     loop {
-        match ObjectShading::new(ctx.device, pool, set_layout, o, finest) {
-            Ok(shading) => {
-                let shading = shading.expect("triangles");
-                return Ok(Some((MipAtlas::new(finest, largest.gutter())?, shading)));
-            }
+        match shading_coords(&o.mesh, finest, CHART_GUTTER) {
+            Ok((space, coords)) => return Ok(Some((MipAtlas::new(finest, largest.gutter())?, space, coords))),
             // Generated charts that fit the larger atlas may not fit a smaller one.
             Err(_) if finest < largest.finest() => finest *= 2,
             Err(e) => return Err(e),
         }
     }
+}
+
+/// One object's texture-space atlas as `shutter plan --atlases` prints it (CPU only).
+#[derive(Clone, Debug)]
+pub struct AtlasPlan {
+    pub object: String,
+    pub triangles: usize,
+    /// The layout and shading space, or why there is none (charts that do not fit).
+    pub layout: std::result::Result<(MipAtlas, ShadingSpace), String>,
+    /// Triangles pass 1 culls ([`crate::texture_space::cull`]).
+    pub culled: usize,
+}
+
+impl AtlasPlan {
+    /// Bytes of the object's atlas and its depth ([`ATLAS_FORMAT`], [`ATLAS_DEPTH_FORMAT`]).
+    pub fn bytes(&self) -> u64 {
+        self.layout.as_ref().map_or(0, |(a, _)| a.bytes(16 + 4))
+    }
+}
+
+/// What `--shading texture-space` gives every object of `scene` seen by `view` (the stochastic
+/// frame's layouts: fitted, at most `largest`).
+pub fn plan_atlases(
+    scene: &crate::scene::Scene,
+    view: &crate::scene::view::View,
+    largest: MipAtlas,
+) -> Vec<AtlasPlan> {
+    use crate::texture_space::cull::{outside_frustum, CULL_MARGIN_PX};
+    (0..scene.objects.len())
+        .map(|i| {
+            let o = &scene.objects[i];
+            let culled = match view.intrinsics() {
+                Some(intrinsics) => (0..o.mesh.indices.len() / 3)
+                    .filter(|&t| {
+                        let points: Vec<glam::Vec3> = view.space.objects[i]
+                            .model_view
+                            .iter()
+                            .flat_map(|mv| {
+                                (0..3).map(move |k| {
+                                    mv.transform_point3(o.mesh.positions[o.mesh.indices[3 * t + k] as usize])
+                                })
+                            })
+                            .collect();
+                        outside_frustum(&intrinsics, &points, CULL_MARGIN_PX)
+                    })
+                    .count(),
+                None => 0,
+            };
+            let layout = match object_atlas_layout(scene, view, i, largest, AtlasSize::Fitted) {
+                Ok(Some((atlas, space, _))) => Ok((atlas, space)),
+                Ok(None) => Err("no triangles".into()),
+                Err(e) => Err(e.to_string()),
+            };
+            AtlasPlan { object: o.name.clone(), triangles: o.mesh.indices.len() / 3, layout, culled }
+        })
+        .collect()
 }
 
 /// One object's pass-1 outputs in a frame graph.
@@ -553,16 +609,11 @@ impl AtlasPasses {
         modules.push(vert);
         let mut objects = Vec::with_capacity(ctx.scene.objects.len());
         for (i, o) in ctx.scene.objects.iter().enumerate() {
-            let shading = match size {
-                AtlasSize::Fixed => {
-                    ObjectShading::new(device, &pool, &set_layout, o, atlas.finest())?.map(|s| (atlas, s))
-                }
-                AtlasSize::Fitted => fitted_shading(ctx, &pool, &set_layout, i, atlas)?,
-            };
-            let Some((atlas, shading)) = shading else {
+            let Some((atlas, space, coords)) = object_atlas_layout(ctx.scene, ctx.camera, i, atlas, size)? else {
                 objects.push(None);
                 continue;
             };
+            let shading = ObjectShading::new(device, &pool, &set_layout, o, (space, coords))?;
             let (width, height) = atlas.size();
             let usage = vk::ImageUsageFlags::COLOR_ATTACHMENT
                 | vk::ImageUsageFlags::TRANSFER_SRC
