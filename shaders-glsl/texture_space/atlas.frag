@@ -5,6 +5,9 @@
 // wrote the texel: 1 the shade sub-pass, 0.5 the conservative one (tests read it; pass 2 ignores it).
 // Material textures are read at their base level, bilinear, as the reference does: the paper's
 // pre-filter over (x, y, u, v, t) (texture_space::filter) is not applied yet (docs/ATSS.md).
+//   INSTRUMENTED: counts the texels each sub-pass shades (set 3, binding 2). Depth is tested before
+//     the fragment stage runs (early_fragment_tests: this stage neither discards nor writes depth),
+//     so a hull texel behind an already shaded one is neither shaded nor counted.
 #include "common/frame.glsl"
 #include "common/object.glsl"
 #include "common/shading.glsl"
@@ -15,6 +18,15 @@ layout(location = 0) in vec3 g_position;
 layout(location = 1) in vec3 g_normal;
 layout(location = 2) in vec2 g_uv;
 layout(location = 0) out vec4 out_color;
+
+layout(early_fragment_tests) in;
+
+#ifdef INSTRUMENTED
+layout(set = 3, binding = 2, std430) buffer AtlasCounters {
+    uint shaded_texels;  // by the shade sub-pass
+    uint gutter_texels;  // by the conservative sub-pass
+} counters;
+#endif
 
 void main() {
     Material m = materials[pc.object];
@@ -28,6 +40,13 @@ void main() {
     float marker = 0.5;
 #else
     float marker = 1.0;
+#endif
+#ifdef INSTRUMENTED
+#ifdef CONSERVATIVE
+    atomicAdd(counters.gutter_texels, 1u);
+#else
+    atomicAdd(counters.shaded_texels, 1u);
+#endif
 #endif
     out_color = vec4(shade(g_position, n, to_eye, albedo, m.albedo_specular.w, m.params.x, pc.time), marker);
 }

@@ -110,7 +110,12 @@ fn charts_that_do_not_fit_are_a_clear_error() {
 
 /// Pass 1 of every object of `scene` into `finest²`-level atlases, with or without the conservative
 /// sub-pass.
-fn atlases(scene: &shutter::scene::Scene, finest: u32, hull: Option<f32>) -> Vec<Option<AtlasResult>> {
+/// Also returns the atlas passes' texel counters (shade sub-pass, conservative sub-pass).
+fn atlases_counted(
+    scene: &shutter::scene::Scene,
+    finest: u32,
+    hull: Option<f32>,
+) -> (Vec<Option<AtlasResult>>, (u64, u64)) {
     let mut r = renderer();
     let settings = RenderSettings::new(160, 90, 1, 1);
     let atlas = MipAtlas::new(finest, 4).expect("layout");
@@ -121,7 +126,12 @@ fn atlases(scene: &shutter::scene::Scene, finest: u32, hull: Option<f32>) -> Vec
         })
         .expect("prepare");
     r.render_prepared(&mut prepared).expect("pass 1");
-    prepared.technique_as::<ShadingAtlas>().expect("the probe").results.clone()
+    let probe = prepared.technique_as::<ShadingAtlas>().expect("the probe");
+    (probe.results.clone(), probe.texels)
+}
+
+fn atlases(scene: &shutter::scene::Scene, finest: u32, hull: Option<f32>) -> Vec<Option<AtlasResult>> {
+    atlases_counted(scene, finest, hull).0
 }
 
 /// Lookups of pass 2 at random points of every triangle read the four texels of a bilinear fetch at
@@ -176,7 +186,7 @@ fn the_conservative_sub_pass_fills_every_texel_a_lookup_reads() {
     let atlas = MipAtlas::new(finest, 4).expect("layout");
     let without = atlases(&scene, finest, None);
     let half = atlases(&scene, finest, Some(0.5));
-    let with = atlases(&scene, finest, Some(BILINEAR_HULL_TEXELS));
+    let (with, (shaded_count, gutter_count)) = atlases_counted(&scene, finest, Some(BILINEAR_HULL_TEXELS));
     let (lookups, misses_without) = unwritten_lookups(&without, atlas, 16);
     let (_, misses_half) = unwritten_lookups(&half, atlas, 16);
     let (_, misses_with) = unwritten_lookups(&with, atlas, 16);
@@ -205,6 +215,15 @@ fn the_conservative_sub_pass_fills_every_texel_a_lookup_reads() {
             &b.image,
         );
     }
+    // The instrumented atlas passes count exactly the texels each sub-pass wrote: a hull texel behind
+    // a shaded one is tested before the fragment stage runs, so it is neither shaded nor counted.
+    let written = |alpha: f32| {
+        with.iter()
+            .flatten()
+            .map(|r| r.image.pixels.iter().filter(|p| p[3] == alpha).count() as u64)
+            .sum::<u64>()
+    };
+    assert_eq!((shaded_count, gutter_count), (written(1.0), written(0.5)), "texel counters");
     assert!(misses_without > 0, "no lookup missed without the conservative sub-pass: the test shows nothing");
     assert!(misses_half < misses_without, "the half-texel hull fills some");
     assert_eq!(misses_with, 0, "lookups read unwritten texels with the conservative sub-pass");

@@ -91,6 +91,9 @@ pub struct Counters {
     pub samples_hit: u64,
     pub sample_test_efficiency: f64,
     pub shading_invocations: u64,
+    /// Texture-space shading: atlas texels shaded by pass 1's shade and conservative sub-passes.
+    #[serde(default)]
+    pub atlas_texels: Option<(u64, u64)>,
 }
 
 impl From<SampleCounters> for Counters {
@@ -101,6 +104,7 @@ impl From<SampleCounters> for Counters {
             samples_hit: c.samples_hit,
             sample_test_efficiency: c.sample_test_efficiency(),
             shading_invocations: c.shading_invocations,
+            atlas_texels: c.atlas_texels,
         }
     }
 }
@@ -274,8 +278,8 @@ impl BenchReport {
             self.frames,
             self.warmup
         );
-        md.push_str("| configuration | passes × MSAA | GPU ms median (min–max) | × first | CPU frame ms | per pass (median ms) | fragments | samples tested | hits | STE | shading inv. |\n");
-        md.push_str("|---|---:|---:|---:|---:|---|---:|---:|---:|---:|---:|\n");
+        md.push_str("| configuration | passes × MSAA | GPU ms median (min–max) | × first | CPU frame ms | per pass (median ms) | fragments | samples tested | hits | STE | shading inv. | atlas texels (shade + gutter) |\n");
+        md.push_str("|---|---:|---:|---:|---:|---|---:|---:|---:|---:|---:|---:|\n");
         for r in &self.results {
             let per_pass: Vec<String> =
                 r.passes_ms.iter().map(|(n, s)| format!("{n} {:.2}", s.median)).collect();
@@ -289,9 +293,13 @@ impl BenchReport {
                 ),
                 None => ("-".into(), "-".into(), "-".into(), "-".into(), "-".into()),
             };
+            let texels = match r.counters.as_ref().and_then(|c| c.atlas_texels) {
+                Some((shaded, gutter)) => format!("{shaded} + {gutter}"),
+                None => "-".into(),
+            };
             let _ = writeln!(
                 md,
-                "| {} | {} × {} | {:.2} ({:.2}–{:.2}) | {:.3} | {:.2} | {} | {f} | {t} | {h} | {ste} | {inv} |",
+                "| {} | {} × {} | {:.2} ({:.2}–{:.2}) | {:.3} | {:.2} | {} | {f} | {t} | {h} | {ste} | {inv} | {texels} |",
                 r.label,
                 r.passes,
                 r.msaa,
@@ -312,13 +320,14 @@ impl BenchReport {
     pub fn csv(&self) -> String {
         let mut s = String::from(
             "scene,width,height,device,driver,label,technique,spp,bound,shading,passes,msaa,gpu_ms_median,gpu_ms_min,\
-             gpu_ms_max,ratio_to_first,cpu_frame_ms_median,fragments,samples_tested,samples_hit,ste,shading_invocations\n",
+             gpu_ms_max,ratio_to_first,cpu_frame_ms_median,fragments,samples_tested,samples_hit,ste,shading_invocations,\
+             atlas_texels_shaded,atlas_texels_gutter\n",
         );
         for r in &self.results {
             let c = r.counters.as_ref();
             let _ = writeln!(
                 s,
-                "{},{},{},\"{}\",\"{}\",\"{}\",{},{},{},{},{},{},{:.4},{:.4},{:.4},{:.4},{:.4},{},{},{},{},{}",
+                "{},{},{},\"{}\",\"{}\",\"{}\",{},{},{},{},{},{},{:.4},{:.4},{:.4},{:.4},{:.4},{},{},{},{},{},{},{}",
                 self.scene,
                 self.width,
                 self.height,
@@ -341,6 +350,8 @@ impl BenchReport {
                 c.map(|c| c.samples_hit.to_string()).unwrap_or_default(),
                 c.map(|c| format!("{:.6}", c.sample_test_efficiency)).unwrap_or_default(),
                 c.map(|c| c.shading_invocations.to_string()).unwrap_or_default(),
+                c.and_then(|c| c.atlas_texels).map(|t| t.0.to_string()).unwrap_or_default(),
+                c.and_then(|c| c.atlas_texels).map(|t| t.1.to_string()).unwrap_or_default(),
             );
         }
         s

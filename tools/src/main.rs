@@ -495,6 +495,11 @@ fn run() -> Result<()> {
                     c.sample_test_efficiency(),
                     c.shading_invocations
                 );
+                if let Some((shaded, gutter)) = c.atlas_texels {
+                    println!(
+                        "  atlas texels shaded {shaded} (shade sub-pass) + {gutter} (conservative sub-pass)"
+                    );
+                }
             }
             println!("wrote {}", out.display());
         }

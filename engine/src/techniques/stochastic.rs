@@ -574,8 +574,12 @@ pub struct SampleCounters {
     pub samples_tested: u64,
     /// Samples the inside test accepted (before the visibility buffer keeps the nearest).
     pub samples_hit: u64,
-    /// Shading evaluations of the shading pass (per pixel: one per group; per sample: visible hits).
+    /// Shading evaluations of the shading pass (per pixel: one per group; per sample: visible hits;
+    /// texture-space shading: atlas lookups).
     pub shading_invocations: u64,
+    /// Texture-space shading: the atlas texels pass 1 shaded, by its shade and its conservative
+    /// sub-pass (None with the other rates).
+    pub atlas_texels: Option<(u64, u64)>,
 }
 
 impl SampleCounters {
@@ -1148,6 +1152,7 @@ impl StochasticDraws {
                 super::texture_space::AtlasSize::Fitted,
                 Some(super::texture_space::BILINEAR_HULL_TEXELS),
                 super::texture_space::ATLAS_FORMAT,
+                options.instrumented,
             )?)
         } else {
             None
@@ -1481,11 +1486,16 @@ impl StochasticDraws {
             return Ok(None);
         }
         let raw = self.counters.read_u32s(4)?;
+        let atlas = match &self.atlas {
+            Some(a) => a.counters()?,
+            None => None,
+        };
         Ok(Some(SampleCounters {
             samples_tested: raw[0] as u64,
             samples_hit: raw[1] as u64,
             shading_invocations: raw[2] as u64,
             fragments: raw[3] as u64,
+            atlas_texels: atlas,
         }))
     }
 
@@ -1622,6 +1632,9 @@ impl StochasticDraws {
     /// buffer grows and the expansion runs again, so no bound is ever dropped.
     fn before_frame(&mut self, inputs: &FrameInputs<'_>, frame: &mut FrameContext<'_>) -> Result<()> {
         self.counters.get_mut().write(&[0u32; 4])?;
+        if let Some(a) = &mut self.atlas {
+            a.reset_counters()?;
+        }
         if self.hull.is_none() {
             return Ok(());
         }

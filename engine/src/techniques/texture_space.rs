@@ -34,6 +34,14 @@ pub const LEVELS_SET: [Binding; 2] = [
     Binding { binding: 1, ty: vk::DescriptorType::STORAGE_BUFFER, block: "Levels" },
 ];
 
+/// Set 3 of the atlas passes: [`LEVELS_SET`] and the texel counters of instrumented frames
+/// (`atlas.frag`, INSTRUMENTED).
+pub const ATLAS_SET: [Binding; 3] = [
+    LEVELS_SET[0],
+    LEVELS_SET[1],
+    Binding { binding: 2, ty: vk::DescriptorType::STORAGE_BUFFER, block: "AtlasCounters" },
+];
+
 /// Push constants of `levels.comp`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
@@ -104,16 +112,16 @@ fn shading_coords(mesh: &crate::scene::Mesh, finest: u32, gutter: u32) -> Result
     Ok((space, unit.iter().map(|&t| t * finest as f32).collect()))
 }
 
-/// The set layout of [`LEVELS_SET`] for `stages`, a pipeline layout with it as set 3 and `P` as push
-/// constants, and a pool with one such set per object of the scene.
+/// The set layout of `table` ([`LEVELS_SET`] or [`ATLAS_SET`]) for `stages`, a pipeline layout with
+/// it as set 3 and `P` as push constants, and a pool with one such set per object of the scene.
 fn levels_layouts<P>(
     ctx: &PrepareContext<'_>,
     name: &str,
+    table: &[Binding],
     stages: vk::ShaderStageFlags,
 ) -> Result<(DescriptorSetLayout, PipelineLayout, DescriptorPool)> {
     let (device, world) = (ctx.device, ctx.world);
-    let set_layout =
-        DescriptorSetLayout::from_table(device, &format!("{name} set layout"), &LEVELS_SET, stages)?;
+    let set_layout = DescriptorSetLayout::from_table(device, &format!("{name} set layout"), table, stages)?;
     let layout = world.pipeline_layout(
         device,
         &[&world.empty_layout, &set_layout],
@@ -121,7 +129,7 @@ fn levels_layouts<P>(
         stages,
     )?;
     let n = (ctx.scene.objects.len() as u32).max(1);
-    let pool = DescriptorPool::for_tables(device, n, &[(&LEVELS_SET, n)])?;
+    let pool = DescriptorPool::for_tables(device, n, &[(table, n)])?;
     Ok((set_layout, layout, pool))
 }
 
@@ -163,13 +171,15 @@ struct ObjectShading {
 }
 
 impl ObjectShading {
-    /// Object `o`'s with its shading `space` and per-corner `coords`, its set from `pool`.
+    /// Object `o`'s with its shading `space` and per-corner `coords`, its set from `pool` (with the
+    /// atlas passes' texel `counters` at binding 2: [`ATLAS_SET`]).
     fn new(
         device: &crate::vk::Device,
         pool: &DescriptorPool,
         set_layout: &DescriptorSetLayout,
         o: &crate::scene::Object,
         (space, coords): (ShadingSpace, Vec<Vec2>),
+        counters: Option<&Buffer>,
     ) -> Result<Self> {
         let triangles = o.mesh.indices.len() / 3;
         let storage = vk::BufferUsageFlags::STORAGE_BUFFER;
@@ -182,14 +192,14 @@ impl ObjectShading {
             &vec![[0f32; 4]; triangles],
         )?);
         let set = pool.allocate(set_layout)?;
-        write_descriptors(
-            device,
-            set,
-            &[
-                DescriptorWrite::storage_buffer(0, &coords_buffer),
-                DescriptorWrite::storage_buffer(1, &levels),
-            ],
-        );
+        let mut writes = vec![
+            DescriptorWrite::storage_buffer(0, &coords_buffer),
+            DescriptorWrite::storage_buffer(1, &levels),
+        ];
+        if let Some(c) = counters {
+            writes.push(DescriptorWrite::storage_buffer(2, c));
+        }
+        write_descriptors(device, set, &writes);
         Ok(ObjectShading {
             name: o.name.clone(),
             space,
@@ -239,7 +249,7 @@ impl ShadingRates {
         let device = ctx.device;
         let atlas = MipAtlas::new(finest, 0)?;
         let (set_layout, layout, pool) =
-            levels_layouts::<LevelsPush>(ctx, "shading rate", vk::ShaderStageFlags::COMPUTE)?;
+            levels_layouts::<LevelsPush>(ctx, "shading rate", &LEVELS_SET, vk::ShaderStageFlags::COMPUTE)?;
         let shader = ShaderModule::new(device, shaders::TEXTURE_SPACE_LEVELS_COMP)?;
         let pipeline = Pipeline::compute(device, "texture-space shading rates", &layout, &shader)?;
         let objects = ctx
@@ -250,7 +260,7 @@ impl ShadingRates {
                 true => Ok(None),
                 false => {
                     let coords = shading_coords(&o.mesh, finest, CHART_GUTTER)?;
-                    ObjectShading::new(device, &pool, &set_layout, o, coords).map(Some)
+                    ObjectShading::new(device, &pool, &set_layout, o, coords, None).map(Some)
                 }
             })
             .collect::<Result<Vec<_>>>()?;
@@ -350,7 +360,7 @@ pub const SHADER_INTERFACES: &[crate::gpu::layout::ShaderInterface] = &[
     crate::gpu::layout::ShaderInterface::technique(
         &["texture_space/atlas.vert", "texture_space/atlas.geom", "texture_space/atlas.frag"],
         None,
-        Some(&LEVELS_SET),
+        Some(&ATLAS_SET),
         Some(TEXTURE_SPACE_STRUCTS[1]),
     ),
 ];
@@ -399,6 +409,10 @@ pub struct AtlasPasses {
     /// The conservative sub-pass' box half-size in texels (None: no conservative sub-pass).
     hull_texels: Option<f32>,
     objects: Vec<Option<AtlasObject>>,
+    /// Texels the shade and the conservative sub-passes wrote this frame, over all objects (atomics
+    /// of `atlas.frag`; counted only when instrumented).
+    counters: Tracked<Buffer>,
+    instrumented: bool,
     shade: Pipeline,
     hull: Pipeline,
     layout: PipelineLayout,
@@ -468,7 +482,9 @@ pub fn object_atlas_layout(
     }
     loop {
         match shading_coords(&o.mesh, finest, CHART_GUTTER) {
-            Ok((space, coords)) => return Ok(Some((MipAtlas::new(finest, largest.gutter())?, space, coords))),
+            Ok((space, coords)) => {
+                return Ok(Some((MipAtlas::new(finest, largest.gutter())?, space, coords)))
+            }
             // Generated charts that fit the larger atlas may not fit a smaller one.
             Err(_) if finest < largest.finest() => finest *= 2,
             Err(e) => return Err(e),
@@ -552,6 +568,7 @@ impl AtlasPasses {
         size: AtlasSize,
         hull_texels: Option<f32>,
         format: vk::Format,
+        instrumented: bool,
     ) -> Result<Self> {
         let device = ctx.device;
         let caps = &device.caps;
@@ -576,12 +593,19 @@ impl AtlasPasses {
         }
         let stages =
             vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::GEOMETRY | vk::ShaderStageFlags::FRAGMENT;
-        let (set_layout, layout, pool) = levels_layouts::<AtlasPush>(ctx, "shading atlas", stages)?;
+        let (set_layout, layout, pool) =
+            levels_layouts::<AtlasPush>(ctx, "shading atlas", &ATLAS_SET, stages)?;
+        let counters = Tracked::new(Buffer::with_data(
+            device,
+            "atlas counters",
+            vk::BufferUsageFlags::STORAGE_BUFFER,
+            &[0u32; 2],
+        )?);
         let vert = ShaderModule::new(device, shaders::TEXTURE_SPACE_ATLAS_VERT)?;
         let mut modules = vec![];
         let mut pipeline = |conservative: bool| -> Result<Pipeline> {
             let geom = ShaderModule::new(device, shaders::AtlasGeom { conservative }.source())?;
-            let frag = ShaderModule::new(device, shaders::AtlasFrag { conservative }.source())?;
+            let frag = ShaderModule::new(device, shaders::AtlasFrag { conservative, instrumented }.source())?;
             let name = if conservative { "atlas conservative" } else { "atlas shade" };
             let p = Pipeline::graphics(
                 device,
@@ -609,11 +633,13 @@ impl AtlasPasses {
         modules.push(vert);
         let mut objects = Vec::with_capacity(ctx.scene.objects.len());
         for (i, o) in ctx.scene.objects.iter().enumerate() {
-            let Some((atlas, space, coords)) = object_atlas_layout(ctx.scene, ctx.camera, i, atlas, size)? else {
+            let Some((atlas, space, coords)) = object_atlas_layout(ctx.scene, ctx.camera, i, atlas, size)?
+            else {
                 objects.push(None);
                 continue;
             };
-            let shading = ObjectShading::new(device, &pool, &set_layout, o, (space, coords))?;
+            let shading =
+                ObjectShading::new(device, &pool, &set_layout, o, (space, coords), Some(&counters))?;
             let (width, height) = atlas.size();
             let usage = vk::ImageUsageFlags::COLOR_ATTACHMENT
                 | vk::ImageUsageFlags::TRANSFER_SRC
@@ -638,6 +664,8 @@ impl AtlasPasses {
         Ok(AtlasPasses {
             hull_texels,
             objects,
+            counters,
+            instrumented,
             shade,
             hull,
             layout,
@@ -645,6 +673,26 @@ impl AtlasPasses {
             _pool: pool,
             _shaders: modules,
         })
+    }
+
+    /// Zeroes the texel counters (before an instrumented frame).
+    pub fn reset_counters(&mut self) -> Result<()> {
+        self.counters.get_mut().write(&[0u32; 2])
+    }
+
+    /// Texels the shade and the conservative sub-passes wrote in the last frame, over all objects
+    /// (instrumented only; after a host read of [`AtlasPasses::counters_buffer`]).
+    pub fn counters(&self) -> Result<Option<(u64, u64)>> {
+        if !self.instrumented {
+            return Ok(None);
+        }
+        let raw = self.counters.read_u32s(2)?;
+        Ok(Some((raw[0] as u64, raw[1] as u64)))
+    }
+
+    /// The counters' buffer, for a host read at the end of the frame (instrumented only).
+    pub fn counters_buffer(&self) -> Option<&Tracked<Buffer>> {
+        self.instrumented.then_some(&self.counters)
     }
 
     /// Object `i`'s atlas layout (None: an object without triangles).
@@ -666,6 +714,7 @@ impl AtlasPasses {
         inputs: &FrameInputs<'a>,
     ) -> Vec<Option<AtlasHandles>> {
         let (world, view) = (inputs.world, inputs.camera);
+        let counters = self.counters_buffer().map(|c| g.import_buffer("atlas counters", c));
         let mut out = Vec::with_capacity(self.objects.len());
         for (i, o) in self.objects.iter().enumerate() {
             let Some(o) = o else {
@@ -675,25 +724,40 @@ impl AtlasPasses {
             let color = g.import_image("shading atlas", &o.color);
             let depth = g.import_image("shading atlas depth", &o.depth);
             let levels = g.import_buffer("atlas levels", &o.shading.levels);
-            g.pass("atlas shade")
+            let mut shade = g
+                .pass("atlas shade")
                 .color(color, Load::Clear([0.0; 4]), Store::Store)
                 .depth(depth, Load::Clear(1.0), Store::Store)
-                .overwrite(levels, Access::GeometryShaderWrite)
-                .record(move |ctx| {
-                    self.record(ctx, world, view, i, &self.shade);
-                    Ok(())
-                });
+                .overwrite(levels, Access::GeometryShaderWrite);
+            if let Some(c) = counters {
+                // Atomics read and write.
+                shade =
+                    shade.access(c, Access::FragmentShaderReadOther).access(c, Access::FragmentShaderWrite);
+            }
+            shade.record(move |ctx| {
+                self.record(ctx, world, view, i, &self.shade);
+                Ok(())
+            });
             if self.hull_texels.is_some() {
-                g.pass("atlas conservative")
+                let mut hull = g
+                    .pass("atlas conservative")
                     .color(color, Load::Load, Store::Store)
                     .depth(depth, Load::Load, Store::DontCare)
-                    .access(levels, Access::GeometryShaderReadOther)
-                    .record(move |ctx| {
-                        self.record(ctx, world, view, i, &self.hull);
-                        Ok(())
-                    });
+                    .access(levels, Access::GeometryShaderReadOther);
+                if let Some(c) = counters {
+                    hull = hull
+                        .access(c, Access::FragmentShaderReadOther)
+                        .access(c, Access::FragmentShaderWrite);
+                }
+                hull.record(move |ctx| {
+                    self.record(ctx, world, view, i, &self.hull);
+                    Ok(())
+                });
             }
             out.push(Some(AtlasHandles { color, levels }));
+        }
+        if let Some(c) = counters {
+            g.host_read(c);
         }
         out
     }
@@ -745,6 +809,8 @@ pub struct ShadingAtlas {
     passes: AtlasPasses,
     /// Per object (None: no triangles): the last frame's atlas.
     pub results: Vec<Option<AtlasResult>>,
+    /// The last frame's texel counters over all objects: shade sub-pass, conservative sub-pass.
+    pub texels: (u64, u64),
     size: (u32, u32),
 }
 
@@ -752,8 +818,9 @@ impl ShadingAtlas {
     /// [`AtlasPasses::new`] for every object of the scene.
     pub fn new(ctx: &PrepareContext<'_>, atlas: MipAtlas, hull_texels: Option<f32>) -> Result<Self> {
         Ok(ShadingAtlas {
-            passes: AtlasPasses::new(ctx, atlas, AtlasSize::Fixed, hull_texels, PROBE_ATLAS_FORMAT)?,
+            passes: AtlasPasses::new(ctx, atlas, AtlasSize::Fixed, hull_texels, PROBE_ATLAS_FORMAT, true)?,
             results: vec![],
+            texels: (0, 0),
             size: ctx.camera.size(),
         })
     }
@@ -761,6 +828,7 @@ impl ShadingAtlas {
 
 impl FrameTechnique for ShadingAtlas {
     fn render(&mut self, inputs: &FrameInputs<'_>, frame: &mut FrameContext<'_>) -> Result<TechniqueFrame> {
+        self.passes.reset_counters()?;
         let passes = &self.passes;
         let mut g = frame.graph();
         let handles = passes.add_passes(&mut g, inputs);
@@ -784,6 +852,7 @@ impl FrameTechnique for ShadingAtlas {
             });
         }
         self.results = results;
+        self.texels = self.passes.counters()?.expect("instrumented");
         Ok(probe_frame(self.size))
     }
 }
