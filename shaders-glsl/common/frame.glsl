@@ -23,7 +23,7 @@ struct Light {
 
 struct Material {
     vec4 albedo_specular;  // rgb albedo, specular weight
-    vec4 params;           // roughness, has_texture, alpha, unused
+    vec4 params;           // roughness, has_texture, alpha, alpha_from_texture
 };
 
 // One key segment of an object's motion (an object's segments are consecutive).

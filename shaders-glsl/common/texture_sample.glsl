@@ -45,4 +45,32 @@ float texture_alpha_bilinear(vec2 uv) {
     return top + (bottom - top) * f.y;
 }
 
+// Texture-space shading's pre-filter (pass 1: an atlas texel stands for every sample that looks it up
+// later, so it filters the texture over its own footprint). GLSL port of
+// texture_space::filter::anisotropic_taps: trilinear taps of the mip chain along the major axis of
+// the footprint spanned by the uv derivatives dx, dy. With alpha_weighted (a cut-out: coverage comes
+// from the alpha), each tap's colour weighs by its alpha — the colour of the covered part, as the
+// mips are built (vk::srgb_mip_chain).
+const uint MAX_ANISOTROPIC_TAPS = 8u;
+vec3 texture_prefiltered(vec2 uv, vec2 dx, vec2 dy, bool alpha_weighted) {
+    vec2 size = vec2(textureSize(albedo_texture, 0));
+    float lx = length(dx * size), ly = length(dy * size);
+    vec2 major = lx >= ly ? dx : dy;
+    float l_major = max(lx, ly), l_minor = min(lx, ly);
+    float ratio = l_major / max(l_minor, 1e-6);
+    uint count = clamp(uint(ceil(ratio)), 1u, MAX_ANISOTROPIC_TAPS);
+    float width = max(l_major / float(count), l_minor);
+    float lod = width > 1.0 ? log2(width) : 0.0;
+    vec2 step = major / float(count);
+    vec3 sum = vec3(0.0), weighted = vec3(0.0);
+    float alpha = 0.0;
+    for (uint i = 0u; i < count; i++) {
+        vec4 c = textureLod(albedo_texture, uv + step * (float(i) + 0.5 - 0.5 * float(count)), lod);
+        sum += c.rgb;
+        weighted += c.rgb * c.a;
+        alpha += c.a;
+    }
+    return alpha_weighted && alpha > 0.0 ? weighted / alpha : sum / float(count);
+}
+
 #endif

@@ -10,6 +10,8 @@
 //     at depth 0.75 behind the shade sub-pass' 0.25 with the depth test LESS: texels the shade
 //     sub-pass wrote keep their values and only the gutters around edges, which a bilinear lookup
 //     near an edge reads, are added.
+//   SHADOW_RECEIVER: also the object-space position and normal, for the shadow-map lookups of
+//     atlas.frag (SHADOWS).
 // A triangle without a footprint (behind the camera or edge-on at every vertex) emits nothing; nor
 // does one no sample can hit, at any lens point or time (texture_space/cull.glsl): its level record
 // says so (w = 2).
@@ -30,6 +32,11 @@ layout(set = 3, binding = 1, std430) buffer Levels { vec4 levels[]; };
 layout(location = 0) out vec3 g_position;  // camera space, mid-shutter
 layout(location = 1) out vec3 g_normal;
 layout(location = 2) out vec2 g_uv;
+#ifdef SHADOW_RECEIVER
+// Object space, for the shadow-map lookups in the lights' own spaces (common/shadow.glsl).
+layout(location = 3) out vec3 g_object_position;
+layout(location = 4) out vec3 g_object_normal;
+#endif
 
 #ifdef CONSERVATIVE
 const float DEPTH = 0.75;
@@ -39,6 +46,8 @@ const float DEPTH = 0.25;
 
 vec3 tri_p[3];
 vec3 tri_n[3];
+vec3 tri_object_p[3];
+vec3 tri_object_n[3];
 vec2 tri_uv[3];
 vec2 atlas_p[3];
 
@@ -51,6 +60,10 @@ void emit_at(vec2 a) {
     g_position = w.x * tri_p[0] + w.y * tri_p[1] + w.z * tri_p[2];
     g_normal = w.x * tri_n[0] + w.y * tri_n[1] + w.z * tri_n[2];
     g_uv = w.x * tri_uv[0] + w.y * tri_uv[1] + w.z * tri_uv[2];
+#ifdef SHADOW_RECEIVER
+    g_object_position = w.x * tri_object_p[0] + w.y * tri_object_p[1] + w.z * tri_object_p[2];
+    g_object_normal = w.x * tri_object_n[0] + w.y * tri_object_n[1] + w.z * tri_object_n[2];
+#endif
     vec2 size = vec2(float(pc.atlas_width), float(pc.atlas_height));
     gl_Position = vec4(2.0 * a / size - 1.0, DEPTH, 1.0);
     EmitVertex();
@@ -82,9 +95,16 @@ void main() {
         vec3 a = (ov.model_view[0] * p).xyz, b = (ov.model_view[1] * p).xyz;
         tri_p[k] = a + (b - a) * pc.segment_time;
         vec3 n = vec3(v.normal[0], v.normal[1], v.normal[2]);
+        tri_object_p[k] = p.xyz;
+        tri_object_n[k] = n;
         tri_n[k] = mix(mat3(ov.normal_matrix[0]) * n, mat3(ov.normal_matrix[1]) * n, pc.segment_time);
         tri_uv[k] = vec2(v.uv[0], v.uv[1]);
         tex[k] = shading_coords[3u * prim + k];
+    }
+    if (dot(tri_object_n[0], tri_object_n[0]) == 0.0) {
+        // No vertex normals (common/shadow.glsl offsets the receiver along its normal): the face's.
+        vec3 f = cross(object_p[1] - object_p[0], object_p[2] - object_p[0]);
+        for (int k = 0; k < 3; k++) tri_object_n[k] = f;
     }
     float radius, spacing;
     uint level;

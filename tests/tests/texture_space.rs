@@ -278,63 +278,75 @@ fn gpu_culling_matches_the_cpu_mirror() {
 
 /// Texture-space shading against a converged reference, beside the exact shading of the same samples
 /// (per-sample lookups beside per-sample shading, per-pixel lookups beside per-pixel shading): on
-/// `glass` (defocus, a sliding pane, Spot's texture, tinted panes) at S = 16, its error is within the
+/// `glass` (defocus, a sliding pane, Spot's texture, tinted panes) and `foliage` (shadow maps read by
+/// pass 1) at S = 16, its error is within the
 /// stated margin of the exact rate's — the price of shading once, at the lens centre and mid-shutter,
 /// into a mip level chosen per triangle. Numbers printed with `--nocapture`.
 #[test]
 fn texture_space_error_is_close_to_exact_shading() {
-    let scene = builtin_scene("glass").expect("built-in").expect("parses");
-    let (w, h, spp, seed) = (96, 54, 16, 5);
-    let reference = shutter::reference::render_reference(
-        &scene,
-        &shutter::reference::ReferenceSettings {
-            width: w,
-            height: h,
-            spp: 256,
-            seed: 77,
-            progress: false,
-            shading: Default::default(),
-        },
-    )
-    .expect("reference");
-    let mut r = renderer();
-    let render = |r: &mut shutter::techniques::Renderer, shading| {
-        let o = shutter::techniques::StochasticOptions { shading, ..Default::default() };
-        let s = RenderSettings::new(w, h, spp, seed).with_stochastic(o);
-        r.render(&scene, shutter::techniques::Technique::STOCHASTIC, &s).expect("render")
-    };
     use shutter::techniques::ShadingRate;
-    for (lookup, exact) in [
-        (ShadingRate::TextureSpace, ShadingRate::PerSample),
-        (ShadingRate::TextureSpacePerPixel, ShadingRate::PerPixel),
-    ] {
-        let ts = render(&mut r, lookup);
-        let ex = render(&mut r, exact);
-        let e_ts = shutter::metrics::compare(&reference, &ts.image).expect("compare");
-        let e_ex = shutter::metrics::compare(&reference, &ex.image).expect("compare");
-        let between = shutter::metrics::compare(&ex.image, &ts.image).expect("compare");
-        shutter_tests::save_comparison(&format!("{}-glass", lookup.name()), &reference, &ts.image);
-        shutter_tests::save_comparison(&format!("{}-glass", exact.name()), &reference, &ex.image);
-        println!(
-            "glass S={spp}: {} RMSE {:.5} FLIP {:.5}; {} RMSE {:.5} FLIP {:.5}; between them RMSE {:.5}",
-            lookup.name(),
-            e_ts.rmse,
-            e_ts.flip,
-            exact.name(),
-            e_ex.rmse,
-            e_ex.flip,
-            between.rmse
-        );
-        let names: Vec<&str> = ts.timings.passes.iter().map(|(n, _)| n.as_str()).collect();
-        assert!(names.contains(&"atlas shade") && names.contains(&"atlas conservative"), "{names:?}");
-        assert!(
-            e_ts.flip <= e_ex.flip * TS_FLIP_RATIO_MAX,
-            "{} FLIP {} vs {} {}",
-            lookup.name(),
-            e_ts.flip,
-            exact.name(),
-            e_ex.flip
-        );
+    let (w, h, spp, seed) = (96, 54, 16, 5);
+    let mut r = renderer();
+    // `glass` with both lookups; `foliage` (a stochastic shadow map of cut-out leaves, read by pass 1)
+    // per sample.
+    let cases: [(&str, &[(ShadingRate, ShadingRate)]); 2] = [
+        (
+            "glass",
+            &[
+                (ShadingRate::TextureSpace, ShadingRate::PerSample),
+                (ShadingRate::TextureSpacePerPixel, ShadingRate::PerPixel),
+            ],
+        ),
+        ("foliage", &[(ShadingRate::TextureSpace, ShadingRate::PerSample)]),
+    ];
+    for (name, pairs) in cases {
+        let scene = builtin_scene(name).expect("built-in").expect("parses");
+        let reference = shutter::reference::render_reference(
+            &scene,
+            &shutter::reference::ReferenceSettings {
+                width: w,
+                height: h,
+                spp: 256,
+                seed: 77,
+                progress: false,
+                shading: Default::default(),
+            },
+        )
+        .expect("reference");
+        let mut render = |shading| {
+            let o = shutter::techniques::StochasticOptions { shading, ..Default::default() };
+            let s = RenderSettings::new(w, h, spp, seed).with_stochastic(o);
+            r.render(&scene, shutter::techniques::Technique::STOCHASTIC, &s).expect("render")
+        };
+        for &(lookup, exact) in pairs {
+            let ts = render(lookup);
+            let ex = render(exact);
+            let e_ts = shutter::metrics::compare(&reference, &ts.image).expect("compare");
+            let e_ex = shutter::metrics::compare(&reference, &ex.image).expect("compare");
+            let between = shutter::metrics::compare(&ex.image, &ts.image).expect("compare");
+            shutter_tests::save_comparison(&format!("{}-{name}", lookup.name()), &reference, &ts.image);
+            shutter_tests::save_comparison(&format!("{}-{name}", exact.name()), &reference, &ex.image);
+            println!(
+                "{name} S={spp}: {} RMSE {:.5} FLIP {:.5}; {} RMSE {:.5} FLIP {:.5}; between them RMSE {:.5}",
+                lookup.name(),
+                e_ts.rmse,
+                e_ts.flip,
+                exact.name(),
+                e_ex.rmse,
+                e_ex.flip,
+                between.rmse
+            );
+            let names: Vec<&str> = ts.timings.passes.iter().map(|(n, _)| n.as_str()).collect();
+            assert!(names.contains(&"atlas shade") && names.contains(&"atlas conservative"), "{names:?}");
+            assert!(
+                e_ts.flip <= e_ex.flip * TS_FLIP_RATIO_MAX,
+                "{name}: {} FLIP {} vs {} {}",
+                lookup.name(),
+                e_ts.flip,
+                exact.name(),
+                e_ex.flip
+            );
+        }
     }
 }
 

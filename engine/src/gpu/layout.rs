@@ -75,7 +75,7 @@ pub struct WorldUniforms {
 pub struct GpuMaterial {
     /// rgb albedo, specular weight.
     pub albedo_specular: [f32; 4],
-    /// roughness, has_texture (0/1), alpha, unused.
+    /// roughness, has_texture (0/1), alpha, alpha_from_texture (0/1).
     pub params: [f32; 4],
 }
 

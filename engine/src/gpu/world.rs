@@ -72,7 +72,7 @@ impl GpuWorld {
                     o.material.roughness,
                     if o.material.texture.is_some() && o.mesh.has_uvs() { 1.0 } else { 0.0 },
                     o.material.alpha,
-                    0.0,
+                    if o.material.alpha_from_texture { 1.0 } else { 0.0 },
                 ],
             })
             .collect();

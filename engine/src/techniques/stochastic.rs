@@ -1135,15 +1135,8 @@ impl StochasticDraws {
         } else {
             None
         };
-        // Texture-space shading: pass 1's atlases (shaded without shadows so far).
+        // Texture-space shading: pass 1's atlases, shaded with the shadow maps (still casters).
         let atlas = if options.shading.texture_space() {
-            if shadows.is_some() {
-                return Err(Error::Unsupported(
-                    "texture-space shading with shadow maps: the atlas is shaded without shadows so far \
-                     (docs/ATSS.md); use --shading per-sample or per-pixel, or --shadow-map off"
-                        .into(),
-                ));
-            }
             let layout =
                 crate::texture_space::atlas::MipAtlas::new(TEXTURE_SPACE_FINEST, TEXTURE_SPACE_GUTTER)?;
             Some(super::texture_space::AtlasPasses::new(
@@ -1153,6 +1146,7 @@ impl StochasticDraws {
                 Some(super::texture_space::BILINEAR_HULL_TEXELS),
                 super::texture_space::ATLAS_FORMAT,
                 options.instrumented,
+                shadows.as_ref(),
             )?)
         } else {
             None
@@ -1810,17 +1804,19 @@ impl StochasticDraws {
             coverage_uses.push((h.into(), Access::GeometryShaderWrite));
             host_reads.push(h);
         }
+        let mut shadow_handles = None;
         if let Some(maps) = &self.shadows {
             let h = maps.import(&mut g);
             maps.add_frame_passes(&mut g, h, inputs);
             let read = Access::ComputeShaderReadSampledImageOrUniformTexelBuffer;
             shading_uses.extend(ShadowMaps::reads_as(h, read));
+            shadow_handles = Some(h);
         }
         let visibility = g.import_buffer("stochastic visibility", &self.visibility);
         let accum = g.import_image("stochastic accumulation", &self.accum);
         let tints = self.tints.as_ref().map(|t| g.import_buffer("stochastic tints", t));
         if let Some(a) = &self.atlas {
-            for h in a.add_passes(&mut g, inputs).into_iter().flatten() {
+            for h in a.add_passes(&mut g, inputs, shadow_handles).into_iter().flatten() {
                 shading_uses
                     .push((h.color.into(), Access::ComputeShaderReadSampledImageOrUniformTexelBuffer));
                 shading_uses.push((h.levels.into(), Access::ComputeShaderReadOther));

@@ -113,21 +113,20 @@ fn shading_coords(mesh: &crate::scene::Mesh, finest: u32, gutter: u32) -> Result
 }
 
 /// The set layout of `table` ([`LEVELS_SET`] or [`ATLAS_SET`]) for `stages`, a pipeline layout with
-/// it as set 3 and `P` as push constants, and a pool with one such set per object of the scene.
+/// it as set 3 (and `shadows` as set 4) and `P` as push constants, and a pool with one such set per
+/// object of the scene.
 fn levels_layouts<P>(
     ctx: &PrepareContext<'_>,
     name: &str,
     table: &[Binding],
     stages: vk::ShaderStageFlags,
+    shadows: Option<&DescriptorSetLayout>,
 ) -> Result<(DescriptorSetLayout, PipelineLayout, DescriptorPool)> {
     let (device, world) = (ctx.device, ctx.world);
     let set_layout = DescriptorSetLayout::from_table(device, &format!("{name} set layout"), table, stages)?;
-    let layout = world.pipeline_layout(
-        device,
-        &[&world.empty_layout, &set_layout],
-        std::mem::size_of::<P>() as u32,
-        stages,
-    )?;
+    let mut sets = vec![&world.empty_layout, &set_layout];
+    sets.extend(shadows);
+    let layout = world.pipeline_layout(device, &sets, std::mem::size_of::<P>() as u32, stages)?;
     let n = (ctx.scene.objects.len() as u32).max(1);
     let pool = DescriptorPool::for_tables(device, n, &[(table, n)])?;
     Ok((set_layout, layout, pool))
@@ -248,8 +247,13 @@ impl ShadingRates {
     pub fn new(ctx: &PrepareContext<'_>, finest: u32) -> Result<Self> {
         let device = ctx.device;
         let atlas = MipAtlas::new(finest, 0)?;
-        let (set_layout, layout, pool) =
-            levels_layouts::<LevelsPush>(ctx, "shading rate", &LEVELS_SET, vk::ShaderStageFlags::COMPUTE)?;
+        let (set_layout, layout, pool) = levels_layouts::<LevelsPush>(
+            ctx,
+            "shading rate",
+            &LEVELS_SET,
+            vk::ShaderStageFlags::COMPUTE,
+            None,
+        )?;
         let shader = ShaderModule::new(device, shaders::TEXTURE_SPACE_LEVELS_COMP)?;
         let pipeline = Pipeline::compute(device, "texture-space shading rates", &layout, &shader)?;
         let objects = ctx
@@ -362,7 +366,8 @@ pub const SHADER_INTERFACES: &[crate::gpu::layout::ShaderInterface] = &[
         None,
         Some(&ATLAS_SET),
         Some(TEXTURE_SPACE_STRUCTS[1]),
-    ),
+    )
+    .with_shadows(&super::shadow_maps::SHADOW_SET),
 ];
 
 /// The conservative sub-pass' dilation that covers every texel of a bilinear lookup inside a
@@ -413,6 +418,8 @@ pub struct AtlasPasses {
     /// of `atlas.frag`; counted only when instrumented).
     counters: Tracked<Buffer>,
     instrumented: bool,
+    /// The shadow maps' receiver set (set 4), when the scene's lights cast shadows.
+    shadow_set: Option<vk::DescriptorSet>,
     shade: Pipeline,
     hull: Pipeline,
     layout: PipelineLayout,
@@ -569,6 +576,7 @@ impl AtlasPasses {
         hull_texels: Option<f32>,
         format: vk::Format,
         instrumented: bool,
+        shadows: Option<&super::shadow_maps::ShadowMaps>,
     ) -> Result<Self> {
         let device = ctx.device;
         let caps = &device.caps;
@@ -593,8 +601,15 @@ impl AtlasPasses {
         }
         let stages =
             vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::GEOMETRY | vk::ShaderStageFlags::FRAGMENT;
-        let (set_layout, layout, pool) =
-            levels_layouts::<AtlasPush>(ctx, "shading atlas", &ATLAS_SET, stages)?;
+        let (set_layout, layout, pool) = levels_layouts::<AtlasPush>(
+            ctx,
+            "shading atlas",
+            &ATLAS_SET,
+            stages,
+            shadows.map(|m| m.set_layout()),
+        )?;
+        let (shadow_axis, shadow_color) =
+            shadows.map_or((shaders::axes::Shadows::None, false), |m| m.lookup());
         let counters = Tracked::new(Buffer::with_data(
             device,
             "atlas counters",
@@ -604,8 +619,15 @@ impl AtlasPasses {
         let vert = ShaderModule::new(device, shaders::TEXTURE_SPACE_ATLAS_VERT)?;
         let mut modules = vec![];
         let mut pipeline = |conservative: bool| -> Result<Pipeline> {
-            let geom = ShaderModule::new(device, shaders::AtlasGeom { conservative }.source())?;
-            let frag = ShaderModule::new(device, shaders::AtlasFrag { conservative, instrumented }.source())?;
+            let geom = ShaderModule::new(
+                device,
+                shaders::AtlasGeom { shadow_receiver: shadows.is_some(), conservative }.source(),
+            )?;
+            let frag = ShaderModule::new(
+                device,
+                shaders::AtlasFrag { instrumented, shadows: shadow_axis, shadow_color, conservative }
+                    .source(),
+            )?;
             let name = if conservative { "atlas conservative" } else { "atlas shade" };
             let p = Pipeline::graphics(
                 device,
@@ -666,6 +688,7 @@ impl AtlasPasses {
             objects,
             counters,
             instrumented,
+            shadow_set: shadows.map(|m| m.set()),
             shade,
             hull,
             layout,
@@ -708,11 +731,14 @@ impl AtlasPasses {
 
     /// Pass 1 of every object into `g` (the shade sub-pass, then the conservative one when set);
     /// per object its atlas and levels.
+    /// With shadow maps (those [`AtlasPasses::new`] took), `shadows` are their handles in `g`.
     pub fn add_passes<'a>(
         &'a self,
         g: &mut crate::graph::FrameGraph<'a>,
         inputs: &FrameInputs<'a>,
+        shadows: Option<super::shadow_maps::ShadowHandles>,
     ) -> Vec<Option<AtlasHandles>> {
+        let shadow_reads = shadows.map(super::shadow_maps::ShadowMaps::reads).unwrap_or_default();
         let (world, view) = (inputs.world, inputs.camera);
         let counters = self.counters_buffer().map(|c| g.import_buffer("atlas counters", c));
         let mut out = Vec::with_capacity(self.objects.len());
@@ -729,6 +755,9 @@ impl AtlasPasses {
                 .color(color, Load::Clear([0.0; 4]), Store::Store)
                 .depth(depth, Load::Clear(1.0), Store::Store)
                 .overwrite(levels, Access::GeometryShaderWrite);
+            for &(r, a) in &shadow_reads {
+                shade = shade.access(r, a);
+            }
             if let Some(c) = counters {
                 // Atomics read and write.
                 shade =
@@ -744,6 +773,9 @@ impl AtlasPasses {
                     .color(color, Load::Load, Store::Store)
                     .depth(depth, Load::Load, Store::DontCare)
                     .access(levels, Access::GeometryShaderReadOther);
+                for &(r, a) in &shadow_reads {
+                    hull = hull.access(r, a);
+                }
                 if let Some(c) = counters {
                     hull = hull
                         .access(c, Access::FragmentShaderReadOther)
@@ -798,6 +830,10 @@ impl AtlasPasses {
             d.raw.cmd_bind_descriptor_sets(cmd, bind, layout, 0, &[view.frame_set], &[]);
             d.raw.cmd_bind_descriptor_sets(cmd, bind, layout, OBJECT_SET_INDEX, &[world.objects[i].set], &[]);
             d.raw.cmd_bind_descriptor_sets(cmd, bind, layout, TECHNIQUE_SET_INDEX, &[o.shading.set], &[]);
+            if let Some(set) = self.shadow_set {
+                let index = crate::gpu::layout::SHADOW_SET_INDEX;
+                d.raw.cmd_bind_descriptor_sets(cmd, bind, layout, index, &[set], &[]);
+            }
             d.raw.cmd_push_constants(cmd, layout, stages, 0, bytemuck::bytes_of(&push));
             d.raw.cmd_draw(cmd, 3 * o.shading.triangles, 1, 0, 0);
         }
@@ -818,7 +854,15 @@ impl ShadingAtlas {
     /// [`AtlasPasses::new`] for every object of the scene.
     pub fn new(ctx: &PrepareContext<'_>, atlas: MipAtlas, hull_texels: Option<f32>) -> Result<Self> {
         Ok(ShadingAtlas {
-            passes: AtlasPasses::new(ctx, atlas, AtlasSize::Fixed, hull_texels, PROBE_ATLAS_FORMAT, true)?,
+            passes: AtlasPasses::new(
+                ctx,
+                atlas,
+                AtlasSize::Fixed,
+                hull_texels,
+                PROBE_ATLAS_FORMAT,
+                true,
+                None,
+            )?,
             results: vec![],
             texels: (0, 0),
             size: ctx.camera.size(),
@@ -831,7 +875,7 @@ impl FrameTechnique for ShadingAtlas {
         self.passes.reset_counters()?;
         let passes = &self.passes;
         let mut g = frame.graph();
-        let handles = passes.add_passes(&mut g, inputs);
+        let handles = passes.add_passes(&mut g, inputs, None);
         let mut readbacks = vec![];
         for (i, h) in handles.iter().enumerate() {
             let Some(h) = h else { continue };

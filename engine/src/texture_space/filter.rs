@@ -83,6 +83,41 @@ pub fn floor_axes(axes: (Vec2, Vec2), texel: f32) -> (Vec2, Vec2) {
     }
 }
 
+/// Most taps [`anisotropic_taps`] spreads along a footprint's major axis (beyond, the taps widen:
+/// the minor axis is blurred, as hardware anisotropic filtering does past its maximum ratio).
+pub const MAX_ANISOTROPIC_TAPS: u32 = 8;
+
+/// Lookups that filter a material texture over an elliptical footprint: `count` trilinear taps at
+/// level of detail `lod`, spaced `step` apart (uv) along the major axis and centred on the lookup.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Taps {
+    pub count: u32,
+    pub lod: f32,
+    pub step: Vec2,
+}
+
+impl Taps {
+    /// Tap `i`'s offset from the footprint's centre, uv.
+    pub fn offset(&self, i: u32) -> Vec2 {
+        self.step * (i as f32 + 0.5 - 0.5 * self.count as f32)
+    }
+}
+
+/// The pre-filter of pass 1 (`shaders-glsl/common/texture_sample.glsl`, `texture_prefiltered`): the
+/// footprint spanned by the uv derivatives `dx`, `dy` (per atlas texel) over a texture of `size`
+/// texels, as taps along its longer axis — as many as the axes' ratio asks, at most
+/// [`MAX_ANISOTROPIC_TAPS`] — each at the level whose texel is the larger of the minor axis and the
+/// taps' spacing (never below level 0).
+pub fn anisotropic_taps(dx: Vec2, dy: Vec2, size: Vec2) -> Taps {
+    let (lx, ly) = ((dx * size).length(), (dy * size).length());
+    let (major, l_major, l_minor) = if lx >= ly { (dx, lx, ly) } else { (dy, ly, lx) };
+    let ratio = l_major / l_minor.max(1e-6);
+    let count = (ratio.ceil() as u32).clamp(1, MAX_ANISOTROPIC_TAPS);
+    let width = (l_major / count as f32).max(l_minor);
+    let lod = if width > 1.0 { width.log2() } else { 0.0 };
+    Taps { count, lod, step: major / count as f32 }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -157,5 +192,40 @@ mod tests {
         let (p, q) = floor_axes((Vec2::ZERO, Vec2::new(0.0, 2.0)), 0.5);
         assert!((p.length() - 0.5).abs() < 1e-6 && p.dot(q).abs() < 1e-6);
         assert_eq!(floor_axes((Vec2::ZERO, Vec2::ZERO), 2.0), (Vec2::new(2.0, 0.0), Vec2::new(0.0, 2.0)));
+    }
+    /// The taps cover the footprint's major axis end to end, never exceed the maximum, and their
+    /// level's texel is as wide as the minor axis or the taps' spacing, whichever is larger.
+    #[test]
+    fn anisotropic_taps_span_the_major_axis() {
+        let mut rng = crate::sampling::Pcg32::new(41, 2);
+        let mut unit = || rng.next_u32() as f32 / 4_294_967_296.0;
+        let size = Vec2::new(256.0, 128.0);
+        for _ in 0..2000 {
+            let scale = 2f32.powf(12.0 * unit() - 10.0);
+            let dx = scale * Vec2::new(unit() - 0.5, unit() - 0.5);
+            let dy = scale * Vec2::new(unit() - 0.5, unit() - 0.5);
+            let taps = anisotropic_taps(dx, dy, size);
+            let (lx, ly) = ((dx * size).length(), (dy * size).length());
+            let (major, minor) = if lx >= ly { (dx, ly) } else { (dy, lx) };
+            assert!((1..=MAX_ANISOTROPIC_TAPS).contains(&taps.count));
+            let span = taps.step * taps.count as f32;
+            assert!((span - major).length() <= 1e-5 * major.length().max(1e-12), "{span} vs {major}");
+            // Symmetric about the centre.
+            let (first, last) = (taps.offset(0), taps.offset(taps.count - 1));
+            assert!((first + last).length() <= 1e-5 * major.length().max(1e-12));
+            let width = ((major * size).length() / taps.count as f32).max(minor);
+            let texel = 2f32.powf(taps.lod);
+            assert!(taps.lod >= 0.0);
+            if width > 1.0 {
+                assert!((texel - width).abs() <= 1e-3 * width, "level texel {texel} vs width {width}");
+            }
+            if taps.count < MAX_ANISOTROPIC_TAPS {
+                // Enough taps that their spacing is no wider than the minor axis.
+                assert!((major * size).length() / taps.count as f32 <= minor * (1.0 + 1e-4) + 1e-6);
+            }
+        }
+        // An isotropic footprint of 4 texels: one tap at level 2.
+        let t = anisotropic_taps(Vec2::new(4.0 / 256.0, 0.0), Vec2::new(0.0, 4.0 / 128.0), size);
+        assert_eq!((t.count, t.lod), (1, 2.0));
     }
 }

@@ -10,7 +10,7 @@ use crate::scene::texture::{linear_to_srgb, Texture};
 
 /// The mip chain of a texture as sRGB RGBA8 levels, box-filtered in linear light on the CPU
 /// (deterministic across drivers, unlike blits). Alpha (linear, coverage for `alpha_from_texture`)
-/// is box-filtered too.
+/// is box-filtered too; colour is weighted by alpha (the mean of the covered texels' colours).
 pub fn srgb_mip_chain(tex: &Texture) -> Vec<(u32, u32, Vec<u8>)> {
     let mut levels = vec![(tex.width, tex.height, tex.srgb_rgba8.clone())];
     let mut cur: Vec<[f32; 4]> = tex
@@ -25,8 +25,11 @@ pub fn srgb_mip_chain(tex: &Texture) -> Vec<(u32, u32, Vec<u8>)> {
         let mut next = vec![[0.0f32; 4]; (nw * nh) as usize];
         for y in 0..nh {
             for x in 0..nw {
-                let mut acc = [0.0f32; 4];
-                let mut n = 0.0;
+                // Colour weighted by alpha (the covered part's: a cut-out's transparent texels do not
+                // darken its edges at coarser levels — texture-space shading's pre-filter reads
+                // them); the plain mean where all four are transparent. All alpha 1: the plain mean,
+                // bit for bit.
+                let (mut acc, mut weighted, mut alpha) = ([0.0f32; 4], [0.0f32; 3], 0.0f32);
                 for dy in 0..2 {
                     for dx in 0..2 {
                         let (sx, sy) = ((2 * x + dx).min(w - 1), (2 * y + dy).min(h - 1));
@@ -34,10 +37,19 @@ pub fn srgb_mip_chain(tex: &Texture) -> Vec<(u32, u32, Vec<u8>)> {
                         for i in 0..4 {
                             acc[i] += c[i];
                         }
-                        n += 1.0;
+                        for i in 0..3 {
+                            weighted[i] += c[i] * c[3];
+                        }
+                        alpha += c[3];
                     }
                 }
-                next[(y * nw + x) as usize] = acc.map(|v| v / n);
+                let mut texel = acc.map(|v| v / 4.0);
+                if alpha > 0.0 {
+                    for i in 0..3 {
+                        texel[i] = weighted[i] / alpha;
+                    }
+                }
+                next[(y * nw + x) as usize] = texel;
             }
         }
         let bytes = next
@@ -141,4 +153,33 @@ pub fn read_rgba32f(buffer: &Buffer, width: u32, height: u32) -> Result<LinearIm
         img.pixels[i] = px;
     }
     Ok(img)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Colour at coarser levels is the covered part's: a 2×2 block of one opaque red texel among
+    /// transparent black ones is red at level 1 (alpha ¼), not a dark red; an opaque texture is the
+    /// plain mean.
+    #[test]
+    fn mips_weigh_colour_by_alpha() {
+        let cut_out = Texture::from_srgb_rgba8(
+            "cut-out",
+            2,
+            2,
+            vec![200, 30, 30, 255, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0],
+        );
+        let levels = srgb_mip_chain(&cut_out);
+        assert_eq!(levels.len(), 2);
+        let (w, h, texel) = &levels[1];
+        assert_eq!((*w, *h), (1, 1));
+        assert_eq!(&texel[..3], &[200, 30, 30]);
+        assert_eq!(texel[3], 64);
+        let opaque = Texture::from_srgb_rgba8("opaque", 2, 1, vec![255, 255, 255, 255, 0, 0, 0, 255]);
+        let mean = crate::scene::texture::linear_to_srgb(0.5);
+        let (_, _, texel) = &srgb_mip_chain(&opaque)[1];
+        assert_eq!(texel[0], (mean * 255.0 + 0.5) as u8);
+        assert_eq!(texel[3], 255);
+    }
 }
