@@ -1,8 +1,11 @@
 #!/usr/bin/env bash
 # Texture-space shading's shading-cost dial (docs/ATSS.md): the same scene — Spot on a ground plane in
-# front of a wall, depth of field, Spot sliding — lit by N point lights on a ring, N = 1, 16, 64, 256;
-# per N one interleaved `shutter bench` of the stochastic frame's three shading rates at S = 16.
-# Writes the scenes to out/atss/ and the reports to docs/quality/atss/lights-N.md. Needs a release
+# front of a wall, both tessellated 16×16 (texture-space shading shades whole triangles at one level:
+# two-triangle planes are shaded whole at their finest vertex's level), depth of field, Spot sliding —
+# lit by N point lights on a ring, N = 1, 16, 64, 256;
+# per N and S (the paper's 4 and 8 samples per pixel) one interleaved `shutter bench` of the stochastic
+# frame's four shading rates. Writes the scenes to out/atss/ and the reports to
+# docs/quality/atss/lights-N-sS.md. Needs a release
 # build (cargo build --release).
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -28,6 +31,7 @@ focus_distance = 5.0
 [[object]]
 name = "ground"
 mesh = "plane"
+detail = 16
 [object.transform]
 scale = [8.0, 1.0, 8.0]
 [object.material]
@@ -38,6 +42,7 @@ roughness = 0.5
 [[object]]
 name = "wall"
 mesh = "plane"
+detail = 16
 [object.transform]
 translate = [0.0, 1.5, -2.0]
 rotate_deg = [90.0, 0.0, 0.0]
@@ -72,7 +77,10 @@ TOML
         3.0 * cos(a), 2.5 + 0.5 * sin(3 * a), 1.0 + 3.0 * sin(a), 12.0 / n, 11.0 / n, 10.0 / n
     }
   }' >> "$f"
-  $S bench "$f" --spp 16 --frames 3 --warmup 1 --no-counters \
-    -c stochastic:shading=per-sample -c stochastic:shading=per-pixel -c stochastic:shading=texture-space \
-    > "docs/quality/atss/lights-$n.md"
+  for spp in 4 8; do
+    $S bench "$f" --spp "$spp" --frames 3 --warmup 1 --no-counters \
+      -c stochastic:shading=per-sample -c stochastic:shading=per-pixel \
+      -c stochastic:shading=texture-space -c stochastic:shading=texture-space-per-pixel \
+      > "docs/quality/atss/lights-$n-s$spp.md"
+  done
 done

@@ -241,7 +241,8 @@ enum Command {
         /// Output stem: <out>.csv, .png, .svg, .md. Default: out/quality-<scene>.
         #[arg(long)]
         out: Option<PathBuf>,
-        /// Also save every point's image as <out>-<series>-S<n>.png, and the reference as <out>-reference.png.
+        /// Also save every point's image as <out>-<series>-S<n>.png with its FLIP error map against the
+        /// reference as <out>-<series>-S<n>-flip.png, and the reference as <out>-reference.png.
         #[arg(long)]
         images: bool,
         /// Two series `A,B` whose ms are compared at equal FLIP (A ÷ B); repeat for more pairs.

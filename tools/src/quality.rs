@@ -65,7 +65,7 @@ pub struct QualityArgs {
     pub cache: PathBuf,
     /// Output stem: `<out>.csv`, `<out>.png`, `<out>.svg`, `<out>.md`.
     pub out: PathBuf,
-    /// Also save each point's image as `<out>-<series>-S<n>.png`.
+    /// Also save each point's image as `<out>-<series>-S<n>.png` and its FLIP map as `…-flip.png`.
     pub images: bool,
     /// Pairs of series whose milliseconds are compared at equal FLIP (first ÷ second).
     pub compare: Vec<(String, String)>,
@@ -246,8 +246,9 @@ pub fn run(renderer: &mut Renderer, scene: &Scene, a: &QualityArgs) -> Result<Ve
             msaa: last.stats.msaa_samples,
         };
         if a.images {
-            let name = format!("{}-{}-S{spp}.png", a.out.display(), s.name.replace([':', '=', '/'], "-"));
-            save_image(&name, &last.image)?;
+            let stem = format!("{}-{}-S{spp}", a.out.display(), s.name.replace([':', '=', '/'], "-"));
+            save_image(format!("{stem}.png"), &last.image)?;
+            shutter::metrics::write_flip_diff_png(format!("{stem}-flip.png"), &truth, &last.image)?;
         }
         writeln!(
             csv,
