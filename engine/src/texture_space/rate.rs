@@ -23,9 +23,9 @@ use crate::scene::camera::Intrinsics;
 use crate::scene::camera_space::ObjectMotion;
 use crate::scene::Mesh;
 
-/// The smallest circle-of-confusion radius, in pixels, over a triangle with these view depths
-/// (`z > 0`): 0 when the triangle reaches both sides of the focus plane, else the smallest vertex's.
-pub fn min_coc_px(intrinsics: &Intrinsics, depths: [f32; 3]) -> f32 {
+/// The smallest circle-of-confusion radius, in pixels, over a convex polygon with these view depths at
+/// its corners (`z > 0`): 0 when it reaches both sides of the focus plane, else the smallest corner's.
+pub fn min_coc_px(intrinsics: &Intrinsics, depths: &[f32]) -> f32 {
     let f = intrinsics.focus_distance;
     let nearer = depths.iter().any(|&z| z <= f);
     let farther = depths.iter().any(|&z| z >= f);
@@ -142,18 +142,77 @@ pub struct LevelChoice {
     pub level: u32,
 }
 
-/// The mip level triangle `tri` (camera space, in front of the camera) with shading coordinates
-/// `tex_texels` (texels of the finest level) is shaded into, in an atlas of `levels` levels; `None`
-/// when no vertex has a footprint (the triangle is edge-on or behind the camera at every vertex).
+/// Corners of a convex polygon clipped by the planes of [`view_clipped`] (3 + 5 at most).
+pub type Clipped = ([Vec3; 8], usize);
+
+/// `poly` (its first `n` corners) clipped to `dist(p) ≥ 0`, `dist` affine (Sutherland–Hodgman).
+fn clip(poly: &[Vec3], dist: impl Fn(Vec3) -> f32) -> Clipped {
+    let mut out = [Vec3::ZERO; 8];
+    let mut n = 0;
+    for k in 0..poly.len() {
+        let (a, b) = (poly[k], poly[(k + 1) % poly.len()]);
+        let (da, db) = (dist(a), dist(b));
+        if da >= 0.0 && n < 8 {
+            out[n] = a;
+            n += 1;
+        }
+        if (da >= 0.0) != (db >= 0.0) && n < 8 {
+            out[n] = a + (b - a) * (da / (da - db));
+            n += 1;
+        }
+    }
+    (out, n)
+}
+
+/// The corners of the part of camera-space triangle `tri` in front of the near plane `z = −near`
+/// (up to four; none when it lies wholly behind).
+pub fn near_clipped(tri: [Vec3; 3], near: f32) -> Clipped {
+    clip(&tri, |p| -p.z - near)
+}
+
+/// Pixels the image's edges are pushed out by when [`view_clipped`] clips a triangle for its rate.
+pub const RATE_CLIP_MARGIN_PX: f32 = 1.0;
+
+/// The corners of the part of camera-space triangle `tri` the lens centre sees: in front of the near
+/// plane and inside the image pushed out by [`RATE_CLIP_MARGIN_PX`] — or, when none of it is, the part
+/// in front of the near plane (seen only through the lens' edge, if at all: culling decides that).
+pub fn view_clipped(intrinsics: &Intrinsics, tri: [Vec3; 3]) -> Clipped {
+    let near = near_clipped(tri, intrinsics.near);
+    let s = intrinsics.pixel_scale;
+    let tx = (0.5 * intrinsics.width + RATE_CLIP_MARGIN_PX) / s;
+    let ty = (0.5 * intrinsics.height + RATE_CLIP_MARGIN_PX) / s;
+    let mut poly = near;
+    let planes: [&dyn Fn(Vec3) -> f32; 4] =
+        [&|p| p.x - tx * p.z, &|p| -p.x - tx * p.z, &|p| p.y - ty * p.z, &|p| -p.y - ty * p.z];
+    for dist in planes {
+        poly = clip(&poly.0[..poly.1], dist);
+    }
+    if poly.1 == 0 {
+        near
+    } else {
+        poly
+    }
+}
+
+/// The mip level triangle `tri` (camera space) with shading coordinates `tex_texels` (texels of the
+/// finest level) is shaded into, in an atlas of `levels` levels; `None` when no corner has a
+/// footprint (the triangle is edge-on, or behind the near plane). The corners are those of its part the
+/// lens centre sees ([`view_clipped`]) — the paper's conjecture applied to the visible polygon: a
+/// ground triangle reaching behind the camera takes its rate from where it leaves the image, not
+/// from its far vertices alone (its near part would be shaded too coarsely) nor from where it crosses
+/// the near plane off screen (all of it would be shaded too finely).
 pub fn triangle_level(
     intrinsics: &Intrinsics,
     tri: [Vec3; 3],
     tex_texels: [Vec2; 3],
     levels: u32,
 ) -> Option<LevelChoice> {
-    let min_coc = min_coc_px(intrinsics, tri.map(|v| -v.z));
+    let (corners, n) = view_clipped(intrinsics, tri);
+    let corners = &corners[..n];
+    let depths: Vec<f32> = corners.iter().map(|v| -v.z).collect();
+    let min_coc = min_coc_px(intrinsics, &depths);
     let spacing = grid_spacing_px(min_coc);
-    let radius = tri
+    let radius = corners
         .iter()
         .filter_map(|&v| {
             let pixel = intrinsics.project(v, Vec2::ZERO);
@@ -223,19 +282,8 @@ pub fn fitted_level(
 /// The pixels camera-space triangle `tri` covers at the lens centre: clipped to the near plane, then
 /// to the image.
 pub fn on_screen_area(intrinsics: &Intrinsics, tri: [Vec3; 3]) -> f64 {
-    let near = intrinsics.near;
-    let mut clipped: Vec<Vec3> = Vec::with_capacity(4);
-    for k in 0..3 {
-        let (a, b) = (tri[k], tri[(k + 1) % 3]);
-        let (da, db) = (-a.z - near, -b.z - near);
-        if da >= 0.0 {
-            clipped.push(a);
-        }
-        if (da >= 0.0) != (db >= 0.0) {
-            clipped.push(a + (b - a) * (da / (da - db)));
-        }
-    }
-    let mut poly: Vec<Vec2> = clipped.iter().map(|&v| intrinsics.project(v, Vec2::ZERO)).collect();
+    let (clipped, n) = near_clipped(tri, intrinsics.near);
+    let mut poly: Vec<Vec2> = clipped[..n].iter().map(|&v| intrinsics.project(v, Vec2::ZERO)).collect();
     // Sutherland–Hodgman against the four image edges: keep where `n·p − c ≥ 0`.
     let edges: [(Vec2, f32); 4] =
         [(Vec2::X, 0.0), (-Vec2::X, -intrinsics.width), (Vec2::Y, 0.0), (-Vec2::Y, -intrinsics.height)];
@@ -344,12 +392,12 @@ mod tests {
     #[test]
     fn spacing_follows_the_smallest_circle_of_confusion() {
         let sharp = intrinsics(0.0, 5.0);
-        assert_eq!(grid_spacing_px(min_coc_px(&sharp, [2.0, 3.0, 9.0])), 1.0);
+        assert_eq!(grid_spacing_px(min_coc_px(&sharp, &[2.0, 3.0, 9.0])), 1.0);
         let lens = intrinsics(0.2, 5.0);
-        assert_eq!(min_coc_px(&lens, [4.0, 5.5, 9.0]), 0.0);
+        assert_eq!(min_coc_px(&lens, &[4.0, 5.5, 9.0]), 0.0);
         let far = [20.0, 30.0, 40.0];
         let expected = lens.circle_of_confusion_px(20.0).abs();
-        assert_eq!(min_coc_px(&lens, far), expected);
+        assert_eq!(min_coc_px(&lens, &far), expected);
         assert!(expected > 2.0, "{expected}");
         assert_eq!(grid_spacing_px(expected), 0.5 * expected);
     }
@@ -536,5 +584,51 @@ mod fit_tests {
         assert!(below <= 0.01 * total, "{below} of {total} below level {k}");
         assert!(below + by_level[k] > 0.01 * total, "level {k} is not the coarsest");
         assert!(k >= 3 && finest == 0, "finest {finest}, fitted {k}: {by_level:?}");
+    }
+}
+
+#[cfg(test)]
+mod near_tests {
+    use super::*;
+    use crate::sampling::ApertureShape;
+
+    /// A ground triangle reaching behind the camera takes its rate from the part the lens centre sees:
+    /// where it leaves the image's bottom edge — never coarser than a small piece of it there, never as
+    /// fine as a piece just in front of the camera below the image, and much finer than its far vertex
+    /// alone would give. One wholly behind the near plane has none.
+    #[test]
+    fn triangles_reaching_behind_the_camera_are_rated_at_their_visible_part() {
+        let intr = Intrinsics {
+            width: 160.0,
+            height: 90.0,
+            pixel_scale: crate::scene::camera::pixel_scale(90, 40.0),
+            aperture_radius: 0.0,
+            focus_distance: 5.0,
+            aperture: ApertureShape::default(),
+            near: 0.05,
+            far: 100.0,
+        };
+        let uv = |p: Vec3| Vec2::new(p.x, p.z) * 2000.0; // texels per unit of ground
+        let rate = |tri: [Vec3; 3]| triangle_level(&intr, tri, tri.map(uv), 16).unwrap().level;
+        let big =
+            rate([Vec3::new(-50.0, -1.0, 10.0), Vec3::new(50.0, -1.0, 10.0), Vec3::new(0.0, -1.0, -60.0)]);
+        // The ground leaves the image's bottom edge at depth 1 / tan(20°) ≈ 2.75.
+        let bottom =
+            rate([Vec3::new(-0.1, -1.0, -2.8), Vec3::new(0.1, -1.0, -2.8), Vec3::new(0.0, -1.0, -3.0)]);
+        let below =
+            rate([Vec3::new(-0.1, -1.0, -0.3), Vec3::new(0.1, -1.0, -0.3), Vec3::new(0.0, -1.0, -0.35)]);
+        let far =
+            rate([Vec3::new(-5.0, -1.0, -60.0), Vec3::new(5.0, -1.0, -60.0), Vec3::new(0.0, -1.0, -70.0)]);
+        assert!(
+            below < big && big <= bottom && bottom + 2 < far,
+            "below {below}, big {big}, bottom {bottom}, far {far}"
+        );
+        let behind = [Vec3::new(-1.0, -1.0, 1.0), Vec3::new(1.0, -1.0, 1.0), Vec3::new(0.0, -1.0, 3.0)];
+        assert!(triangle_level(&intr, behind, behind.map(uv), 16).is_none());
+        let (_, n) = near_clipped(
+            [Vec3::new(0.0, 0.0, 1.0), Vec3::new(1.0, 0.0, -1.0), Vec3::new(-1.0, 0.0, -1.0)],
+            0.05,
+        );
+        assert_eq!(n, 4);
     }
 }
