@@ -106,14 +106,20 @@ void main() {
         vec3 f = cross(object_p[1] - object_p[0], object_p[2] - object_p[0]);
         for (int k = 0; k < 3; k++) tri_object_n[k] = f;
     }
+#ifndef CONSERVATIVE
     float radius, spacing;
     uint level;
     bool ok = ts_triangle_level(tri_p, tex, pc.level_count, radius, spacing, level);
     bool culled = ts_outside_frustum(object_p, pc.segment_first, pc.segment_count);
-#ifndef CONSERVATIVE
     levels[prim] = vec4(radius, spacing, float(level), ok ? (culled ? 2.0 : 1.0) : 0.0);
-#endif
     if (!ok || culled) return;
+#else
+    // The shade sub-pass' record (its pass ran before this one): the same level and verdict, not
+    // computed twice.
+    vec4 record = levels[prim];
+    if (record.w != 1.0) return;
+    uint level = uint(record.z);
+#endif
     float scale = 1.0 / float(1u << level);
     vec2 corner = atlas_level_offset(level);
     for (int k = 0; k < 3; k++) atlas_p[k] = tex[k] * scale + corner;

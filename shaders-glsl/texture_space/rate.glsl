@@ -5,57 +5,14 @@
 #ifndef SHUTTER_TEXTURE_SPACE_RATE_GLSL
 #define SHUTTER_TEXTURE_SPACE_RATE_GLSL
 
-// rate::min_coc_px: the smallest |phi(z)| over the n corners' depths, 0 across the focus plane.
-float ts_min_coc_px(float depths[8], int n) {
+// rate::min_coc_px: the smallest |phi(z)| over the vertices' depths, 0 across the focus plane.
+float ts_min_coc_px(vec3 depths) {
     float f = view.lens.y;
-    bool nearer = false, farther = false;
-    float smallest = uintBitsToFloat(0x7f800000u);
-    for (int k = 0; k < n; k++) {
-        nearer = nearer || depths[k] <= f;
-        farther = farther || depths[k] >= f;
-        smallest = min(smallest, abs(view.lens.x * view.viewport.z * (1.0 / f - 1.0 / depths[k])));
-    }
-    return nearer && farther ? 0.0 : smallest;
-}
-
-// rate::clip: the first n corners of poly clipped to dot(plane.xyz, p) + plane.w >= 0.
-int ts_clip(inout vec3 poly[8], int n, vec4 plane) {
-    vec3 clipped[8];
-    int m = 0;
-    for (int k = 0; k < 8; k++) clipped[k] = vec3(0.0);
-    for (int k = 0; k < n; k++) {
-        vec3 a = poly[k], b = poly[(k + 1) % n];
-        float da = dot(plane.xyz, a) + plane.w, db = dot(plane.xyz, b) + plane.w;
-        if (da >= 0.0 && m < 8) clipped[m++] = a;
-        if ((da >= 0.0) != (db >= 0.0) && m < 8) clipped[m++] = a + (b - a) * (da / (da - db));
-    }
-    poly = clipped;
-    return m;
-}
-
-// rate::RATE_CLIP_MARGIN_PX.
-const float TS_RATE_CLIP_MARGIN_PX = 1.0;
-
-// rate::view_clipped: the corners of the triangle's part in front of the near plane and inside the
-// image (pushed out by the margin), or, when none of it is inside, of its part in front.
-int ts_view_clipped(vec3 tri[3], out vec3 corners[8]) {
-    vec3 near_part[8];
-    for (int k = 0; k < 8; k++) near_part[k] = k < 3 ? tri[k] : vec3(0.0);
-    int n = ts_clip(near_part, 3, vec4(0.0, 0.0, -1.0, -view.lens.z));
-    float s = view.viewport.z;
-    float tx = (0.5 * view.viewport.x + TS_RATE_CLIP_MARGIN_PX) / s;
-    float ty = (0.5 * view.viewport.y + TS_RATE_CLIP_MARGIN_PX) / s;
-    corners = near_part;
-    int m = n;
-    m = ts_clip(corners, m, vec4(1.0, 0.0, -tx, 0.0));
-    m = ts_clip(corners, m, vec4(-1.0, 0.0, -tx, 0.0));
-    m = ts_clip(corners, m, vec4(0.0, 1.0, -ty, 0.0));
-    m = ts_clip(corners, m, vec4(0.0, -1.0, -ty, 0.0));
-    if (m == 0) {
-        corners = near_part;
-        return n;
-    }
-    return m;
+    bool nearer = any(lessThanEqual(depths, vec3(f)));
+    bool farther = any(greaterThanEqual(depths, vec3(f)));
+    if (nearer && farther) return 0.0;
+    vec3 coc = abs(view.lens.x * view.viewport.z * (1.0 / f - 1.0 / depths));
+    return min(coc.x, min(coc.y, coc.z));
 }
 
 // rate::grid_spacing_px (a circular lens).
@@ -114,21 +71,16 @@ uint ts_level_of(float radius, uint levels) {
     return min(uint(floor(log2(radius))), levels - 1u);
 }
 
-// rate::triangle_level: the smallest footprint minor radius over the corners of the triangle's part
-// the lens centre sees (ts_view_clipped; texels of level 0), the grid spacing and the level; false
-// when no corner has a footprint.
+// rate::triangle_level: the smallest footprint minor radius over the vertices (texels of level 0),
+// the grid spacing and the level; false when no vertex has a footprint.
 bool ts_triangle_level(vec3 tri[3], vec2 tex[3], uint levels, out float radius, out float spacing,
                        out uint level) {
-    vec3 corners[8];
-    int n = ts_view_clipped(tri, corners);
-    float depths[8];
-    for (int k = 0; k < 8; k++) depths[k] = -corners[k].z;
-    spacing = ts_grid_spacing_px(ts_min_coc_px(depths, n));
+    spacing = ts_grid_spacing_px(ts_min_coc_px(vec3(-tri[0].z, -tri[1].z, -tri[2].z)));
     radius = uintBitsToFloat(0x7f800000u);
     bool any_vertex = false;
-    for (int k = 0; k < n; k++) {
+    for (int k = 0; k < 3; k++) {
         vec2 dx, dy;
-        if (ts_screen_derivatives(tri, tex, ts_project(corners[k]), dx, dy)) {
+        if (ts_screen_derivatives(tri, tex, ts_project(tri[k]), dx, dy)) {
             radius = min(radius, ts_minor_radius(spacing * dx, spacing * dy));
             any_vertex = true;
         }

@@ -142,7 +142,7 @@ pub struct LevelChoice {
     pub level: u32,
 }
 
-/// Corners of a convex polygon clipped by the planes of [`view_clipped`] (3 + 5 at most).
+/// Corners of a convex polygon clipped by planes (at most 8).
 pub type Clipped = ([Vec3; 8], usize);
 
 /// `poly` (its first `n` corners) clipped to `dist(p) ≥ 0`, `dist` affine (Sutherland–Hodgman).
@@ -170,49 +170,21 @@ pub fn near_clipped(tri: [Vec3; 3], near: f32) -> Clipped {
     clip(&tri, |p| -p.z - near)
 }
 
-/// Pixels the image's edges are pushed out by when [`view_clipped`] clips a triangle for its rate.
-pub const RATE_CLIP_MARGIN_PX: f32 = 1.0;
-
-/// The corners of the part of camera-space triangle `tri` the lens centre sees: in front of the near
-/// plane and inside the image pushed out by [`RATE_CLIP_MARGIN_PX`] — or, when none of it is, the part
-/// in front of the near plane (seen only through the lens' edge, if at all: culling decides that).
-pub fn view_clipped(intrinsics: &Intrinsics, tri: [Vec3; 3]) -> Clipped {
-    let near = near_clipped(tri, intrinsics.near);
-    let s = intrinsics.pixel_scale;
-    let tx = (0.5 * intrinsics.width + RATE_CLIP_MARGIN_PX) / s;
-    let ty = (0.5 * intrinsics.height + RATE_CLIP_MARGIN_PX) / s;
-    let mut poly = near;
-    let planes: [&dyn Fn(Vec3) -> f32; 4] =
-        [&|p| p.x - tx * p.z, &|p| -p.x - tx * p.z, &|p| p.y - ty * p.z, &|p| -p.y - ty * p.z];
-    for dist in planes {
-        poly = clip(&poly.0[..poly.1], dist);
-    }
-    if poly.1 == 0 {
-        near
-    } else {
-        poly
-    }
-}
-
 /// The mip level triangle `tri` (camera space) with shading coordinates `tex_texels` (texels of the
-/// finest level) is shaded into, in an atlas of `levels` levels; `None` when no corner has a
-/// footprint (the triangle is edge-on, or behind the near plane). The corners are those of its part the
-/// lens centre sees ([`view_clipped`]) — the paper's conjecture applied to the visible polygon: a
-/// ground triangle reaching behind the camera takes its rate from where it leaves the image, not
-/// from its far vertices alone (its near part would be shaded too coarsely) nor from where it crosses
-/// the near plane off screen (all of it would be shaded too finely).
+/// finest level) is shaded into, in an atlas of `levels` levels; `None` when no vertex has a footprint
+/// (the triangle is edge-on or behind the camera at every vertex). The paper's rule: the footprint at
+/// the three vertices. A vertex behind the camera has none, so a large triangle reaching behind the
+/// camera takes its rate from its far vertices and its near part is shaded too coarsely (tessellate
+/// such planes; docs/ATSS.md says why clipping it to its visible part was measured and withdrawn).
 pub fn triangle_level(
     intrinsics: &Intrinsics,
     tri: [Vec3; 3],
     tex_texels: [Vec2; 3],
     levels: u32,
 ) -> Option<LevelChoice> {
-    let (corners, n) = view_clipped(intrinsics, tri);
-    let corners = &corners[..n];
-    let depths: Vec<f32> = corners.iter().map(|v| -v.z).collect();
-    let min_coc = min_coc_px(intrinsics, &depths);
+    let min_coc = min_coc_px(intrinsics, &tri.map(|v| -v.z));
     let spacing = grid_spacing_px(min_coc);
-    let radius = corners
+    let radius = tri
         .iter()
         .filter_map(|&v| {
             let pixel = intrinsics.project(v, Vec2::ZERO);
@@ -584,51 +556,5 @@ mod fit_tests {
         assert!(below <= 0.01 * total, "{below} of {total} below level {k}");
         assert!(below + by_level[k] > 0.01 * total, "level {k} is not the coarsest");
         assert!(k >= 3 && finest == 0, "finest {finest}, fitted {k}: {by_level:?}");
-    }
-}
-
-#[cfg(test)]
-mod near_tests {
-    use super::*;
-    use crate::sampling::ApertureShape;
-
-    /// A ground triangle reaching behind the camera takes its rate from the part the lens centre sees:
-    /// where it leaves the image's bottom edge — never coarser than a small piece of it there, never as
-    /// fine as a piece just in front of the camera below the image, and much finer than its far vertex
-    /// alone would give. One wholly behind the near plane has none.
-    #[test]
-    fn triangles_reaching_behind_the_camera_are_rated_at_their_visible_part() {
-        let intr = Intrinsics {
-            width: 160.0,
-            height: 90.0,
-            pixel_scale: crate::scene::camera::pixel_scale(90, 40.0),
-            aperture_radius: 0.0,
-            focus_distance: 5.0,
-            aperture: ApertureShape::default(),
-            near: 0.05,
-            far: 100.0,
-        };
-        let uv = |p: Vec3| Vec2::new(p.x, p.z) * 2000.0; // texels per unit of ground
-        let rate = |tri: [Vec3; 3]| triangle_level(&intr, tri, tri.map(uv), 16).unwrap().level;
-        let big =
-            rate([Vec3::new(-50.0, -1.0, 10.0), Vec3::new(50.0, -1.0, 10.0), Vec3::new(0.0, -1.0, -60.0)]);
-        // The ground leaves the image's bottom edge at depth 1 / tan(20°) ≈ 2.75.
-        let bottom =
-            rate([Vec3::new(-0.1, -1.0, -2.8), Vec3::new(0.1, -1.0, -2.8), Vec3::new(0.0, -1.0, -3.0)]);
-        let below =
-            rate([Vec3::new(-0.1, -1.0, -0.3), Vec3::new(0.1, -1.0, -0.3), Vec3::new(0.0, -1.0, -0.35)]);
-        let far =
-            rate([Vec3::new(-5.0, -1.0, -60.0), Vec3::new(5.0, -1.0, -60.0), Vec3::new(0.0, -1.0, -70.0)]);
-        assert!(
-            below < big && big <= bottom && bottom + 2 < far,
-            "below {below}, big {big}, bottom {bottom}, far {far}"
-        );
-        let behind = [Vec3::new(-1.0, -1.0, 1.0), Vec3::new(1.0, -1.0, 1.0), Vec3::new(0.0, -1.0, 3.0)];
-        assert!(triangle_level(&intr, behind, behind.map(uv), 16).is_none());
-        let (_, n) = near_clipped(
-            [Vec3::new(0.0, 0.0, 1.0), Vec3::new(1.0, 0.0, -1.0), Vec3::new(-1.0, 0.0, -1.0)],
-            0.05,
-        );
-        assert_eq!(n, 4);
     }
 }
