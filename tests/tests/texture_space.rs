@@ -3,13 +3,13 @@
 //! `shutter::texture_space::rate::triangle_level`, triangle by triangle, on built-in scenes with
 //! depth of field, motion, Spot's own uvs and generated charts.
 
-use glam::{Vec2, Vec3};
+use glam::Vec2;
 use shutter::scene::builtin::builtin_scene;
 use shutter::scene::camera_space::CameraSpaceScene;
 use shutter::techniques::texture_space::{AtlasResult, ShadingAtlas, ShadingRates, BILINEAR_HULL_TEXELS};
 use shutter::techniques::{FrameTechnique, RenderSettings};
 use shutter::texture_space::atlas::MipAtlas;
-use shutter::texture_space::rate::triangle_level;
+use shutter::texture_space::rate::{camera_triangle, triangle_level};
 use shutter_tests::renderer;
 
 /// Relative difference of the minor radius allowed between the GPU (f32 throughout) and the CPU (f32
@@ -42,14 +42,8 @@ fn gpu_shading_rates_match_the_cpu_mirror() {
         for (i, o) in scene.objects.iter().enumerate() {
             let (Some(gpu), Some((shading, coords))) = (&rates.results[i], rates.object(i)) else { continue };
             let motion = &space.objects[i];
-            let (j, s) = motion.keys.locate(0.5);
-            let (mv0, mv1) = (motion.model_view[j], motion.model_view[j + 1]);
             for (t, g) in gpu.iter().enumerate() {
-                let tri: [Vec3; 3] = [0, 1, 2].map(|k| {
-                    let p = o.mesh.positions[o.mesh.indices[3 * t + k] as usize];
-                    let (a, b) = (mv0.transform_point3(p), mv1.transform_point3(p));
-                    a + (b - a) * s
-                });
+                let tri = camera_triangle(&o.mesh, motion, t, 0.5);
                 let tex: [Vec2; 3] = [0, 1, 2].map(|k| coords[3 * t + k]);
                 let cpu = triangle_level(&intrinsics, tri, tex, rates.levels());
                 let what = format!("{name} `{}` ({shading}) triangle {t}", o.name);
@@ -236,7 +230,7 @@ fn the_conservative_sub_pass_fills_every_texel_a_lookup_reads() {
 /// margin (f32 transforms differ in the last bits); and culling is not vacuous.
 #[test]
 fn gpu_culling_matches_the_cpu_mirror() {
-    use shutter::texture_space::cull::{outside_frustum, CULL_MARGIN_PX};
+    use shutter::texture_space::cull::{key_points, outside_frustum, CULL_MARGIN_PX};
     let scene = builtin_scene("default").expect("built-in").expect("parses");
     let (w, h) = (160, 90);
     let results = atlases(&scene, 256, Some(BILINEAR_HULL_TEXELS));
@@ -245,19 +239,11 @@ fn gpu_culling_matches_the_cpu_mirror() {
     let (mut culled, mut kept, mut borderline) = (0usize, 0usize, 0usize);
     for (i, o) in scene.objects.iter().enumerate() {
         let Some(res) = &results[i] else { continue };
-        let keys = &space.objects[i].model_view;
         for (t, l) in res.levels.iter().enumerate() {
             if !l.valid {
                 continue;
             }
-            let points: Vec<Vec3> = keys
-                .iter()
-                .flat_map(|mv| {
-                    (0..3).map(move |k| {
-                        mv.transform_point3(o.mesh.positions[o.mesh.indices[3 * t + k] as usize])
-                    })
-                })
-                .collect();
+            let points = key_points(&o.mesh, &space.objects[i], t);
             let cpu = outside_frustum(&intrinsics, &points, CULL_MARGIN_PX);
             if l.culled != cpu {
                 let lo = outside_frustum(&intrinsics, &points, 0.99 * CULL_MARGIN_PX);

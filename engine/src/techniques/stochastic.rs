@@ -1676,6 +1676,7 @@ impl StochasticDraws {
         let (segment_first, segment_count) =
             if o < self.object_keys.len() { view.segments(o) } else { (0, 1) };
         let tint = self.object_tint_log.get(o).copied().flatten().unwrap_or([0; 3]);
+        let atlas = self.atlas.as_ref().and_then(|a| a.object_atlas(o));
         StochasticPush {
             object,
             bound: self.bounds.get(o).map_or(0, |b| b.id()),
@@ -1701,8 +1702,8 @@ impl StochasticDraws {
             tint_log_r: tint[0],
             tint_log_g: tint[1],
             tint_log_b: tint[2],
-            atlas_finest: self.atlas.as_ref().and_then(|a| a.object_atlas(o)).map_or(0, |a| a.finest()),
-            atlas_gutter: self.atlas.as_ref().and_then(|a| a.object_atlas(o)).map_or(0, |a| a.gutter()),
+            atlas_finest: atlas.map_or(0, |a| a.finest()),
+            atlas_gutter: atlas.map_or(0, |a| a.gutter()),
         }
     }
 

@@ -103,13 +103,18 @@ pub struct AtlasPush {
 /// texels around each.
 fn shading_coords(mesh: &crate::scene::Mesh, finest: u32, gutter: u32) -> Result<(ShadingSpace, Vec<Vec2>)> {
     let space = shading_space_of(mesh);
+    Ok((space, coords_in(mesh, space, finest, gutter)?))
+}
+
+/// [`shading_coords`] in a shading space already found.
+fn coords_in(mesh: &crate::scene::Mesh, space: ShadingSpace, finest: u32, gutter: u32) -> Result<Vec<Vec2>> {
     let unit: Vec<Vec2> = match space {
         ShadingSpace::OwnUvs { .. } => {
             mesh.indices.iter().map(|&i| space.to_unit(mesh.uvs[i as usize])).collect()
         }
         ShadingSpace::Charts(_) => triangle_charts(mesh, finest, gutter)?.uvs,
     };
-    Ok((space, unit.iter().map(|&t| t * finest as f32).collect()))
+    Ok(unit.iter().map(|&t| t * finest as f32).collect())
 }
 
 /// The set layout of `table` ([`LEVELS_SET`] or [`ATLAS_SET`]) for `stages`, a pipeline layout with
@@ -488,10 +493,8 @@ pub fn object_atlas_layout(
         return Ok(Some((largest, space, coords)));
     }
     loop {
-        match shading_coords(&o.mesh, finest, CHART_GUTTER) {
-            Ok((space, coords)) => {
-                return Ok(Some((MipAtlas::new(finest, largest.gutter())?, space, coords)))
-            }
+        match coords_in(&o.mesh, space, finest, CHART_GUTTER) {
+            Ok(coords) => return Ok(Some((MipAtlas::new(finest, largest.gutter())?, space, coords))),
             // Generated charts that fit the larger atlas may not fit a smaller one.
             Err(_) if finest < largest.finest() => finest *= 2,
             Err(e) => return Err(e),
@@ -524,22 +527,14 @@ pub fn plan_atlases(
     view: &crate::scene::view::View,
     largest: MipAtlas,
 ) -> Vec<AtlasPlan> {
-    use crate::texture_space::cull::{outside_frustum, CULL_MARGIN_PX};
+    use crate::texture_space::cull::{key_points, outside_frustum, CULL_MARGIN_PX};
     (0..scene.objects.len())
         .map(|i| {
             let o = &scene.objects[i];
             let culled = match view.intrinsics() {
                 Some(intrinsics) => (0..o.mesh.indices.len() / 3)
                     .filter(|&t| {
-                        let points: Vec<glam::Vec3> = view.space.objects[i]
-                            .model_view
-                            .iter()
-                            .flat_map(|mv| {
-                                (0..3).map(move |k| {
-                                    mv.transform_point3(o.mesh.positions[o.mesh.indices[3 * t + k] as usize])
-                                })
-                            })
-                            .collect();
+                        let points = key_points(&o.mesh, &view.space.objects[i], t);
                         outside_frustum(&intrinsics, &points, CULL_MARGIN_PX)
                     })
                     .count(),
@@ -738,9 +733,16 @@ impl AtlasPasses {
         inputs: &FrameInputs<'a>,
         shadows: Option<super::shadow_maps::ShadowHandles>,
     ) -> Vec<Option<AtlasHandles>> {
-        let shadow_reads = shadows.map(super::shadow_maps::ShadowMaps::reads).unwrap_or_default();
         let (world, view) = (inputs.world, inputs.camera);
         let counters = self.counters_buffer().map(|c| g.import_buffer("atlas counters", c));
+        // What both sub-passes read besides their own: the shadow maps, and the counters' atomics.
+        let mut shared = shadows.map(super::shadow_maps::ShadowMaps::reads).unwrap_or_default();
+        if let Some(c) = counters {
+            shared.extend([
+                (c.into(), Access::FragmentShaderReadOther),
+                (c.into(), Access::FragmentShaderWrite),
+            ]);
+        }
         let mut out = Vec::with_capacity(self.objects.len());
         for (i, o) in self.objects.iter().enumerate() {
             let Some(o) = o else {
@@ -750,41 +752,25 @@ impl AtlasPasses {
             let color = g.import_image("shading atlas", &o.color);
             let depth = g.import_image("shading atlas depth", &o.depth);
             let levels = g.import_buffer("atlas levels", &o.shading.levels);
-            let mut shade = g
-                .pass("atlas shade")
+            g.pass("atlas shade")
                 .color(color, Load::Clear([0.0; 4]), Store::Store)
                 .depth(depth, Load::Clear(1.0), Store::Store)
-                .overwrite(levels, Access::GeometryShaderWrite);
-            for &(r, a) in &shadow_reads {
-                shade = shade.access(r, a);
-            }
-            if let Some(c) = counters {
-                // Atomics read and write.
-                shade =
-                    shade.access(c, Access::FragmentShaderReadOther).access(c, Access::FragmentShaderWrite);
-            }
-            shade.record(move |ctx| {
-                self.record(ctx, world, view, i, &self.shade);
-                Ok(())
-            });
-            if self.hull_texels.is_some() {
-                let mut hull = g
-                    .pass("atlas conservative")
-                    .color(color, Load::Load, Store::Store)
-                    .depth(depth, Load::Load, Store::DontCare)
-                    .access(levels, Access::GeometryShaderReadOther);
-                for &(r, a) in &shadow_reads {
-                    hull = hull.access(r, a);
-                }
-                if let Some(c) = counters {
-                    hull = hull
-                        .access(c, Access::FragmentShaderReadOther)
-                        .access(c, Access::FragmentShaderWrite);
-                }
-                hull.record(move |ctx| {
-                    self.record(ctx, world, view, i, &self.hull);
+                .overwrite(levels, Access::GeometryShaderWrite)
+                .accesses(shared.iter().copied())
+                .record(move |ctx| {
+                    self.record(ctx, world, view, i, &self.shade);
                     Ok(())
                 });
+            if self.hull_texels.is_some() {
+                g.pass("atlas conservative")
+                    .color(color, Load::Load, Store::Store)
+                    .depth(depth, Load::Load, Store::DontCare)
+                    .access(levels, Access::GeometryShaderReadOther)
+                    .accesses(shared.iter().copied())
+                    .record(move |ctx| {
+                        self.record(ctx, world, view, i, &self.hull);
+                        Ok(())
+                    });
             }
             out.push(Some(AtlasHandles { color, levels }));
         }

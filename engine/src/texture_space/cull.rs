@@ -18,6 +18,8 @@
 use glam::Vec3;
 
 use crate::scene::camera::Intrinsics;
+use crate::scene::camera_space::ObjectMotion;
+use crate::scene::Mesh;
 
 /// Pixels the image's edges are pushed out by: a sample lies inside its pixel, and a pixel inside the
 /// image, so one pixel keeps the test conservative against rounding.
@@ -39,6 +41,13 @@ pub fn outside_frustum(intrinsics: &Intrinsics, points: &[Vec3], margin_px: f32)
         || all(&|p| -p.x + tx * -p.z + lens(p) < 0.0)
         || all(&|p| p.y + ty * -p.z + lens(p) < 0.0)
         || all(&|p| -p.y + ty * -p.z + lens(p) < 0.0)
+}
+
+/// Triangle `t` of `mesh` at every key of `motion`, camera space: the points [`outside_frustum`]
+/// takes (pass 1's geometry stage transforms the same vertices by the same key matrices).
+pub fn key_points(mesh: &Mesh, motion: &ObjectMotion, t: usize) -> Vec<Vec3> {
+    let corners = [0, 1, 2].map(|k| mesh.positions[mesh.indices[3 * t + k] as usize]);
+    motion.model_view.iter().flat_map(|mv| corners.map(|p| mv.transform_point3(p))).collect()
 }
 
 #[cfg(test)]

@@ -23,9 +23,9 @@ use crate::scene::camera::Intrinsics;
 use crate::scene::camera_space::ObjectMotion;
 use crate::scene::Mesh;
 
-/// The smallest circle-of-confusion radius, in pixels, over a convex polygon with these view depths at
-/// its corners (`z > 0`): 0 when it reaches both sides of the focus plane, else the smallest corner's.
-pub fn min_coc_px(intrinsics: &Intrinsics, depths: &[f32]) -> f32 {
+/// The smallest circle-of-confusion radius, in pixels, over a triangle with these view depths
+/// (`z > 0`): 0 when the triangle reaches both sides of the focus plane, else the smallest vertex's.
+pub fn min_coc_px(intrinsics: &Intrinsics, depths: [f32; 3]) -> f32 {
     let f = intrinsics.focus_distance;
     let nearer = depths.iter().any(|&z| z <= f);
     let farther = depths.iter().any(|&z| z >= f);
@@ -142,10 +142,11 @@ pub struct LevelChoice {
     pub level: u32,
 }
 
-/// Corners of a convex polygon clipped by planes (at most 8).
+/// Corners of a convex polygon clipped by planes: a triangle by the near plane and the image's four
+/// edges has at most 8.
 pub type Clipped = ([Vec3; 8], usize);
 
-/// `poly` (its first `n` corners) clipped to `dist(p) ≥ 0`, `dist` affine (Sutherland–Hodgman).
+/// `poly` clipped to `dist(p) ≥ 0`, `dist` affine (Sutherland–Hodgman).
 fn clip(poly: &[Vec3], dist: impl Fn(Vec3) -> f32) -> Clipped {
     let mut out = [Vec3::ZERO; 8];
     let mut n = 0;
@@ -182,7 +183,7 @@ pub fn triangle_level(
     tex_texels: [Vec2; 3],
     levels: u32,
 ) -> Option<LevelChoice> {
-    let min_coc = min_coc_px(intrinsics, &tri.map(|v| -v.z));
+    let min_coc = min_coc_px(intrinsics, tri.map(|v| -v.z));
     let spacing = grid_spacing_px(min_coc);
     let radius = tri
         .iter()
@@ -252,29 +253,19 @@ pub fn fitted_level(
 }
 
 /// The pixels camera-space triangle `tri` covers at the lens centre: clipped to the near plane, then
-/// to the image.
+/// to the image's edges — the planes through the eye that project onto them — and projected.
 pub fn on_screen_area(intrinsics: &Intrinsics, tri: [Vec3; 3]) -> f64 {
-    let (clipped, n) = near_clipped(tri, intrinsics.near);
-    let mut poly: Vec<Vec2> = clipped[..n].iter().map(|&v| intrinsics.project(v, Vec2::ZERO)).collect();
-    // Sutherland–Hodgman against the four image edges: keep where `n·p − c ≥ 0`.
-    let edges: [(Vec2, f32); 4] =
-        [(Vec2::X, 0.0), (-Vec2::X, -intrinsics.width), (Vec2::Y, 0.0), (-Vec2::Y, -intrinsics.height)];
-    for (n, c) in edges {
-        let inside = |p: Vec2| n.dot(p) - c;
-        let mut out = Vec::with_capacity(poly.len() + 1);
-        for k in 0..poly.len() {
-            let (a, b) = (poly[k], poly[(k + 1) % poly.len()]);
-            let (ia, ib) = (inside(a), inside(b));
-            if ia >= 0.0 {
-                out.push(a);
-            }
-            if (ia >= 0.0) != (ib >= 0.0) {
-                out.push(a + (b - a) * (ia / (ia - ib)));
-            }
-        }
-        poly = out;
+    let (tx, ty) =
+        (0.5 * intrinsics.width / intrinsics.pixel_scale, 0.5 * intrinsics.height / intrinsics.pixel_scale);
+    let edges: [&dyn Fn(Vec3) -> f32; 4] =
+        [&|p| p.x - tx * p.z, &|p| -p.x - tx * p.z, &|p| p.y - ty * p.z, &|p| -p.y - ty * p.z];
+    let mut poly = near_clipped(tri, intrinsics.near);
+    for edge in edges {
+        poly = clip(&poly.0[..poly.1], edge);
     }
-    let twice: f64 = (0..poly.len()).map(|k| poly[k].perp_dot(poly[(k + 1) % poly.len()]) as f64).sum();
+    let (corners, n) = poly;
+    let pixels: Vec<Vec2> = corners[..n].iter().map(|&v| intrinsics.project(v, Vec2::ZERO)).collect();
+    let twice: f64 = (0..n).map(|k| pixels[k].perp_dot(pixels[(k + 1) % n]) as f64).sum();
     let area = 0.5 * twice.abs();
     if area.is_finite() {
         area
@@ -364,12 +355,12 @@ mod tests {
     #[test]
     fn spacing_follows_the_smallest_circle_of_confusion() {
         let sharp = intrinsics(0.0, 5.0);
-        assert_eq!(grid_spacing_px(min_coc_px(&sharp, &[2.0, 3.0, 9.0])), 1.0);
+        assert_eq!(grid_spacing_px(min_coc_px(&sharp, [2.0, 3.0, 9.0])), 1.0);
         let lens = intrinsics(0.2, 5.0);
-        assert_eq!(min_coc_px(&lens, &[4.0, 5.5, 9.0]), 0.0);
+        assert_eq!(min_coc_px(&lens, [4.0, 5.5, 9.0]), 0.0);
         let far = [20.0, 30.0, 40.0];
         let expected = lens.circle_of_confusion_px(20.0).abs();
-        assert_eq!(min_coc_px(&lens, &far), expected);
+        assert_eq!(min_coc_px(&lens, far), expected);
         assert!(expected > 2.0, "{expected}");
         assert_eq!(grid_spacing_px(expected), 0.5 * expected);
     }
