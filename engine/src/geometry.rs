@@ -201,6 +201,51 @@ pub fn intersect_triangle(p: &[Vec3; 3], o: Vec3, d: Vec3) -> Option<TriangleHit
     Some(TriangleHit { depth_z, barycentrics: w, back: det < 0.0 })
 }
 
+/// Relative margin of [`back_facing_segment`]: the facing function must exceed this fraction of its
+/// scale (`|n|·(|a| + R)`) before a triangle counts as back-facing, far above the rounding of the GPU's
+/// determinant, so a triangle seen nearly edge-on is always kept.
+pub const BACK_FACING_MARGIN: f32 = 1e-4;
+
+/// Whether every camera ray from any lens point (a thin lens of radius `r`: any aperture inside that
+/// disk, centred on the camera-space origin in the plane z = 0) meets the triangle from its back
+/// ([`TriangleHit::back`]) at every time of a linear motion from `p` (its vertices at the start) to
+/// `q` (at the end), by relative margin `margin` ([`BACK_FACING_MARGIN`]). Conservative: `true` only
+/// when no such ray sees the front. Texture-space shading's pass 1 culls one-sided triangles with it
+/// over every key segment (`texture_space::cull::back_facing`), the stochastic rasterizer's geometry
+/// stage over each draw's time interval (`common/back_facing.glsl`, the GLSL mirror).
+///
+/// A ray from lens point `L = (Lx, Ly, 0)` meets the triangle `(a, b, c)` from the back when
+/// `g = n·(a − L) > 0`, `n = (b − a) × (c − a)` (Möller–Trumbore's determinant is `−d·n`, and `d` points
+/// from `L` towards the hit, which lies in front of the lens). Over the lens disk `|L| ≤ r` its smallest
+/// value is `n·a − r·|(nx, ny)|`. At time `s` of the motion the edges are linear in `s`, so `n(s)` is a
+/// quadratic and `n(s)·a(s)` a cubic: in the Bernstein basis, the smallest of the cubic's four
+/// coefficients bounds it from below over `s ∈ [0, 1]`, and since a norm is convex `|nxy(s)|` is at most
+/// the largest `|Nxy|` of the quadratic's three control vectors. When the lower bound minus `r` times
+/// the upper bound is positive, by the margin, no ray sees the front. For a triangle at rest (`p = q`)
+/// the test is exact but for the margin.
+pub fn back_facing_segment(r: f32, p: &[Vec3; 3], q: &[Vec3; 3], margin: f32) -> bool {
+    let (e1p, e2p) = (p[1] - p[0], p[2] - p[0]);
+    let (e1q, e2q) = (q[1] - q[0], q[2] - q[0]);
+    // n(s) = (1 − s)²·n0 + 2s(1 − s)·n1 + s²·n2.
+    let n0 = e1p.cross(e2p);
+    let n1 = 0.5 * (e1p.cross(e2q) + e1q.cross(e2p));
+    let n2 = e1q.cross(e2q);
+    let (a0, a1) = (p[0], q[0]);
+    // n(s)·a(s), a(s) = (1 − s)·a0 + s·a1: its cubic Bernstein coefficients.
+    let c = [
+        n0.dot(a0),
+        (2.0 * n1.dot(a0) + n0.dot(a1)) / 3.0,
+        (n2.dot(a0) + 2.0 * n1.dot(a1)) / 3.0,
+        n2.dot(a1),
+    ];
+    let lowest = c.iter().copied().fold(f32::INFINITY, f32::min);
+    let xy = |n: Vec3| n.truncate().length();
+    let lens = r * xy(n0).max(xy(n1)).max(xy(n2));
+    let scale = n0.length().max(n1.length()).max(n2.length()) * (a0.length().max(a1.length()) + r);
+    // NaN (non-finite input) is not > 0: kept.
+    lowest - lens - margin * scale > 0.0
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

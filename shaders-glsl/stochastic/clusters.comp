@@ -13,9 +13,12 @@
 // A dense, strongly blurred mesh has many triangles per blur disc: one bound per cluster instead of
 // one per triangle cuts the fragments by about the cluster size.
 //   NO_MOTION: the triangles at mid-shutter (local time t0 = t1 of the segment holding it).
+// A one-sided object's triangles that face away from every lens point over the segment are left out
+// of both boxes, as culled ones are (common/back_facing.glsl).
 #include "stochastic/bounds.glsl"
 #include "stochastic/camera_triangles.glsl"
 #include "stochastic/bound_vertices.glsl"
+#include "common/back_facing.glsl"
 
 layout(local_size_x = 64) in;
 
@@ -32,6 +35,7 @@ layout(push_constant) uniform Push {
     uint segment;        // the segment bounded (NO_MOTION: the one holding mid-shutter)
     float t0;            // local times of the segment bounded
     float t1;
+    uint one_sided;      // 1: triangles facing away from every lens point over [t0, t1] are left out
 } pc;
 
 void main() {
@@ -53,6 +57,9 @@ void main() {
         int piece_len[BOUND_MAX_PIECES];
         int pieces = compute_bound(BOUND_BBOX, v, pts, piece_len);
         if (pieces == 0) continue;  // culled: no sample can hit it
+        // One-sided and facing away throughout: no sample hits its front (stochastic.geom's rule).
+        if (pc.one_sided != 0u
+            && back_facing_segment(bound_aperture_(), vec3[3](v[0], v[1], v[2]), vec3[3](v[3], v[4], v[5]))) continue;
         viewport = viewport || pieces < 0;
         int n = 0;
         for (int k = 0; k < pieces; k++) n += piece_len[k];

@@ -9,6 +9,7 @@
 // still grows: the renderer reads it back, grows the buffer and expands again, so no bound is lost.
 #include "stochastic/bounds.glsl"
 #include "stochastic/camera_triangles.glsl"
+#include "common/back_facing.glsl"
 
 layout(local_size_x = 64) in;
 
@@ -28,6 +29,7 @@ layout(push_constant) uniform Push {
     uint segments;        // (NO_MOTION: the one segment holding mid-shutter)
     float t0;             // over local times [t0, t1] of each (NO_MOTION: t0 = t1, mid-shutter's)
     float t1;
+    uint one_sided;       // 1: triangles facing away from every lens point over [t0, t1] get no bound
 } pc;
 
 // The strips of this invocation's bound, gathered before they are written as triangles.
@@ -54,9 +56,13 @@ void main() {
     uint seg = pc.segment_begin + id % pc.segments;
     vec3 open[3], close[3];
     load_triangle(t, seg, pc.segment_count + 1u, open, close);
+    vec3 v[6] = bound_vertices(open, close, pc.t0, pc.t1);
+    // One-sided: a triangle no sample sees the front of gets no bound (stochastic.geom's rule).
+    if (pc.one_sided != 0u
+        && back_facing_segment(bound_aperture_(), vec3[3](v[0], v[1], v[2]), vec3[3](v[3], v[4], v[5]))) return;
     vec2 pts[BOUND_MAX_POINTS];
     int piece_len[BOUND_MAX_PIECES];
-    int pieces = compute_bound(pc.bound, bound_vertices(open, close, pc.t0, pc.t1), pts, piece_len);
+    int pieces = compute_bound(pc.bound, v, pts, piece_len);
     emit_bound(pieces, pts, piece_len);
     uint n = 0u;
     int begin = 0;

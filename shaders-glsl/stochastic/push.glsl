@@ -45,6 +45,9 @@ layout(push_constant) uniform Push {
     // TEXTURE_SPACE (shade.comp): the objects' atlas layout (texture_space::atlas::MipAtlas).
     uint atlas_finest;
     uint atlas_gutter;
+    // 1: the object's material is one-sided (scene::Material::one_sided): stochastic.frag drops every
+    // hit on a triangle's back, as the reference's camera rays skip it.
+    uint one_sided;
 } pc;
 
 #endif

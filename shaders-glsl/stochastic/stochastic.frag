@@ -13,7 +13,8 @@
 //   NO_DEFOCUS: motion-only objects: every sample's ray from the lens centre, no lens sampling.
 //   COMPUTE_HULL: behind the compute-expanded hull (hull.vert) rather than the geometry shader.
 // A partly covering object (pc.alpha < 1) keeps a hit only on the samples it covers (stochastic
-// transparency, docs/TRANSPARENCY.md); "samples hit" then counts covered hits.
+// transparency, docs/TRANSPARENCY.md); "samples hit" then counts covered hits. A one-sided object
+// (pc.one_sided) has no hits on its back: the reference's camera rays pass through it there.
 //   TINT_PASS: after the coverage pass, the tinted objects again (behind a one-piece bound, so every
 //              sample is tested once per triangle): each sample the triangle hits but does NOT cover,
 //              strictly in front of the hit the visibility buffer holds for it, gets the tint added to
@@ -191,7 +192,7 @@ void main() {
         vec3 b = shutter_lerp(p_open[1], p_close[1], s);
         vec3 c = shutter_lerp(p_open[2], p_close[2], s);
 #endif
-        if (sample_hit(a, b, c, ro, rd, z, w, back) && in_segment) {
+        if (sample_hit(a, b, c, ro, rd, z, w, back) && in_segment && !(back && pc.one_sided != 0u)) {
             bool covered = sample_covered(coverage, i, prim, w);
             if (keep_hit(pix, i, z, pc.triangle_base + prim, back, covered)) hits++;
         }
@@ -245,7 +246,7 @@ void main() {
                 float z;
                 vec3 w;
                 bool back;
-                if (sample_hit(a, b, c, ro, rd, z, w, back)) {
+                if (sample_hit(a, b, c, ro, rd, z, w, back) && !(back && pc.one_sided != 0u)) {
                     bool covered = sample_covered(coverage, i, prim, w);
                     if (keep_hit(pix, i, z, pc.triangle_base + prim, back, covered)) hits++;
                 }

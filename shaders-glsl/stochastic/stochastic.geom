@@ -7,8 +7,11 @@
 // triangle itself from the geometry buffers by ID (thesis §9.6: keep the GS output small).
 // Effect permutations (engine/src/plan.rs): NO_MOTION bounds the triangle at mid-shutter only,
 // NO_DEFOCUS bounds it through the lens centre only (bound_aperture_ = 0).
+// A one-sided object's triangle (pc.one_sided) that faces away from every lens point over the draw's
+// time interval gets no bound (common/back_facing.glsl): stochastic.frag would drop all its hits.
 #include "stochastic/bounds.glsl"
 #include "stochastic/push.glsl"
+#include "common/back_facing.glsl"
 
 layout(triangles) in;
 layout(triangle_strip, max_vertices = 52) out;  // BOUND_MAX_POINTS + 4 (box dilation adds <= 4)
@@ -51,5 +54,7 @@ void main() {
         bound_debug[base + 9 + 2 * i] = pts[i].y;
     }
 #endif
+    if (pc.one_sided != 0u && back_facing_segment(bound_aperture_(), vec3[3](v[0], v[1], v[2]),
+                                                  vec3[3](v[3], v[4], v[5]))) return;
     emit_bound(pieces, pts, piece_len);
 }

@@ -13,8 +13,8 @@
 //   SHADOW_RECEIVER: also the object-space position and normal, for the shadow-map lookups of
 //     atlas.frag (SHADOWS).
 // A triangle without a footprint (behind the camera or edge-on at every vertex) emits nothing; nor
-// does one no sample can hit, at any lens point or time (texture_space/cull.glsl): its level record
-// says so (w = 2).
+// does one no sample can hit, at any lens point or time (texture_space/cull.glsl: outside the frustum,
+// or a one-sided material's back face): its level record says so (w = 2).
 #include "common/frame.glsl"
 #include "common/object.glsl"
 #include "texture_space/rate.glsl"
@@ -110,7 +110,8 @@ void main() {
     float radius, spacing;
     uint level;
     bool ok = ts_triangle_level(tri_p, tex, pc.level_count, radius, spacing, level);
-    bool culled = ts_outside_frustum(object_p, pc.segment_first, pc.segment_count);
+    bool culled = ts_outside_frustum(object_p, pc.segment_first, pc.segment_count)
+               || (pc.one_sided != 0u && ts_back_facing(object_p, pc.segment_first, pc.segment_count));
     levels[prim] = vec4(radius, spacing, float(level), ok ? (culled ? 2.0 : 1.0) : 0.0);
     if (!ok || culled) return;
 #else

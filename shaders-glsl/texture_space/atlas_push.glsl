@@ -16,6 +16,7 @@ layout(push_constant) uniform Push {
     uint atlas_height;
     uint segment_first;  // the object's key segments (object_views), for culling over the shutter
     uint segment_count;
+    uint one_sided;      // 1: the material is one-sided, back faces are culled (texture_space/cull.glsl)
 } pc;
 
 // MipAtlas::level_rect's corner.

@@ -1059,3 +1059,144 @@ fn texture_alpha_matches_the_reference_sample_for_sample() {
         assert!(differing * 100 <= (w * h) as usize, "{name}: {differing} pixels differ");
     }
 }
+
+// ---------------------------------------------------------------------------------------------------
+// One-sided materials
+
+/// A lit scene: a two-sided backdrop, a two-sided box and, last, `card` (a square, one-sided when
+/// `one_sided`, coverage `alpha` and a tint below 1) with transform keys `card_keys`.
+fn card_scene(card_keys: Vec<(f32, Mat4)>, one_sided: bool, alpha: f32) -> Scene {
+    use shutter::scene::{Light, Material, Object};
+    let backdrop = Mat4::from_translation(Vec3::new(0.0, 0.0, -5.0));
+    let mut s = single_object_scene(camera(50.0, 0.08, 2.5), square(8.0), backdrop, None, 96, 72);
+    s.image.spp = HARD_SPP;
+    s.objects[0].material.albedo = Vec3::new(0.4, 0.5, 0.6);
+    let cube = builtin_mesh("box", None).expect("known").expect("builds");
+    s.objects.push(Object {
+        name: "box".into(),
+        mesh: Arc::new(cube),
+        transforms: vec![(
+            0.0,
+            Mat4::from_translation(Vec3::new(0.7, -0.2, -2.2))
+                * Mat4::from_rotation_y(0.6)
+                * Mat4::from_scale(Vec3::splat(0.5)),
+        )],
+        material: Material { albedo: Vec3::new(0.9, 0.6, 0.3), ..Material::default() },
+    });
+    s.objects.push(Object {
+        name: "card".into(),
+        mesh: square(1.0),
+        transforms: card_keys,
+        material: Material {
+            albedo: Vec3::new(0.2, 0.9, 0.3),
+            alpha,
+            tint: if alpha < 1.0 { Vec3::new(0.9, 0.5, 0.5) } else { Vec3::ONE },
+            one_sided,
+            ..Material::default()
+        },
+    });
+    s.environment.ambient = Vec3::splat(0.2);
+    s.lights =
+        vec![Light::Directional { direction: Vec3::new(-0.3, -0.4, -1.0), color: Vec3::ONE, shadows: false }];
+    s
+}
+
+/// Hard case: one-sided faces turning away during the shutter, under defocus. A card turns half a turn
+/// about its vertical axis (9 keys), so each sample sees its front or nothing depending on its time
+/// and lens point; a one-sided box spins a quarter turn (so its back faces come and go at its
+/// silhouette). Exact against the same-sample reference for every bound, clusters and both shading
+/// rates; and the one-sidedness shows (the two-sided card's back is seen in the reference).
+#[test]
+fn hard_one_sided_faces_turn_away_during_the_shutter() {
+    let at = Mat4::from_translation(Vec3::new(-0.5, 0.1, -2.5));
+    let keys: Vec<(f32, Mat4)> = (0..9)
+        .map(|k| (k as f32 / 8.0, at * Mat4::from_rotation_y(std::f32::consts::PI * k as f32 / 8.0)))
+        .collect();
+    let mut scene = card_scene(keys.clone(), true, 1.0);
+    scene.objects[1].material.one_sided = true;
+    let open = scene.objects[1].transforms[0].1;
+    scene.objects[1].set_close(open * Mat4::from_rotation_x(std::f32::consts::FRAC_PI_2));
+    check_hard_case("one-sided", &scene);
+    let (w, h) = (scene.image.width, scene.image.height);
+    let one = reference(&scene, w, h, HARD_SPP, 5);
+    let mut two_sided = scene.clone();
+    two_sided.objects[2].material.one_sided = false;
+    let two = reference(&two_sided, w, h, HARD_SPP, 5);
+    let d = max_abs_diff(&one, &two);
+    println!("one-sided card vs two-sided: max |Δ| {d}");
+    assert!(d > 0.1, "the card's back is not seen two-sided: the test shows nothing ({d})");
+}
+
+/// A one-sided card turned away from the camera is culled by every rasterizing path: `pinhole`,
+/// `accumulation` (opaque, and transparent under every transparency method) and `stochastic` (exact
+/// and texture-space shading) render exactly what they render with the card out of sight (behind
+/// the camera, so the frame is built the same); two-sided, its back is seen.
+#[test]
+fn one_sided_backs_are_culled_by_every_rasterizer() {
+    use shutter::transparency::TransparencyMethod;
+    let away = vec![(0.0, Mat4::from_translation(Vec3::new(-0.4, 0.0, -2.0)) * Mat4::from_rotation_y(2.8))];
+    let gone = vec![(0.0, Mat4::from_translation(Vec3::new(0.0, 0.0, 6.0)))];
+    let mut r = renderer();
+    let (w, h) = (96, 72);
+    let mut cases: Vec<(String, Technique, f32, RenderSettings)> = vec![];
+    let base = RenderSettings::new(w, h, 8, 5);
+    cases.push(("pinhole".into(), Technique::PINHOLE, 1.0, base));
+    cases.push(("accumulation".into(), Technique::ACCUMULATION, 1.0, base));
+    for &m in TransparencyMethod::ALL {
+        cases.push((
+            format!("accumulation {m}"),
+            Technique::ACCUMULATION,
+            0.5,
+            RenderSettings { transparency: m, ..base },
+        ));
+    }
+    for shading in [ShadingRate::PerPixel, ShadingRate::PerSample, ShadingRate::TextureSpace] {
+        for alpha in [1.0, 0.5] {
+            let o = options(BoundKind::Adaptive, shading);
+            cases.push((
+                format!("stochastic {} α {alpha}", shading.name()),
+                Technique::STOCHASTIC,
+                alpha,
+                base.with_stochastic(o),
+            ));
+        }
+    }
+    for (name, technique, alpha, settings) in cases {
+        let mut img = |keys: &Vec<(f32, Mat4)>, one_sided: bool| {
+            r.render(&card_scene(keys.clone(), one_sided, alpha), technique, &settings)
+                .unwrap_or_else(|e| panic!("{name}: {e}"))
+                .image
+        };
+        let (culled, out_of_sight, seen) = (img(&away, true), img(&gone, true), img(&away, false));
+        let d = max_abs_diff(&culled, &out_of_sight);
+        let shown = max_abs_diff(&seen, &out_of_sight);
+        println!("{name}: culled vs out of sight max |Δ| {d:e}; two-sided {shown:.3}");
+        save_comparison(&format!("one-sided-{}", name.replace([' ', '/'], "-")), &out_of_sight, &culled);
+        assert!(d <= 1e-6, "{name}: the one-sided card's back changes the image by {d}");
+        assert!(
+            shown > 0.05,
+            "{name}: the two-sided card's back is not seen ({shown}): the test shows nothing"
+        );
+    }
+    // The geometry stage, the compute-expanded hull and cluster bounds give the turned-away card no
+    // bound at all: not one coverage fragment more than with the card out of sight (two-sided, it has
+    // fragments).
+    let per_pixel = options(BoundKind::Adaptive, ShadingRate::PerPixel);
+    for (name, o) in [
+        ("geometry shader", per_pixel),
+        ("compute hull", with_hull(per_pixel, HullExpansion::Compute)),
+        ("clusters", StochasticOptions { clusters: Clusters::Fixed(2), ..per_pixel }),
+    ] {
+        let settings =
+            RenderSettings::new(w, h, 8, 5).with_stochastic(StochasticOptions { instrumented: true, ..o });
+        let mut fragments = |keys: &Vec<(f32, Mat4)>, one_sided: bool| {
+            let out = r.render(&card_scene(keys.clone(), one_sided, 1.0), Technique::STOCHASTIC, &settings);
+            out.expect("stochastic").stats.counters.expect("instrumented").fragments
+        };
+        let (culled, out_of_sight, seen) =
+            (fragments(&away, true), fragments(&gone, true), fragments(&away, false));
+        println!("{name}: coverage fragments {culled} culled, {out_of_sight} out of sight, {seen} two-sided");
+        assert_eq!(culled, out_of_sight, "{name}: the turned-away one-sided card was bounded");
+        assert!(seen > out_of_sight, "{name}: the two-sided card has no fragments: the test shows nothing");
+    }
+}

@@ -223,20 +223,27 @@ fn the_conservative_sub_pass_fills_every_texel_a_lookup_reads() {
     assert_eq!(misses_with, 0, "lookups read unwritten texels with the conservative sub-pass");
 }
 
-/// Pass 1's frustum culling over the lens and the shutter (`texture_space/cull.glsl`) against its CPU
-/// mirror `texture_space::cull::outside_frustum`, triangle by triangle, on `default` (a large ground
-/// plane reaching behind the camera and out of the image, depth of field, a moving sphere and a
-/// panning camera): the same verdicts, but where the CPU's own verdict changes within ±1 % of the
-/// margin (f32 transforms differ in the last bits); and culling is not vacuous.
+/// Pass 1's culling over the lens and the shutter (`texture_space/cull.glsl`) against its CPU mirror
+/// `texture_space::cull::culled`, triangle by triangle, on `default` (a large ground plane reaching
+/// behind the camera and out of the image, depth of field, a moving sphere and a panning camera) with
+/// every material made one-sided, so back faces are culled too: the same verdicts, but where the CPU's
+/// own verdict changes within ±1 % of the frustum margin or between half and twice the back-facing
+/// margin (f32 transforms differ in the last bits); and both cullings are not vacuous.
 #[test]
 fn gpu_culling_matches_the_cpu_mirror() {
-    use shutter::texture_space::cull::{key_points, outside_frustum, CULL_MARGIN_PX};
-    let scene = builtin_scene("default").expect("built-in").expect("parses");
+    use shutter::texture_space::cull::{
+        back_facing_by, culled, key_points, outside_frustum, BACK_FACING_MARGIN, CULL_MARGIN_PX,
+    };
+    let mut scene = builtin_scene("default").expect("built-in").expect("parses");
+    for o in &mut scene.objects {
+        o.material.one_sided = true;
+    }
     let (w, h) = (160, 90);
     let results = atlases(&scene, 256, Some(BILINEAR_HULL_TEXELS));
     let intrinsics = scene.camera.intrinsics(w, h);
+    let r = intrinsics.aperture_radius;
     let space = shutter::scene::view::View::camera(&scene, w, h).space;
-    let (mut culled, mut kept, mut borderline) = (0usize, 0usize, 0usize);
+    let (mut frustum, mut back, mut kept, mut borderline) = (0usize, 0usize, 0usize, 0usize);
     for (i, o) in scene.objects.iter().enumerate() {
         let Some(res) = &results[i] else { continue };
         for (t, l) in res.levels.iter().enumerate() {
@@ -244,22 +251,30 @@ fn gpu_culling_matches_the_cpu_mirror() {
                 continue;
             }
             let points = key_points(&o.mesh, &space.objects[i], t);
-            let cpu = outside_frustum(&intrinsics, &points, CULL_MARGIN_PX);
-            if l.culled != cpu {
+            let (f, b) = culled(&intrinsics, true, &points);
+            if l.culled != (f || b) {
                 let lo = outside_frustum(&intrinsics, &points, 0.99 * CULL_MARGIN_PX);
                 let hi = outside_frustum(&intrinsics, &points, 1.01 * CULL_MARGIN_PX);
-                assert_ne!(lo, hi, "`{}` triangle {t}: GPU culled {}, CPU {cpu}", o.name, l.culled);
+                let back_lo = back_facing_by(r, &points, 0.5 * BACK_FACING_MARGIN);
+                let back_hi = back_facing_by(r, &points, 2.0 * BACK_FACING_MARGIN);
+                assert!(
+                    lo != hi || back_lo != back_hi,
+                    "`{}` triangle {t}: GPU culled {}, CPU frustum {f} back {b}",
+                    o.name,
+                    l.culled
+                );
                 borderline += 1;
             }
-            if l.culled {
-                culled += 1;
-            } else {
-                kept += 1;
-            }
+            frustum += f as usize;
+            back += b as usize;
+            kept += !(f || b) as usize;
         }
     }
-    println!("default at {w}×{h}: {culled} triangles culled, {kept} kept, {borderline} borderline");
-    assert!(culled > 0 && kept > culled, "culled {culled}, kept {kept}");
+    println!(
+        "default (one-sided) at {w}×{h}: {frustum} triangles outside the frustum, {back} back-facing, \
+         {kept} kept, {borderline} borderline"
+    );
+    assert!(frustum > 0 && back > 0 && kept > frustum, "frustum {frustum}, back {back}, kept {kept}");
 }
 
 /// Texture-space shading against a converged reference, beside the exact shading of the same samples

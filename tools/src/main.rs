@@ -333,12 +333,17 @@ fn print_atlas_plan(sc: &shutter::scene::Scene, w: u32, h: u32) -> anyhow::Resul
     let t0 = std::time::Instant::now();
     let rows = shutter::techniques::texture_space::plan_atlases(sc, &view, largest);
     let ms = t0.elapsed().as_secs_f64() * 1e3;
+    let back = |r: &shutter::techniques::texture_space::AtlasPlan| {
+        r.back_facing.map_or_else(|| "two-sided".to_string(), |n| n.to_string())
+    };
     println!(
         "\n## texture-space shading (`--shading texture-space`)\n\nlevel 0 at most {TEXTURE_SPACE_FINEST}², \
          fitted per object; RGBA32F atlas + D32 depth\n"
     );
-    println!("| object | triangles | culled | shading space | level 0 | atlas texels | memory |");
-    println!("|---|---:|---:|---|---:|---:|---:|");
+    println!(
+        "| object | triangles | culled: frustum | culled: back-facing | shading space | level 0 | atlas texels | memory |"
+    );
+    println!("|---|---:|---:|---:|---|---:|---:|---:|");
     let mut total = 0;
     for r in &rows {
         match &r.layout {
@@ -346,15 +351,22 @@ fn print_atlas_plan(sc: &shutter::scene::Scene, w: u32, h: u32) -> anyhow::Resul
                 let (aw, ah) = atlas.size();
                 total += r.bytes();
                 println!(
-                    "| {} | {} | {} | {space} | {}² | {aw}×{ah} | {:.2} MB |",
+                    "| {} | {} | {} | {} | {space} | {}² | {aw}×{ah} | {:.2} MB |",
                     r.object,
                     r.triangles,
                     r.culled,
+                    back(r),
                     atlas.finest(),
                     r.bytes() as f64 / 1e6
                 );
             }
-            Err(why) => println!("| {} | {} | {} | {why} | - | - | - |", r.object, r.triangles, r.culled),
+            Err(why) => println!(
+                "| {} | {} | {} | {} | {why} | - | - | - |",
+                r.object,
+                r.triangles,
+                r.culled,
+                back(r)
+            ),
         }
     }
     println!("\natlases: {:.2} MB in all; laid out in {ms:.1} ms on the CPU", total as f64 / 1e6);

@@ -12,6 +12,7 @@
 use glam::{Vec2, Vec4};
 
 use super::{bound, BoundKind, MovingTriangle};
+use crate::geometry::{back_facing_segment, BACK_FACING_MARGIN};
 use crate::scene::Intrinsics;
 
 /// A cluster's bounds over one key segment (its triangles' end vertices).
@@ -27,8 +28,10 @@ pub struct ClusterBound {
 }
 
 /// The cluster bound of `tris` (as `clusters.comp`; a triangle whose bound is the viewport makes the
-/// screen box the viewport).
-pub fn cluster_bound(tris: &[MovingTriangle], k: &Intrinsics) -> ClusterBound {
+/// screen box the viewport). `one_sided`: the triangles' material is one-sided, and those facing away
+/// from every lens point over their motion ([`crate::geometry::back_facing_segment`]) are left out as
+/// culled ones are — no sample can hit them from the front.
+pub fn cluster_bound(tris: &[MovingTriangle], k: &Intrinsics, one_sided: bool) -> ClusterBound {
     let (mut lo, mut hi) = (Vec2::INFINITY, Vec2::NEG_INFINITY);
     let (mut pin_lo, mut pin_hi) = (Vec2::INFINITY, Vec2::NEG_INFINITY);
     let (mut z_lo, mut z_hi) = (f32::INFINITY, f32::NEG_INFINITY);
@@ -36,6 +39,9 @@ pub fn cluster_bound(tris: &[MovingTriangle], k: &Intrinsics) -> ClusterBound {
     for tri in tris {
         let b = bound(tri, k, BoundKind::BoundingBox);
         let Some((l, h)) = b.aabb() else { continue };
+        if one_sided && back_facing_segment(k.aperture_radius, &tri.v0, &tri.v1, BACK_FACING_MARGIN) {
+            continue;
+        }
         viewport |= b.is_viewport(k);
         (lo, hi) = (lo.min(l), hi.max(h));
         for v in tri.end_vertices() {

@@ -470,7 +470,8 @@ fn check_sample_hit(case: &Case, seed: u64, samples: usize, st: &mut Stats) -> R
 /// Cluster bounds: for a cluster of this case's triangle and three random neighbours, every sample
 /// the inside test says hits one of them (aimed at a point on it, through a random lens point and
 /// time) passes the cluster's per-sample test, and its pixel lies in the cluster's screen box (or off
-/// screen when the box is clamped to the viewport).
+/// screen when the box is clamped to the viewport). For odd seeds the cluster is one-sided: every hit
+/// on a triangle's front must pass (back-facing triangles may be left out).
 fn check_cluster(case: &Case, seed: u64, samples: usize) -> Result<u64, TestCaseError> {
     use super::cluster::{cluster_bound, sample_sees_cluster};
     let Case { k, tri } = case;
@@ -482,7 +483,8 @@ fn check_cluster(case: &Case, seed: u64, samples: usize) -> Result<u64, TestCase
         let scale = tri.end_vertices().iter().map(|v| v.abs().max_element()).fold(0.0, f32::max) * 0.1;
         tris.push(MovingTriangle { v0: tri.v0.map(|v| v + d0 * scale), v1: tri.v1.map(|v| v + d1 * scale) });
     }
-    let c = cluster_bound(&tris, k);
+    let one_sided = seed % 2 == 1;
+    let c = cluster_bound(&tris, k, one_sided);
     let mut checked = 0u64;
     for _ in 0..samples {
         let which = &tris[rng.below(4) as usize];
@@ -495,7 +497,10 @@ fn check_cluster(case: &Case, seed: u64, samples: usize) -> Result<u64, TestCase
         if !in_viewport(k, q) {
             continue;
         }
-        let Some(_) = sample_hit(which, k, q, lens, t) else { continue };
+        let Some(hit) = sample_hit(which, k, q, lens, t) else { continue };
+        if one_sided && hit.back {
+            continue;
+        }
         // The property: the cluster keeps every sample the triangle's own bound keeps. (The inside
         // test can report hits no bound holds — a ray from a camera lying in the plane of a triangle
         // that crosses z = 0 — which the per-triangle path misses alike.)

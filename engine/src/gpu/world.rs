@@ -11,7 +11,7 @@ use crate::error::Result;
 use crate::scene::{Scene, Texture};
 use crate::vk::{
     upload_texture, write_descriptors, Buffer, CommandRecorder, DescriptorPool, DescriptorSetLayout,
-    DescriptorWrite, Device, Image, PipelineLayout, Sampler,
+    DescriptorWrite, Device, Faces, Image, PipelineLayout, Sampler,
 };
 
 /// One object's mesh and its descriptor set (set 1).
@@ -20,6 +20,8 @@ pub struct GpuObject {
     pub vertices: Buffer,
     pub indices: Buffer,
     pub index_count: u32,
+    /// The material is one-sided ([`crate::scene::Material::one_sided`]): its back faces are culled.
+    pub one_sided: bool,
     /// Set 1 ([`OBJECT_SET`]): albedo texture (a white texel when untextured), vertices, indices.
     pub set: vk::DescriptorSet,
 }
@@ -153,6 +155,7 @@ impl GpuWorld {
                 vertices: vb,
                 indices: ib,
                 index_count: mesh.indices.len() as u32,
+                one_sided: o.material.one_sided,
                 set,
             });
         }
@@ -187,7 +190,8 @@ impl GpuWorld {
     /// Records one indexed draw per non-empty object `i` with `include(i)` as seen from `view`, with a
     /// bound graphics pipeline whose layout is `layout` ([`GpuWorld::pipeline_layout`]): binds set 0
     /// (the view's frame set) and per object set 1 and `object_set(i)` as set 2 when given, and pushes
-    /// `push(i)` for `stages`. The pipeline and set 3 are the caller's.
+    /// `push(i)` for `stages`. The pipeline and set 3 are the caller's; `faces` is the pipeline's: with
+    /// [`Faces::PerObject`] each draw sets the cull mode, back faces for a one-sided object.
     #[allow(clippy::too_many_arguments)]
     pub fn record_object_draws<P: bytemuck::Pod>(
         &self,
@@ -195,6 +199,7 @@ impl GpuWorld {
         cmd: vk::CommandBuffer,
         view: &GpuView,
         layout: &PipelineLayout,
+        faces: Faces,
         stages: vk::ShaderStageFlags,
         include: impl Fn(usize) -> bool,
         push: impl Fn(usize) -> P,
@@ -215,6 +220,10 @@ impl GpuWorld {
                     continue;
                 }
                 d.raw.cmd_push_constants(cmd, layout.raw, stages, 0, bytemuck::bytes_of(&push(i)));
+                if faces == Faces::PerObject {
+                    let cull = if o.one_sided { vk::CullModeFlags::BACK } else { vk::CullModeFlags::NONE };
+                    d.raw.cmd_set_cull_mode(cmd, cull);
+                }
                 let mut sets = vec![o.set];
                 sets.extend(object_set(i));
                 d.raw.cmd_bind_descriptor_sets(cmd, bind, layout.raw, layout::OBJECT_SET_INDEX, &sets, &[]);

@@ -26,6 +26,10 @@
 //!   vector is `−direction`, i.e. towards the lens sample (thesis §5.1). Radiance is
 //!   [`shade`]`(hit, n, view, albedo, specular, roughness, lights(t), ambient)`; a miss sees
 //!   `environment.background`.
+//! * **One-sided surfaces (camera rays).** A hit on the back of a triangle (the inside test's
+//!   `back`: the ray meets it from the side where its vertices run clockwise) whose material is
+//!   [`one_sided`](crate::scene::Material::one_sided) is no hit: the ray goes on, untinted. Shadow
+//!   rays see both sides.
 //! * **Transparency (camera rays).** A surface's coverage α is the material's `alpha` (times the
 //!   texture's alpha at the hit's uv with `alpha_from_texture`, [`crate::scene::Material::coverage`]).
 //!   Coverage is *stochastic*: the ray stops at a surface with probability α and passes through it
@@ -296,6 +300,8 @@ struct SurfaceMaterial<'a> {
     /// Coverage also from `texture`'s alpha (false when the mesh has no UVs to sample it with).
     alpha_from_texture: bool,
     tint: Vec3,
+    /// Camera rays skip its back faces ([`crate::scene::Material::one_sided`]).
+    one_sided: bool,
 }
 
 impl SurfaceMaterial<'_> {
@@ -368,6 +374,7 @@ impl<'a> Tracer<'a> {
                 alpha: m.alpha,
                 alpha_from_texture: m.alpha_from_texture && m.texture.is_some() && mesh.has_uvs(),
                 tint: m.tint,
+                one_sided: m.one_sided,
             });
         }
         let object_keys: Vec<KeyTimes> = scene_space.objects.iter().map(|m| m.keys.clone()).collect();
@@ -537,6 +544,9 @@ impl<'a> Tracer<'a> {
         let mut passed: Vec<(f32, u32)> = Vec::new();
         let hit = bvh.intersect_filtered(o, d, time, self.camera.near, self.camera.far, |id, h| {
             let m = &self.materials[self.surface[id as usize].object as usize];
+            if m.one_sided && h.back {
+                return false;
+            }
             if m.is_opaque() {
                 return true;
             }

@@ -344,6 +344,40 @@ fn back_faces_shade_like_front_faces() {
     }
 }
 
+/// One-sided materials: a camera ray passes through a one-sided triangle's back (untinted, unshaded)
+/// and still meets its front; the back still casts shadows.
+#[test]
+fn one_sided_backs_are_invisible_to_camera_rays_but_cast_shadows() {
+    let cam = camera(0.0, 5.0);
+    let wall = pixel_quad(&cam, 16, 16, [-1.0, 17.0, -1.0, 17.0], 5.0);
+    let front = pixel_quad(&cam, 16, 16, [4.0, 12.0, 4.0, 12.0], 3.0);
+    let back = Arc::new(
+        Mesh::new("back", front.positions.clone(), vec![-Vec3::Z; 4], vec![], vec![0, 2, 1, 0, 3, 2])
+            .unwrap(),
+    );
+    let centre = |mesh: &Arc<Mesh>, one_sided: bool, lit: bool| {
+        let mut occluder = object(mesh.clone(), Vec3::new(1.0, 0.0, 0.0), 1.0);
+        occluder.material.one_sided = one_sided;
+        let mut sc = scene(cam.clone(), vec![object(wall.clone(), Vec3::ONE, 1.0), occluder], Vec3::ZERO);
+        if lit {
+            sc.environment.ambient = Vec3::ZERO;
+            sc.lights = vec![Light::Directional { direction: -Vec3::Z, color: Vec3::ONE, shadows: true }];
+        }
+        let img = render(&sc, settings(16, 16, 4));
+        (img.get(8, 8), img.get(1, 1))
+    };
+    let red = [1.0, 0.0, 0.0, 1.0];
+    let white = [1.0; 4];
+    // Two-sided, both orientations are seen; one-sided, only the front.
+    assert_eq!(centre(&front, false, false), (red, white));
+    assert_eq!(centre(&back, false, false), (red, white));
+    assert_eq!(centre(&front, true, false), (red, white));
+    assert_eq!(centre(&back, true, false), (white, white));
+    // Lit head-on by a directional shadow-casting light: through the culled back the wall is seen in
+    // the occluder's shadow; beside it the wall is lit (Lambert 1).
+    assert_eq!(centre(&back, true, true), ([0.0, 0.0, 0.0, 1.0], white));
+}
+
 /// Textured quads: albedo × bilinear texture at the interpolated uv.
 #[test]
 fn textures_modulate_albedo() {

@@ -396,6 +396,30 @@ mod tests {
         }
     }
 
+    /// One-sided materials need meshes wound with their fronts outward (`Material::one_sided`): every
+    /// built-in mesh's triangles run counter-clockwise seen from the side their vertex normals point
+    /// to — the geometric normal `(b − a) × (c − a)` agrees with the mean vertex normal — and the closed
+    /// ones enclose a positive volume (the divergence theorem: outward normals).
+    #[test]
+    fn builtin_meshes_are_wound_front_side_out() {
+        for name in BUILTIN_MESHES {
+            let mesh = builtin_mesh(name, None).expect("known").expect("builds");
+            let (mut agree, mut volume) = (0usize, 0.0f64);
+            let n = mesh.indices.len() / 3;
+            for t in mesh.indices.chunks_exact(3) {
+                let [a, b, c] = [0, 1, 2].map(|k| mesh.positions[t[k] as usize]);
+                let geometric = (b - a).cross(c - a);
+                let vertex: Vec3 = t.iter().map(|&i| mesh.normals[i as usize]).sum();
+                agree += (geometric.dot(vertex) > 0.0) as usize;
+                volume += a.dot(b.cross(c)) as f64 / 6.0;
+            }
+            assert_eq!(agree, n, "`{name}`: {} of {n} triangles wound against their normals", n - agree);
+            if *name != "plane" {
+                assert!(volume > 0.0, "`{name}` encloses {volume}: wound inside out");
+            }
+        }
+    }
+
     #[test]
     fn procedural_meshes_are_clean_and_outward() {
         for (name, detail) in [("box", None), ("sphere", Some(12)), ("displaced-sphere", Some(2))] {

@@ -59,6 +59,8 @@
 //! alpha_from_texture = false    # true: coverage = alpha × the texture's alpha channel (needs texture)
 //! tint = [1, 1, 1]              # transmission of the uncovered part, each in [0, 1]: the surface
 //!                               # composites as alpha·C + (1 − alpha)·tint·behind (docs/TRANSPARENCY.md)
+//! one_sided = false             # true: camera rays see only the front (counter-clockwise on the
+//!                               # image); the back is culled, shadows come from both sides
 //!
 //! [[light]]                     # any number
 //! type = "directional"          # direction = [x, y, z] (from the light into the scene), color = [r, g, b]
@@ -194,6 +196,7 @@ struct FileMaterial {
     alpha: Option<f32>,
     alpha_from_texture: Option<bool>,
     tint: Option<V3>,
+    one_sided: Option<bool>,
 }
 
 #[derive(Deserialize)]
@@ -374,6 +377,13 @@ fn parse_with_source(text: &str, base_dir: &Path, default_name: &str, source: &s
             o.material.as_ref().unwrap_or(&FileMaterial::default()),
             &mut textures,
         )?;
+        if material.one_sided && transforms.iter().any(|k| k.1.determinant() < 0.0) {
+            return Err(cx.err(
+                &format!("{field}.material.one_sided"),
+                "the object's transform mirrors it (a negative scale), which turns its faces inside out: \
+                 one-sided culling would hide its outside; remove the mirroring or the one_sided key",
+            ));
+        }
         objects.push(Object { name, mesh, transforms, material });
     }
 
@@ -651,7 +661,8 @@ fn resolve_material(
             cx.err(&format!("{field}.tint"), format!("{tint} is out of range: each component in [0, 1]"))
         );
     }
-    Ok(Material { albedo, texture, specular, roughness, alpha, alpha_from_texture, tint })
+    let one_sided = m.one_sided.unwrap_or(false);
+    Ok(Material { albedo, texture, specular, roughness, alpha, alpha_from_texture, tint, one_sided })
 }
 
 #[cfg(test)]
@@ -959,8 +970,9 @@ mod tests {
             s.objects[0].material.clone()
         };
         let m = one("");
-        assert_eq!((m.alpha, m.alpha_from_texture, m.tint), (1.0, false, Vec3::ONE));
+        assert_eq!((m.alpha, m.alpha_from_texture, m.tint, m.one_sided), (1.0, false, Vec3::ONE, false));
         assert!(m.is_opaque());
+        assert!(one("one_sided = true").one_sided);
         let m = one("alpha = 0.25\ntint = [0.5, 1, 0]");
         assert_eq!((m.alpha, m.tint), (0.25, Vec3::new(0.5, 1.0, 0.0)));
         assert!(!m.is_opaque());
@@ -981,10 +993,18 @@ mod tests {
             ("tint = [1, 1]", "tint = [1, 1]"), // a TOML type error: it quotes the line
             ("alpha_from_texture = true", "material.alpha_from_texture"),
             ("alpha_from_texture = 1", "alpha_from_texture"),
+            ("one_sided = \"yes\"", "one_sided"),
         ] {
             let e = mat(bad);
             assert!(e.contains(field) && (e.contains("object[0]") || e.contains("TOML")), "{bad}: {e}");
         }
+        // One-sided and mirrored: refused (the outside would be culled); mirrored alone is fine.
+        let mirrored = |m: &str| {
+            format!("{CAMERA}[[object]]\nmesh = \"box\"\n[object.transform]\nscale = [-1, 1, 1]\n[object.material]\n{m}\n")
+        };
+        let e = parse(&mirrored("one_sided = true")).map(|_| ()).unwrap_err().to_string();
+        assert!(e.contains("material.one_sided") && e.contains("mirrors"), "{e}");
+        assert!(parse(&mirrored("")).is_ok());
     }
 
     #[test]

@@ -59,6 +59,15 @@ pub struct Material {
     /// theirs, so the composite does not depend on their order (docs/TRANSPARENCY.md). α = 0 with a
     /// tint is a pure filter (coloured glass); for α = 1 the tint is irrelevant.
     pub tint: Vec3,
+    /// One-sided: the surface exists for camera rays only from its front, the side from which its
+    /// vertices run counter-clockwise on the image (geometric normal `(b − a) × (c − a)` towards the
+    /// ray's origin, the rasterizer's `gl_FrontFacing`); a camera ray reaching its back passes
+    /// through as if it were not there (no shading, no tint). Shadows are still cast by both sides
+    /// (shadow rays and shadow maps ignore the flag), so a closed mesh renders the same image either
+    /// way while every technique may skip its back faces: the rasterizers cull them per draw and per
+    /// sample, texture-space shading's pass 1 culls those that face away at every lens point and
+    /// shutter time (`texture_space::cull::back_facing`). Off by default (two-sided).
+    pub one_sided: bool,
 }
 
 impl Default for Material {
@@ -71,6 +80,7 @@ impl Default for Material {
             alpha: 1.0,
             alpha_from_texture: false,
             tint: Vec3::ONE,
+            one_sided: false,
         }
     }
 }
@@ -245,6 +255,9 @@ impl Scene {
             if m.alpha_from_texture || m.tint != Vec3::ONE {
                 h.text(&format!("{}|{:?}", m.alpha_from_texture, m.tint));
             }
+            if m.one_sided {
+                h.text("one-sided");
+            }
             if o.transforms.len() > 2 {
                 h.text(&format!("{:?}", &o.transforms[1..o.transforms.len() - 1]));
             }
@@ -319,6 +332,7 @@ mod tests {
         assert!(!changed(&|_| {}));
         assert!(changed(&|s| s.objects[0].material.tint = Vec3::new(1.0, 0.5, 1.0)));
         assert!(changed(&|s| s.objects[0].material.alpha_from_texture = true));
+        assert!(changed(&|s| s.objects[0].material.one_sided = true));
         assert!(changed(&|s| {
             if let Some(Light::Directional { shadows, .. } | Light::Point { shadows, .. }) =
                 s.lights.first_mut()

@@ -103,13 +103,28 @@ pub struct ExpandPush {
     pub segments: u32,
     pub t0: f32,
     pub t1: f32,
+    /// 1: the object is one-sided; triangles that face away at every lens point over [t0, t1] get no
+    /// bound.
+    pub one_sided: u32,
 }
 
 /// For the reflection test.
 pub const EXPAND_STRUCTS: &[SharedStruct] = &[shared_struct!(
     "Push",
     ExpandPush,
-    [object, triangle_count, bound, capacity, dilate, segment_count, segment_begin, segments, t0, t1]
+    [
+        object,
+        triangle_count,
+        bound,
+        capacity,
+        dilate,
+        segment_count,
+        segment_begin,
+        segments,
+        t0,
+        t1,
+        one_sided
+    ]
 )];
 
 /// Expansion pipelines and the per-object hull buffers.
@@ -276,6 +291,7 @@ impl ComputeHull {
                             segments,
                             t0,
                             t1,
+                            one_sided: o.one_sided as u32,
                         };
                         d.raw.cmd_push_constants(
                             cmd,

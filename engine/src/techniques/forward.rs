@@ -27,7 +27,8 @@ use crate::shaders;
 use crate::shaders::axes::{Shadows, TransparencyPass};
 use crate::transparency::{coverage_seed, TransparencyMethod};
 use crate::vk::{
-    ColorBlend, DescriptorSetLayout, Device, Feature, GraphicsDesc, Pipeline, PipelineLayout, ShaderModule,
+    ColorBlend, DescriptorSetLayout, Device, Faces, Feature, GraphicsDesc, Pipeline, PipelineLayout,
+    ShaderModule,
 };
 
 /// One pass' sample of the lens and shutter.
@@ -207,9 +208,8 @@ impl ForwardPipeline {
                 depth_format: Some(DEPTH_FORMAT),
                 samples,
                 sample_shading: None,
-                // Two-sided surfaces: nothing is culled (the reference intersects both sides too).
-                cull_mode: vk::CullModeFlags::NONE,
-                front_face: vk::FrontFace::COUNTER_CLOCKWISE,
+                // One-sided materials' back faces culled per draw, as the reference's camera rays skip them.
+                faces: Faces::PerObject,
                 depth_compare: vk::CompareOp::GREATER,
                 depth_write: true,
             },
@@ -231,7 +231,17 @@ impl ForwardPipeline {
         bind_shadows(d, cmd, &self.layout, self.shadows);
         let push = |i: usize| ForwardPush::new(view, i, pass);
         let stages = vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT;
-        world.record_object_draws(d, cmd, view, &self.layout, stages, include, push, |_| None);
+        world.record_object_draws(
+            d,
+            cmd,
+            view,
+            &self.layout,
+            Faces::PerObject,
+            stages,
+            include,
+            push,
+            |_| None,
+        );
     }
 }
 
@@ -390,8 +400,7 @@ impl TransparentDraws {
             depth_format: Some(DEPTH_FORMAT),
             samples: msaa,
             sample_shading: None,
-            cull_mode: vk::CullModeFlags::NONE,
-            front_face: vk::FrontFace::COUNTER_CLOCKWISE,
+            faces: Faces::PerObject,
             // Reversed Z: nearer is greater. The tint pass passes only in front of the stored depth.
             depth_compare: vk::CompareOp::GREATER,
             depth_write,
@@ -460,6 +469,7 @@ impl TransparentDraws {
             cmd,
             view,
             &self.layout,
+            Faces::PerObject,
             stages,
             |i| self.objects[i].transparent,
             push,
@@ -473,6 +483,7 @@ impl TransparentDraws {
                 cmd,
                 view,
                 &self.layout,
+                Faces::PerObject,
                 stages,
                 |i| self.objects[i].tinted,
                 push,

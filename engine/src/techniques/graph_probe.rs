@@ -35,8 +35,8 @@ use crate::image::LinearImage;
 use crate::scene::{Light, Projection, View};
 use crate::shaders;
 use crate::vk::{
-    write_descriptors, Binding, Buffer, DescriptorPool, DescriptorSetLayout, DescriptorWrite, GraphicsDesc,
-    Image, ImageDesc, Pipeline, PipelineLayout, Sampler, ShaderModule,
+    write_descriptors, Binding, Buffer, DescriptorPool, DescriptorSetLayout, DescriptorWrite, Faces,
+    GraphicsDesc, Image, ImageDesc, Pipeline, PipelineLayout, Sampler, ShaderModule,
 };
 
 /// Set 3 of `shadow_mask.comp`.
@@ -172,8 +172,7 @@ impl GraphProbe {
                     depth_format: Some(DEPTH_FORMAT),
                     samples: 1,
                     sample_shading: None,
-                    cull_mode: vk::CullModeFlags::NONE,
-                    front_face: vk::FrontFace::COUNTER_CLOCKWISE,
+                    faces: Faces::Both,
                     depth_compare: compare,
                     depth_write: write,
                 },
@@ -299,6 +298,7 @@ impl GraphProbe {
                 ctx.cmd,
                 view,
                 &self.draw_layout,
+                Faces::Both,
                 stages,
                 |_| true,
                 push,

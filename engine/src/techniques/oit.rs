@@ -90,7 +90,7 @@ use crate::shaders::axes::Shadows;
 use crate::transparency::{coverage_seed, TransparencyMethod, MAX_PEELING_LAYERS};
 use crate::vk::{
     write_descriptors, Buffer, ColorBlend, DescriptorPool, DescriptorSetLayout, DescriptorWrite, Device,
-    Feature, GraphicsDesc, Image, ImageDesc, Pipeline, PipelineLayout, Sampler, ShaderModule,
+    Faces, Feature, GraphicsDesc, Image, ImageDesc, Pipeline, PipelineLayout, Sampler, ShaderModule,
 };
 
 /// The format of the sums, the transmittance and the peeled layers: 32-bit floats, so that a sum
@@ -484,9 +484,8 @@ impl OitTechnique {
                         depth_format: Some(DEPTH_FORMAT),
                         samples: msaa,
                         sample_shading: None,
-                        // Two-sided surfaces, as the forward pipeline.
-                        cull_mode: vk::CullModeFlags::NONE,
-                        front_face: vk::FrontFace::COUNTER_CLOCKWISE,
+                        // One-sided materials' back faces culled, as the forward pipeline.
+                        faces: Faces::PerObject,
                         // Reversed Z: nearer is greater.
                         depth_compare: vk::CompareOp::GREATER,
                         depth_write,
@@ -678,8 +677,7 @@ impl OitTechnique {
                         samples: msaa,
                         // Per sample: each sample compares its own depths and keeps its own nearest.
                         sample_shading: multisampled.then_some(1.0),
-                        cull_mode: vk::CullModeFlags::NONE,
-                        front_face: vk::FrontFace::COUNTER_CLOCKWISE,
+                        faces: Faces::PerObject,
                         depth_compare: vk::CompareOp::GREATER,
                         depth_write: true,
                     },
@@ -796,6 +794,7 @@ impl OitTechnique {
             cmd,
             inputs.camera,
             layout,
+            Faces::PerObject,
             stages,
             |i| self.objects[i].transparent,
             push,

@@ -37,7 +37,7 @@ use crate::shadows::{map_seed, FaceProjection, ShadowKind, ShadowPlan, ShadowSet
 use crate::transparency::coverage_seed;
 use crate::vk::{
     write_descriptors, Buffer, ColorBlend, DescriptorPool, DescriptorSetLayout, DescriptorWrite, Device,
-    GraphicsDesc, Image, ImageDesc, Pipeline, PipelineLayout, Sampler, ShaderModule,
+    Faces, GraphicsDesc, Image, ImageDesc, Pipeline, PipelineLayout, Sampler, ShaderModule,
 };
 
 /// Depth atlas format (reversed Z, cleared to 0) and the hue atlas' (rgb hue product, a nearest
@@ -209,8 +209,7 @@ impl ShadowMaps {
                     samples: plan.msaa,
                     sample_shading: None,
                     // Every surface casts from both sides, as the reference's shadow rays see them.
-                    cull_mode: vk::CullModeFlags::NONE,
-                    front_face: vk::FrontFace::COUNTER_CLOCKWISE,
+                    faces: Faces::Both,
                     depth_compare: vk::CompareOp::GREATER,
                     depth_write,
                 };
@@ -418,6 +417,7 @@ impl ShadowMaps {
                         cmd,
                         view,
                         &self.layout,
+                        Faces::Both,
                         stages,
                         include,
                         push,

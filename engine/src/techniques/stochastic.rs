@@ -43,8 +43,8 @@ use crate::plan::{Effects, Plan};
 use crate::sampling::{ApertureShape, SampleTile, ShutterCurve, SAMPLE_TILE_SIZE};
 use crate::shaders::{self, axes, ClustersComp, ShadeComp, StochasticFrag, StochasticGeom};
 use crate::vk::{
-    write_descriptors, Buffer, DescriptorPool, DescriptorSetLayout, DescriptorWrite, Feature, GraphicsDesc,
-    Image, Pipeline, PipelineLayout, ShaderModule,
+    write_descriptors, Buffer, DescriptorPool, DescriptorSetLayout, DescriptorWrite, Faces, Feature,
+    GraphicsDesc, Image, Pipeline, PipelineLayout, ShaderModule,
 };
 
 /// The registry entry.
@@ -629,6 +629,8 @@ pub struct StochasticPush {
     /// Texture-space shading: the atlases' level 0 side and gutter (0 elsewhere).
     pub atlas_finest: u32,
     pub atlas_gutter: u32,
+    /// 1: the object's material is one-sided; the coverage stage drops hits on its back.
+    pub one_sided: u32,
 }
 
 /// Push constants of `clusters.comp`.
@@ -641,6 +643,8 @@ pub struct ClustersPush {
     pub segment: u32,
     pub t0: f32,
     pub t1: f32,
+    /// 1: the object is one-sided; triangles that face away throughout are left out of the boxes.
+    pub one_sided: u32,
 }
 
 /// Bytes per cluster and key segment (`clusters.comp`): screen box, camera-space box min and max.
@@ -732,11 +736,16 @@ pub const STOCHASTIC_STRUCTS: &[SharedStruct] = &[
             tint_log_g,
             tint_log_b,
             atlas_finest,
-            atlas_gutter
+            atlas_gutter,
+            one_sided
         ]
     ),
     shared_struct!("Push", TrianglesPush, [segment_first, keys, triangle_count]),
-    shared_struct!("Push", ClustersPush, [triangle_count, cluster_size, segment_count, segment, t0, t1]),
+    shared_struct!(
+        "Push",
+        ClustersPush,
+        [triangle_count, cluster_size, segment_count, segment, t0, t1, one_sided]
+    ),
 ];
 
 /// Samples per pixel and pass M and passes P (S = M × P) for `pixels` pixels, the per-sample buffers
@@ -898,6 +907,8 @@ pub struct StochasticDraws {
     object_alpha: Vec<f32>,
     /// Per object: coverage from the texture's alpha too (with a texture and uvs, as the reference).
     object_texture_alpha: Vec<bool>,
+    /// Per object: a one-sided material, whose back faces no sample sees.
+    object_one_sided: Vec<bool>,
     /// [`crate::transparency::coverage_seed`] of the render seed.
     coverage_seed: u32,
     spp: u32,
@@ -1196,8 +1207,7 @@ impl StochasticDraws {
                     depth_format: None,
                     samples: 1,
                     sample_shading: None,
-                    cull_mode: vk::CullModeFlags::NONE,
-                    front_face: vk::FrontFace::COUNTER_CLOCKWISE,
+                    faces: Faces::Both,
                     depth_compare: vk::CompareOp::ALWAYS,
                     depth_write: false,
                 },
@@ -1445,6 +1455,7 @@ impl StochasticDraws {
             bounds: plan.objects.iter().map(|o| options.bound.resolve(caps, o.max_coc_px)).collect(),
             object_alpha: ctx.scene.objects.iter().map(|o| o.material.alpha).collect(),
             object_texture_alpha: transparent.iter().map(|o| o.alpha_from_texture).collect(),
+            object_one_sided: ctx.scene.objects.iter().map(|o| o.material.one_sided).collect(),
             coverage_seed: crate::transparency::coverage_seed(seed),
             spp,
             per_pass,
@@ -1580,6 +1591,7 @@ impl StochasticDraws {
                             segment,
                             t0,
                             t1,
+                            one_sided: o.one_sided as u32,
                         };
                         d.raw.cmd_push_constants(
                             cmd,
@@ -1704,6 +1716,7 @@ impl StochasticDraws {
             tint_log_b: tint[2],
             atlas_finest: atlas.map_or(0, |a| a.finest()),
             atlas_gutter: atlas.map_or(0, |a| a.gutter()),
+            one_sided: self.object_one_sided.get(o).copied().unwrap_or(false) as u32,
         }
     }
 
@@ -1741,9 +1754,13 @@ impl StochasticDraws {
         let xi = |i: u32| (pass * self.per_pass + i) as f32 / self.spp as f32;
         let (t0, t1) = (self.shutter.warp(xi(first)), self.shutter.warp(xi(first + count)));
         // Segment `seg` holds times [t_a, t_b) (the first from −∞, the last to +∞: KeyTimes).
+        // (`seg` runs over the most segments any object has: past this object's last, no draw.)
         let last = keys.segments() - 1;
+        if seg > last {
+            return None;
+        }
         let (t_a, t_b) = (keys.times()[seg], keys.times()[seg + 1]);
-        if seg > last || (seg > 0 && t1 < t_a) || (seg < last && t0 >= t_b) {
+        if (seg > 0 && t1 < t_a) || (seg < last && t0 >= t_b) {
             return None;
         }
         // The samples' local times: monotone in t, so those of [max(t0, t_a), min(t1, t_b)] bound them
@@ -1983,6 +2000,7 @@ impl StochasticDraws {
                     ctx.cmd,
                     view,
                     &self.layout,
+                    Faces::Both,
                     self.push_stages,
                     |i| include(i) && run < self.object_intervals[i] && piece(i).is_some(),
                     |i| piece(i).expect("included"),

@@ -26,7 +26,7 @@ use crate::vk::{
     write_descriptors, Buffer, DescriptorPool, DescriptorSetLayout, DescriptorWrite, Pipeline,
     PipelineLayout, ShaderModule,
 };
-use crate::vk::{Feature, GraphicsDesc, Image, ImageDesc};
+use crate::vk::{Faces, Feature, GraphicsDesc, Image, ImageDesc};
 
 /// Set 3 of `levels.comp`.
 pub const LEVELS_SET: [Binding; 2] = [
@@ -72,7 +72,8 @@ pub const TEXTURE_SPACE_STRUCTS: &[SharedStruct] = &[
             atlas_width,
             atlas_height,
             segment_first,
-            segment_count
+            segment_count,
+            one_sided
         ]
     ),
 ];
@@ -96,6 +97,8 @@ pub struct AtlasPush {
     /// The object's key segments (culling over the shutter).
     pub segment_first: u32,
     pub segment_count: u32,
+    /// 1: the material is one-sided, pass 1 culls back faces too.
+    pub one_sided: u32,
 }
 
 /// The shading coordinates of every corner of `mesh` (3 per triangle, index order) in texels of a
@@ -509,8 +512,12 @@ pub struct AtlasPlan {
     pub triangles: usize,
     /// The layout and shading space, or why there is none (charts that do not fit).
     pub layout: std::result::Result<(MipAtlas, ShadingSpace), String>,
-    /// Triangles pass 1 culls ([`crate::texture_space::cull`]).
+    /// Triangles pass 1 culls outside the frustum ([`crate::texture_space::cull::outside_frustum`]).
     pub culled: usize,
+    /// Triangles pass 1 culls as back-facing at every lens point and time (one-sided materials,
+    /// [`crate::texture_space::cull::back_facing`]), of those inside the frustum; `None` for a
+    /// two-sided material, whose back faces are never culled.
+    pub back_facing: Option<usize>,
 }
 
 impl AtlasPlan {
@@ -527,25 +534,31 @@ pub fn plan_atlases(
     view: &crate::scene::view::View,
     largest: MipAtlas,
 ) -> Vec<AtlasPlan> {
-    use crate::texture_space::cull::{key_points, outside_frustum, CULL_MARGIN_PX};
+    use crate::texture_space::cull::{culled, key_points};
     (0..scene.objects.len())
         .map(|i| {
             let o = &scene.objects[i];
-            let culled = match view.intrinsics() {
-                Some(intrinsics) => (0..o.mesh.indices.len() / 3)
-                    .filter(|&t| {
-                        let points = key_points(&o.mesh, &view.space.objects[i], t);
-                        outside_frustum(&intrinsics, &points, CULL_MARGIN_PX)
-                    })
-                    .count(),
-                None => 0,
-            };
+            let (mut frustum, mut back) = (0, 0);
+            if let Some(intrinsics) = view.intrinsics() {
+                for t in 0..o.mesh.indices.len() / 3 {
+                    let points = key_points(&o.mesh, &view.space.objects[i], t);
+                    let (f, b) = culled(&intrinsics, o.material.one_sided, &points);
+                    frustum += f as usize;
+                    back += b as usize;
+                }
+            }
             let layout = match object_atlas_layout(scene, view, i, largest, AtlasSize::Fitted) {
                 Ok(Some((atlas, space, _))) => Ok((atlas, space)),
                 Ok(None) => Err("no triangles".into()),
                 Err(e) => Err(e.to_string()),
             };
-            AtlasPlan { object: o.name.clone(), triangles: o.mesh.indices.len() / 3, layout, culled }
+            AtlasPlan {
+                object: o.name.clone(),
+                triangles: o.mesh.indices.len() / 3,
+                layout,
+                culled: frustum,
+                back_facing: o.material.one_sided.then_some(back),
+            }
         })
         .collect()
 }
@@ -636,8 +649,7 @@ impl AtlasPasses {
                     depth_format: Some(ATLAS_DEPTH_FORMAT),
                     samples: 1,
                     sample_shading: None,
-                    cull_mode: vk::CullModeFlags::NONE,
-                    front_face: vk::FrontFace::COUNTER_CLOCKWISE,
+                    faces: Faces::Both,
                     depth_compare: vk::CompareOp::LESS,
                     depth_write: true,
                 },
@@ -808,6 +820,7 @@ impl AtlasPasses {
             atlas_height: height,
             segment_first,
             segment_count,
+            one_sided: world.objects[i].one_sided as u32,
         };
         let stages =
             vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::GEOMETRY | vk::ShaderStageFlags::FRAGMENT;

@@ -19,7 +19,7 @@ pub use context::{Capabilities, Device, DeviceDesc, DeviceShared, Feature, Valid
 pub use image::{aspect_of, barrier, Image, ImageDesc, Sampler};
 pub use memory::Buffer;
 pub use pipeline::{
-    write_descriptors, Binding, ColorBlend, DescriptorPool, DescriptorSetLayout, DescriptorWrite,
+    write_descriptors, Binding, ColorBlend, DescriptorPool, DescriptorSetLayout, DescriptorWrite, Faces,
     GraphicsDesc, Pipeline, PipelineLayout, ShaderModule,
 };
 pub use queries::{GpuTimer, PassTimings};

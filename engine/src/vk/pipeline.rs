@@ -263,10 +263,23 @@ pub struct GraphicsDesc<'a> {
     pub samples: u32,
     /// `Some(min)`: sample-rate shading with minSampleShading = min.
     pub sample_shading: Option<f32>,
-    pub cull_mode: vk::CullModeFlags,
-    pub front_face: vk::FrontFace,
+    pub faces: Faces,
     pub depth_compare: vk::CompareOp,
     pub depth_write: bool,
+}
+
+/// Which sides of its triangles a graphics pipeline rasterizes. The front is the side from which a
+/// triangle's vertices run counter-clockwise on the image (`gl_FrontFacing`, the reference's `!back`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Faces {
+    /// Both sides, always: pipelines whose triangles are not the scene's own faces (bounds, atlas
+    /// charts, full-screen passes), shadow casters (one-sided surfaces cast shadows from both sides)
+    /// and probes.
+    Both,
+    /// Per draw: the cull mode is dynamic state, which [`crate::gpu::GpuWorld::record_object_draws`]
+    /// sets per object — back faces culled for a one-sided material
+    /// ([`crate::scene::Material::one_sided`]), none for a two-sided one.
+    PerObject,
 }
 
 /// How a graphics pipeline's fragments combine with the colour attachment.
@@ -335,8 +348,8 @@ impl Pipeline {
         let viewport = vk::PipelineViewportStateCreateInfo::default().viewport_count(1).scissor_count(1);
         let raster = vk::PipelineRasterizationStateCreateInfo::default()
             .polygon_mode(vk::PolygonMode::FILL)
-            .cull_mode(d.cull_mode)
-            .front_face(d.front_face)
+            .cull_mode(vk::CullModeFlags::NONE)
+            .front_face(vk::FrontFace::COUNTER_CLOCKWISE)
             .line_width(1.0);
         let mut multisample = vk::PipelineMultisampleStateCreateInfo::default()
             .rasterization_samples(vk::SampleCountFlags::from_raw(d.samples));
@@ -387,7 +400,11 @@ impl Pipeline {
             })
             .collect();
         let blend = vk::PipelineColorBlendStateCreateInfo::default().attachments(&blend_attachments);
-        let dynamic_states = [vk::DynamicState::VIEWPORT, vk::DynamicState::SCISSOR];
+        let mut dynamic_states = vec![vk::DynamicState::VIEWPORT, vk::DynamicState::SCISSOR];
+        if d.faces == Faces::PerObject {
+            // Core in Vulkan 1.3, which the device context requires.
+            dynamic_states.push(vk::DynamicState::CULL_MODE);
+        }
         let dynamic = vk::PipelineDynamicStateCreateInfo::default().dynamic_states(&dynamic_states);
         let mut rendering = vk::PipelineRenderingCreateInfo::default()
             .color_attachment_formats(d.color_formats)
