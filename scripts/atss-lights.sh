@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Texture-space shading's shading-cost dial (docs/ATSS.md): the same scene — Spot on a ground plane in
 # front of a wall, both tessellated 16×16 (texture-space shading shades whole triangles at one level:
-# two-triangle planes are shaded whole at their finest vertex's level), depth of field, Spot sliding —
+# two-triangle planes are shaded whole at their finest vertex's level), depth of field, Spot sliding
+# and one-sided (a closed mesh: pass 1 culls the back faces no lens point sees at any time) —
 # lit by N point lights on a ring, N = 1, 16, 64, 256;
 # per N and S (the paper's 4 and 8 samples per pixel) one interleaved `shutter bench` of the stochastic
 # frame's four shading rates. Writes the scenes to out/atss/ and the reports to
@@ -65,6 +66,7 @@ scale = 0.6
 texture = "spot"
 specular = 0.25
 roughness = 0.35
+one_sided = true
 
 [environment]
 ambient = [0.03, 0.03, 0.035]

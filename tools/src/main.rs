@@ -341,9 +341,9 @@ fn print_atlas_plan(sc: &shutter::scene::Scene, w: u32, h: u32) -> anyhow::Resul
          fitted per object; RGBA32F atlas + D32 depth\n"
     );
     println!(
-        "| object | triangles | culled: frustum | culled: back-facing | shading space | level 0 | atlas texels | memory |"
+        "| object | triangles | culled: frustum | culled: back-facing | shaded texels (estimate) | shading space | level 0 | atlas texels | memory |"
     );
-    println!("|---|---:|---:|---:|---|---:|---:|---:|");
+    println!("|---|---:|---:|---:|---:|---|---:|---:|---:|");
     let mut total = 0;
     for r in &rows {
         match &r.layout {
@@ -351,17 +351,18 @@ fn print_atlas_plan(sc: &shutter::scene::Scene, w: u32, h: u32) -> anyhow::Resul
                 let (aw, ah) = atlas.size();
                 total += r.bytes();
                 println!(
-                    "| {} | {} | {} | {} | {space} | {}² | {aw}×{ah} | {:.2} MB |",
+                    "| {} | {} | {} | {} | {:.0} | {space} | {}² | {aw}×{ah} | {:.2} MB |",
                     r.object,
                     r.triangles,
                     r.culled,
                     back(r),
+                    r.texels,
                     atlas.finest(),
                     r.bytes() as f64 / 1e6
                 );
             }
             Err(why) => println!(
-                "| {} | {} | {} | {} | {why} | - | - | - |",
+                "| {} | {} | {} | {} | - | {why} | - | - | - |",
                 r.object,
                 r.triangles,
                 r.culled,
@@ -369,7 +370,11 @@ fn print_atlas_plan(sc: &shutter::scene::Scene, w: u32, h: u32) -> anyhow::Resul
             ),
         }
     }
-    println!("\natlases: {:.2} MB in all; laid out in {ms:.1} ms on the CPU", total as f64 / 1e6);
+    let texels: f64 = rows.iter().map(|r| r.texels).sum();
+    println!(
+        "\natlases: {:.2} MB in all; about {texels:.0} texels shaded (gutters not counted); laid out in {ms:.1} ms on the CPU",
+        total as f64 / 1e6
+    );
     Ok(())
 }
 

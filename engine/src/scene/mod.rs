@@ -66,7 +66,9 @@ pub struct Material {
     /// (shadow rays and shadow maps ignore the flag), so a closed mesh renders the same image either
     /// way while every technique may skip its back faces: the rasterizers cull them per draw and per
     /// sample, texture-space shading's pass 1 culls those that face away at every lens point and
-    /// shutter time (`texture_space::cull::back_facing`). Off by default (two-sided).
+    /// shutter time (`texture_space::cull::back_facing`). Off by default (two-sided). The scene file
+    /// refuses it on an object whose transform mirrors it (negative determinant: the outside would be
+    /// culled); docs/STOCHASTIC.md "One-sided surfaces".
     pub one_sided: bool,
 }
 

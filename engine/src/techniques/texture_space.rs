@@ -486,6 +486,7 @@ pub fn object_atlas_layout(
             &coords,
             largest.levels(),
             FITTED_COARSER_AREA,
+            o.material.one_sided,
         )
         // No triangle with a footprint: nothing of it can be seen; the smallest atlas.
         .unwrap_or(largest.levels() - 1),
@@ -518,6 +519,11 @@ pub struct AtlasPlan {
     /// [`crate::texture_space::cull::back_facing`]), of those inside the frustum; `None` for a
     /// two-sided material, whose back faces are never culled.
     pub back_facing: Option<usize>,
+    /// The texels the shade sub-pass covers, estimated on the CPU: the area of every kept triangle in
+    /// its level ([`crate::texture_space::rate::triangle_level`] at mid-shutter, the fitted layout's
+    /// coordinates), without the conservative sub-pass' gutters. Where it comes from: shaded texels per
+    /// object, which the GPU's counters only give for the whole frame.
+    pub texels: f64,
 }
 
 impl AtlasPlan {
@@ -538,16 +544,31 @@ pub fn plan_atlases(
     (0..scene.objects.len())
         .map(|i| {
             let o = &scene.objects[i];
-            let (mut frustum, mut back) = (0, 0);
+            let fitted = object_atlas_layout(scene, view, i, largest, AtlasSize::Fitted);
+            let (mut frustum, mut back, mut texels) = (0, 0, 0.0);
             if let Some(intrinsics) = view.intrinsics() {
+                let motion = &view.space.objects[i];
                 for t in 0..o.mesh.indices.len() / 3 {
-                    let points = key_points(&o.mesh, &view.space.objects[i], t);
+                    let points = key_points(&o.mesh, motion, t);
                     let (f, b) = culled(&intrinsics, o.material.one_sided, &points);
                     frustum += f as usize;
                     back += b as usize;
+                    let Ok(Some((atlas, _, coords))) = &fitted else { continue };
+                    if f || b {
+                        continue;
+                    }
+                    let tex = [0, 1, 2].map(|k| coords[3 * t + k]);
+                    let tri = crate::texture_space::rate::camera_triangle(&o.mesh, motion, t, 0.5);
+                    let levels = atlas.levels();
+                    if let Some(c) = crate::texture_space::rate::triangle_level(&intrinsics, tri, tex, levels)
+                    {
+                        let scale = 1.0 / (1u64 << c.level) as f64;
+                        let (e1, e2) = (tex[1] - tex[0], tex[2] - tex[0]);
+                        texels += 0.5 * (e1.perp_dot(e2) as f64).abs() * scale * scale;
+                    }
                 }
             }
-            let layout = match object_atlas_layout(scene, view, i, largest, AtlasSize::Fitted) {
+            let layout = match fitted {
                 Ok(Some((atlas, space, _))) => Ok((atlas, space)),
                 Ok(None) => Err("no triangles".into()),
                 Err(e) => Err(e.to_string()),
@@ -558,6 +579,7 @@ pub fn plan_atlases(
                 layout,
                 culled: frustum,
                 back_facing: o.material.one_sided.then_some(back),
+                texels,
             }
         })
         .collect()

@@ -219,7 +219,8 @@ pub fn camera_triangle(mesh: &Mesh, motion: &ObjectMotion, t: usize, time: f32) 
 /// level 0 is `2^k` times smaller holds every triangle at its level minus `k`; the few finer ones are
 /// clamped to its level 0 — shaded coarser than the rate asks, over at most that share of the
 /// object's pixels. (With 0, the finest level any triangle asks for: a single sliver whose uvs are
-/// squeezed — Spot has a few — would otherwise size the whole atlas.)
+/// squeezed — Spot has a few — would otherwise size the whole atlas.) With `one_sided`, the triangles
+/// pass 1 culls as back-facing ([`super::cull::back_facing`]) are never shaded and count for nothing.
 pub fn fitted_level(
     intrinsics: &Intrinsics,
     mesh: &Mesh,
@@ -227,6 +228,7 @@ pub fn fitted_level(
     coords: &[Vec2],
     levels: u32,
     coarser_fraction: f64,
+    one_sided: bool,
 ) -> Option<u32> {
     let mut area = vec![0f64; levels as usize];
     let mut any = false;
@@ -234,6 +236,10 @@ pub fn fitted_level(
         let tri = camera_triangle(mesh, motion, t, 0.5);
         let tex = [0, 1, 2].map(|k| coords[3 * t + k]);
         let Some(choice) = triangle_level(intrinsics, tri, tex, levels) else { continue };
+        let points = || super::cull::key_points(mesh, motion, t);
+        if one_sided && super::cull::back_facing(intrinsics.aperture_radius, &points()) {
+            continue;
+        }
         any = true;
         area[choice.level as usize] += on_screen_area(intrinsics, tri);
     }
@@ -541,8 +547,8 @@ mod fit_tests {
             }
         }
         let total: f64 = by_level.iter().sum();
-        assert_eq!(fitted_level(&intr, &o.mesh, motion, &coords, 12, 0.0), Some(finest));
-        let k = fitted_level(&intr, &o.mesh, motion, &coords, 12, 0.01).unwrap() as usize;
+        assert_eq!(fitted_level(&intr, &o.mesh, motion, &coords, 12, 0.0, false), Some(finest));
+        let k = fitted_level(&intr, &o.mesh, motion, &coords, 12, 0.01, false).unwrap() as usize;
         let below: f64 = by_level[..k].iter().sum();
         assert!(below <= 0.01 * total, "{below} of {total} below level {k}");
         assert!(below + by_level[k] > 0.01 * total, "level {k} is not the coarsest");
