@@ -8,6 +8,7 @@
 //! passes ([`graph`], built by a technique: [`techniques`]) → image → metrics. `docs/ARCHITECTURE.md`
 //! draws it.
 
+pub mod aas;
 pub mod bounds;
 pub mod error;
 pub mod geometry;

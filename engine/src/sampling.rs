@@ -195,13 +195,82 @@ pub enum ApertureShape {
         #[serde(default)]
         rotation_deg: f32,
     },
+    /// A round aperture whose transmission falls off smoothly at its rim: the smooth lens of
+    /// Vaidyanathan et al. 2012 (§4, a smoothstep over `[0.9 r, 1.1 r]` of the lens radius `r`), whose
+    /// spectrum has less support than the sharp disk's. Here the camera's `aperture_radius` is the
+    /// outer end of the falloff (the paper's `1.1 r`), so every lens point stays inside it and every
+    /// bound and culling test keeps its meaning: full transmission out to [`SMOOTH_LENS_INNER`] of it,
+    /// `1 − smoothstep` down to zero at its edge. Samples are importance-sampled from that
+    /// transmission ([`smooth_lens_radius`]), so every sample still weighs the same.
+    SmoothDisk,
+}
+
+/// Where [`ApertureShape::SmoothDisk`]'s falloff starts, as a fraction of the aperture radius: the
+/// paper's `0.9 r` with the radius at `1.1 r`.
+pub const SMOOTH_LENS_INNER: f64 = 0.9 / 1.1;
+
+/// [`ApertureShape::SmoothDisk`]'s transmission at distance `rho` from the centre (unit-disk
+/// coordinates): 1 inside [`SMOOTH_LENS_INNER`], `1 − smoothstep` to 0 at 1.
+pub fn smooth_lens_transmission(rho: f64) -> f64 {
+    let a = SMOOTH_LENS_INNER;
+    let t = ((rho - a) / (1.0 - a)).clamp(0.0, 1.0);
+    1.0 - t * t * (3.0 - 2.0 * t)
+}
+
+/// `∫₀^ρ transmission(s)·s ds` of [`smooth_lens_transmission`], in closed form (the smoothstep is a
+/// cubic in `t = (s − a)/(1 − a)`, so the integrand is a quintic in `t`).
+fn smooth_lens_mass(rho: f64) -> f64 {
+    let a = SMOOTH_LENS_INNER;
+    let h = 1.0 - a;
+    if rho <= a {
+        return 0.5 * rho * rho;
+    }
+    let t = ((rho - a) / h).min(1.0);
+    // (1 − 3t² + 2t³)(a + h t) = a + h t − 3a t² + (2a − 3h) t³ + 2h t⁴, integrated over [0, t], × h.
+    0.5 * a * a
+        + h * (a * t + 0.5 * h * t * t - a * t.powi(3)
+            + 0.25 * (2.0 * a - 3.0 * h) * t.powi(4)
+            + 0.4 * h * t.powi(5))
+}
+
+/// The radius (unit-disk coordinates) below which the fraction `u ∈ [0, 1]` of
+/// [`ApertureShape::SmoothDisk`]'s transmitted light passes: the inverse of its radial distribution,
+/// by bisection in f64 (monotone, so a stratified `u` stays stratified).
+pub fn smooth_lens_radius(u: f64) -> f64 {
+    let target = u.clamp(0.0, 1.0) * smooth_lens_mass(1.0);
+    let a = SMOOTH_LENS_INNER;
+    if target <= 0.5 * a * a {
+        return (2.0 * target).sqrt();
+    }
+    let (mut lo, mut hi) = (a, 1.0);
+    for _ in 0..60 {
+        let mid = 0.5 * (lo + hi);
+        if smooth_lens_mass(mid) < target {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    0.5 * (lo + hi)
 }
 
 impl ApertureShape {
-    /// Area-preserving map from the unit square onto the aperture (so stratification survives).
+    /// Area-preserving map from the unit square onto the aperture (so stratification survives); for
+    /// [`ApertureShape::SmoothDisk`], onto the disk with density proportional to its transmission (the
+    /// concentric map, then a monotone remap of the radius).
     pub fn map(&self, sq: Vec2) -> Vec2 {
         match *self {
             ApertureShape::Disk => concentric_disk(sq),
+            ApertureShape::SmoothDisk => {
+                let p = concentric_disk(sq);
+                let r = p.length();
+                if r == 0.0 {
+                    return p;
+                }
+                // A uniform disk point's r² is uniform: the fraction of the disk inside it.
+                let rho = smooth_lens_radius((r as f64) * (r as f64)) as f32;
+                p * (rho / r)
+            }
             ApertureShape::Blades { blades, rotation_deg } => {
                 // Pick a triangular sector with the first coordinate (keeps strata contiguous), then a
                 // uniform point in the triangle (centre, vertex i, vertex i+1).
@@ -224,7 +293,7 @@ impl ApertureShape {
     /// Does the shape contain `p` (unit-disk coordinates)? Used by tests and bounds.
     pub fn contains(&self, p: Vec2) -> bool {
         match *self {
-            ApertureShape::Disk => p.length_squared() <= 1.0 + 1e-5,
+            ApertureShape::Disk | ApertureShape::SmoothDisk => p.length_squared() <= 1.0 + 1e-5,
             ApertureShape::Blades { blades, rotation_deg } => {
                 let n = blades.max(3) as f32;
                 let apothem = (std::f32::consts::PI / n).cos();
@@ -341,6 +410,8 @@ mod tests {
         #[test]
         fn aperture_maps_inside_shape(u in 0.0f32..1.0, v in 0.0f32..1.0, blades in 3u32..12, rot in -180.0f32..180.0) {
             prop_assert!(ApertureShape::Disk.contains(ApertureShape::Disk.map(Vec2::new(u, v))));
+            let smooth = ApertureShape::SmoothDisk;
+            prop_assert!(smooth.contains(smooth.map(Vec2::new(u, v))));
             let b = ApertureShape::Blades { blades, rotation_deg: rot };
             prop_assert!(b.contains(b.map(Vec2::new(u, v))));
         }
@@ -403,5 +474,59 @@ mod tests {
         assert_eq!(a.pixel(3, 5), b.pixel(3, 5));
         assert_eq!(a.pixel(3, 5), a.pixel(11, 13));
         assert_ne!(a.pixel(3, 5), SampleTile::new(4, 8, 43).pixel(3, 5));
+    }
+
+    /// The smooth lens: its transmission is 1 inside the falloff, 0 at the rim, continuous; mapped lens
+    /// points are distributed as the transmission says — the share of a stratified 256² grid of unit
+    /// square points landing within radius x is the transmitted light within x (closed form) to within
+    /// the grid's resolution; the map keeps the disk's direction and is monotone in radius (strata
+    /// survive); and the smooth lens puts less light near its rim than the sharp disk.
+    #[test]
+    fn smooth_lens_samples_follow_its_transmission() {
+        let a = SMOOTH_LENS_INNER;
+        assert_eq!(smooth_lens_transmission(0.5 * a), 1.0);
+        assert_eq!(smooth_lens_transmission(a), 1.0);
+        assert_eq!(smooth_lens_transmission(1.0), 0.0);
+        assert!((smooth_lens_transmission(0.5 * (1.0 + a)) - 0.5).abs() < 1e-12);
+        let total = smooth_lens_mass(1.0);
+        // The mass by a fine midpoint sum, against the closed form.
+        let n = 200_000;
+        let numeric: f64 = (0..n)
+            .map(|i| {
+                let s = (i as f64 + 0.5) / n as f64;
+                smooth_lens_transmission(s) * s / n as f64
+            })
+            .sum();
+        assert!((numeric - total).abs() < 1e-9, "{numeric} vs {total}");
+        let m = 256;
+        let mut radii: Vec<f64> = vec![];
+        for j in 0..m {
+            for i in 0..m {
+                let sq = Vec2::new((i as f32 + 0.5) / m as f32, (j as f32 + 0.5) / m as f32);
+                let (disk, smooth) = (concentric_disk(sq), ApertureShape::SmoothDisk.map(sq));
+                assert!(smooth.length() <= disk.length() + 1e-6, "the remap moves points outward");
+                if disk.length() > 1e-3 {
+                    assert!(disk.normalize().dot(smooth.normalize()) > 0.9999, "direction changed");
+                }
+                radii.push(smooth.length() as f64);
+            }
+        }
+        for x in [0.2, 0.5, a, 0.85, 0.9, 0.95, 0.99] {
+            let share = radii.iter().filter(|&&r| r <= x).count() as f64 / radii.len() as f64;
+            let want = smooth_lens_mass(x) / total;
+            assert!((share - want).abs() < 0.01, "within {x}: {share} of the samples, {want} of the light");
+        }
+        assert!(radii.iter().all(|&r| r <= 1.0));
+        let near_rim = radii.iter().filter(|&&r| r > 0.9).count() as f64 / radii.len() as f64;
+        assert!(near_rim < 0.5 * (1.0 - 0.81), "smooth lens: {near_rim} of the samples beyond 0.9");
+        // Monotone in radius along a ray of the concentric map.
+        let mut last = 0.0;
+        for k in 0..=100 {
+            let r = smooth_lens_radius(k as f64 / 100.0);
+            assert!(r >= last, "{r} after {last}");
+            last = r;
+        }
+        // The transmission's last stretch is flat to f64 (it vanishes like (1 − ρ)² at the rim).
+        assert!((smooth_lens_radius(1.0) - 1.0).abs() < 1e-4);
     }
 }

@@ -21,7 +21,9 @@
 //! focus_distance = 6.0          # F > 0; default |look_at − position|
 //! near = 0.05                   # 0 < near < far
 //! far = 1000
-//! aperture = { shape = "disk" } # or { shape = "blades", blades = 6, rotation_deg = 0 } (blades ≥ 3)
+//! aperture = { shape = "disk" } # or { shape = "blades", blades = 6, rotation_deg = 0 } (blades ≥ 3),
+//!                               # or { shape = "smooth-disk" }: transmission falling off smoothly to 0
+//!                               # at aperture_radius from 9/11 of it (the AAS paper's smooth lens)
 //! shutter = "box"               # or "tent"
 //!
 //! [camera.close]                # optional: pose at shutter close; each key defaults to the open value
@@ -951,6 +953,8 @@ mod tests {
         let s = parse(&format!("{CAMERA}aperture = {{ shape = \"blades\", blades = 6, rotation_deg = 15 }}"))
             .unwrap();
         assert_eq!(s.camera.aperture, ApertureShape::Blades { blades: 6, rotation_deg: 15.0 });
+        let s = parse(&format!("{CAMERA}aperture = {{ shape = \"smooth-disk\" }}")).unwrap();
+        assert_eq!(s.camera.aperture, ApertureShape::SmoothDisk);
         let mat = |m: &str| err(&format!("{CAMERA}[[object]]\nmesh = \"box\"\n[object.material]\n{m}\n"));
         assert!(mat("roughness = 0").contains("roughness"));
         assert!(mat("roughness = 1.5").contains("roughness"));
