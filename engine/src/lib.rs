@@ -10,6 +10,7 @@
 
 pub mod aas;
 pub mod bounds;
+pub mod decoupled;
 pub mod error;
 pub mod geometry;
 pub mod gpu;

@@ -235,7 +235,7 @@ fn each_file_has_the_product_of_its_axes() {
         }
     }
     assert_eq!(d.count("stochastic/stochastic.frag"), 48); // 3 hulls × 2 instrumented × 4 effects × 2 passes
-    assert_eq!(d.count("stochastic/shade.comp"), 384); // 4 shading × 2 instrumented × 4 effects × 3 shadows × 2 colour × 2 tints
+    assert_eq!(d.count("stochastic/shade.comp"), 480); // 5 shading × 2 instrumented × 4 effects × 3 shadows × 2 colour × 2 tints
     assert_eq!(d.count("texture_space/atlas.geom"), 4); // 2 shadow receiver × 2 sub-passes
     assert_eq!(d.count("texture_space/atlas.frag"), 24); // 2 instrumented × 3 shadows × 2 colour × 2 sub-passes
     assert_eq!(d.count("stochastic/stochastic.geom"), 8);

@@ -48,6 +48,8 @@ layout(push_constant) uniform Push {
     // 1: the object's material is one-sided (scene::Material::one_sided): stochastic.frag drops every
     // hit on a triangle's back, as the reference's camera rays skip it.
     uint one_sided;
+    // Decoupled shading (shade.comp, DECOUPLED): entries of the memoization cache.
+    uint cache_entries;
 } pc;
 
 #endif

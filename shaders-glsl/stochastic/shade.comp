@@ -21,6 +21,9 @@
 //               coordinate and its triangle's level, bilinear, instead of shading: with PER_SAMPLE
 //               every hit (the paper's per-sample lookup), without it once per group, at the group's
 //               first hit (the paper's per-pixel lookup takes the pixel centre).
+//   DECOUPLED:  (with PER_SAMPLE) decoupled shading (stochastic/decoupled.glsl): each hit takes the
+//               radiance of its key — (triangle, side, lens-centre pixel cell at mid-shutter) — from
+//               a memoization cache, or shades the key's shading point and stores it.
 //   TINTS:      every sample's radiance (or background) times the product of the tints in front of
 //               it, from the tint buffer stochastic.frag's tint pass filled (transparency::tint_from_log);
 //               per-pixel groups weigh their radiance by the sum of their samples' tints.
@@ -42,6 +45,11 @@ layout(set = 3, binding = 2, std430) buffer Counters {
     uint samples_hit;
     uint shading_invocations;
     uint fragments;
+    // Decoupled shading (shade.comp, DECOUPLED): cache lookups, hits, evictions, stores lost to a race.
+    uint cache_lookups;
+    uint cache_hits;
+    uint cache_evictions;
+    uint cache_busy;
 } counters;
 layout(set = 3, binding = 6, rgba32f) uniform image2D accum;
 
@@ -78,18 +86,12 @@ struct SampleHit {
     float s;       // the time within it
 };
 
-SampleHit sample_at(uint prim, uint tile_index, uvec2 pix) {
+// Triangle prim at shutter time t (the ray left unset).
+SampleHit sample_at_time(uint prim, float t) {
     SampleHit h;
-    vec4 xl = sample_xy_lens[tile_index];
-#ifdef NO_DEFOCUS
-    xl.zw = vec2(0.0);
-#endif
-    primary_ray(vec2(pix) + xl.xy, xl.zw, h.ro, h.rd);
-#ifdef NO_MOTION
-    h.t = 0.5;
-#else
-    h.t = sample_time[tile_index];
-#endif
+    h.ro = vec3(0.0);
+    h.rd = vec3(0.0, 0.0, -1.0);
+    h.t = t;
     // KeyTimes::segment_of: the interior keys at or below t.
     uint seg = 0u;
     for (uint j = 1u; j < pc.segment_count; j++) {
@@ -102,6 +104,20 @@ SampleHit sample_at(uint prim, uint tile_index, uvec2 pix) {
     h.a = shutter_lerp(p_open[0], p_close[0], h.s);
     h.b = shutter_lerp(p_open[1], p_close[1], h.s);
     h.c = shutter_lerp(p_open[2], p_close[2], h.s);
+    return h;
+}
+
+SampleHit sample_at(uint prim, uint tile_index, uvec2 pix) {
+    vec4 xl = sample_xy_lens[tile_index];
+#ifdef NO_DEFOCUS
+    xl.zw = vec2(0.0);
+#endif
+#ifdef NO_MOTION
+    SampleHit h = sample_at_time(prim, 0.5);
+#else
+    SampleHit h = sample_at_time(prim, sample_time[tile_index]);
+#endif
+    primary_ray(vec2(pix) + xl.xy, xl.zw, h.ro, h.rd);
     return h;
 }
 
@@ -140,19 +156,9 @@ vec3 atlas_lookup(uint prim, vec3 w) {
 // The object's material, loaded once per invocation.
 Material object_material;
 
-// Radiance of the sample hitting triangle `prim` (the reference's Tracer::shade_hit).
-vec3 shade_hit(uint prim, SampleHit h) {
-    // The coverage pass' own test gives the barycentrics; a sample it accepted that rounds out here
-    // keeps the plane's.
-    float z;
-    vec3 w;
-    if (!sample_hit(h.a, h.b, h.c, h.ro, h.rd, z, w)) {
-        bool ok;
-        w = plane_barycentrics(h.a, h.b, h.c, h.ro, h.rd, ok);
-    }
-#ifdef TEXTURE_SPACE
-    return atlas_lookup(prim, w);
-#endif
+// Radiance towards the lens of the ray h.rd at barycentrics w of triangle prim at h's time, on its back
+// side when `back` (the reference's Tracer::shade_side).
+vec3 shade_at(uint prim, SampleHit h, vec3 w, bool back) {
     Vertex tv[3];
     for (uint k = 0u; k < 3u; k++) tv[k] = vertices[indices[3u * prim + k]];
     vec3 geometric = cross(h.b - h.a, h.c - h.a);
@@ -165,7 +171,7 @@ vec3 shade_hit(uint prim, SampleHit h) {
     if (dot(n, n) > 0.0) n = normalize(n);
     else if (dot(geometric, geometric) > 0.0) n = normalize(geometric);
     else n = -h.rd;
-    if (dot(geometric, h.rd) > 0.0) n = -n;
+    if (back) n = -n;
     vec3 position = w.x * h.a + w.y * h.b + w.z * h.c;
 #ifdef SHADOWS
     // The same surface point in object space, for the shadow lookup in the light's own space.
@@ -190,6 +196,27 @@ vec3 shade_hit(uint prim, SampleHit h) {
     }
     return shade(position, n, -h.rd, albedo, object_material.albedo_specular.w, object_material.params.x, h.t);
 }
+
+// Radiance of the sample hitting triangle `prim` (the reference's Tracer::shade_hit).
+vec3 shade_hit(uint prim, SampleHit h) {
+    // The coverage pass' own test gives the barycentrics; a sample it accepted that rounds out here
+    // keeps the plane's.
+    float z;
+    vec3 w;
+    if (!sample_hit(h.a, h.b, h.c, h.ro, h.rd, z, w)) {
+        bool ok;
+        w = plane_barycentrics(h.a, h.b, h.c, h.ro, h.rd, ok);
+    }
+#ifdef TEXTURE_SPACE
+    return atlas_lookup(prim, w);
+#else
+    return shade_at(prim, h, w, dot(cross(h.b - h.a, h.c - h.a), h.rd) > 0.0);
+#endif
+}
+
+#ifdef DECOUPLED
+#include "stochastic/decoupled.glsl"
+#endif
 
 // Whether a visibility payload names a triangle of this dispatch's object, and which (object-local).
 bool is_object_key(uint key) {
@@ -252,9 +279,14 @@ void main() {
         while (mine != 0u) {
             uint i = chunk + uint(findLSB(mine));
             mine &= mine - 1u;
-            uint prim = triangle_of(visibility_payload(visibility[visibility_index(pix, i, pc.per_pass)]));
+            uint payload = visibility_payload(visibility[visibility_index(pix, i, pc.per_pass)]);
+            uint prim = triangle_of(payload);
+#ifdef DECOUPLED
+            sum += sample_tint(pix, i) * decoupled_radiance(prim, payload, sample_at(prim, base + i, pix));
+#else
             sum += sample_tint(pix, i) * shade_hit(prim, sample_at(prim, base + i, pix));
             shaded++;
+#endif
         }
     }
 #else

@@ -40,6 +40,11 @@ layout(set = 3, binding = 2, std430) buffer Counters {
     uint samples_hit;
     uint shading_invocations;
     uint fragments;
+    // Decoupled shading (shade.comp, DECOUPLED): cache lookups, hits, evictions, stores lost to a race.
+    uint cache_lookups;
+    uint cache_hits;
+    uint cache_evictions;
+    uint cache_busy;
 } counters;
 
 #ifdef COMPUTE_HULL

@@ -1220,3 +1220,66 @@ fn hard_smooth_lens_matches_the_reference() {
     println!("smooth lens vs disk: max |Δ| {d}");
     assert!(d > 0.05, "the smooth lens renders as the disk ({d})");
 }
+
+// ---------------------------------------------------------------------------------------------------
+// Decoupled shading
+
+/// `--shading decoupled` (docs/DECOUPLED.md): the same samples' visibility, each sample shaded at its
+/// key's shading point — exactly what the reference's `ReferenceShading::Decoupled` computes, on a
+/// scene with depth of field, motion and a panning camera; a memoization cache of one entry (nearly
+/// every lookup misses) gives the same image as one of 64k (most hit), and so does a second render
+/// (races change what is shaded, never a pixel); the cache's counters add up.
+#[test]
+fn decoupled_shading_matches_the_reference_whatever_the_cache() {
+    let scene = builtin_scene("default").expect("built-in").expect("parses");
+    let (w, h, spp) = (96, 54, 8);
+    let mut r = renderer();
+    let mut images = vec![];
+    for cache_entries in [1, 1 << 16, 1 << 16] {
+        let o = StochasticOptions {
+            instrumented: true,
+            cache_entries,
+            ..options(BoundKind::Adaptive, ShadingRate::Decoupled)
+        };
+        let out = render(&mut r, &scene, w, h, spp, 5, o);
+        assert_finite("decoupled", &out.image);
+        let c = out.stats.counters.expect("instrumented");
+        let k = c.cache.expect("cache counters");
+        println!(
+            "decoupled, cache {cache_entries}: {} lookups, {} hits, {} evictions, {} lost; {} shading invocations",
+            k.lookups, k.hits, k.evictions, k.busy, c.shading_invocations
+        );
+        assert!(k.hits <= k.lookups && k.lookups > 0);
+        if cache_entries == 1 {
+            assert!(k.hits * 10 < k.lookups, "one entry hits {} of {}", k.hits, k.lookups);
+        } else {
+            assert!(k.hits * 2 > k.lookups, "64k entries hit {} of {}", k.hits, k.lookups);
+        }
+        images.push(out.image);
+    }
+    let truth = reference_with(&scene, w, h, spp, 5, shutter::reference::ReferenceShading::Decoupled);
+    save_comparison("decoupled-default", &truth, &images[1]);
+    let m = compare(&truth, &images[1]).unwrap();
+    println!("decoupled vs the reference's decoupled shading: RMSE {:.6}, FLIP {:.5}", m.rmse, m.flip);
+    assert!(m.rmse < HARD_RMSE_MAX, "RMSE {}", m.rmse);
+    for img in &images[1..] {
+        let d = max_abs_diff(&images[0], img);
+        assert!(d == 0.0, "the cache's size or races change the image by {d}");
+    }
+    let per_sample = reference(&scene, w, h, spp, 5);
+    let d = max_abs_diff(&truth, &per_sample);
+    println!("decoupled vs per-sample shading (reference): max |Δ| {d}");
+    assert!(d > 1e-3, "decoupled shading shades as per-sample shading: the test shows nothing");
+}
+
+fn reference_with(
+    scene: &Scene,
+    w: u32,
+    h: u32,
+    spp: u32,
+    seed: u64,
+    shading: shutter::reference::ReferenceShading,
+) -> LinearImage {
+    render_reference(scene, &ReferenceSettings { width: w, height: h, spp, seed, progress: false, shading })
+        .expect("reference")
+}

@@ -53,9 +53,10 @@ pub fn apply_option(s: &mut RenderSettings, key: &str, value: &str) -> Result<()
         "hull" => o.expansion = value.parse()?,
         "intervals" => o.intervals = value.parse()?,
         "clusters" => o.clusters = value.parse()?,
+        "cache" => o.cache_entries = value.parse().with_context(|| format!("cache `{value}`"))?,
         "transparency" => s.transparency = value.parse()?,
         _ => bail!(
-            "unknown setting `{key}` (spp, shadow-map, transparency, bound, shading, per-pass, intervals, clusters, hull)"
+            "unknown setting `{key}` (spp, shadow-map, transparency, bound, shading, per-pass, intervals, clusters, hull, cache)"
         ),
     }
     Ok(())
@@ -94,6 +95,9 @@ pub struct Counters {
     /// Texture-space shading: atlas texels shaded by pass 1's shade and conservative sub-passes.
     #[serde(default)]
     pub atlas_texels: Option<(u64, u64)>,
+    /// Decoupled shading: the memoization cache's lookups, hits, evictions and lost stores.
+    #[serde(default)]
+    pub cache: Option<(u64, u64, u64, u64)>,
 }
 
 impl From<SampleCounters> for Counters {
@@ -105,6 +109,7 @@ impl From<SampleCounters> for Counters {
             sample_test_efficiency: c.sample_test_efficiency(),
             shading_invocations: c.shading_invocations,
             atlas_texels: c.atlas_texels,
+            cache: c.cache.map(|k| (k.lookups, k.hits, k.evictions, k.busy)),
         }
     }
 }
@@ -278,8 +283,8 @@ impl BenchReport {
             self.frames,
             self.warmup
         );
-        md.push_str("| configuration | passes × MSAA | GPU ms median (min–max) | × first | CPU frame ms | per pass (median ms) | fragments | samples tested | hits | STE | shading inv. | atlas texels (shade + gutter) |\n");
-        md.push_str("|---|---:|---:|---:|---:|---|---:|---:|---:|---:|---:|---:|\n");
+        md.push_str("| configuration | passes × MSAA | GPU ms median (min–max) | × first | CPU frame ms | per pass (median ms) | fragments | samples tested | hits | STE | shading inv. | atlas texels (shade + gutter) | cache lookups / hits / evictions / lost |\n");
+        md.push_str("|---|---:|---:|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|\n");
         for r in &self.results {
             let per_pass: Vec<String> =
                 r.passes_ms.iter().map(|(n, s)| format!("{n} {:.2}", s.median)).collect();
@@ -297,9 +302,13 @@ impl BenchReport {
                 Some((shaded, gutter)) => format!("{shaded} + {gutter}"),
                 None => "-".into(),
             };
+            let cache = match r.counters.as_ref().and_then(|c| c.cache) {
+                Some((l, h, e, b)) => format!("{l} / {h} / {e} / {b}"),
+                None => "-".into(),
+            };
             let _ = writeln!(
                 md,
-                "| {} | {} × {} | {:.2} ({:.2}–{:.2}) | {:.3} | {:.2} | {} | {f} | {t} | {h} | {ste} | {inv} | {texels} |",
+                "| {} | {} × {} | {:.2} ({:.2}–{:.2}) | {:.3} | {:.2} | {} | {f} | {t} | {h} | {ste} | {inv} | {texels} | {cache} |",
                 r.label,
                 r.passes,
                 r.msaa,
@@ -321,13 +330,13 @@ impl BenchReport {
         let mut s = String::from(
             "scene,width,height,device,driver,label,technique,spp,bound,shading,passes,msaa,gpu_ms_median,gpu_ms_min,\
              gpu_ms_max,ratio_to_first,cpu_frame_ms_median,fragments,samples_tested,samples_hit,ste,shading_invocations,\
-             atlas_texels_shaded,atlas_texels_gutter\n",
+             atlas_texels_shaded,atlas_texels_gutter,cache_lookups,cache_hits,cache_evictions,cache_lost\n",
         );
         for r in &self.results {
             let c = r.counters.as_ref();
             let _ = writeln!(
                 s,
-                "{},{},{},\"{}\",\"{}\",\"{}\",{},{},{},{},{},{},{:.4},{:.4},{:.4},{:.4},{:.4},{},{},{},{},{},{},{}",
+                "{},{},{},\"{}\",\"{}\",\"{}\",{},{},{},{},{},{},{:.4},{:.4},{:.4},{:.4},{:.4},{},{},{},{},{},{},{},{},{},{},{}",
                 self.scene,
                 self.width,
                 self.height,
@@ -352,6 +361,10 @@ impl BenchReport {
                 c.map(|c| c.shading_invocations.to_string()).unwrap_or_default(),
                 c.and_then(|c| c.atlas_texels).map(|t| t.0.to_string()).unwrap_or_default(),
                 c.and_then(|c| c.atlas_texels).map(|t| t.1.to_string()).unwrap_or_default(),
+                c.and_then(|c| c.cache).map(|k| k.0.to_string()).unwrap_or_default(),
+                c.and_then(|c| c.cache).map(|k| k.1.to_string()).unwrap_or_default(),
+                c.and_then(|c| c.cache).map(|k| k.2.to_string()).unwrap_or_default(),
+                c.and_then(|c| c.cache).map(|k| k.3.to_string()).unwrap_or_default(),
             );
         }
         s

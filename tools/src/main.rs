@@ -75,6 +75,9 @@ enum Command {
         /// object.
         #[arg(long, default_value = "auto")]
         clusters: String,
+        /// Stochastic `--shading decoupled`: entries of the memoization cache (1 to 4194304).
+        #[arg(long, default_value_t = shutter::techniques::stochastic::DEFAULT_CACHE_ENTRIES)]
+        cache: u32,
         /// How alpha < 1, alpha_from_texture and tints are rendered: `stochastic` (stochastic
         /// transparency, stratified per-pixel masks over the S = MSAA × passes samples, tints
         /// multiplied into the uncovered samples; every technique); pinhole and accumulation only:
@@ -399,6 +402,7 @@ fn run() -> Result<()> {
             hull,
             intervals,
             clusters,
+            cache,
             transparency,
             shadow_map,
             image: ImageArgs { size, seed, out },
@@ -414,6 +418,7 @@ fn run() -> Result<()> {
                 expansion: hull.parse()?,
                 intervals: intervals.parse()?,
                 clusters: clusters.parse()?,
+                cache_entries: cache,
             };
             let sc = load_scene(&scene)?;
             let mut settings = RenderSettings::from_scene(&sc).with_stochastic(stochastic);
@@ -518,6 +523,16 @@ fn run() -> Result<()> {
                         "  atlas texels shaded {shaded} (shade sub-pass) + {gutter} (conservative sub-pass)"
                     );
                 }
+                if let Some(k) = c.cache {
+                    println!(
+                        "  decoupled cache: {} lookups, {} hits, {} misses shaded, {} evictions, {} stores lost to a race",
+                        k.lookups,
+                        k.hits,
+                        k.misses(),
+                        k.evictions,
+                        k.busy
+                    );
+                }
             }
             println!("wrote {}", out.display());
         }
@@ -527,6 +542,7 @@ fn run() -> Result<()> {
             let shading = match shading.parse::<ShadingRate>()? {
                 ShadingRate::PerSample => ReferenceShading::PerSample,
                 ShadingRate::PerPixel => ReferenceShading::PerPixel { per_pass: per_pass.unwrap_or(spp) },
+                ShadingRate::Decoupled => ReferenceShading::Decoupled,
                 ShadingRate::TextureSpace | ShadingRate::TextureSpacePerPixel => {
                     return Err(shutter::Error::Unsupported(
                         "the reference shades per sample or per pixel; texture-space shading is a GPU \

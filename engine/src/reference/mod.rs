@@ -132,6 +132,10 @@ pub enum ReferenceShading {
     /// of them, for at most [`PER_PIXEL_SHADING_GROUPS`] groups per object (samples of later groups are
     /// shaded on their own).
     PerPixel { per_pass: u32 },
+    /// Decoupled shading ([`crate::decoupled`]): every sample takes the radiance of its key's shading
+    /// point — on its triangle at mid-shutter, seen from the lens centre, on the sample's side — or of
+    /// its own hit when it has no key. What `--shading decoupled` computes whatever its cache does.
+    Decoupled,
 }
 
 /// Groups per object, pixel and pass that per-pixel shading remembers (`SHADE_GROUPS` in
@@ -464,7 +468,7 @@ impl<'a> Tracer<'a> {
             }
         };
         let per_pass = match self.shading {
-            ReferenceShading::PerSample => 1,
+            ReferenceShading::PerSample | ReferenceShading::Decoupled => 1,
             ReferenceShading::PerPixel { per_pass } => per_pass.max(1) as usize,
         };
         // Per-pixel shading groups of the current chunk: (triangle id, side, object, radiance).
@@ -485,6 +489,8 @@ impl<'a> Tracer<'a> {
             };
             let radiance = if self.shading == ReferenceShading::PerSample {
                 self.shade_hit(&hit, d, time, lights)
+            } else if self.shading == ReferenceShading::Decoupled {
+                self.shade_decoupled(&hit, d, time, lights)
             } else {
                 let side = hit.hit.back;
                 let object = self.surface[hit.id as usize].object;
@@ -606,6 +612,36 @@ impl<'a> Tracer<'a> {
 
     /// Radiance towards the lens of a primary ray (direction `d`) at `hit`.
     fn shade_hit(&self, hit: &Hit, d: Vec3, time: f32, lights: &mut Vec<ShadingLight>) -> Vec3 {
+        self.shade_side(hit, d, time, None, lights)
+    }
+
+    /// [`ReferenceShading::Decoupled`]: the radiance of the key of a primary ray (direction `d`, shutter
+    /// time `time`) that hit `hit`.
+    fn shade_decoupled(&self, hit: &Hit, d: Vec3, time: f32, lights: &mut Vec<ShadingLight>) -> Vec3 {
+        let ([(p0, _), (p1, _)], s) = self.segment_at(hit.id, 0.5);
+        let mid = MovingTriangle { v0: p0, v1: p1 }.at(s);
+        let sp = crate::decoupled::shading_point(&self.intrinsics, &mid, hit.hit.barycentrics);
+        if sp.cell.is_none() {
+            return self.shade_hit(hit, d, time, lights);
+        }
+        let w = sp.barycentrics;
+        let point = w.x * mid[0] + w.y * mid[1] + w.z * mid[2];
+        let at =
+            Hit { id: hit.id, hit: TriangleHit { depth_z: -point.z, barycentrics: w, back: hit.hit.back } };
+        // From the lens centre (the origin), on the side the sample saw.
+        self.shade_side(&at, point.normalize(), 0.5, Some(hit.hit.back), lights)
+    }
+
+    /// Radiance towards the lens of a ray (direction `d`) at `hit` at shutter time `time`, on the side
+    /// `back` says (`None`: the side `d` sees).
+    fn shade_side(
+        &self,
+        hit: &Hit,
+        d: Vec3,
+        time: f32,
+        back: Option<bool>,
+        lights: &mut Vec<ShadingLight>,
+    ) -> Vec3 {
         let Hit { id, hit } = *hit;
         let tri = &self.surface[id as usize];
         let material = &self.materials[tri.object as usize];
@@ -619,7 +655,7 @@ impl<'a> Tracer<'a> {
             n += wi * n0[i].lerp(n1[i], s);
         }
         let mut n = n.try_normalize().or_else(|| geometric.try_normalize()).unwrap_or(-d);
-        if geometric.dot(d) > 0.0 {
+        if back.unwrap_or(geometric.dot(d) > 0.0) {
             n = -n;
         }
         let mut albedo = material.albedo;

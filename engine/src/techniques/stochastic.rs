@@ -83,6 +83,11 @@ pub enum ShadingRate {
     /// [`ShadingRate::PerPixel`] shades — at the group's first hit (the paper's per-pixel, "MSAA",
     /// lookup: at the pixel centre).
     TextureSpacePerPixel,
+    /// Decoupled shading (Ragan-Kelley et al. 2011; [`crate::decoupled`], docs/DECOUPLED.md): every
+    /// sample takes the radiance of its key — (triangle, side, lens-centre pixel cell at mid-shutter) —
+    /// from a memoization cache of [`StochasticOptions::cache_entries`] entries, or shades the key's
+    /// shading point and stores it. Mirrored by the reference ([`crate::reference::ReferenceShading::Decoupled`]).
+    Decoupled,
 }
 
 /// The largest level 0 side of the atlases of [`ShadingRate::TextureSpace`], texels — the paper's;
@@ -95,11 +100,12 @@ impl ShadingRate {
     /// The rates the reference mirrors sample for sample ([`crate::reference::ReferenceShading`]).
     pub const ALL: [ShadingRate; 2] = [ShadingRate::PerPixel, ShadingRate::PerSample];
     /// Every rate, by name.
-    pub const NAMED: [ShadingRate; 4] = [
+    pub const NAMED: [ShadingRate; 5] = [
         ShadingRate::PerPixel,
         ShadingRate::PerSample,
         ShadingRate::TextureSpace,
         ShadingRate::TextureSpacePerPixel,
+        ShadingRate::Decoupled,
     ];
     pub fn name(&self) -> &'static str {
         match self {
@@ -107,6 +113,7 @@ impl ShadingRate {
             ShadingRate::PerSample => "per-sample",
             ShadingRate::TextureSpace => "texture-space",
             ShadingRate::TextureSpacePerPixel => "texture-space-per-pixel",
+            ShadingRate::Decoupled => "decoupled",
         }
     }
 
@@ -151,7 +158,17 @@ pub struct StochasticOptions {
     pub intervals: Intervals,
     /// Cluster bounds: objects drawn one bound per cluster of triangles ([`Clusters`]).
     pub clusters: Clusters,
+    /// [`ShadingRate::Decoupled`]: entries of the memoization cache, 1 ..= [`MAX_CACHE_ENTRIES`]
+    /// (default [`DEFAULT_CACHE_ENTRIES`]).
+    pub cache_entries: u32,
 }
+
+/// [`StochasticOptions::cache_entries`] by default.
+pub const DEFAULT_CACHE_ENTRIES: u32 = 1 << 16;
+/// The largest memoization cache (32 bytes an entry: 128 MiB).
+pub const MAX_CACHE_ENTRIES: u32 = 1 << 22;
+/// Bytes per entry of the memoization cache (`CacheEntry` in `decoupled.glsl`).
+pub const CACHE_ENTRY_BYTES: u64 = 32;
 
 /// Cluster bounds: an object is drawn with one bound per cluster of N triangles, neighbours in a Morton
 /// order of their centroids ([`crate::bounds::cluster::cluster_order`]) (the union
@@ -391,6 +408,7 @@ impl Default for StochasticOptions {
             expansion: HullExpansion::GeometryShader,
             intervals: Intervals::Auto,
             clusters: Clusters::Auto,
+            cache_entries: DEFAULT_CACHE_ENTRIES,
         }
     }
 }
@@ -580,7 +598,31 @@ pub struct SampleCounters {
     /// Texture-space shading: the atlas texels pass 1 shaded, by its shade and its conservative
     /// sub-pass (None with the other rates).
     pub atlas_texels: Option<(u64, u64)>,
+    /// Decoupled shading: the memoization cache's counters (None with the other rates).
+    pub cache: Option<CacheCounters>,
 }
+
+/// What the memoization cache of decoupled shading did over a frame (`decoupled.glsl`). Every keyed
+/// sample looks its key up once: `lookups − hits` keys were shaded (misses); samples without a key
+/// (`shading_invocations − misses` of them) are shaded at their own hit.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct CacheCounters {
+    pub lookups: u64,
+    pub hits: u64,
+    /// Stores that replaced another key's entry.
+    pub evictions: u64,
+    /// Stores skipped because another invocation held the entry.
+    pub busy: u64,
+}
+
+impl CacheCounters {
+    pub fn misses(&self) -> u64 {
+        self.lookups - self.hits
+    }
+}
+
+/// u32 counters of the counters buffer (`Counters` in `stochastic.frag` and `shade.comp`).
+const COUNTERS: usize = 8;
 
 impl SampleCounters {
     /// Sample test efficiency: hits / tested (McGuire et al. 2010).
@@ -631,6 +673,8 @@ pub struct StochasticPush {
     pub atlas_gutter: u32,
     /// 1: the object's material is one-sided; the coverage stage drops hits on its back.
     pub one_sided: u32,
+    /// Decoupled shading: entries of the memoization cache (0 elsewhere).
+    pub cache_entries: u32,
 }
 
 /// Push constants of `clusters.comp`.
@@ -677,7 +721,7 @@ pub const STOCHASTIC_OBJECT_SET: [Binding; 8] = [
 
 /// Set 3 of the stochastic rasterizer: the sample tile, counters, bound debug output, hull counts, the
 /// visibility buffer and the accumulation image.
-pub const STOCHASTIC_SET: [Binding; 8] = [
+pub const STOCHASTIC_SET: [Binding; 9] = [
     Binding { binding: 0, ty: vk::DescriptorType::STORAGE_BUFFER, block: "SamplesXyLens" },
     Binding { binding: 1, ty: vk::DescriptorType::STORAGE_BUFFER, block: "SamplesTime" },
     Binding { binding: 2, ty: vk::DescriptorType::STORAGE_BUFFER, block: "Counters" },
@@ -686,6 +730,7 @@ pub const STOCHASTIC_SET: [Binding; 8] = [
     Binding { binding: 5, ty: vk::DescriptorType::STORAGE_BUFFER, block: "Visibility" },
     Binding { binding: 6, ty: vk::DescriptorType::STORAGE_IMAGE, block: "accum" },
     Binding { binding: 7, ty: vk::DescriptorType::STORAGE_BUFFER, block: "TintLog" },
+    Binding { binding: 8, ty: vk::DescriptorType::STORAGE_BUFFER, block: "DecoupledCache" },
 ];
 
 /// `StochasticPush::object` of the shading pass' dispatch that adds the background for the samples
@@ -737,7 +782,8 @@ pub const STOCHASTIC_STRUCTS: &[SharedStruct] = &[
             tint_log_b,
             atlas_finest,
             atlas_gutter,
-            one_sided
+            one_sided,
+            cache_entries
         ]
     ),
     shared_struct!("Push", TrianglesPush, [segment_first, keys, triangle_count]),
@@ -812,6 +858,7 @@ impl ShadingRate {
             ShadingRate::PerSample => axes::Shading::PerSample,
             ShadingRate::TextureSpace => axes::Shading::TextureSpace,
             ShadingRate::TextureSpacePerPixel => axes::Shading::TextureSpacePerPixel,
+            ShadingRate::Decoupled => axes::Shading::Decoupled,
         }
     }
 }
@@ -867,6 +914,8 @@ pub struct StochasticDraws {
     object_tint_log: Vec<Option<[u32; 3]>>,
     /// Σ −log₂ T per channel, pixel and sample of a pass (with tinted objects only).
     tints: Option<Tracked<Buffer>>,
+    /// [`ShadingRate::Decoupled`]'s memoization cache (`decoupled.glsl`), cleared every frame.
+    decoupled: Option<Tracked<Buffer>>,
     /// Texture-space shading's pass 1 ([`ShadingRate::TextureSpace`]), and the sampler its shading
     /// pass reads the atlases with.
     atlas: Option<super::texture_space::AtlasPasses>,
@@ -1304,7 +1353,8 @@ impl StochasticDraws {
             Buffer::with_data(device, "stochastic samples (xy, lens)", storage, &xy_lens)?,
             Buffer::with_data(device, "stochastic samples (time)", storage, &time)?,
         ];
-        let counters = Tracked::new(Buffer::with_data(device, "stochastic counters", storage, &[0u32; 4])?);
+        let counters =
+            Tracked::new(Buffer::with_data(device, "stochastic counters", storage, &[0u32; COUNTERS])?);
         let bound_debug = if debug.bound_debug_triangles > 0 {
             let len = debug.bound_debug_triangles as usize * BOUND_DEBUG_STRIDE;
             Some(Tracked::new(Buffer::with_data(device, "bound debug", storage, &vec![0f32; len])?))
@@ -1323,6 +1373,23 @@ impl StochasticDraws {
                 device,
                 "stochastic tints",
                 pixels * per_pass as u64 * TINT_BYTES,
+                storage | vk::BufferUsageFlags::TRANSFER_DST,
+                MemoryLocation::GpuOnly,
+            )?))
+        } else {
+            None
+        };
+        let decoupled = if options.shading == ShadingRate::Decoupled {
+            if !(1..=MAX_CACHE_ENTRIES).contains(&options.cache_entries) {
+                return Err(Error::Unsupported(format!(
+                    "a decoupled shading cache of {} entries: 1 ..= {MAX_CACHE_ENTRIES}",
+                    options.cache_entries
+                )));
+            }
+            Some(Tracked::new(Buffer::new(
+                device,
+                "decoupled shading cache",
+                options.cache_entries as u64 * CACHE_ENTRY_BYTES,
                 storage | vk::BufferUsageFlags::TRANSFER_DST,
                 MemoryLocation::GpuOnly,
             )?))
@@ -1350,6 +1417,9 @@ impl StochasticDraws {
         }
         if let Some(b) = &tints {
             writes.push(DescriptorWrite::storage_buffer(7, b));
+        }
+        if let Some(b) = &decoupled {
+            writes.push(DescriptorWrite::storage_buffer(8, b));
         }
         write_descriptors(device, technique_set, &writes);
         let mut object_sets = Vec::with_capacity(world.objects.len());
@@ -1431,6 +1501,7 @@ impl StochasticDraws {
             tint_pipelines,
             object_tint_log,
             tints,
+            decoupled,
             atlas,
             _atlas_sampler: atlas_sampler,
             object_effects: object_effects.to_vec(),
@@ -1490,7 +1561,7 @@ impl StochasticDraws {
         if !self.options.instrumented {
             return Ok(None);
         }
-        let raw = self.counters.read_u32s(4)?;
+        let raw = self.counters.read_u32s(COUNTERS)?;
         let atlas = match &self.atlas {
             Some(a) => a.counters()?,
             None => None,
@@ -1501,6 +1572,12 @@ impl StochasticDraws {
             shading_invocations: raw[2] as u64,
             fragments: raw[3] as u64,
             atlas_texels: atlas,
+            cache: self.decoupled.is_some().then_some(CacheCounters {
+                lookups: raw[4] as u64,
+                hits: raw[5] as u64,
+                evictions: raw[6] as u64,
+                busy: raw[7] as u64,
+            }),
         }))
     }
 
@@ -1637,7 +1714,7 @@ impl StochasticDraws {
     /// triangles and the expansion in a graph of their own, their counts read back; an overflowed
     /// buffer grows and the expansion runs again, so no bound is ever dropped.
     fn before_frame(&mut self, inputs: &FrameInputs<'_>, frame: &mut FrameContext<'_>) -> Result<()> {
-        self.counters.get_mut().write(&[0u32; 4])?;
+        self.counters.get_mut().write(&[0u32; COUNTERS])?;
         if let Some(a) = &mut self.atlas {
             a.reset_counters()?;
         }
@@ -1717,6 +1794,7 @@ impl StochasticDraws {
             atlas_finest: atlas.map_or(0, |a| a.finest()),
             atlas_gutter: atlas.map_or(0, |a| a.gutter()),
             one_sided: self.object_one_sided.get(o).copied().unwrap_or(false) as u32,
+            cache_entries: if self.decoupled.is_some() { self.options.cache_entries } else { 0 },
         }
     }
 
@@ -1833,6 +1911,17 @@ impl StochasticDraws {
         let visibility = g.import_buffer("stochastic visibility", &self.visibility);
         let accum = g.import_image("stochastic accumulation", &self.accum);
         let tints = self.tints.as_ref().map(|t| g.import_buffer("stochastic tints", t));
+        if let Some(c) = &self.decoupled {
+            // Cleared once a frame: every shading dispatch of every pass shares it.
+            let h = g.import_buffer("decoupled shading cache", c);
+            g.pass("clear decoupled cache").overwrite(h, Access::TransferWrite).record(move |ctx| {
+                let b = ctx.buffer(h);
+                unsafe { ctx.device.raw.cmd_fill_buffer(ctx.cmd, b.raw, 0, vk::WHOLE_SIZE, 0) };
+                Ok(())
+            });
+            shading_uses.push((h.into(), Access::ComputeShaderReadOther));
+            shading_uses.push((h.into(), Access::ComputeShaderWrite));
+        }
         if let Some(a) = &self.atlas {
             for h in a.add_passes(&mut g, inputs, shadow_handles).into_iter().flatten() {
                 shading_uses

@@ -1,0 +1,185 @@
+// Decoupled shading (Ragan-Kelley et al. 2011) in the shading pass: the GLSL mirror of
+// engine/src/decoupled.rs (which explains the mapping), operation for operation, and the memoization
+// cache. A sample's key is (its triangle in the frame's numbering, the side its ray sees, the
+// lens-centre pixel cell of its surface point at mid-shutter); the key's value is the radiance at the
+// key's shading point, a function of the key alone — so the cache below may miss, evict, race and
+// re-shade, and the image stays what the reference's ReferenceShading::Decoupled computes.
+//
+// The cache: pc.cache_entries direct-mapped entries (slot = a hash of the key modulo the size; a new
+// key evicts the entry's old one), shared by every invocation of every shading dispatch of the frame,
+// cleared at its start. No invocation ever waits: an entry is a seqlock — a writer takes the key word
+// (atomicCompSwap to DC_LOCKED), bumps the sequence to odd, writes the value, bumps it to even and
+// stores its key; a reader keeps a value only if the key matched and the sequence was even and
+// unchanged around its read. A reader that finds the entry locked, or a writer that loses the race for
+// it, just shades (and does not store). Every access of an entry is an atomic operation, and the
+// protocol relies on their order: llvmpipe's atomics are sequentially consistent, so this is exact
+// there; a GPU port needs acquire/release semantics (GL_KHR_memory_scope_semantics), not done. (No
+// memoryBarrierBuffer(): on llvmpipe a barrier in this function corrupted unrelated lanes' results.)
+// Needs shade.comp's shade_at, the Counters block and sample_at_time.
+#ifndef SHUTTER_DECOUPLED_GLSL
+#define SHUTTER_DECOUPLED_GLSL
+
+struct CacheEntry {
+    uint64_t key;  // 0: empty; DC_LOCKED: being written; else the key of the value
+    uint seq;      // even when the value is whole
+    uint r, g, b;  // the value: radiance, float bits
+    uint pad0, pad1;
+};  // 32 bytes (CACHE_ENTRY_BYTES)
+layout(set = 3, binding = 8, std430) buffer DecoupledCache { CacheEntry entries[]; } cache;
+
+const uint64_t DC_LOCKED = 0xffffffffffffffffUL;
+const float DC_CELL_RANGE = 32767.0;  // decoupled::CELL_RANGE
+
+// decoupled::clamp_to_triangle: the barycentrics of the point of (a, b, c) nearest to the plane point
+// with barycentrics w (Ericson §5.1.5).
+vec3 dc_clamp_to_triangle(vec3 a, vec3 b, vec3 c, vec3 w) {
+    if (w.x >= 0.0 && w.y >= 0.0 && w.z >= 0.0) return w;
+    vec3 q = w.x * a + w.y * b + w.z * c;
+    vec3 ab = b - a, ac = c - a, ap = q - a;
+    float d1 = dot(ab, ap), d2 = dot(ac, ap);
+    if (d1 <= 0.0 && d2 <= 0.0) return vec3(1.0, 0.0, 0.0);
+    vec3 bp = q - b;
+    float d3 = dot(ab, bp), d4 = dot(ac, bp);
+    if (d3 >= 0.0 && d4 <= d3) return vec3(0.0, 1.0, 0.0);
+    float vc = d1 * d4 - d3 * d2;
+    if (vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0) {
+        float v = d1 / (d1 - d3);
+        return vec3(1.0 - v, v, 0.0);
+    }
+    vec3 cp = q - c;
+    float d5 = dot(ab, cp), d6 = dot(ac, cp);
+    if (d6 >= 0.0 && d5 <= d6) return vec3(0.0, 0.0, 1.0);
+    float vb = d5 * d2 - d1 * d6;
+    if (vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0) {
+        float t = d2 / (d2 - d6);
+        return vec3(1.0 - t, 0.0, t);
+    }
+    float va = d3 * d6 - d5 * d4;
+    if (va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0) {
+        float t = (d4 - d3) / ((d4 - d3) + (d5 - d6));
+        return vec3(0.0, 1.0 - t, t);
+    }
+    float denom = 1.0 / (va + vb + vc);
+    float v = vb * denom, t = vc * denom;
+    return vec3(1.0 - v - t, v, t);
+}
+
+// Intrinsics::project at the lens centre, pixels.
+vec2 dc_project(vec3 p) {
+    precise float z = -p.z;
+    precise vec2 q = p.xy / z;
+    precise vec2 px = vec2(0.5 * view.viewport.x + view.viewport.z * q.x, 0.5 * view.viewport.y - view.viewport.z * q.y);
+    return px;
+}
+
+// decoupled::shading_point: false for a sample without a key (shade its own hit); else its cell and the
+// barycentrics of its key's shading point on the mid-shutter triangle (ma, mb, mc).
+bool dc_shading_point(vec3 ma, vec3 mb, vec3 mc, vec3 w, out ivec2 cell, out vec3 wc) {
+    cell = ivec2(0);
+    wc = w;
+    vec3 point = w.x * ma + w.y * mb + w.z * mc;
+    if (!(-point.z > 0.0)) return false;
+    vec2 c = floor(dc_project(point));
+    if (!(abs(c.x) < DC_CELL_RANGE && abs(c.y) < DC_CELL_RANGE)) return false;
+    vec3 o, d;
+    primary_ray(c + vec2(0.5), vec2(0.0), o, d);
+    bool ok;
+    vec3 b = plane_barycentrics(ma, mb, mc, o, d, ok);
+    if (!ok) return false;
+    vec3 at = b.x * ma + b.y * mb + b.z * mc;
+    if (!(-at.z > 0.0)) return false;
+    cell = ivec2(c);
+    wc = dc_clamp_to_triangle(ma, mb, mc, b);
+    return true;
+}
+
+uint64_t dc_key(uint payload, ivec2 cell) {
+    uint cells = uint(cell.x + 32768) & 0xffffu | (uint(cell.y + 32768) & 0xffffu) << 16;
+    return uint64_t(payload) << 32 | uint64_t(cells);
+}
+
+// A 64-bit key to a slot: both halves through an integer mix (PCG's output permutation style).
+uint dc_slot(uint64_t key) {
+    uint h = uint(key) * 0x9e3779b1u ^ uint(key >> 32) * 0x85ebca77u;
+    h ^= h >> 16;
+    h *= 0x7feb352du;
+    h ^= h >> 15;
+    h *= 0x846ca68bu;
+    h ^= h >> 16;
+    return h % pc.cache_entries;
+}
+
+bool dc_read(uint slot, uint64_t key, out vec3 v) {
+    uint s1 = atomicOr(cache.entries[slot].seq, 0u);
+    uint64_t k1 = atomicOr(cache.entries[slot].key, 0UL);
+    v = vec3(uintBitsToFloat(atomicOr(cache.entries[slot].r, 0u)), uintBitsToFloat(atomicOr(cache.entries[slot].g, 0u)),
+             uintBitsToFloat(atomicOr(cache.entries[slot].b, 0u)));
+    uint s2 = atomicOr(cache.entries[slot].seq, 0u);
+    uint64_t k2 = atomicOr(cache.entries[slot].key, 0UL);
+    return k1 == key && k2 == key && s1 == s2 && (s1 & 1u) == 0u;
+}
+
+// Stores v for key unless another invocation holds the entry; counts evictions and lost races.
+void dc_write(uint slot, uint64_t key, vec3 v) {
+    uint64_t old = atomicOr(cache.entries[slot].key, 0UL);
+    if (old == DC_LOCKED || atomicCompSwap(cache.entries[slot].key, old, DC_LOCKED) != old) {
+#ifdef INSTRUMENTED
+        atomicAdd(counters.cache_busy, 1u);
+#endif
+        return;
+    }
+    atomicAdd(cache.entries[slot].seq, 1u);
+    atomicExchange(cache.entries[slot].r, floatBitsToUint(v.r));
+    atomicExchange(cache.entries[slot].g, floatBitsToUint(v.g));
+    atomicExchange(cache.entries[slot].b, floatBitsToUint(v.b));
+    atomicAdd(cache.entries[slot].seq, 1u);
+    atomicExchange(cache.entries[slot].key, key);
+#ifdef INSTRUMENTED
+    if (old != 0UL && old != key) atomicAdd(counters.cache_evictions, 1u);
+#endif
+}
+
+// The radiance of a sample of this object's triangle prim (visibility payload `payload`), hit as h:
+// its key's value from the cache, or shaded at its key's shading point (and stored), or — without a
+// key — shaded at its own hit. Counts its shading evaluations itself (INSTRUMENTED).
+vec3 decoupled_radiance(uint prim, uint payload, SampleHit h) {
+    float z;
+    vec3 w;
+    if (!sample_hit(h.a, h.b, h.c, h.ro, h.rd, z, w)) {
+        bool ok;
+        w = plane_barycentrics(h.a, h.b, h.c, h.ro, h.rd, ok);
+    }
+    bool back = (payload & 1u) != 0u;
+    SampleHit m = sample_at_time(prim, 0.5);
+    ivec2 cell;
+    vec3 wc;
+    if (!dc_shading_point(m.a, m.b, m.c, w, cell, wc)) {
+#ifdef INSTRUMENTED
+        atomicAdd(counters.shading_invocations, 1u);
+#endif
+        return shade_hit(prim, h);
+    }
+    uint64_t key = dc_key(payload, cell);
+    uint slot = dc_slot(key);
+    vec3 v;
+#ifdef INSTRUMENTED
+    atomicAdd(counters.cache_lookups, 1u);
+#endif
+    if (dc_read(slot, key, v)) {
+#ifdef INSTRUMENTED
+        atomicAdd(counters.cache_hits, 1u);
+#endif
+        return v;
+    }
+    // From the lens centre at mid-shutter, on the side the sample saw.
+    vec3 at = wc.x * m.a + wc.y * m.b + wc.z * m.c;
+    m.rd = normalize(at);
+    v = shade_at(prim, m, wc, back);
+#ifdef INSTRUMENTED
+    atomicAdd(counters.shading_invocations, 1u);
+#endif
+    dc_write(slot, key, v);
+    return v;
+}
+
+#endif
