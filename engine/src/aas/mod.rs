@@ -8,8 +8,8 @@
 //! * [`bounds`]: per triangle, the smallest circle of confusion, the smallest speed and the span of
 //!   motion directions, and from them the oriented shading grid.
 //!
-//! Not yet here (issue 14): the decoupled shading modes that would use the grid (a memoization cache,
-//! Liktor & Dachsbacher's compact cache), their GPU ports and measurements.
+//! Not yet here (issue 14): the grid plugged into decoupled shading ([`crate::decoupled`], which keys
+//! samples by pixel cells for now) and into Liktor & Dachsbacher's compact cache; their GPU ports.
 
 pub mod bounds;
 pub mod spectrum;

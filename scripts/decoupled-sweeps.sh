@@ -1,0 +1,23 @@
+#!/usr/bin/env bash
+# Decoupled shading's first measurements (docs/DECOUPLED.md), on the built-in `default` (depth of field,
+# a moving sphere, a panning camera) at 160×90, S = 16:
+#  * the cache-size sweep: one interleaved `shutter bench` of per-sample and per-pixel shading and
+#    decoupled shading with a memoization cache of 64 … 65536 entries (×4), with the counters' frame
+#    (lookups, hits, evictions, lost stores; shading invocations = misses);
+#  * error against a 1024-spp reference: one interleaved `shutter quality` of per-pixel, per-sample and
+#    decoupled shading at S = 4 and 16.
+# Needs a release build (cargo build --release); writes docs/quality/decoupled/.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+S=target/release/shutter
+mkdir -p docs/quality/decoupled
+configs=(-c stochastic:shading=per-sample -c stochastic:shading=per-pixel)
+for n in 64 256 1024 4096 16384 65536; do
+  configs+=(-c "stochastic:shading=decoupled:cache=$n")
+done
+$S bench default --size 160x90 --spp 16 --frames 3 --warmup 1 "${configs[@]}" \
+  --csv docs/quality/decoupled/cache-default.csv > docs/quality/decoupled/cache-default.md
+rm -f docs/quality/decoupled/quality-default.csv
+$S quality default --size 160x90 --reference-spp 1024 --cache out/cache --frames 1 --warmup 1 \
+  -s stochastic@4,16 -s stochastic:shading=per-sample@4,16 -s stochastic:shading=decoupled@4,16 \
+  --out docs/quality/decoupled/quality-default
