@@ -79,6 +79,8 @@ TOML
         3.0 * cos(a), 2.5 + 0.5 * sin(3 * a), 1.0 + 3.0 * sin(a), 12.0 / n, 11.0 / n, 10.0 / n
     }
   }' >> "$f"
+  # SCENES_ONLY=1: write the scenes and stop (scripts/decoupled-sweeps.sh uses them).
+  [ "${SCENES_ONLY:-0}" = 1 ] && continue
   for spp in 4 8; do
     $S bench "$f" --spp "$spp" --frames 3 --warmup 1 --no-counters \
       -c stochastic:shading=per-sample -c stochastic:shading=per-pixel \

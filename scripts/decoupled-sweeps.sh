@@ -5,7 +5,9 @@
 #    decoupled shading with a memoization cache of 64 … 65536 entries (×4), with the counters' frame
 #    (lookups, hits, evictions, lost stores; shading invocations = misses);
 #  * error against a 1024-spp reference: one interleaved `shutter quality` of per-pixel, per-sample and
-#    decoupled shading at S = 4 and 16.
+#    decoupled shading at S = 4 and 16;
+#  * shading cost as a dial: the ATSS light-dial scenes (scripts/atss-lights.sh, 1–256 point lights),
+#    per-sample, per-pixel and decoupled shading (64k entries) at S = 8, one interleaved bench per count.
 # Needs a release build (cargo build --release); writes docs/quality/decoupled/.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -21,3 +23,9 @@ rm -f docs/quality/decoupled/quality-default.csv
 $S quality default --size 160x90 --reference-spp 1024 --cache out/cache --frames 1 --warmup 1 \
   -s stochastic@4,16 -s stochastic:shading=per-sample@4,16 -s stochastic:shading=decoupled@4,16 \
   --out docs/quality/decoupled/quality-default
+SCENES_ONLY=1 bash scripts/atss-lights.sh
+for n in 1 16 64 256; do
+  $S bench "out/atss/lights-$n.toml" --spp 8 --frames 3 --warmup 1 \
+    -c stochastic:shading=per-sample -c stochastic:shading=per-pixel -c stochastic:shading=decoupled \
+    > "docs/quality/decoupled/lights-$n-s8.md"
+done
