@@ -25,6 +25,15 @@ use crate::scene::Intrinsics;
 /// reserved).
 pub const CELL_RANGE: i32 = 32767;
 
+/// A sample's key as the GPU packs it (`dc_key` in `decoupled.glsl`): the visibility payload
+/// (`triangle << 1 | back`, the frame's triangle numbering, the reference's) above the cell, each
+/// coordinate offset by 32768 into 16 bits.
+pub fn key(triangle: u32, back: bool, cell: IVec2) -> u64 {
+    let payload = (triangle << 1) | back as u32;
+    let cells = ((cell.x + 32768) as u32 & 0xffff) | (((cell.y + 32768) as u32 & 0xffff) << 16);
+    ((payload as u64) << 32) | cells as u64
+}
+
 /// A sample's decoupled shading point.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ShadingPoint {

@@ -1235,6 +1235,17 @@ fn decoupled_shading_matches_the_reference_whatever_the_cache() {
     let (w, h, spp) = (96, 54, 8);
     let mut r = renderer();
     let mut images = vec![];
+    let settings = ReferenceSettings {
+        width: w,
+        height: h,
+        spp,
+        seed: 5,
+        progress: false,
+        shading: shutter::reference::ReferenceShading::Decoupled,
+    };
+    let (truth, stats) =
+        shutter::reference::render_reference_with_stats(&scene, &settings).expect("reference");
+    let keys = stats.decoupled_keys.expect("decoupled keys");
     for cache_entries in [1, 1 << 16, 1 << 16] {
         let o = StochasticOptions {
             instrumented: true,
@@ -1254,10 +1265,13 @@ fn decoupled_shading_matches_the_reference_whatever_the_cache() {
             assert!(k.hits * 10 < k.lookups, "one entry hits {} of {}", k.hits, k.lookups);
         } else {
             assert!(k.hits * 2 > k.lookups, "64k entries hit {} of {}", k.hits, k.lookups);
+            // Every distinct key is shaded at least once (but for the few cells the GPU's f32
+            // projection rounds differently); the rest are re-shades after evictions and lost races.
+            println!("{keys} distinct keys: {} re-shades", k.misses() as i64 - keys as i64);
+            assert!(k.misses() as f64 >= 0.99 * keys as f64, "{} misses for {keys} keys", k.misses());
         }
         images.push(out.image);
     }
-    let truth = reference_with(&scene, w, h, spp, 5, shutter::reference::ReferenceShading::Decoupled);
     save_comparison("decoupled-default", &truth, &images[1]);
     let m = compare(&truth, &images[1]).unwrap();
     println!("decoupled vs the reference's decoupled shading: RMSE {:.6}, FLIP {:.5}", m.rmse, m.flip);
@@ -1270,16 +1284,4 @@ fn decoupled_shading_matches_the_reference_whatever_the_cache() {
     let d = max_abs_diff(&truth, &per_sample);
     println!("decoupled vs per-sample shading (reference): max |Δ| {d}");
     assert!(d > 1e-3, "decoupled shading shades as per-sample shading: the test shows nothing");
-}
-
-fn reference_with(
-    scene: &Scene,
-    w: u32,
-    h: u32,
-    spp: u32,
-    seed: u64,
-    shading: shutter::reference::ReferenceShading,
-) -> LinearImage {
-    render_reference(scene, &ReferenceSettings { width: w, height: h, spp, seed, progress: false, shading })
-        .expect("reference")
 }

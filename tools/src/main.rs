@@ -13,7 +13,7 @@ use clap::{Parser, Subcommand};
 use shutter::bounds::BoundKind;
 use shutter::image_io::{load_image, save_image};
 use shutter::metrics::{compare, write_flip_diff_png};
-use shutter::reference::{render_reference, ReferenceSettings, ReferenceShading};
+use shutter::reference::{ReferenceSettings, ReferenceShading};
 use shutter::scene::builtin::BUILTIN_SCENES;
 use shutter::scene::file::load_scene;
 use shutter::techniques::{RenderSettings, Renderer, ShadingRate, StochasticOptions, Technique};
@@ -555,8 +555,11 @@ fn run() -> Result<()> {
             let seed = seed.unwrap_or(sc.image.seed);
             let settings = ReferenceSettings { width, height, spp, seed, progress: true, shading };
             let start = std::time::Instant::now();
-            let image = render_reference(&sc, &settings)?;
+            let (image, stats) = shutter::reference::render_reference_with_stats(&sc, &settings)?;
             let secs = start.elapsed().as_secs_f64();
+            if let Some(keys) = stats.decoupled_keys {
+                println!("decoupled shading: {keys} distinct keys (shading points) among the samples");
+            }
             let out = match out {
                 Some(o) => o,
                 None => default_out(&scene, "reference", "exr")?,

@@ -154,6 +154,9 @@ pub struct ReferenceStats {
     pub seconds: f64,
     /// Wall time of preparing camera-space geometry and building the BVH.
     pub build_seconds: f64,
+    /// [`ReferenceShading::Decoupled`]: the distinct keys (shading points) the image's samples name —
+    /// what a cache that never forgot would shade ([`crate::decoupled::key`]).
+    pub decoupled_keys: Option<u64>,
 }
 
 /// Renders `scene` with the CPU reference.
@@ -213,16 +216,24 @@ fn render(
         ProgressBar::hidden()
     };
 
-    let blocks: Vec<Vec<[f32; 4]>> = (0..tiles_x * tiles_y)
+    let results: Vec<(Vec<[f32; 4]>, Vec<u64>)> = (0..tiles_x * tiles_y)
         .into_par_iter()
         .map_init(Vec::new, |lights, i| {
             let x0 = (i % tiles_x) * TILE;
             let y0 = (i / tiles_x) * TILE;
-            let block = tracer.render_block(x0, y0, (x0 + TILE).min(w), (y0 + TILE).min(h), lights);
+            let mut keys = vec![];
+            let block =
+                tracer.render_block(x0, y0, (x0 + TILE).min(w), (y0 + TILE).min(h), lights, &mut keys);
             bar.inc(1);
-            block
+            keys.sort_unstable();
+            keys.dedup();
+            (block, keys)
         })
         .collect();
+    let mut keys: Vec<u64> = results.iter().flat_map(|r| r.1.iter().copied()).collect();
+    keys.sort_unstable();
+    keys.dedup();
+    let blocks: Vec<&Vec<[f32; 4]>> = results.iter().map(|r| &r.0).collect();
     bar.finish_and_clear();
 
     let mut image = LinearImage::new(w, h);
@@ -241,6 +252,7 @@ fn render(
         rays: w as u64 * h as u64 * settings.spp as u64,
         seconds: start.elapsed().as_secs_f64(),
         build_seconds,
+        decoupled_keys: (settings.shading == ReferenceShading::Decoupled).then_some(keys.len() as u64),
     };
     Ok((image, stats))
 }
@@ -447,18 +459,20 @@ impl<'a> Tracer<'a> {
         x1: u32,
         y1: u32,
         lights: &mut Vec<ShadingLight>,
+        keys: &mut Vec<u64>,
     ) -> Vec<[f32; 4]> {
         let mut out = Vec::with_capacity(((x1 - x0) * (y1 - y0)) as usize);
         for y in y0..y1 {
             for x in x0..x1 {
-                let c = self.render_pixel(x, y, lights);
+                let c = self.render_pixel(x, y, lights, keys);
                 out.push([c.x, c.y, c.z, 1.0]);
             }
         }
         out
     }
 
-    fn render_pixel(&self, x: u32, y: u32, lights: &mut Vec<ShadingLight>) -> Vec3 {
+    /// The pixel's value; with decoupled shading, the keys of its samples go into `keys`.
+    fn render_pixel(&self, x: u32, y: u32, lights: &mut Vec<ShadingLight>, keys: &mut Vec<u64>) -> Vec3 {
         let own;
         let samples = match &self.shared {
             Some(shared) => shared.as_slice(),
@@ -490,7 +504,7 @@ impl<'a> Tracer<'a> {
             let radiance = if self.shading == ReferenceShading::PerSample {
                 self.shade_hit(&hit, d, time, lights)
             } else if self.shading == ReferenceShading::Decoupled {
-                self.shade_decoupled(&hit, d, time, lights)
+                self.shade_decoupled(&hit, d, time, lights, keys)
             } else {
                 let side = hit.hit.back;
                 let object = self.surface[hit.id as usize].object;
@@ -617,13 +631,19 @@ impl<'a> Tracer<'a> {
 
     /// [`ReferenceShading::Decoupled`]: the radiance of the key of a primary ray (direction `d`, shutter
     /// time `time`) that hit `hit`.
-    fn shade_decoupled(&self, hit: &Hit, d: Vec3, time: f32, lights: &mut Vec<ShadingLight>) -> Vec3 {
+    fn shade_decoupled(
+        &self,
+        hit: &Hit,
+        d: Vec3,
+        time: f32,
+        lights: &mut Vec<ShadingLight>,
+        keys: &mut Vec<u64>,
+    ) -> Vec3 {
         let ([(p0, _), (p1, _)], s) = self.segment_at(hit.id, 0.5);
         let mid = MovingTriangle { v0: p0, v1: p1 }.at(s);
         let sp = crate::decoupled::shading_point(&self.intrinsics, &mid, hit.hit.barycentrics);
-        if sp.cell.is_none() {
-            return self.shade_hit(hit, d, time, lights);
-        }
+        let Some(cell) = sp.cell else { return self.shade_hit(hit, d, time, lights) };
+        keys.push(crate::decoupled::key(hit.id, hit.hit.back, cell));
         let w = sp.barycentrics;
         let point = w.x * mid[0] + w.y * mid[1] + w.z * mid[2];
         let at =
