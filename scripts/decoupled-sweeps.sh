@@ -2,8 +2,11 @@
 # Decoupled shading's first measurements (docs/DECOUPLED.md), on the built-in `default` (depth of field,
 # a moving sphere, a panning camera) at 160×90, S = 16:
 #  * the cache-size sweep: one interleaved `shutter bench` of per-sample and per-pixel shading and
-#    decoupled shading with a memoization cache of 64 … 65536 entries (×4), with the counters' frame
-#    (lookups, hits, evictions, lost stores; shading invocations = misses);
+#    decoupled shading on the pixel grid and on the AAS grids with a memoization cache of 64 … 65536
+#    entries (×4), with the counters' frame (lookups, hits, evictions, lost stores; shading
+#    invocations = misses);
+#  * the distinct keys (shading points) of the pixel, isotropic-AAS and AAS grids on four scenes, from
+#    the reference (`shutter reference --shading …`: the least any cache can shade);
 #  * error against a 1024-spp reference: one interleaved `shutter quality` of per-pixel, per-sample and
 #    decoupled shading at S = 4 and 16;
 #  * shading cost as a dial: the ATSS light-dial scenes (scripts/atss-lights.sh, 1–256 point lights),
@@ -14,14 +17,30 @@ cd "$(dirname "$0")/.."
 S=target/release/shutter
 mkdir -p docs/quality/decoupled
 configs=(-c stochastic:shading=per-sample -c stochastic:shading=per-pixel)
-for n in 64 256 1024 4096 16384 65536; do
-  configs+=(-c "stochastic:shading=decoupled:cache=$n")
+for grid in decoupled aas; do
+  for n in 64 256 1024 4096 16384 65536; do
+    configs+=(-c "stochastic:shading=$grid:cache=$n")
+  done
 done
 $S bench default --size 160x90 --spp 16 --frames 3 --warmup 1 "${configs[@]}" \
   --csv docs/quality/decoupled/cache-default.csv > docs/quality/decoupled/cache-default.md
+{
+  echo "| scene | decoupled (pixel grid) | aas-isotropic | aas |"
+  echo "|---|---:|---:|---:|"
+  for scene in default one-mover glass focus-sweep; do
+    row="| \`$scene\`"
+    for grid in decoupled aas-isotropic aas; do
+      keys=$($S reference "$scene" --shading "$grid" --spp 16 --size 160x90 --out out/decoupled-keys.exr \
+        | sed -n 's/^decoupled shading: \([0-9]*\) distinct keys.*/\1/p')
+      row="$row | $keys"
+    done
+    echo "$row |"
+  done
+} > docs/quality/decoupled/keys.md
 rm -f docs/quality/decoupled/quality-default.csv
 $S quality default --size 160x90 --reference-spp 1024 --cache out/cache --frames 1 --warmup 1 \
   -s stochastic@4,16 -s stochastic:shading=per-sample@4,16 -s stochastic:shading=decoupled@4,16 \
+  -s stochastic:shading=aas@4,16 \
   --out docs/quality/decoupled/quality-default
 SCENES_ONLY=1 bash scripts/atss-lights.sh
 for n in 1 16 64 256; do

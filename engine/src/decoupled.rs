@@ -19,7 +19,58 @@
 
 use glam::{IVec2, Vec2, Vec3};
 
+use crate::aas::bounds::ShadingGrid;
 use crate::scene::Intrinsics;
+
+/// Which screen-space grid cells the keys: the pixel grid (Ragan-Kelley's decoupled sampling), or the
+/// AAS grid per triangle ([`crate::aas::bounds::shading_grid`]: oriented along the motion and stretched
+/// by the blur), or AAS for defocus only (the isotropic ablation).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum GridKind {
+    #[default]
+    Pixel,
+    Aas,
+    AasIsotropic,
+}
+
+/// Every triangle's grid of `kind` (the scene's triangle numbering: objects in order), for the camera
+/// space `space` of `scene` seen through `intrinsics`.
+pub fn object_grids(
+    scene: &crate::scene::Scene,
+    space: &crate::scene::CameraSpaceScene,
+    intrinsics: &Intrinsics,
+    kind: GridKind,
+) -> Vec<ShadingGrid> {
+    let cutoffs = crate::aas::spectrum::camera_cutoffs(scene.camera.aperture, scene.camera.shutter);
+    scene
+        .objects
+        .iter()
+        .zip(&space.objects)
+        .flat_map(|(o, motion)| match kind {
+            GridKind::Pixel => vec![PIXEL_GRID; o.mesh.indices.len() / 3],
+            GridKind::Aas | GridKind::AasIsotropic => crate::aas::bounds::triangle_grids(
+                intrinsics,
+                &o.mesh,
+                motion,
+                &cutoffs,
+                kind == GridKind::AasIsotropic,
+            ),
+        })
+        .collect()
+}
+
+/// The pixel grid.
+pub const PIXEL_GRID: ShadingGrid = ShadingGrid { axis: Vec2::X, along: 1.0, across: 1.0 };
+
+/// A screen point `q` (pixels) in grid coordinates: along the axis and across it, in cells.
+pub fn to_grid(grid: &ShadingGrid, q: Vec2) -> Vec2 {
+    Vec2::new(q.dot(grid.axis) / grid.along, q.dot(grid.axis.perp()) / grid.across)
+}
+
+/// A grid point back on the screen (pixels).
+pub fn from_grid(grid: &ShadingGrid, g: Vec2) -> Vec2 {
+    grid.axis * (g.x * grid.along) + grid.axis.perp() * (g.y * grid.across)
+}
 
 /// Cells a key can name: `|x|, |y| <` this (16 bits each in the GPU's 64-bit key, 0 and all-ones
 /// reserved).
@@ -107,8 +158,8 @@ pub fn clamp_to_triangle(p: &[Vec3; 3], w: Vec3) -> Vec3 {
 }
 
 /// The decoupled shading point of a sample that hit the triangle `mid` (camera space at mid-shutter)
-/// at barycentrics `w` (module docs).
-pub fn shading_point(intrinsics: &Intrinsics, mid: &[Vec3; 3], w: Vec3) -> ShadingPoint {
+/// at barycentrics `w`, its cells those of `grid` (module docs; [`PIXEL_GRID`]: pixels).
+pub fn shading_point(intrinsics: &Intrinsics, mid: &[Vec3; 3], w: Vec3, grid: &ShadingGrid) -> ShadingPoint {
     let own = ShadingPoint { cell: None, barycentrics: w };
     let point = w.x * mid[0] + w.y * mid[1] + w.z * mid[2];
     // In front of the lens (NaN is not).
@@ -116,11 +167,11 @@ pub fn shading_point(intrinsics: &Intrinsics, mid: &[Vec3; 3], w: Vec3) -> Shadi
         return own;
     }
     let q = intrinsics.project(point, Vec2::ZERO);
-    let cell = q.floor();
+    let cell = to_grid(grid, q).floor();
     if !(cell.x.abs() < CELL_RANGE as f32 && cell.y.abs() < CELL_RANGE as f32) {
         return own;
     }
-    let (o, d) = intrinsics.primary_ray(cell + Vec2::splat(0.5), Vec2::ZERO);
+    let (o, d) = intrinsics.primary_ray(from_grid(grid, cell + Vec2::splat(0.5)), Vec2::ZERO);
     let barycentrics = match plane_barycentrics(mid, o, d) {
         // Met in front of the lens: the cell centre's point of the plane, clamped to the triangle.
         Some(b) if -(b.x * mid[0] + b.y * mid[1] + b.z * mid[2]).z > 0.0 => clamp_to_triangle(mid, b),
@@ -195,7 +246,7 @@ mod tests {
                 let (a, b) = (rng.next_f32(), rng.next_f32());
                 let (a, b) = if a + b > 1.0 { (1.0 - a, 1.0 - b) } else { (a, b) };
                 let w = Vec3::new(1.0 - a - b, a, b);
-                let sp = shading_point(&k, &tri, w);
+                let sp = shading_point(&k, &tri, w, &PIXEL_GRID);
                 let Some(cell) = sp.cell else { continue };
                 let c = sp.barycentrics;
                 assert!(c.min_element() >= -1e-5 && (c.element_sum() - 1.0).abs() < 1e-4, "case {case}: {c}");

@@ -26,6 +26,9 @@ struct CacheEntry {
     uint pad0, pad1;
 };  // 32 bytes (CACHE_ENTRY_BYTES)
 layout(set = 3, binding = 8, std430) buffer DecoupledCache { CacheEntry entries[]; } cache;
+// Every triangle's grid, in the frame's numbering (decoupled::object_grids): its axis, then the cell's
+// size along and across it, pixels (the pixel grid: (1, 0), 1, 1).
+layout(set = 3, binding = 9, std430) readonly buffer DecoupledGrids { vec4 decoupled_grids[]; };
 
 const uint64_t DC_LOCKED = 0xffffffffffffffffUL;
 const float DC_CELL_RANGE = 32767.0;  // decoupled::CELL_RANGE
@@ -72,17 +75,28 @@ vec2 dc_project(vec3 p) {
     return px;
 }
 
-// decoupled::shading_point: false for a sample without a key (shade its own hit); else its cell and the
-// barycentrics of its key's shading point on the mid-shutter triangle (ma, mb, mc).
-bool dc_shading_point(vec3 ma, vec3 mb, vec3 mc, vec3 w, out ivec2 cell, out vec3 wc) {
+// decoupled::to_grid and from_grid: a screen point in grid cells and back, grid g = (axis, along, across).
+vec2 dc_to_grid(vec4 g, vec2 q) {
+    vec2 perp = vec2(-g.y, g.x);
+    return vec2(dot(q, g.xy) / g.z, dot(q, perp) / g.w);
+}
+
+vec2 dc_from_grid(vec4 g, vec2 c) {
+    vec2 perp = vec2(-g.y, g.x);
+    return g.xy * (c.x * g.z) + perp * (c.y * g.w);
+}
+
+// decoupled::shading_point: false for a sample without a key (shade its own hit); else its cell in grid
+// `grid` and the barycentrics of its key's shading point on the mid-shutter triangle (ma, mb, mc).
+bool dc_shading_point(vec3 ma, vec3 mb, vec3 mc, vec3 w, vec4 grid, out ivec2 cell, out vec3 wc) {
     cell = ivec2(0);
     wc = w;
     vec3 point = w.x * ma + w.y * mb + w.z * mc;
     if (!(-point.z > 0.0)) return false;
-    vec2 c = floor(dc_project(point));
+    vec2 c = floor(dc_to_grid(grid, dc_project(point)));
     if (!(abs(c.x) < DC_CELL_RANGE && abs(c.y) < DC_CELL_RANGE)) return false;
     vec3 o, d;
-    primary_ray(c + vec2(0.5), vec2(0.0), o, d);
+    primary_ray(dc_from_grid(grid, c + vec2(0.5)), vec2(0.0), o, d);
     bool ok;
     vec3 b = plane_barycentrics(ma, mb, mc, o, d, ok);
     if (!ok) return false;
@@ -153,7 +167,8 @@ vec3 decoupled_radiance(uint prim, uint payload, SampleHit h) {
     SampleHit m = sample_at_time(prim, 0.5);
     ivec2 cell;
     vec3 wc;
-    if (!dc_shading_point(m.a, m.b, m.c, w, cell, wc)) {
+    vec4 grid = decoupled_grids[pc.triangle_base + prim];
+    if (!dc_shading_point(m.a, m.b, m.c, w, grid, cell, wc)) {
 #ifdef INSTRUMENTED
         atomicAdd(counters.shading_invocations, 1u);
 #endif

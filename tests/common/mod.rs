@@ -33,7 +33,9 @@ pub fn same_sample_reference(
     // Texture-space shading approximates the exact rates; the reference does not mirror it.
     let shading = match shading.exact() {
         ShadingRate::PerPixel => ReferenceShading::PerPixel { per_pass: spp / out.stats.passes.max(1) },
-        ShadingRate::Decoupled => ReferenceShading::Decoupled,
+        ShadingRate::Decoupled | ShadingRate::Aas | ShadingRate::AasIsotropic => {
+            ReferenceShading::Decoupled(shading.decoupled_grid().unwrap_or_default())
+        }
         _ => ReferenceShading::PerSample,
     };
     render_reference(scene, &ReferenceSettings { width: w, height: h, spp, seed, progress: false, shading })

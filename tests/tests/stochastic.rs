@@ -1241,7 +1241,7 @@ fn decoupled_shading_matches_the_reference_whatever_the_cache() {
         spp,
         seed: 5,
         progress: false,
-        shading: shutter::reference::ReferenceShading::Decoupled,
+        shading: shutter::reference::ReferenceShading::Decoupled(shutter::decoupled::GridKind::Pixel),
     };
     let (truth, stats) =
         shutter::reference::render_reference_with_stats(&scene, &settings).expect("reference");
@@ -1284,4 +1284,44 @@ fn decoupled_shading_matches_the_reference_whatever_the_cache() {
     let d = max_abs_diff(&truth, &per_sample);
     println!("decoupled vs per-sample shading (reference): max |Δ| {d}");
     assert!(d > 1e-3, "decoupled shading shades as per-sample shading: the test shows nothing");
+}
+
+/// `--shading aas` and `aas-isotropic` (docs/DECOUPLED.md): decoupled shading keyed by each triangle's
+/// adaptive anisotropic grid — the same image as the reference's decoupled shading with the same grids
+/// (which the CPU computes for both, `decoupled::object_grids`), and fewer distinct shading points than
+/// the pixel grid wherever there is blur (`default`: defocus, motion, a panning camera); the isotropic
+/// ablation, which ignores motion, never has fewer than full AAS.
+#[test]
+fn aas_grids_shade_fewer_points_and_match_the_reference() {
+    use shutter::decoupled::GridKind;
+    use shutter::reference::ReferenceShading;
+    let scene = builtin_scene("default").expect("built-in").expect("parses");
+    let (w, h, spp) = (96, 54, 8);
+    let mut r = renderer();
+    let mut keys = vec![];
+    for (rate, kind) in [
+        (ShadingRate::Decoupled, GridKind::Pixel),
+        (ShadingRate::AasIsotropic, GridKind::AasIsotropic),
+        (ShadingRate::Aas, GridKind::Aas),
+    ] {
+        let settings = ReferenceSettings {
+            width: w,
+            height: h,
+            spp,
+            seed: 5,
+            progress: false,
+            shading: ReferenceShading::Decoupled(kind),
+        };
+        let (truth, stats) =
+            shutter::reference::render_reference_with_stats(&scene, &settings).expect("reference");
+        let out = render(&mut r, &scene, w, h, spp, 5, options(BoundKind::Adaptive, rate));
+        let m = compare(&truth, &out.image).unwrap();
+        let n = stats.decoupled_keys.expect("keys");
+        println!("{}: {n} distinct keys; RMSE {:.6} against the reference", rate.name(), m.rmse);
+        save_comparison(&format!("aas-default-{}", rate.name()), &truth, &out.image);
+        assert!(m.rmse < HARD_RMSE_MAX, "{}: RMSE {}", rate.name(), m.rmse);
+        keys.push(n);
+    }
+    assert!(keys[2] < keys[0] && keys[1] < keys[0], "AAS keys {keys:?} (pixel, isotropic, AAS)");
+    assert!(keys[2] <= keys[1], "motion-aligned AAS has more keys than isotropic: {keys:?}");
 }

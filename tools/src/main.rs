@@ -542,7 +542,11 @@ fn run() -> Result<()> {
             let shading = match shading.parse::<ShadingRate>()? {
                 ShadingRate::PerSample => ReferenceShading::PerSample,
                 ShadingRate::PerPixel => ReferenceShading::PerPixel { per_pass: per_pass.unwrap_or(spp) },
-                ShadingRate::Decoupled => ReferenceShading::Decoupled,
+                ShadingRate::Decoupled | ShadingRate::Aas | ShadingRate::AasIsotropic => {
+                    ReferenceShading::Decoupled(
+                        shading.parse::<ShadingRate>()?.decoupled_grid().unwrap_or_default(),
+                    )
+                }
                 ShadingRate::TextureSpace | ShadingRate::TextureSpacePerPixel => {
                     return Err(shutter::Error::Unsupported(
                         "the reference shades per sample or per pixel; texture-space shading is a GPU \

@@ -24,6 +24,8 @@
 use glam::Vec2;
 
 use super::spectrum::RECONSTRUCTION_CUTOFF;
+use crate::scene::camera_space::ObjectMotion;
+use crate::scene::{Intrinsics, Mesh};
 
 /// What blurs one triangle over a frame (module docs).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -183,6 +185,40 @@ pub fn shading_grid(blur: &TriangleBlur, cutoffs: &Cutoffs) -> ShadingGrid {
     }
 }
 
+/// The grid of every triangle of `mesh` moved by `motion` and seen through `intrinsics`, for a camera
+/// whose filters cut off at `cutoffs`; `isotropic` leaves the motion out (AAS for defocus only, the
+/// issue's ablation). A triangle with a vertex at or before the near plane at some key gets the pixel
+/// grid: its screen positions, and so its blur, are unbounded.
+pub fn triangle_grids(
+    intrinsics: &Intrinsics,
+    mesh: &Mesh,
+    motion: &ObjectMotion,
+    cutoffs: &Cutoffs,
+    isotropic: bool,
+) -> Vec<ShadingGrid> {
+    let times = motion.keys.times();
+    mesh.indices
+        .chunks_exact(3)
+        .map(|t| {
+            let mut keys = Vec::with_capacity(times.len());
+            let mut coc = Vec::with_capacity(times.len());
+            for mv in &motion.model_view {
+                let p = [0, 1, 2].map(|k| mv.transform_point3(mesh.positions[t[k] as usize]));
+                if p.iter().any(|v| -v.z <= intrinsics.near || v.z.is_nan()) {
+                    return crate::decoupled::PIXEL_GRID;
+                }
+                keys.push(p.map(|v| intrinsics.project(v, Vec2::ZERO)));
+                coc.push(p.map(|v| intrinsics.circle_of_confusion_px(-v.z)));
+            }
+            let mut blur = triangle_blur(&keys, times, &coc);
+            if isotropic {
+                blur.min_speed_px = 0.0;
+            }
+            shading_grid(&blur, cutoffs)
+        })
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -310,5 +346,45 @@ mod tests {
         assert_eq!((s.min_speed_px, s.min_coc_px), (0.0, 0.0));
         let still = triangle_blur(&[tri], &[0.0], &[[3.0; 3]]);
         assert_eq!((still.min_speed_px, still.half_span), (0.0, 0.0));
+    }
+
+    /// Grids from a mesh and its motion: a square sliding sideways in focus gets cells stretched along
+    /// the slide, one pixel across it; at rest, pixels; behind the camera at a key, pixels.
+    #[test]
+    fn triangle_grids_follow_the_motion() {
+        use crate::geometry::KeyTimes;
+        use crate::sampling::ApertureShape;
+        use glam::{Mat4, Vec3};
+        let k = Intrinsics {
+            width: 160.0,
+            height: 90.0,
+            pixel_scale: crate::scene::camera::pixel_scale(90, 40.0),
+            aperture_radius: 0.0,
+            focus_distance: 4.0,
+            aperture: ApertureShape::Disk,
+            near: 0.05,
+            far: 100.0,
+        };
+        let mesh = crate::scene::builtin::builtin_mesh("plane", None).unwrap().unwrap();
+        let cut = Cutoffs { aperture: Some(0.95), shutter: 0.85 };
+        let at = |x: f32| Mat4::from_translation(Vec3::new(x, 0.0, -4.0)) * Mat4::from_rotation_x(1.57);
+        let sliding = ObjectMotion::new(KeyTimes::new(vec![0.0, 1.0]).unwrap(), vec![at(-0.5), at(0.5)]);
+        for g in triangle_grids(&k, &mesh, &sliding, &cut, false) {
+            assert!(g.axis.x.abs() > 0.999 && g.along > 10.0 && g.across == 1.0, "{g:?}");
+        }
+        for g in triangle_grids(&k, &mesh, &sliding, &cut, true) {
+            assert_eq!((g.along, g.across), (1.0, 1.0), "isotropic, in focus: pixels");
+        }
+        let still = ObjectMotion::new(KeyTimes::new(vec![0.0, 1.0]).unwrap(), vec![at(0.0), at(0.0)]);
+        assert!(triangle_grids(&k, &mesh, &still, &cut, false)
+            .iter()
+            .all(|g| (g.along, g.across) == (1.0, 1.0)));
+        let behind = ObjectMotion::new(
+            KeyTimes::new(vec![0.0, 1.0]).unwrap(),
+            vec![at(0.0), Mat4::from_translation(Vec3::new(0.0, 0.0, 8.0)) * at(0.0)],
+        );
+        assert!(triangle_grids(&k, &mesh, &behind, &cut, false)
+            .iter()
+            .all(|g| *g == crate::decoupled::PIXEL_GRID));
     }
 }

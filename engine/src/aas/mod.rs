@@ -8,8 +8,10 @@
 //! * [`bounds`]: per triangle, the smallest circle of confusion, the smallest speed and the span of
 //!   motion directions, and from them the oriented shading grid.
 //!
-//! Not yet here (issue 14): the grid plugged into decoupled shading ([`crate::decoupled`], which keys
-//! samples by pixel cells for now) and into Liktor & Dachsbacher's compact cache; their GPU ports.
+//! The grid keys decoupled shading's samples in `--shading aas` and `aas-isotropic`
+//! ([`crate::decoupled::object_grids`], computed on the CPU per frame and uploaded; the GPU only reads
+//! it). Not yet here (issue 14): a GPU port of the bounds, and the grid in Liktor & Dachsbacher's
+//! deferred variant.
 
 pub mod bounds;
 pub mod spectrum;

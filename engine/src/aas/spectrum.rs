@@ -124,6 +124,15 @@ pub fn aperture_cutoff(shape: ApertureShape, kept: f64) -> Option<f64> {
     None
 }
 
+/// The cutoffs of a camera with this aperture and shutter, keeping [`ENERGY_KEPT`] of each filter's
+/// energy.
+pub fn camera_cutoffs(aperture: ApertureShape, shutter: ShutterCurve) -> super::bounds::Cutoffs {
+    super::bounds::Cutoffs {
+        aperture: aperture_cutoff(aperture, ENERGY_KEPT),
+        shutter: shutter_cutoff(shutter, ENERGY_KEPT),
+    }
+}
+
 /// The shutter's cutoff, cycles per shutter interval: the smallest `Ω` with the share `kept` of the
 /// curve's spectral energy in `[−Ω, Ω]`, to [`FREQUENCY_STEP`] (the box's power spectrum is `sinc²`, the
 /// unit-area tent's `sinc⁴(ν/2)`; their energies by Parseval, 1 and 4/3).

@@ -134,8 +134,9 @@ pub enum ReferenceShading {
     PerPixel { per_pass: u32 },
     /// Decoupled shading ([`crate::decoupled`]): every sample takes the radiance of its key's shading
     /// point — on its triangle at mid-shutter, seen from the lens centre, on the sample's side — or of
-    /// its own hit when it has no key. What `--shading decoupled` computes whatever its cache does.
-    Decoupled,
+    /// its own hit when it has no key; keys are cells of the grid [`crate::decoupled::GridKind`] says.
+    /// What `--shading decoupled`, `aas` and `aas-isotropic` compute whatever their cache does.
+    Decoupled(crate::decoupled::GridKind),
 }
 
 /// Groups per object, pixel and pass that per-pixel shading remembers (`SHADE_GROUPS` in
@@ -252,7 +253,8 @@ fn render(
         rays: w as u64 * h as u64 * settings.spp as u64,
         seconds: start.elapsed().as_secs_f64(),
         build_seconds,
-        decoupled_keys: (settings.shading == ReferenceShading::Decoupled).then_some(keys.len() as u64),
+        decoupled_keys: matches!(settings.shading, ReferenceShading::Decoupled(_))
+            .then_some(keys.len() as u64),
     };
     Ok((image, stats))
 }
@@ -356,6 +358,8 @@ struct Tracer<'a> {
     shading: ReferenceShading,
     /// Every pixel's samples, when they are shared ([`render_reference_shared_samples`]).
     shared: Option<Vec<Sample5>>,
+    /// [`ReferenceShading::Decoupled`] with an AAS grid: each triangle's (by id); empty: pixels.
+    grids: Vec<crate::aas::bounds::ShadingGrid>,
 }
 
 impl<'a> Tracer<'a> {
@@ -394,6 +398,13 @@ impl<'a> Tracer<'a> {
             });
         }
         let object_keys: Vec<KeyTimes> = scene_space.objects.iter().map(|m| m.keys.clone()).collect();
+        let intrinsics = scene.camera.intrinsics(s.width, s.height);
+        let grids = match s.shading {
+            ReferenceShading::Decoupled(kind) if kind != crate::decoupled::GridKind::Pixel => {
+                crate::decoupled::object_grids(scene, &scene_space, &intrinsics, kind)
+            }
+            _ => vec![],
+        };
         all_times.push(0.0);
         all_times.push(1.0);
         all_times.sort_by(f32::total_cmp);
@@ -429,7 +440,8 @@ impl<'a> Tracer<'a> {
             object_keys,
             materials,
             camera: &scene.camera,
-            intrinsics: scene.camera.intrinsics(s.width, s.height),
+            intrinsics,
+            grids,
             shadows: scene.lights.iter().map(|l| l.shadows()).collect(),
             scene_space,
             ambient: scene.environment.ambient,
@@ -482,7 +494,7 @@ impl<'a> Tracer<'a> {
             }
         };
         let per_pass = match self.shading {
-            ReferenceShading::PerSample | ReferenceShading::Decoupled => 1,
+            ReferenceShading::PerSample | ReferenceShading::Decoupled(_) => 1,
             ReferenceShading::PerPixel { per_pass } => per_pass.max(1) as usize,
         };
         // Per-pixel shading groups of the current chunk: (triangle id, side, object, radiance).
@@ -503,7 +515,7 @@ impl<'a> Tracer<'a> {
             };
             let radiance = if self.shading == ReferenceShading::PerSample {
                 self.shade_hit(&hit, d, time, lights)
-            } else if self.shading == ReferenceShading::Decoupled {
+            } else if let ReferenceShading::Decoupled(_) = self.shading {
                 self.shade_decoupled(&hit, d, time, lights, keys)
             } else {
                 let side = hit.hit.back;
@@ -641,7 +653,8 @@ impl<'a> Tracer<'a> {
     ) -> Vec3 {
         let ([(p0, _), (p1, _)], s) = self.segment_at(hit.id, 0.5);
         let mid = MovingTriangle { v0: p0, v1: p1 }.at(s);
-        let sp = crate::decoupled::shading_point(&self.intrinsics, &mid, hit.hit.barycentrics);
+        let grid = self.grids.get(hit.id as usize).unwrap_or(&crate::decoupled::PIXEL_GRID);
+        let sp = crate::decoupled::shading_point(&self.intrinsics, &mid, hit.hit.barycentrics, grid);
         let Some(cell) = sp.cell else { return self.shade_hit(hit, d, time, lights) };
         keys.push(crate::decoupled::key(hit.id, hit.hit.back, cell));
         let w = sp.barycentrics;

@@ -88,6 +88,12 @@ pub enum ShadingRate {
     /// from a memoization cache of [`StochasticOptions::cache_entries`] entries, or shades the key's
     /// shading point and stores it. Mirrored by the reference ([`crate::reference::ReferenceShading::Decoupled`]).
     Decoupled,
+    /// [`ShadingRate::Decoupled`] with the cells of each triangle's adaptive anisotropic grid
+    /// (Vaidyanathan et al. 2012, [`crate::aas::bounds`]): oriented along its motion, stretched by its
+    /// blur.
+    Aas,
+    /// [`ShadingRate::Aas`] for defocus only (the grid isotropic: the ablation).
+    AasIsotropic,
 }
 
 /// The largest level 0 side of the atlases of [`ShadingRate::TextureSpace`], texels — the paper's;
@@ -100,12 +106,14 @@ impl ShadingRate {
     /// The rates the reference mirrors sample for sample ([`crate::reference::ReferenceShading`]).
     pub const ALL: [ShadingRate; 2] = [ShadingRate::PerPixel, ShadingRate::PerSample];
     /// Every rate, by name.
-    pub const NAMED: [ShadingRate; 5] = [
+    pub const NAMED: [ShadingRate; 7] = [
         ShadingRate::PerPixel,
         ShadingRate::PerSample,
         ShadingRate::TextureSpace,
         ShadingRate::TextureSpacePerPixel,
         ShadingRate::Decoupled,
+        ShadingRate::Aas,
+        ShadingRate::AasIsotropic,
     ];
     pub fn name(&self) -> &'static str {
         match self {
@@ -114,6 +122,19 @@ impl ShadingRate {
             ShadingRate::TextureSpace => "texture-space",
             ShadingRate::TextureSpacePerPixel => "texture-space-per-pixel",
             ShadingRate::Decoupled => "decoupled",
+            ShadingRate::Aas => "aas",
+            ShadingRate::AasIsotropic => "aas-isotropic",
+        }
+    }
+
+    /// The decoupled rates' grid (None for the others).
+    pub fn decoupled_grid(&self) -> Option<crate::decoupled::GridKind> {
+        use crate::decoupled::GridKind;
+        match self {
+            ShadingRate::Decoupled => Some(GridKind::Pixel),
+            ShadingRate::Aas => Some(GridKind::Aas),
+            ShadingRate::AasIsotropic => Some(GridKind::AasIsotropic),
+            _ => None,
         }
     }
 
@@ -721,7 +742,7 @@ pub const STOCHASTIC_OBJECT_SET: [Binding; 8] = [
 
 /// Set 3 of the stochastic rasterizer: the sample tile, counters, bound debug output, hull counts, the
 /// visibility buffer and the accumulation image.
-pub const STOCHASTIC_SET: [Binding; 9] = [
+pub const STOCHASTIC_SET: [Binding; 10] = [
     Binding { binding: 0, ty: vk::DescriptorType::STORAGE_BUFFER, block: "SamplesXyLens" },
     Binding { binding: 1, ty: vk::DescriptorType::STORAGE_BUFFER, block: "SamplesTime" },
     Binding { binding: 2, ty: vk::DescriptorType::STORAGE_BUFFER, block: "Counters" },
@@ -731,6 +752,7 @@ pub const STOCHASTIC_SET: [Binding; 9] = [
     Binding { binding: 6, ty: vk::DescriptorType::STORAGE_IMAGE, block: "accum" },
     Binding { binding: 7, ty: vk::DescriptorType::STORAGE_BUFFER, block: "TintLog" },
     Binding { binding: 8, ty: vk::DescriptorType::STORAGE_BUFFER, block: "DecoupledCache" },
+    Binding { binding: 9, ty: vk::DescriptorType::STORAGE_BUFFER, block: "DecoupledGrids" },
 ];
 
 /// `StochasticPush::object` of the shading pass' dispatch that adds the background for the samples
@@ -858,7 +880,7 @@ impl ShadingRate {
             ShadingRate::PerSample => axes::Shading::PerSample,
             ShadingRate::TextureSpace => axes::Shading::TextureSpace,
             ShadingRate::TextureSpacePerPixel => axes::Shading::TextureSpacePerPixel,
-            ShadingRate::Decoupled => axes::Shading::Decoupled,
+            ShadingRate::Decoupled | ShadingRate::Aas | ShadingRate::AasIsotropic => axes::Shading::Decoupled,
         }
     }
 }
@@ -914,8 +936,9 @@ pub struct StochasticDraws {
     object_tint_log: Vec<Option<[u32; 3]>>,
     /// Σ −log₂ T per channel, pixel and sample of a pass (with tinted objects only).
     tints: Option<Tracked<Buffer>>,
-    /// [`ShadingRate::Decoupled`]'s memoization cache (`decoupled.glsl`), cleared every frame.
-    decoupled: Option<Tracked<Buffer>>,
+    /// The decoupled rates' memoization cache (`decoupled.glsl`), cleared every frame, and every
+    /// triangle's grid (frame numbering; vec4: axis, spacing along it, across it).
+    decoupled: Option<(Tracked<Buffer>, Buffer)>,
     /// Texture-space shading's pass 1 ([`ShadingRate::TextureSpace`]), and the sampler its shading
     /// pass reads the atlases with.
     atlas: Option<super::texture_space::AtlasPasses>,
@@ -1379,20 +1402,34 @@ impl StochasticDraws {
         } else {
             None
         };
-        let decoupled = if options.shading == ShadingRate::Decoupled {
+        let decoupled = if let Some(kind) = options.shading.decoupled_grid() {
             if !(1..=MAX_CACHE_ENTRIES).contains(&options.cache_entries) {
                 return Err(Error::Unsupported(format!(
                     "a decoupled shading cache of {} entries: 1 ..= {MAX_CACHE_ENTRIES}",
                     options.cache_entries
                 )));
             }
-            Some(Tracked::new(Buffer::new(
+            let cache = Tracked::new(Buffer::new(
                 device,
                 "decoupled shading cache",
                 options.cache_entries as u64 * CACHE_ENTRY_BYTES,
                 storage | vk::BufferUsageFlags::TRANSFER_DST,
                 MemoryLocation::GpuOnly,
-            )?))
+            )?);
+            let intrinsics = ctx.scene.camera.intrinsics(width, height);
+            let grids: Vec<[f32; 4]> =
+                crate::decoupled::object_grids(ctx.scene, &ctx.camera.space, &intrinsics, kind)
+                    .iter()
+                    .map(|g| [g.axis.x, g.axis.y, g.along, g.across])
+                    .collect();
+            let placeholder = [[1.0, 0.0, 1.0, 1.0]];
+            let grids = Buffer::with_data(
+                device,
+                "decoupled grids",
+                storage,
+                if grids.is_empty() { &placeholder } else { &grids },
+            )?;
+            Some((cache, grids))
         } else {
             None
         };
@@ -1418,8 +1455,9 @@ impl StochasticDraws {
         if let Some(b) = &tints {
             writes.push(DescriptorWrite::storage_buffer(7, b));
         }
-        if let Some(b) = &decoupled {
-            writes.push(DescriptorWrite::storage_buffer(8, b));
+        if let Some((cache, grids)) = &decoupled {
+            writes.push(DescriptorWrite::storage_buffer(8, cache));
+            writes.push(DescriptorWrite::storage_buffer(9, grids));
         }
         write_descriptors(device, technique_set, &writes);
         let mut object_sets = Vec::with_capacity(world.objects.len());
@@ -1911,7 +1949,7 @@ impl StochasticDraws {
         let visibility = g.import_buffer("stochastic visibility", &self.visibility);
         let accum = g.import_image("stochastic accumulation", &self.accum);
         let tints = self.tints.as_ref().map(|t| g.import_buffer("stochastic tints", t));
-        if let Some(c) = &self.decoupled {
+        if let Some((c, _)) = &self.decoupled {
             // Cleared once a frame: every shading dispatch of every pass shares it.
             let h = g.import_buffer("decoupled shading cache", c);
             g.pass("clear decoupled cache").overwrite(h, Access::TransferWrite).record(move |ctx| {
