@@ -153,46 +153,64 @@ void dc_write(uint slot, uint64_t key, vec3 v) {
 #endif
 }
 
-// The radiance of a sample of this object's triangle prim (visibility payload `payload`), hit as h:
-// its key's value from the cache, or shaded at its key's shading point (and stored), or — without a
-// key — shaded at its own hit. Counts its shading evaluations itself (INSTRUMENTED).
-vec3 decoupled_radiance(uint prim, uint payload, SampleHit h) {
+// Where a sample of this object's triangle prim (visibility payload `payload`), hit as h, is shaded:
+// false without a key (at its own hit); else its key, the mid-shutter triangle m (its ray from the lens
+// centre to the key's shading point) and that point's barycentrics wc.
+bool dc_locate(uint prim, uint payload, SampleHit h, out uint64_t key, out SampleHit m, out vec3 wc) {
     float z;
     vec3 w;
     if (!sample_hit(h.a, h.b, h.c, h.ro, h.rd, z, w)) {
         bool ok;
         w = plane_barycentrics(h.a, h.b, h.c, h.ro, h.rd, ok);
     }
-    bool back = (payload & 1u) != 0u;
-    SampleHit m = sample_at_time(prim, 0.5);
+    m = sample_at_time(prim, 0.5);
     ivec2 cell;
-    vec3 wc;
     vec4 grid = decoupled_grids[pc.triangle_base + prim];
-    if (!dc_shading_point(m.a, m.b, m.c, w, grid, cell, wc)) {
-#ifdef INSTRUMENTED
-        atomicAdd(counters.shading_invocations, 1u);
-#endif
-        return shade_hit(prim, h);
-    }
-    uint64_t key = dc_key(payload, cell);
-    uint slot = dc_slot(key);
-    vec3 v;
+    bool keyed = dc_shading_point(m.a, m.b, m.c, w, grid, cell, wc);
+    key = dc_key(payload, cell);
+    // From the lens centre at mid-shutter.
+    m.rd = normalize(wc.x * m.a + wc.y * m.b + wc.z * m.c);
+    return keyed;
+}
+
+// Phase 1 of a sample (shade.comp): its key's value from the cache, if there (true).
+bool decoupled_lookup(uint prim, uint payload, SampleHit h, out vec3 v) {
+    v = vec3(0.0);
+    uint64_t key;
+    SampleHit m;
+    vec3 wc;
+    if (!dc_locate(prim, payload, h, key, m, wc)) return false;
 #ifdef INSTRUMENTED
     atomicAdd(counters.cache_lookups, 1u);
 #endif
-    if (dc_read(slot, key, v)) {
+    bool hit = dc_read(dc_slot(key), key, v);
+#ifdef INSTRUMENTED
+    if (hit) atomicAdd(counters.cache_hits, 1u);
+#endif
+    return hit;
+}
+
+// Phase 2, for a sample phase 1 missed: its key's value if another sample stored it meanwhile (the
+// pixel's own earlier ones included: a hit, counted against phase 1's lookup), else shades its key's
+// shading point (on the side the sample saw) and stores it; without a key, shades its own hit.
+vec3 decoupled_shade(uint prim, uint payload, SampleHit h) {
+    uint64_t key;
+    SampleHit m;
+    vec3 wc;
+    bool keyed = dc_locate(prim, payload, h, key, m, wc);
+    uint slot = dc_slot(key);
+    vec3 v;
+    if (keyed && dc_read(slot, key, v)) {
 #ifdef INSTRUMENTED
         atomicAdd(counters.cache_hits, 1u);
 #endif
         return v;
     }
-    // From the lens centre at mid-shutter, on the side the sample saw.
-    vec3 at = wc.x * m.a + wc.y * m.b + wc.z * m.c;
-    m.rd = normalize(at);
-    v = shade_at(prim, m, wc, back);
 #ifdef INSTRUMENTED
     atomicAdd(counters.shading_invocations, 1u);
 #endif
+    if (!keyed) return shade_hit(prim, h);
+    v = shade_at(prim, m, wc, (payload & 1u) != 0u);
     dc_write(slot, key, v);
     return v;
 }

@@ -276,13 +276,30 @@ void main() {
             mine |= is_mine ? 1u << j : 0u;
         }
         count += uint(bitCount(mine));
+#ifdef DECOUPLED
+        // Decoupled: first every sample's cache lookup (cheap), then the shading of the misses only —
+        // in lock-step lanes a shading inside the lookup loop would be paid on every iteration by
+        // every lane whenever one lane missed.
+        uint miss = 0u;
+        while (mine != 0u) {
+            uint j = uint(findLSB(mine));
+            mine &= mine - 1u;
+            uint payload = visibility_payload(visibility[visibility_index(pix, chunk + j, pc.per_pass)]);
+            uint prim = triangle_of(payload);
+            vec3 v;
+            bool hit = decoupled_lookup(prim, payload, sample_at(prim, base + chunk + j, pix), v);
+            sum += hit ? sample_tint(pix, chunk + j) * v : vec3(0.0);
+            miss |= hit ? 0u : 1u << j;
+        }
+        mine = miss;
+#endif
         while (mine != 0u) {
             uint i = chunk + uint(findLSB(mine));
             mine &= mine - 1u;
             uint payload = visibility_payload(visibility[visibility_index(pix, i, pc.per_pass)]);
             uint prim = triangle_of(payload);
 #ifdef DECOUPLED
-            sum += sample_tint(pix, i) * decoupled_radiance(prim, payload, sample_at(prim, base + i, pix));
+            sum += sample_tint(pix, i) * decoupled_shade(prim, payload, sample_at(prim, base + i, pix));
 #else
             sum += sample_tint(pix, i) * shade_hit(prim, sample_at(prim, base + i, pix));
             shaded++;
