@@ -41,20 +41,18 @@ pub fn object_grids(
     intrinsics: &Intrinsics,
     kind: GridKind,
 ) -> Vec<ShadingGrid> {
+    if kind == GridKind::Pixel {
+        return vec![PIXEL_GRID; scene.triangle_count()];
+    }
+    // The cutoffs are numerical transforms: computed once, and only for the AAS grids.
     let cutoffs = crate::aas::spectrum::camera_cutoffs(scene.camera.aperture, scene.camera.shutter);
+    let isotropic = kind == GridKind::AasIsotropic;
     scene
         .objects
         .iter()
         .zip(&space.objects)
-        .flat_map(|(o, motion)| match kind {
-            GridKind::Pixel => vec![PIXEL_GRID; o.mesh.indices.len() / 3],
-            GridKind::Aas | GridKind::AasIsotropic => crate::aas::bounds::triangle_grids(
-                intrinsics,
-                &o.mesh,
-                motion,
-                &cutoffs,
-                kind == GridKind::AasIsotropic,
-            ),
+        .flat_map(|(o, motion)| {
+            crate::aas::bounds::triangle_grids(intrinsics, &o.mesh, motion, &cutoffs, isotropic)
         })
         .collect()
 }
@@ -92,24 +90,6 @@ pub struct ShadingPoint {
     pub cell: Option<IVec2>,
     /// Barycentrics of the point to shade on the triangle at mid-shutter.
     pub barycentrics: Vec3,
-}
-
-/// Barycentrics of the point where the ray `o + s·d` meets the plane of `p` (no range checks): `None`
-/// for a degenerate triangle or a ray in its plane. `plane_barycentrics` in `inside.glsl`.
-pub fn plane_barycentrics(p: &[Vec3; 3], o: Vec3, d: Vec3) -> Option<Vec3> {
-    let (e1, e2) = (p[1] - p[0], p[2] - p[0]);
-    let n_len = e1.cross(e2).length();
-    let pv = d.cross(e2);
-    let det = e1.dot(pv);
-    let eps = crate::geometry::PARALLEL_EPS;
-    if !(n_len > eps * e1.length() * e2.length() && det.abs() > eps * n_len) {
-        return None;
-    }
-    let inv = 1.0 / det;
-    let s = o - p[0];
-    let b1 = s.dot(pv) * inv;
-    let b2 = d.dot(s.cross(e1)) * inv;
-    Some(Vec3::new(1.0 - b1 - b2, b1, b2))
 }
 
 /// The barycentrics of the point of triangle `p` nearest to `q` (a point of its plane, given by its
@@ -172,7 +152,7 @@ pub fn shading_point(intrinsics: &Intrinsics, mid: &[Vec3; 3], w: Vec3, grid: &S
         return own;
     }
     let (o, d) = intrinsics.primary_ray(from_grid(grid, cell + Vec2::splat(0.5)), Vec2::ZERO);
-    let barycentrics = match plane_barycentrics(mid, o, d) {
+    let barycentrics = match crate::geometry::plane_barycentrics(mid, o, d) {
         // Met in front of the lens: the cell centre's point of the plane, clamped to the triangle.
         Some(b) if -(b.x * mid[0] + b.y * mid[1] + b.z * mid[2]).z > 0.0 => clamp_to_triangle(mid, b),
         // Seen edge-on or from behind through the cell centre: the sample's own point stands for it

@@ -201,6 +201,25 @@ pub fn intersect_triangle(p: &[Vec3; 3], o: Vec3, d: Vec3) -> Option<TriangleHit
     Some(TriangleHit { depth_z, barycentrics: w, back: det < 0.0 })
 }
 
+/// Barycentrics of the point where the ray `o + s·d` meets the plane of `p` (no range checks): `None`
+/// for a degenerate triangle or a ray in its plane. `plane_barycentrics` in `inside.glsl` (footprints;
+/// decoupled shading's shading points, [`crate::decoupled::shading_point`]).
+pub fn plane_barycentrics(p: &[Vec3; 3], o: Vec3, d: Vec3) -> Option<Vec3> {
+    let (e1, e2) = (p[1] - p[0], p[2] - p[0]);
+    let n_len = e1.cross(e2).length();
+    let pv = d.cross(e2);
+    let det = e1.dot(pv);
+    let eps = PARALLEL_EPS;
+    if !(n_len > eps * e1.length() * e2.length() && det.abs() > eps * n_len) {
+        return None;
+    }
+    let inv = 1.0 / det;
+    let s = o - p[0];
+    let b1 = s.dot(pv) * inv;
+    let b2 = d.dot(s.cross(e1)) * inv;
+    Some(Vec3::new(1.0 - b1 - b2, b1, b2))
+}
+
 /// Relative margin of [`back_facing_segment`]: the facing function must exceed this fraction of its
 /// scale (`|n|·(|a| + R)`) before a triangle counts as back-facing, far above the rounding of the GPU's
 /// determinant, so a triangle seen nearly edge-on is always kept.

@@ -6,7 +6,7 @@ use std::sync::Arc;
 
 use glam::{Mat4, Vec2, Vec3};
 use shutter::image::LinearImage;
-use shutter::reference::{render_reference, ReferenceSettings, ReferenceShading};
+use shutter::reference::{render_reference, ReferenceSettings};
 use shutter::sampling::{ApertureShape, ShutterCurve};
 use shutter::scene::{Camera, CameraPose, Environment, ImageSettings, Light, Material, Mesh, Object, Scene};
 use shutter::techniques::{RenderOutput, Renderer, ShadingRate};
@@ -31,13 +31,7 @@ pub fn same_sample_reference(
     out: &RenderOutput,
 ) -> LinearImage {
     // Texture-space shading approximates the exact rates; the reference does not mirror it.
-    let shading = match shading.exact() {
-        ShadingRate::PerPixel => ReferenceShading::PerPixel { per_pass: spp / out.stats.passes.max(1) },
-        ShadingRate::Decoupled | ShadingRate::Aas | ShadingRate::AasIsotropic => {
-            ReferenceShading::Decoupled(shading.decoupled_grid().unwrap_or_default())
-        }
-        _ => ReferenceShading::PerSample,
-    };
+    let shading = shading.exact().reference(spp / out.stats.passes.max(1)).expect("exact rates are mirrored");
     render_reference(scene, &ReferenceSettings { width: w, height: h, spp, seed, progress: false, shading })
         .expect("reference")
 }

@@ -1117,14 +1117,18 @@ fn hard_one_sided_faces_turn_away_during_the_shutter() {
     let open = scene.objects[1].transforms[0].1;
     scene.objects[1].set_close(open * Mat4::from_rotation_x(std::f32::consts::FRAC_PI_2));
     check_hard_case("one-sided", &scene);
-    let (w, h) = (scene.image.width, scene.image.height);
-    let one = reference(&scene, w, h, HARD_SPP, 5);
     let mut two_sided = scene.clone();
     two_sided.objects[2].material.one_sided = false;
-    let two = reference(&two_sided, w, h, HARD_SPP, 5);
-    let d = max_abs_diff(&one, &two);
-    println!("one-sided card vs two-sided: max |Δ| {d}");
-    assert!(d > 0.1, "the card's back is not seen two-sided: the test shows nothing ({d})");
+    assert_references_differ("one-sided card vs two-sided", &scene, &two_sided, 0.1);
+}
+
+/// The references of `scene` and `other` (the same but for what a test is about) differ somewhere by
+/// more than `min`: what the test checks shows in the image.
+fn assert_references_differ(what: &str, scene: &Scene, other: &Scene, min: f32) {
+    let (w, h) = (scene.image.width, scene.image.height);
+    let d = max_abs_diff(&reference(scene, w, h, HARD_SPP, 5), &reference(other, w, h, HARD_SPP, 5));
+    println!("{what}: max |Δ| {d}");
+    assert!(d > min, "{what}: the images agree to {d}; the test shows nothing");
 }
 
 /// A one-sided card turned away from the camera is culled by every rasterizing path: `pinhole`,
@@ -1212,13 +1216,9 @@ fn hard_smooth_lens_matches_the_reference() {
     let mut scene = hard_scene(0.3, 2.0, square(1.0), open, None);
     scene.camera.aperture = ApertureShape::SmoothDisk;
     check_hard_case("smooth-lens", &scene);
-    let (w, h) = (scene.image.width, scene.image.height);
-    let smooth = reference(&scene, w, h, HARD_SPP, 5);
-    scene.camera.aperture = ApertureShape::Disk;
-    let sharp = reference(&scene, w, h, HARD_SPP, 5);
-    let d = max_abs_diff(&smooth, &sharp);
-    println!("smooth lens vs disk: max |Δ| {d}");
-    assert!(d > 0.05, "the smooth lens renders as the disk ({d})");
+    let mut sharp = scene.clone();
+    sharp.camera.aperture = ApertureShape::Disk;
+    assert_references_differ("smooth lens vs disk", &scene, &sharp, 0.05);
 }
 
 // ---------------------------------------------------------------------------------------------------

@@ -13,7 +13,7 @@ use clap::{Parser, Subcommand};
 use shutter::bounds::BoundKind;
 use shutter::image_io::{load_image, save_image};
 use shutter::metrics::{compare, write_flip_diff_png};
-use shutter::reference::{ReferenceSettings, ReferenceShading};
+use shutter::reference::ReferenceSettings;
 use shutter::scene::builtin::BUILTIN_SCENES;
 use shutter::scene::file::load_scene;
 use shutter::techniques::{RenderSettings, Renderer, ShadingRate, StochasticOptions, Technique};
@@ -539,22 +539,13 @@ fn run() -> Result<()> {
         Command::Reference { scene, spp, shading, per_pass, image: ImageArgs { size, seed, out } } => {
             let sc = load_scene(&scene)?;
             let (width, height) = size.unwrap_or((sc.image.width, sc.image.height));
-            let shading = match shading.parse::<ShadingRate>()? {
-                ShadingRate::PerSample => ReferenceShading::PerSample,
-                ShadingRate::PerPixel => ReferenceShading::PerPixel { per_pass: per_pass.unwrap_or(spp) },
-                ShadingRate::Decoupled | ShadingRate::Aas | ShadingRate::AasIsotropic => {
-                    ReferenceShading::Decoupled(
-                        shading.parse::<ShadingRate>()?.decoupled_grid().unwrap_or_default(),
-                    )
-                }
-                ShadingRate::TextureSpace | ShadingRate::TextureSpacePerPixel => {
-                    return Err(shutter::Error::Unsupported(
-                        "the reference shades per sample or per pixel; texture-space shading is a GPU \
-                         approximation of per-sample shading (compare it with `--shading per-sample`)"
-                            .into(),
-                    )
-                    .into())
-                }
+            let Some(shading) = shading.parse::<ShadingRate>()?.reference(per_pass.unwrap_or(spp)) else {
+                return Err(shutter::Error::Unsupported(
+                    "the reference shades per sample, per pixel or decoupled; texture-space shading is a \
+                     GPU approximation of per-sample shading (compare it with `--shading per-sample`)"
+                        .into(),
+                )
+                .into());
             };
             let seed = seed.unwrap_or(sc.image.seed);
             let settings = ReferenceSettings { width, height, spp, seed, progress: true, shading };

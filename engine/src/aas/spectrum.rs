@@ -81,14 +81,19 @@ fn hankel(t: fn(f64) -> f64, omega: f64) -> f64 {
     std::f64::consts::TAU * sum * h
 }
 
+/// The energy of transmission `t` over the unit disk, `2π ∫₀¹ t² ρ dρ` — its spectrum's, by Parseval.
+fn energy(t: fn(f64) -> f64) -> f64 {
+    let h = 1.0 / RADIAL_NODES as f64;
+    std::f64::consts::TAU
+        * (0..RADIAL_NODES).map(|i| (i as f64 + 0.5) * h).map(|r| t(r) * t(r) * r).sum::<f64>()
+        * h
+}
+
 /// The share of the aperture's spectral energy inside frequency radius `omega` (cycles per unit lens
 /// radius); `None` for a shape that is not radially symmetric.
 pub fn aperture_energy_within(shape: ApertureShape, omega: f64) -> Option<f64> {
     let t = transmission(shape)?;
-    let h = 1.0 / RADIAL_NODES as f64;
-    let total: f64 = std::f64::consts::TAU
-        * (0..RADIAL_NODES).map(|i| (i as f64 + 0.5) * h).map(|r| t(r) * t(r) * r).sum::<f64>()
-        * h;
+    let total = energy(t);
     let steps = (omega / FREQUENCY_STEP).ceil().max(1.0) as usize;
     let dw = omega / steps as f64;
     let within: f64 = (0..steps)
@@ -107,10 +112,7 @@ pub fn aperture_energy_within(shape: ApertureShape, omega: f64) -> Option<f64> {
 /// radially symmetric; AAS then treats defocus as unbounded and does not coarsen for it).
 pub fn aperture_cutoff(shape: ApertureShape, kept: f64) -> Option<f64> {
     let t = transmission(shape)?;
-    let h = 1.0 / RADIAL_NODES as f64;
-    let total: f64 = std::f64::consts::TAU
-        * (0..RADIAL_NODES).map(|i| (i as f64 + 0.5) * h).map(|r| t(r) * t(r) * r).sum::<f64>()
-        * h;
+    let total = energy(t);
     let mut within = 0.0;
     let mut w = 0.0;
     while w < FREQUENCY_LIMIT {

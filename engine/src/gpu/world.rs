@@ -11,7 +11,7 @@ use crate::error::Result;
 use crate::scene::{Scene, Texture};
 use crate::vk::{
     upload_texture, write_descriptors, Buffer, CommandRecorder, DescriptorPool, DescriptorSetLayout,
-    DescriptorWrite, Device, Faces, Image, PipelineLayout, Sampler,
+    DescriptorWrite, Device, Faces, Image, Pipeline, PipelineLayout, Sampler,
 };
 
 /// One object's mesh and its descriptor set (set 1).
@@ -190,16 +190,16 @@ impl GpuWorld {
     /// Records one indexed draw per non-empty object `i` with `include(i)` as seen from `view`, with a
     /// bound graphics pipeline whose layout is `layout` ([`GpuWorld::pipeline_layout`]): binds set 0
     /// (the view's frame set) and per object set 1 and `object_set(i)` as set 2 when given, and pushes
-    /// `push(i)` for `stages`. The pipeline and set 3 are the caller's; `faces` is the pipeline's: with
-    /// [`Faces::PerObject`] each draw sets the cull mode, back faces for a one-sided object.
+    /// `push(i)` for `stages`. Binding `pipeline` and set 3 is the caller's; with a
+    /// [`Faces::PerObject`] pipeline each draw sets the cull mode, back faces for a one-sided object.
     #[allow(clippy::too_many_arguments)]
     pub fn record_object_draws<P: bytemuck::Pod>(
         &self,
         d: &Device,
         cmd: vk::CommandBuffer,
         view: &GpuView,
+        pipeline: &Pipeline,
         layout: &PipelineLayout,
-        faces: Faces,
         stages: vk::ShaderStageFlags,
         include: impl Fn(usize) -> bool,
         push: impl Fn(usize) -> P,
@@ -220,7 +220,7 @@ impl GpuWorld {
                     continue;
                 }
                 d.raw.cmd_push_constants(cmd, layout.raw, stages, 0, bytemuck::bytes_of(&push(i)));
-                if faces == Faces::PerObject {
+                if pipeline.faces == Faces::PerObject {
                     let cull = if o.one_sided { vk::CullModeFlags::BACK } else { vk::CullModeFlags::NONE };
                     d.raw.cmd_set_cull_mode(cmd, cull);
                 }

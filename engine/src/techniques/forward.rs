@@ -231,17 +231,8 @@ impl ForwardPipeline {
         bind_shadows(d, cmd, &self.layout, self.shadows);
         let push = |i: usize| ForwardPush::new(view, i, pass);
         let stages = vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT;
-        world.record_object_draws(
-            d,
-            cmd,
-            view,
-            &self.layout,
-            Faces::PerObject,
-            stages,
-            include,
-            push,
-            |_| None,
-        );
+        world
+            .record_object_draws(d, cmd, view, &self.pipeline, &self.layout, stages, include, push, |_| None);
     }
 }
 
@@ -468,8 +459,8 @@ impl TransparentDraws {
             d,
             cmd,
             view,
+            &self.coverage,
             &self.layout,
-            Faces::PerObject,
             stages,
             |i| self.objects[i].transparent,
             push,
@@ -482,8 +473,8 @@ impl TransparentDraws {
                 d,
                 cmd,
                 view,
+                &self.tint,
                 &self.layout,
-                Faces::PerObject,
                 stages,
                 |i| self.objects[i].tinted,
                 push,

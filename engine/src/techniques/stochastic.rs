@@ -127,6 +127,19 @@ impl ShadingRate {
         }
     }
 
+    /// The reference's mirror of this rate ([`crate::reference::ReferenceShading`]) for a render of
+    /// `per_pass` samples per pixel and pass; `None` for texture-space shading, which approximates
+    /// the rate [`ShadingRate::exact`] gives.
+    pub fn reference(&self, per_pass: u32) -> Option<crate::reference::ReferenceShading> {
+        use crate::reference::ReferenceShading;
+        match self {
+            ShadingRate::PerSample => Some(ReferenceShading::PerSample),
+            ShadingRate::PerPixel => Some(ReferenceShading::PerPixel { per_pass }),
+            ShadingRate::TextureSpace | ShadingRate::TextureSpacePerPixel => None,
+            decoupled => decoupled.decoupled_grid().map(ReferenceShading::Decoupled),
+        }
+    }
+
     /// The decoupled rates' grid (None for the others).
     pub fn decoupled_grid(&self) -> Option<crate::decoupled::GridKind> {
         use crate::decoupled::GridKind;
@@ -2038,7 +2051,7 @@ impl StochasticDraws {
             let include = |i: usize| self.object_effects[i] == *effects && self.object_clusters[i] == 0;
             let view = inputs.camera;
             if self.hull.is_none() {
-                self.record_runs(ctx, inputs, pass, include, |p| p);
+                self.record_runs(ctx, inputs, pipeline, pass, include, |p| p);
                 continue;
             }
             // The compute-expanded hull bounds every segment (fragments name theirs); NO_MOTION: the
@@ -2082,7 +2095,7 @@ impl StochasticDraws {
         for (effects, pipeline) in &self.tint_pipelines {
             self.bind_raster(ctx, pipeline);
             let include = |i: usize| self.object_effects[i] == *effects && self.object_tint_log[i].is_some();
-            self.record_runs(ctx, inputs, pass, include, |p| StochasticPush { bound: hull, ..p });
+            self.record_runs(ctx, inputs, pipeline, pass, include, |p| StochasticPush { bound: hull, ..p });
         }
     }
 
@@ -2102,7 +2115,7 @@ impl StochasticDraws {
         }
     }
 
-    /// The geometry-shader draws of pass `pass` of the objects `include` admits with the pipeline
+    /// The geometry-shader draws of pass `pass` of the objects `include` admits with `pipeline`
     /// bound: one per interval run and key segment of every object with that many runs or more whose
     /// samples of the run can lie in the segment, each with its [`Self::coverage_push`] as `edit`
     /// changes it.
@@ -2110,6 +2123,7 @@ impl StochasticDraws {
         &self,
         ctx: &mut PassContext<'_>,
         inputs: &FrameInputs<'_>,
+        pipeline: &Pipeline,
         pass: u32,
         include: impl Fn(usize) -> bool,
         edit: impl Fn(StochasticPush) -> StochasticPush,
@@ -2126,8 +2140,8 @@ impl StochasticDraws {
                     ctx.device,
                     ctx.cmd,
                     view,
+                    pipeline,
                     &self.layout,
-                    Faces::Both,
                     self.push_stages,
                     |i| include(i) && run < self.object_intervals[i] && piece(i).is_some(),
                     |i| piece(i).expect("included"),

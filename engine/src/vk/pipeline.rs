@@ -243,6 +243,8 @@ impl Drop for PipelineLayout {
 pub struct Pipeline {
     pub raw: vk::Pipeline,
     pub bind_point: vk::PipelineBindPoint,
+    /// The sides it rasterizes ([`GraphicsDesc::faces`]; [`Faces::Both`] for compute).
+    pub faces: Faces,
     device: Device,
 }
 
@@ -425,7 +427,12 @@ impl Pipeline {
             .map_err(|(_, e)| e)
             .vk("vkCreateGraphicsPipelines")?[0];
         device.set_name(raw, d.name);
-        Ok(Pipeline { raw, bind_point: vk::PipelineBindPoint::GRAPHICS, device: device.clone() })
+        Ok(Pipeline {
+            raw,
+            bind_point: vk::PipelineBindPoint::GRAPHICS,
+            faces: d.faces,
+            device: device.clone(),
+        })
     }
 
     pub fn compute(
@@ -439,6 +446,11 @@ impl Pipeline {
             .map_err(|(_, e)| e)
             .vk("vkCreateComputePipelines")?[0];
         device.set_name(raw, name);
-        Ok(Pipeline { raw, bind_point: vk::PipelineBindPoint::COMPUTE, device: device.clone() })
+        Ok(Pipeline {
+            raw,
+            bind_point: vk::PipelineBindPoint::COMPUTE,
+            faces: Faces::Both,
+            device: device.clone(),
+        })
     }
 }
