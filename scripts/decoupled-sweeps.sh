@@ -2,23 +2,27 @@
 # Decoupled shading's first measurements (docs/DECOUPLED.md), on the built-in `default` (depth of field,
 # a moving sphere, a panning camera) at 160×90, S = 16:
 #  * the cache-size sweep: one interleaved `shutter bench` of per-sample and per-pixel shading and
-#    decoupled shading on the pixel grid and on the AAS grids with a memoization cache of 64 … 65536
-#    entries (×4), with the counters' frame (lookups, hits, evictions, lost stores; shading
-#    invocations = misses);
+#    decoupled shading on the pixel grid and on the AAS grids, with a memoization cache and with the
+#    deferred mode's hash table of 64 … 65536 entries, with the counters' frame (lookups, hits,
+#    evictions, lost stores, overflows; shading invocations);
 #  * the distinct keys (shading points) of the pixel, isotropic-AAS and AAS grids on four scenes, from
 #    the reference (`shutter reference --shading …`: the least any cache can shade);
-#  * error against a 1024-spp reference: one interleaved `shutter quality` of per-pixel, per-sample and
-#    decoupled shading at S = 4 and 16;
+#  * error against a 1024-spp reference: one interleaved `shutter quality` per scene (`default`,
+#    `one-mover`) of every shading mode — per-pixel, per-sample, decoupled and AAS with either cache,
+#    texture-space (ATSS) — at S = 4, 16 and 64;
 #  * shading cost as a dial: the ATSS light-dial scenes (scripts/atss-lights.sh, 1–256 point lights),
-#    per-sample, per-pixel and decoupled shading (64k entries) at S = 8, one interleaved bench per count.
+#    per-sample, per-pixel and decoupled and AAS shading with either cache (64k entries) at S = 8, one
+#    interleaved bench per count.
+# About 25 minutes on the 2-core VM (llvmpipe); QUALITY_ONLY=1 runs the quality sweeps only.
 # Needs a release build (cargo build --release); writes docs/quality/decoupled/.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 S=target/release/shutter
 mkdir -p docs/quality/decoupled
+if [ -z "${QUALITY_ONLY:-}" ]; then
 configs=(-c stochastic:shading=per-sample -c stochastic:shading=per-pixel)
-for grid in decoupled aas; do
-  for n in 64 256 1024 4096 16384 65536; do
+for grid in decoupled aas decoupled-deferred aas-deferred; do
+  for n in 64 256 1024 4096 16384 32768 65536; do
     configs+=(-c "stochastic:shading=$grid:cache=$n")
   done
 done
@@ -37,14 +41,20 @@ $S bench default --size 160x90 --spp 16 --frames 3 --warmup 1 "${configs[@]}" \
     echo "$row |"
   done
 } > docs/quality/decoupled/keys.md
-rm -f docs/quality/decoupled/quality-default.csv
-$S quality default --size 160x90 --reference-spp 1024 --cache out/cache --frames 1 --warmup 1 \
-  -s stochastic@4,16 -s stochastic:shading=per-sample@4,16 -s stochastic:shading=decoupled@4,16 \
-  -s stochastic:shading=aas@4,16 \
-  --out docs/quality/decoupled/quality-default
 SCENES_ONLY=1 bash scripts/atss-lights.sh
 for n in 1 16 64 256; do
   $S bench "out/atss/lights-$n.toml" --spp 8 --frames 3 --warmup 1 \
     -c stochastic:shading=per-sample -c stochastic:shading=per-pixel -c stochastic:shading=decoupled \
+    -c stochastic:shading=decoupled-deferred -c stochastic:shading=aas -c stochastic:shading=aas-deferred \
     > "docs/quality/decoupled/lights-$n-s8.md"
+done
+fi
+for scene in default one-mover; do
+  rm -f "docs/quality/decoupled/quality-$scene.csv"
+  series=()
+  for shading in per-pixel per-sample decoupled decoupled-deferred aas aas-deferred texture-space; do
+    series+=(-s "stochastic:shading=$shading@4,16,64")
+  done
+  $S quality "$scene" --size 160x90 --reference-spp 1024 --cache out/cache --frames 1 --warmup 1 \
+    "${series[@]}" --out "docs/quality/decoupled/quality-$scene"
 done

@@ -25,13 +25,18 @@ use crate::scene::Intrinsics;
 /// Which screen-space grid cells the keys: the pixel grid (Ragan-Kelley's decoupled sampling), or the
 /// AAS grid per triangle ([`crate::aas::bounds::shading_grid`]: oriented along the motion and stretched
 /// by the blur), or AAS for defocus only (the isotropic ablation).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum GridKind {
     #[default]
     Pixel,
     Aas,
     AasIsotropic,
 }
+
+/// The deferred mode's hash table (`--shading decoupled-deferred`, `decoupled.glsl`): a key looks for
+/// its entry, or an empty one to claim, in at most this many consecutive entries from its hash (linear
+/// probing); past them it overflows and its samples are shaded on the spot.
+pub const DEFERRED_PROBES: u32 = 16;
 
 /// Every triangle's grid of `kind` (the scene's triangle numbering: objects in order), for the camera
 /// space `space` of `scene` seen through `intrinsics`.

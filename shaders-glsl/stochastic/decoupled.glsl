@@ -15,17 +15,58 @@
 // protocol relies on their order: llvmpipe's atomics are sequentially consistent, so this is exact
 // there; a GPU port needs acquire/release semantics (GL_KHR_memory_scope_semantics), not done. (No
 // memoryBarrierBuffer(): on llvmpipe a barrier in this function corrupted unrelated lanes' results.)
+//
+// The deferred mode (Liktor & Dachsbacher 2012; --shading decoupled-deferred), in four dispatches per
+// object and pass, pc.decoupled_phase:
+//   DC_PHASE_ALLOCATE (per pixel): each of the object's samples finds its key in a global hash table
+//     of pc.cache_entries entries (open addressing, linear probing over at most DC_PROBES entries,
+//     claimed by atomicCompSwap of the key word; nothing is ever evicted within a frame). The sample
+//     that claims an entry writes the key's shading point (its barycentrics) there and appends the
+//     entry to the queue of new shading points. Each sample's entry goes to the compact G-buffer
+//     (DeferredRefs: one uint per sample of the pass); a sample without a key, or whose key found no
+//     room within DC_PROBES entries (the overflow), gets DC_SHADE_HERE.
+//   DC_PHASE_ARGS (one invocation): the queue's new points since the last shading become the next
+//     dispatch's range and indirect arguments.
+//   DC_PHASE_SHADE (indirect, one invocation per new point): shades it, stores its radiance.
+//   DC_PHASE_RESOLVE (per pixel): each sample adds its entry's radiance; a DC_SHADE_HERE sample is
+//     shaded on the spot (its key's shading point, or its own hit without a key) — the overflow's
+//     fallback costs time, never a pixel.
+// The table lives for the frame, so a key seen in an earlier pass is not shaded again. No invocation
+// waits for another: the entry's radiance is read only after the barrier behind DC_PHASE_SHADE.
 // Needs shade.comp's shade_at, the Counters block and sample_at_time.
 #ifndef SHUTTER_DECOUPLED_GLSL
 #define SHUTTER_DECOUPLED_GLSL
 
 struct CacheEntry {
-    uint64_t key;  // 0: empty; DC_LOCKED: being written; else the key of the value
-    uint seq;      // even when the value is whole
+    uint64_t key;  // 0: empty; DC_LOCKED: being written (memoization cache); else the key of the value
+    uint seq;      // memoization cache: even when the value is whole; deferred: the point's w.x bits
     uint r, g, b;  // the value: radiance, float bits
-    uint pad0, pad1;
+    uint wy, wz;   // deferred: the shading point's barycentrics w.y, w.z (float bits)
 };  // 32 bytes (CACHE_ENTRY_BYTES)
 layout(set = 3, binding = 8, std430) buffer DecoupledCache { CacheEntry entries[]; } cache;
+// The deferred mode's queue of new shading points: its length, how many were shaded, the range the
+// current DC_PHASE_SHADE dispatch shades, its indirect arguments (at byte 16: DEFERRED_ARGS_OFFSET),
+// then the entries. Holds pc.cache_entries slots: an entry is claimed once per frame.
+layout(set = 3, binding = 10, std430) buffer DeferredQueue {
+    uint count;
+    uint shaded;
+    uint first;
+    uint end;
+    uint groups_x, groups_y, groups_z;
+    uint pad;
+    uint slots[];
+} queue;
+// The compact G-buffer: per sample of the pass (visibility_index), its entry or DC_SHADE_HERE.
+layout(set = 3, binding = 11, std430) buffer DeferredRefs { uint refs[]; };
+
+const uint DC_PHASE_MEMO = 0u;  // the memoization cache (--shading decoupled)
+const uint DC_PHASE_ALLOCATE = 1u;
+const uint DC_PHASE_ARGS = 2u;
+const uint DC_PHASE_SHADE = 3u;
+const uint DC_PHASE_RESOLVE = 4u;
+const uint DC_SHADE_HERE = 0xffffffffu;
+const uint DC_PROBES = 16u;  // decoupled::DEFERRED_PROBES
+const uint DC_SHADE_GROUP = 64u;  // DC_PHASE_SHADE invocations per workgroup (8 x 8)
 // Every triangle's grid, in the frame's numbering (decoupled::object_grids): its axis, then the cell's
 // size along and across it, pixels (the pixel grid: (1, 0), 1, 1).
 layout(set = 3, binding = 9, std430) readonly buffer DecoupledGrids { vec4 decoupled_grids[]; };
@@ -192,15 +233,17 @@ bool decoupled_lookup(uint prim, uint payload, SampleHit h, out vec3 v) {
 
 // Phase 2, for a sample phase 1 missed: its key's value if another sample stored it meanwhile (the
 // pixel's own earlier ones included: a hit, counted against phase 1's lookup), else shades its key's
-// shading point (on the side the sample saw) and stores it; without a key, shades its own hit.
+// shading point (on the side the sample saw) and stores it; without a key, shades its own hit. In the
+// deferred mode's DC_PHASE_RESOLVE: a sample the table had no entry for, shaded on the spot.
 vec3 decoupled_shade(uint prim, uint payload, SampleHit h) {
     uint64_t key;
     SampleHit m;
     vec3 wc;
     bool keyed = dc_locate(prim, payload, h, key, m, wc);
+    bool memo = pc.decoupled_phase == DC_PHASE_MEMO;
     uint slot = dc_slot(key);
     vec3 v;
-    if (keyed && dc_read(slot, key, v)) {
+    if (memo && keyed && dc_read(slot, key, v)) {
 #ifdef INSTRUMENTED
         atomicAdd(counters.cache_hits, 1u);
 #endif
@@ -211,8 +254,83 @@ vec3 decoupled_shade(uint prim, uint payload, SampleHit h) {
 #endif
     if (!keyed) return shade_hit(prim, h);
     v = shade_at(prim, m, wc, (payload & 1u) != 0u);
-    dc_write(slot, key, v);
+    if (memo) dc_write(slot, key, v);
     return v;
+}
+
+// DC_PHASE_ALLOCATE for one sample: its key's entry in the hash table (claimed, with its shading
+// point, and queued when new), or DC_SHADE_HERE without a key or room.
+uint deferred_allocate(uint prim, uint payload, SampleHit h) {
+    uint64_t key;
+    SampleHit m;
+    vec3 wc;
+    if (!dc_locate(prim, payload, h, key, m, wc)) return DC_SHADE_HERE;
+#ifdef INSTRUMENTED
+    atomicAdd(counters.cache_lookups, 1u);
+#endif
+    uint slot = dc_slot(key);
+    uint probes = min(DC_PROBES, pc.cache_entries);
+    for (uint p = 0u; p < probes; p++) {
+        uint s = (slot + p) % pc.cache_entries;
+        uint64_t old = atomicCompSwap(cache.entries[s].key, 0UL, key);
+        if (old == 0UL) {
+            cache.entries[s].seq = floatBitsToUint(wc.x);
+            cache.entries[s].wy = floatBitsToUint(wc.y);
+            cache.entries[s].wz = floatBitsToUint(wc.z);
+            queue.slots[atomicAdd(queue.count, 1u)] = s;
+            return s;
+        }
+        if (old == key) {
+#ifdef INSTRUMENTED
+            atomicAdd(counters.cache_hits, 1u);
+#endif
+            return s;
+        }
+    }
+#ifdef INSTRUMENTED
+    atomicAdd(counters.cache_overflows, 1u);
+#endif
+    return DC_SHADE_HERE;
+}
+
+// DC_PHASE_ARGS: the points queued since the last DC_PHASE_SHADE become its range and arguments.
+void deferred_args() {
+    if (gl_LocalInvocationIndex != 0u) return;
+    uint n = queue.count - queue.shaded;
+    queue.first = queue.shaded;
+    queue.end = queue.count;
+    queue.shaded = queue.count;
+    queue.groups_x = (n + DC_SHADE_GROUP - 1u) / DC_SHADE_GROUP;
+    queue.groups_y = 1u;
+    queue.groups_z = 1u;
+}
+
+// DC_PHASE_SHADE: one new shading point of this object, shaded at mid-shutter from the lens centre on
+// the side its key names; its radiance stored in its entry.
+void deferred_shade_point() {
+    uint i = queue.first + gl_WorkGroupID.x * DC_SHADE_GROUP + gl_LocalInvocationIndex;
+    if (i >= queue.end) return;
+    uint s = queue.slots[i];
+    uint64_t key = cache.entries[s].key;
+    uint payload = uint(key >> 32);
+    uint prim = (payload >> 1) - pc.triangle_base;
+    vec3 wc = vec3(uintBitsToFloat(cache.entries[s].seq), uintBitsToFloat(cache.entries[s].wy),
+                   uintBitsToFloat(cache.entries[s].wz));
+    SampleHit m = sample_at_time(prim, 0.5);
+    m.rd = normalize(wc.x * m.a + wc.y * m.b + wc.z * m.c);
+    vec3 v = shade_at(prim, m, wc, (payload & 1u) != 0u);
+    cache.entries[s].r = floatBitsToUint(v.r);
+    cache.entries[s].g = floatBitsToUint(v.g);
+    cache.entries[s].b = floatBitsToUint(v.b);
+#ifdef INSTRUMENTED
+    atomicAdd(counters.shading_invocations, 1u);
+#endif
+}
+
+// DC_PHASE_RESOLVE for a sample with entry `ref` (not DC_SHADE_HERE): its radiance.
+vec3 deferred_value(uint ref) {
+    return vec3(uintBitsToFloat(cache.entries[ref].r), uintBitsToFloat(cache.entries[ref].g),
+                uintBitsToFloat(cache.entries[ref].b));
 }
 
 #endif

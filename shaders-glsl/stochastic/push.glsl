@@ -48,8 +48,10 @@ layout(push_constant) uniform Push {
     // 1: the object's material is one-sided (scene::Material::one_sided): stochastic.frag drops every
     // hit on a triangle's back, as the reference's camera rays skip it.
     uint one_sided;
-    // Decoupled shading (shade.comp, DECOUPLED): entries of the memoization cache.
+    // Decoupled shading (shade.comp, DECOUPLED): entries of the memoization cache or of the deferred
+    // mode's hash table, and the dispatch's phase (DC_PHASE_* in stochastic/decoupled.glsl).
     uint cache_entries;
+    uint decoupled_phase;
 } pc;
 
 #endif

@@ -23,7 +23,9 @@
 //               first hit (the paper's per-pixel lookup takes the pixel centre).
 //   DECOUPLED:  (with PER_SAMPLE) decoupled shading (stochastic/decoupled.glsl): each hit takes the
 //               radiance of its key — (triangle, side, lens-centre pixel cell at mid-shutter) — from
-//               a memoization cache, or shades the key's shading point and stores it.
+//               a memoization cache, or shades the key's shading point and stores it; or, deferred
+//               (pc.decoupled_phase), from a hash table whose new points a dispatch of their own
+//               shades between the per-pixel allocation and resolve dispatches.
 //   TINTS:      every sample's radiance (or background) times the product of the tints in front of
 //               it, from the tint buffer stochastic.frag's tint pass filled (transparency::tint_from_log);
 //               per-pixel groups weigh their radiance by the sum of their samples' tints.
@@ -45,11 +47,13 @@ layout(set = 3, binding = 2, std430) buffer Counters {
     uint samples_hit;
     uint shading_invocations;
     uint fragments;
-    // Decoupled shading (shade.comp, DECOUPLED): cache lookups, hits, evictions, stores lost to a race.
+    // Decoupled shading (shade.comp, DECOUPLED): cache lookups, hits, evictions, stores lost to a race,
+    // and (deferred) keys the hash table had no room for.
     uint cache_lookups;
     uint cache_hits;
     uint cache_evictions;
     uint cache_busy;
+    uint cache_overflows;
 } counters;
 layout(set = 3, binding = 6, rgba32f) uniform image2D accum;
 
@@ -241,6 +245,18 @@ float pickf(vec4 lo, vec4 hi, uint g) {
 }
 
 void main() {
+#ifdef DECOUPLED
+    // The deferred mode's dispatches that are not per pixel (stochastic/decoupled.glsl).
+    if (pc.decoupled_phase == DC_PHASE_ARGS) {
+        deferred_args();
+        return;
+    }
+    if (pc.decoupled_phase == DC_PHASE_SHADE) {
+        object_material = materials[pc.object];
+        deferred_shade_point();
+        return;
+    }
+#endif
     uvec2 pix = gl_GlobalInvocationID.xy + uvec2(pc.origin_x, pc.origin_y);
     if (any(greaterThanEqual(pix, uvec2(view.viewport.xy)))) return;
     float inv_spp = 1.0 / float(pc.spp);
@@ -284,10 +300,22 @@ void main() {
         while (mine != 0u) {
             uint j = uint(findLSB(mine));
             mine &= mine - 1u;
-            uint payload = visibility_payload(visibility[visibility_index(pix, chunk + j, pc.per_pass)]);
+            uint at = visibility_index(pix, chunk + j, pc.per_pass);
+            uint payload = visibility_payload(visibility[at]);
             uint prim = triangle_of(payload);
-            vec3 v;
-            bool hit = decoupled_lookup(prim, payload, sample_at(prim, base + chunk + j, pix), v);
+            vec3 v = vec3(0.0);
+            bool hit;
+            if (pc.decoupled_phase == DC_PHASE_ALLOCATE) {
+                // The deferred mode's first dispatch: each sample's entry, nothing added.
+                refs[at] = deferred_allocate(prim, payload, sample_at(prim, base + chunk + j, pix));
+                hit = true;
+            } else if (pc.decoupled_phase == DC_PHASE_RESOLVE) {
+                uint ref = refs[at];
+                hit = ref != DC_SHADE_HERE;
+                if (hit) v = deferred_value(ref);
+            } else {
+                hit = decoupled_lookup(prim, payload, sample_at(prim, base + chunk + j, pix), v);
+            }
             sum += hit ? sample_tint(pix, chunk + j) * v : vec3(0.0);
             miss |= hit ? 0u : 1u << j;
         }
@@ -380,6 +408,9 @@ void main() {
         sum += weight * shade_hit(prim, sample_at(prim, base + first, pix));
         shaded++;
     }
+#endif
+#ifdef DECOUPLED
+    if (pc.decoupled_phase == DC_PHASE_ALLOCATE) count = 0u;  // adds nothing
 #endif
     if (count > 0u) {
         vec4 add = vec4(sum, float(count)) * inv_spp;

@@ -1230,6 +1230,10 @@ fn hard_smooth_lens_matches_the_reference() {
 /// every lookup misses) gives the same image as one of 64k (most hit), and so does a second render
 /// (races change what is shaded, never a pixel's radiances: to the f32 rounding of their sum's order);
 /// the cache's counters add up.
+/// `--shading decoupled`: the pixel grid, the memoization cache.
+const DECOUPLED: ShadingRate =
+    ShadingRate::Decoupled { grid: shutter::decoupled::GridKind::Pixel, deferred: false };
+
 #[test]
 fn decoupled_shading_matches_the_reference_whatever_the_cache() {
     let scene = builtin_scene("default").expect("built-in").expect("parses");
@@ -1251,7 +1255,7 @@ fn decoupled_shading_matches_the_reference_whatever_the_cache() {
         let o = StochasticOptions {
             instrumented: true,
             cache_entries,
-            ..options(BoundKind::Adaptive, ShadingRate::Decoupled)
+            ..options(BoundKind::Adaptive, DECOUPLED)
         };
         let out = render(&mut r, &scene, w, h, spp, 5, o);
         assert_finite("decoupled", &out.image);
@@ -1303,9 +1307,9 @@ fn aas_grids_shade_fewer_points_and_match_the_reference() {
     let mut r = renderer();
     let mut keys = vec![];
     for (rate, kind) in [
-        (ShadingRate::Decoupled, GridKind::Pixel),
-        (ShadingRate::AasIsotropic, GridKind::AasIsotropic),
-        (ShadingRate::Aas, GridKind::Aas),
+        (DECOUPLED, GridKind::Pixel),
+        (ShadingRate::Decoupled { grid: GridKind::AasIsotropic, deferred: false }, GridKind::AasIsotropic),
+        (ShadingRate::Decoupled { grid: GridKind::Aas, deferred: false }, GridKind::Aas),
     ] {
         let settings = ReferenceSettings {
             width: w,
@@ -1327,4 +1331,92 @@ fn aas_grids_shade_fewer_points_and_match_the_reference() {
     }
     assert!(keys[2] < keys[0] && keys[1] < keys[0], "AAS keys {keys:?} (pixel, isotropic, AAS)");
     assert!(keys[2] <= keys[1], "motion-aligned AAS has more keys than isotropic: {keys:?}");
+}
+
+/// `--shading decoupled-deferred` and `aas-deferred` (Liktor & Dachsbacher's deferred mode,
+/// docs/DECOUPLED.md): the hash table allocates each key of the frame once — the shading points shaded
+/// are the reference's distinct keys, across passes too (the table lives for the frame) — and the image
+/// is the reference's decoupled shading, the same in every run. A table too small for the frame's keys
+/// overflows: those samples are shaded on the spot, and the image does not change (but for the f32
+/// rounding of a pixel's sum, whose order follows the overflows). The lookups add up, and the memory
+/// report counts the compact G-buffer and the table.
+#[test]
+fn deferred_decoupled_shading_allocates_each_key_once() {
+    use shutter::decoupled::GridKind;
+    use shutter::reference::ReferenceShading;
+    let scene = builtin_scene("default").expect("built-in").expect("parses");
+    let (w, h, spp) = (96, 54, 8);
+    let mut r = renderer();
+    for grid in [GridKind::Pixel, GridKind::Aas] {
+        let settings = ReferenceSettings {
+            width: w,
+            height: h,
+            spp,
+            seed: 5,
+            progress: false,
+            shading: ReferenceShading::Decoupled(grid),
+        };
+        let (truth, stats) =
+            shutter::reference::render_reference_with_stats(&scene, &settings).expect("reference");
+        let keys = stats.decoupled_keys.expect("decoupled keys");
+        let rate = ShadingRate::Decoupled { grid, deferred: true };
+        let mut images = vec![];
+        // One pass, a second run, two passes of 4 samples; then tables of 1 and 256 entries.
+        for (per_pass, cache_entries) in
+            [(None, 1 << 16), (None, 1 << 16), (Some(4), 1 << 16), (None, 1), (None, 256)]
+        {
+            let o = StochasticOptions {
+                instrumented: true,
+                cache_entries,
+                per_pass,
+                ..options(BoundKind::Adaptive, rate)
+            };
+            let out = render(&mut r, &scene, w, h, spp, 5, o);
+            assert_finite(rate.name(), &out.image);
+            let c = out.stats.counters.expect("instrumented");
+            let k = c.cache.expect("cache counters");
+            let new_points = k.misses() - k.overflows;
+            println!(
+                "{}, table {cache_entries}, {} passes: {} lookups, {} hits, {new_points} new points, {} overflows; {} shading invocations; {keys} distinct keys",
+                rate.name(),
+                out.stats.passes,
+                k.lookups,
+                k.hits,
+                k.overflows,
+                c.shading_invocations
+            );
+            assert!(k.hits + k.overflows <= k.lookups && k.lookups > 0);
+            assert_eq!((k.evictions, k.busy), (0, 0), "the deferred table neither evicts nor races");
+            // Each new point is shaded once, each overflow on the spot, each sample without a key too.
+            assert!(c.shading_invocations >= new_points + k.overflows);
+            assert!(c.shading_invocations - new_points - k.overflows < 16, "samples without a key");
+            let m = k.memory.expect("the deferred mode reports its memory");
+            // The compact G-buffer: one entry per sample of a pass; the table: 32 bytes per entry and
+            // the queue's 4, after its 32-byte header.
+            assert_eq!(m.samples, (w * h) as u64 * (spp / out.stats.passes) as u64);
+            assert_eq!(m.refs_bytes, 4 * m.samples);
+            assert_eq!(m.table_bytes, 36 * cache_entries as u64 + 32);
+            if cache_entries == 1 << 16 {
+                assert_eq!(k.overflows, 0);
+                // Every distinct key once (but for the few cells the GPU's f32 projection rounds to
+                // the neighbour): no re-shades, across passes either.
+                let ratio = new_points as f64 / keys as f64;
+                assert!((0.99..=1.01).contains(&ratio), "{new_points} points for {keys} keys");
+            } else {
+                assert!(k.overflows > 0 && new_points <= cache_entries as u64, "{cache_entries} entries");
+            }
+            images.push(out.image);
+        }
+        save_comparison(&format!("deferred-default-{}", rate.name()), &truth, &images[0]);
+        let m = compare(&truth, &images[0]).unwrap();
+        println!("{} vs the reference's decoupled shading: RMSE {:.6}", rate.name(), m.rmse);
+        assert!(m.rmse < HARD_RMSE_MAX, "RMSE {}", m.rmse);
+        assert_eq!(images[0].pixels, images[1].pixels, "{}: not deterministic", rate.name());
+        let passes = compare(&truth, &images[2]).unwrap();
+        assert!(passes.rmse < HARD_RMSE_MAX, "two passes: RMSE {}", passes.rmse);
+        for img in &images[3..] {
+            let d = max_abs_diff(&images[0], img);
+            assert!(d <= 1e-6, "the table's overflow changes the image by {d}");
+        }
+    }
 }

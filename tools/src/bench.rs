@@ -98,6 +98,9 @@ pub struct Counters {
     /// Decoupled shading: the memoization cache's lookups, hits, evictions and lost stores.
     #[serde(default)]
     pub cache: Option<(u64, u64, u64, u64)>,
+    /// Decoupled shading's deferred mode: keys the hash table had no room for.
+    #[serde(default)]
+    pub cache_overflows: Option<u64>,
 }
 
 impl From<SampleCounters> for Counters {
@@ -110,6 +113,7 @@ impl From<SampleCounters> for Counters {
             shading_invocations: c.shading_invocations,
             atlas_texels: c.atlas_texels,
             cache: c.cache.map(|k| (k.lookups, k.hits, k.evictions, k.busy)),
+            cache_overflows: c.cache.map(|k| k.overflows),
         }
     }
 }
@@ -283,7 +287,7 @@ impl BenchReport {
             self.frames,
             self.warmup
         );
-        md.push_str("| configuration | passes × MSAA | GPU ms median (min–max) | × first | CPU frame ms | per pass (median ms) | fragments | samples tested | hits | STE | shading inv. | atlas texels (shade + gutter) | cache lookups / hits / evictions / lost |\n");
+        md.push_str("| configuration | passes × MSAA | GPU ms median (min–max) | × first | CPU frame ms | per pass (median ms) | fragments | samples tested | hits | STE | shading inv. | atlas texels (shade + gutter) | cache lookups / hits / evictions / lost / overflows |\n");
         md.push_str("|---|---:|---:|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|\n");
         for r in &self.results {
             let per_pass: Vec<String> =
@@ -303,7 +307,10 @@ impl BenchReport {
                 None => "-".into(),
             };
             let cache = match r.counters.as_ref().and_then(|c| c.cache) {
-                Some((l, h, e, b)) => format!("{l} / {h} / {e} / {b}"),
+                Some((l, h, e, b)) => {
+                    let o = r.counters.as_ref().and_then(|c| c.cache_overflows).unwrap_or(0);
+                    format!("{l} / {h} / {e} / {b} / {o}")
+                }
                 None => "-".into(),
             };
             let _ = writeln!(
@@ -330,13 +337,13 @@ impl BenchReport {
         let mut s = String::from(
             "scene,width,height,device,driver,label,technique,spp,bound,shading,passes,msaa,gpu_ms_median,gpu_ms_min,\
              gpu_ms_max,ratio_to_first,cpu_frame_ms_median,fragments,samples_tested,samples_hit,ste,shading_invocations,\
-             atlas_texels_shaded,atlas_texels_gutter,cache_lookups,cache_hits,cache_evictions,cache_lost\n",
+             atlas_texels_shaded,atlas_texels_gutter,cache_lookups,cache_hits,cache_evictions,cache_lost,cache_overflows\n",
         );
         for r in &self.results {
             let c = r.counters.as_ref();
             let _ = writeln!(
                 s,
-                "{},{},{},\"{}\",\"{}\",\"{}\",{},{},{},{},{},{},{:.4},{:.4},{:.4},{:.4},{:.4},{},{},{},{},{},{},{},{},{},{},{}",
+                "{},{},{},\"{}\",\"{}\",\"{}\",{},{},{},{},{},{},{:.4},{:.4},{:.4},{:.4},{:.4},{},{},{},{},{},{},{},{},{},{},{},{}",
                 self.scene,
                 self.width,
                 self.height,
@@ -365,6 +372,7 @@ impl BenchReport {
                 c.and_then(|c| c.cache).map(|k| k.1.to_string()).unwrap_or_default(),
                 c.and_then(|c| c.cache).map(|k| k.2.to_string()).unwrap_or_default(),
                 c.and_then(|c| c.cache).map(|k| k.3.to_string()).unwrap_or_default(),
+                c.and_then(|c| c.cache_overflows).map(|o| o.to_string()).unwrap_or_default(),
             );
         }
         s

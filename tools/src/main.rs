@@ -52,7 +52,10 @@ enum Command {
         bound: String,
         /// Stochastic shading rate: per-pixel | per-sample | texture-space (adaptive texture-space
         /// shading: each object shaded once into a mip atlas at a level per triangle, looked up per
-        /// sample; docs/ATSS.md).
+        /// sample; docs/ATSS.md) | texture-space-per-pixel | decoupled | aas | aas-isotropic (decoupled
+        /// shading on the pixel grid or the AAS grids, memoization cache of --cache entries) |
+        /// decoupled-deferred | aas-deferred | aas-isotropic-deferred (the same keys in a hash table
+        /// of --cache entries, new points shaded by a dispatch of their own; docs/DECOUPLED.md).
         #[arg(long, default_value = "per-pixel")]
         shading: String,
         /// Stochastic: count samples tested / hit and shading invocations (atomics; slower).
@@ -75,7 +78,8 @@ enum Command {
         /// object.
         #[arg(long, default_value = "auto")]
         clusters: String,
-        /// Stochastic `--shading decoupled`: entries of the memoization cache (1 to 4194304).
+        /// Stochastic `--shading decoupled`, `aas`…: entries of the memoization cache, or with
+        /// `…-deferred` of the hash table (1 to 4194304).
         #[arg(long, default_value_t = shutter::techniques::stochastic::DEFAULT_CACHE_ENTRIES)]
         cache: u32,
         /// How alpha < 1, alpha_from_texture and tints are rendered: `stochastic` (stochastic
@@ -105,7 +109,8 @@ enum Command {
         #[arg(long, default_value_t = 256)]
         spp: u32,
         /// per-sample (the ground truth) or per-pixel: shade like `stochastic --shading per-pixel`
-        /// with --per-pass samples per pass, so the two can be compared exactly.
+        /// with --per-pass samples per pass, so the two can be compared exactly; decoupled, aas,
+        /// aas-isotropic (with or without -deferred): what those rates compute whatever their cache.
         #[arg(long, default_value = "per-sample")]
         shading: String,
         /// Per-pixel shading: samples per pixel and pass of the stochastic render it mirrors (default:
@@ -183,7 +188,7 @@ enum Command {
     Bench {
         #[arg(default_value = "default")]
         scene: String,
-        /// A configuration `technique[:spp=N][:shadow-map=SIZE/S/PCF|off][:bound=B][:shading=per-pixel|per-sample|texture-space][:per-pass=M][:intervals=auto|K][:clusters=auto|off|N][:hull=gs|compute]`; repeat for
+        /// A configuration `technique[:spp=N][:shadow-map=SIZE/S/PCF|off][:bound=B][:shading=RATE (as render's --shading)][:cache=N][:per-pass=M][:intervals=auto|K][:clusters=auto|off|N][:hull=gs|compute]`; repeat for
         /// more. The first is the baseline of the ratios.
         #[arg(short = 'c', long = "config", default_values_t = ["auto".to_string(), "pinhole".to_string()])]
         configs: Vec<String>,
@@ -524,14 +529,34 @@ fn run() -> Result<()> {
                     );
                 }
                 if let Some(k) = c.cache {
-                    println!(
-                        "  decoupled cache: {} lookups, {} hits, {} misses shaded, {} evictions, {} stores lost to a race",
-                        k.lookups,
-                        k.hits,
-                        k.misses(),
-                        k.evictions,
-                        k.busy
-                    );
+                    match k.memory {
+                        None => println!(
+                            "  decoupled cache: {} lookups, {} hits, {} misses shaded, {} evictions, {} stores lost to a race",
+                            k.lookups,
+                            k.hits,
+                            k.misses(),
+                            k.evictions,
+                            k.busy
+                        ),
+                        Some(m) => {
+                            println!(
+                                "  deferred hash table: {} lookups, {} hits, {} new shading points, {} overflows (shaded on the spot)",
+                                k.lookups,
+                                k.hits,
+                                k.misses() - k.overflows,
+                                k.overflows
+                            );
+                            println!(
+                                "  deferred memory: {:.2} bytes per sample of a pass (G-buffer {} B + table and queue {} B, {} samples) against {} bytes per sample ({} B) for an MSAA G-buffer",
+                                m.bytes_per_sample(),
+                                m.refs_bytes,
+                                m.table_bytes,
+                                m.samples,
+                                shutter::techniques::stochastic::MSAA_GBUFFER_BYTES_PER_SAMPLE,
+                                m.msaa_gbuffer_bytes()
+                            );
+                        }
+                    }
                 }
             }
             println!("wrote {}", out.display());

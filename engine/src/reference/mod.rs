@@ -135,7 +135,8 @@ pub enum ReferenceShading {
     /// Decoupled shading ([`crate::decoupled`]): every sample takes the radiance of its key's shading
     /// point — on its triangle at mid-shutter, seen from the lens centre, on the sample's side — or of
     /// its own hit when it has no key; keys are cells of the grid [`crate::decoupled::GridKind`] says.
-    /// What `--shading decoupled`, `aas` and `aas-isotropic` compute whatever their cache does.
+    /// What `--shading decoupled`, `aas` and `aas-isotropic` (and their `-deferred` modes) compute
+    /// whatever their cache does.
     Decoupled(crate::decoupled::GridKind),
 }
 

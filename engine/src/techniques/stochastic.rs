@@ -84,16 +84,21 @@ pub enum ShadingRate {
     /// lookup: at the pixel centre).
     TextureSpacePerPixel,
     /// Decoupled shading (Ragan-Kelley et al. 2011; [`crate::decoupled`], docs/DECOUPLED.md): every
-    /// sample takes the radiance of its key — (triangle, side, lens-centre pixel cell at mid-shutter) —
-    /// from a memoization cache of [`StochasticOptions::cache_entries`] entries, or shades the key's
-    /// shading point and stores it. Mirrored by the reference ([`crate::reference::ReferenceShading::Decoupled`]).
-    Decoupled,
-    /// [`ShadingRate::Decoupled`] with the cells of each triangle's adaptive anisotropic grid
-    /// (Vaidyanathan et al. 2012, [`crate::aas::bounds`]): oriented along its motion, stretched by its
-    /// blur.
-    Aas,
-    /// [`ShadingRate::Aas`] for defocus only (the grid isotropic: the ablation).
-    AasIsotropic,
+    /// sample takes the radiance of its key — (triangle, side, cell of `grid` around its surface point
+    /// at mid-shutter through the lens centre) — which is shaded at the key's shading point. The grid:
+    /// pixels (`decoupled`), or each triangle's adaptive anisotropic grid (Vaidyanathan et al. 2012,
+    /// [`crate::aas::bounds`]: oriented along its motion, stretched by its blur; `aas`), or that grid
+    /// for defocus only (`aas-isotropic`, the ablation). Where the radiance is kept:
+    /// * `deferred: false`: a memoization cache of [`StochasticOptions::cache_entries`] direct-mapped
+    ///   entries in the shading pass; a miss shades and stores.
+    /// * `deferred: true` (Liktor & Dachsbacher 2012; names end in `-deferred`): a hash table of
+    ///   [`StochasticOptions::cache_entries`] entries allocates each key of the frame once, a dispatch
+    ///   of its own shades the new ones, and each sample then reads its entry (a key without room is
+    ///   shaded on the spot).
+    ///
+    /// Mirrored by the reference ([`crate::reference::ReferenceShading::Decoupled`]): the same image
+    /// whatever the cache.
+    Decoupled { grid: crate::decoupled::GridKind, deferred: bool },
 }
 
 /// The largest level 0 side of the atlases of [`ShadingRate::TextureSpace`], texels — the paper's;
@@ -106,24 +111,34 @@ impl ShadingRate {
     /// The rates the reference mirrors sample for sample ([`crate::reference::ReferenceShading`]).
     pub const ALL: [ShadingRate; 2] = [ShadingRate::PerPixel, ShadingRate::PerSample];
     /// Every rate, by name.
-    pub const NAMED: [ShadingRate; 7] = [
-        ShadingRate::PerPixel,
-        ShadingRate::PerSample,
-        ShadingRate::TextureSpace,
-        ShadingRate::TextureSpacePerPixel,
-        ShadingRate::Decoupled,
-        ShadingRate::Aas,
-        ShadingRate::AasIsotropic,
-    ];
+    pub const NAMED: [ShadingRate; 10] = {
+        use crate::decoupled::GridKind::*;
+        [
+            ShadingRate::PerPixel,
+            ShadingRate::PerSample,
+            ShadingRate::TextureSpace,
+            ShadingRate::TextureSpacePerPixel,
+            ShadingRate::Decoupled { grid: Pixel, deferred: false },
+            ShadingRate::Decoupled { grid: Aas, deferred: false },
+            ShadingRate::Decoupled { grid: AasIsotropic, deferred: false },
+            ShadingRate::Decoupled { grid: Pixel, deferred: true },
+            ShadingRate::Decoupled { grid: Aas, deferred: true },
+            ShadingRate::Decoupled { grid: AasIsotropic, deferred: true },
+        ]
+    };
     pub fn name(&self) -> &'static str {
+        use crate::decoupled::GridKind::*;
         match self {
             ShadingRate::PerPixel => "per-pixel",
             ShadingRate::PerSample => "per-sample",
             ShadingRate::TextureSpace => "texture-space",
             ShadingRate::TextureSpacePerPixel => "texture-space-per-pixel",
-            ShadingRate::Decoupled => "decoupled",
-            ShadingRate::Aas => "aas",
-            ShadingRate::AasIsotropic => "aas-isotropic",
+            ShadingRate::Decoupled { grid: Pixel, deferred: false } => "decoupled",
+            ShadingRate::Decoupled { grid: Aas, deferred: false } => "aas",
+            ShadingRate::Decoupled { grid: AasIsotropic, deferred: false } => "aas-isotropic",
+            ShadingRate::Decoupled { grid: Pixel, deferred: true } => "decoupled-deferred",
+            ShadingRate::Decoupled { grid: Aas, deferred: true } => "aas-deferred",
+            ShadingRate::Decoupled { grid: AasIsotropic, deferred: true } => "aas-isotropic-deferred",
         }
     }
 
@@ -142,13 +157,15 @@ impl ShadingRate {
 
     /// The decoupled rates' grid (None for the others).
     pub fn decoupled_grid(&self) -> Option<crate::decoupled::GridKind> {
-        use crate::decoupled::GridKind;
         match self {
-            ShadingRate::Decoupled => Some(GridKind::Pixel),
-            ShadingRate::Aas => Some(GridKind::Aas),
-            ShadingRate::AasIsotropic => Some(GridKind::AasIsotropic),
+            ShadingRate::Decoupled { grid, .. } => Some(*grid),
             _ => None,
         }
+    }
+
+    /// Whether this is a decoupled rate keeping its radiance in the deferred mode's hash table.
+    pub fn deferred(&self) -> bool {
+        matches!(self, ShadingRate::Decoupled { deferred: true, .. })
     }
 
     /// Whether samples look their radiance up in texture-space shading's atlases.
@@ -192,8 +209,8 @@ pub struct StochasticOptions {
     pub intervals: Intervals,
     /// Cluster bounds: objects drawn one bound per cluster of triangles ([`Clusters`]).
     pub clusters: Clusters,
-    /// [`ShadingRate::Decoupled`]: entries of the memoization cache, 1 ..= [`MAX_CACHE_ENTRIES`]
-    /// (default [`DEFAULT_CACHE_ENTRIES`]).
+    /// [`ShadingRate::Decoupled`]: entries of the memoization cache or of the deferred mode's hash
+    /// table, 1 ..= [`MAX_CACHE_ENTRIES`] (default [`DEFAULT_CACHE_ENTRIES`]).
     pub cache_entries: u32,
 }
 
@@ -201,8 +218,55 @@ pub struct StochasticOptions {
 pub const DEFAULT_CACHE_ENTRIES: u32 = 1 << 16;
 /// The largest memoization cache (32 bytes an entry: 128 MiB).
 pub const MAX_CACHE_ENTRIES: u32 = 1 << 22;
-/// Bytes per entry of the memoization cache (`CacheEntry` in `decoupled.glsl`).
+/// Bytes per entry of the memoization cache and of the deferred mode's hash table (`CacheEntry` in
+/// `decoupled.glsl`).
 pub const CACHE_ENTRY_BYTES: u64 = 32;
+/// The deferred mode's queue (`DeferredQueue` in `decoupled.glsl`): its header's bytes, then 4 bytes
+/// per hash-table entry; the shading dispatch's indirect arguments lie at this offset.
+pub const DEFERRED_QUEUE_HEADER_BYTES: u64 = 32;
+pub const DEFERRED_ARGS_OFFSET: u64 = 16;
+/// The deferred mode's compact G-buffer: bytes per sample of a pass (its hash-table entry).
+pub const DEFERRED_REF_BYTES: u64 = 4;
+/// What an MSAA G-buffer would hold per sample for this engine's shading (`common/shading.glsl`'s
+/// `shade` inputs): position and normal (3 × f32 each), albedo (3 × f32), specular and shininess
+/// (f32 each), the shutter time (f32) — 48 bytes, without the visibility buffer's depth and triangle,
+/// which both G-buffers share. The deferred mode's memory is compared with it
+/// ([`DecoupledMemory`]).
+pub const MSAA_GBUFFER_BYTES_PER_SAMPLE: u64 = 48;
+
+/// Decoupled shading's buffers (`decoupled.glsl`).
+struct DecoupledBuffers {
+    /// The memoization cache or the deferred mode's hash table, cleared every frame.
+    cache: Tracked<Buffer>,
+    /// Every triangle's grid (frame numbering; vec4: axis, spacing along it, across it).
+    grids: Buffer,
+    /// The deferred mode's queue of new entries, with its shading dispatch's indirect arguments
+    /// (cleared every frame), and its compact G-buffer: placeholders for the memoization cache.
+    queue: Tracked<Buffer>,
+    refs: Buffer,
+    deferred: bool,
+}
+
+/// The deferred mode's memory ([`StochasticDraws::decoupled_memory`]) against the MSAA G-buffer of
+/// [`MSAA_GBUFFER_BYTES_PER_SAMPLE`] it replaces: both per sample of a pass (what is held at once).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct DecoupledMemory {
+    /// Pixels × samples per pass.
+    pub samples: u64,
+    /// The compact G-buffer.
+    pub refs_bytes: u64,
+    /// The hash table and its queue.
+    pub table_bytes: u64,
+}
+
+impl DecoupledMemory {
+    pub fn bytes_per_sample(&self) -> f64 {
+        (self.refs_bytes + self.table_bytes) as f64 / self.samples.max(1) as f64
+    }
+    pub fn msaa_gbuffer_bytes(&self) -> u64 {
+        self.samples * MSAA_GBUFFER_BYTES_PER_SAMPLE
+    }
+}
 
 /// Cluster bounds: an object is drawn with one bound per cluster of N triangles, neighbours in a Morton
 /// order of their centroids ([`crate::bounds::cluster::cluster_order`]) (the union
@@ -638,7 +702,9 @@ pub struct SampleCounters {
 
 /// What the memoization cache of decoupled shading did over a frame (`decoupled.glsl`). Every keyed
 /// sample looks its key up once: `lookups − hits` keys were shaded (misses); samples without a key
-/// (`shading_invocations − misses` of them) are shaded at their own hit.
+/// (`shading_invocations − misses` of them) are shaded at their own hit. In the deferred mode a lookup
+/// either finds its key (a hit), claims a new entry (shaded once by the shading dispatch) or overflows
+/// (shaded on the spot); there are no evictions nor lost stores.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct CacheCounters {
     pub lookups: u64,
@@ -647,6 +713,11 @@ pub struct CacheCounters {
     pub evictions: u64,
     /// Stores skipped because another invocation held the entry.
     pub busy: u64,
+    /// The deferred mode: keyed samples whose key found no entry within
+    /// [`crate::decoupled::DEFERRED_PROBES`] of the hash table's (shaded on the spot).
+    pub overflows: u64,
+    /// The deferred mode's memory (None for the memoization cache).
+    pub memory: Option<DecoupledMemory>,
 }
 
 impl CacheCounters {
@@ -656,7 +727,7 @@ impl CacheCounters {
 }
 
 /// u32 counters of the counters buffer (`Counters` in `stochastic.frag` and `shade.comp`).
-const COUNTERS: usize = 8;
+const COUNTERS: usize = 9;
 
 impl SampleCounters {
     /// Sample test efficiency: hits / tested (McGuire et al. 2010).
@@ -707,8 +778,27 @@ pub struct StochasticPush {
     pub atlas_gutter: u32,
     /// 1: the object's material is one-sided; the coverage stage drops hits on its back.
     pub one_sided: u32,
-    /// Decoupled shading: entries of the memoization cache (0 elsewhere).
+    /// Decoupled shading: entries of the memoization cache or hash table (0 elsewhere).
     pub cache_entries: u32,
+    /// Decoupled shading: the dispatch's phase ([`DecoupledPhase`]; 0, the memoization cache, elsewhere).
+    pub decoupled_phase: u32,
+}
+
+/// The dispatches of decoupled shading per object and pass (`DC_PHASE_*` in `decoupled.glsl`): the
+/// memoization cache's one, or the deferred mode's four.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[repr(u32)]
+pub enum DecoupledPhase {
+    Memo = 0,
+    /// Per pixel: each sample's key found in or added to the hash table, its entry in the compact
+    /// G-buffer.
+    Allocate = 1,
+    /// One invocation: the new entries' range and the next dispatch's indirect arguments.
+    Args = 2,
+    /// Indirect, one invocation per new entry: its shading point shaded.
+    Shade = 3,
+    /// Per pixel: each sample's radiance read from its entry (or shaded on the spot).
+    Resolve = 4,
 }
 
 /// Push constants of `clusters.comp`.
@@ -755,7 +845,7 @@ pub const STOCHASTIC_OBJECT_SET: [Binding; 8] = [
 
 /// Set 3 of the stochastic rasterizer: the sample tile, counters, bound debug output, hull counts, the
 /// visibility buffer and the accumulation image.
-pub const STOCHASTIC_SET: [Binding; 10] = [
+pub const STOCHASTIC_SET: [Binding; 12] = [
     Binding { binding: 0, ty: vk::DescriptorType::STORAGE_BUFFER, block: "SamplesXyLens" },
     Binding { binding: 1, ty: vk::DescriptorType::STORAGE_BUFFER, block: "SamplesTime" },
     Binding { binding: 2, ty: vk::DescriptorType::STORAGE_BUFFER, block: "Counters" },
@@ -766,6 +856,8 @@ pub const STOCHASTIC_SET: [Binding; 10] = [
     Binding { binding: 7, ty: vk::DescriptorType::STORAGE_BUFFER, block: "TintLog" },
     Binding { binding: 8, ty: vk::DescriptorType::STORAGE_BUFFER, block: "DecoupledCache" },
     Binding { binding: 9, ty: vk::DescriptorType::STORAGE_BUFFER, block: "DecoupledGrids" },
+    Binding { binding: 10, ty: vk::DescriptorType::STORAGE_BUFFER, block: "DeferredQueue" },
+    Binding { binding: 11, ty: vk::DescriptorType::STORAGE_BUFFER, block: "DeferredRefs" },
 ];
 
 /// `StochasticPush::object` of the shading pass' dispatch that adds the background for the samples
@@ -818,7 +910,8 @@ pub const STOCHASTIC_STRUCTS: &[SharedStruct] = &[
             atlas_finest,
             atlas_gutter,
             one_sided,
-            cache_entries
+            cache_entries,
+            decoupled_phase
         ]
     ),
     shared_struct!("Push", TrianglesPush, [segment_first, keys, triangle_count]),
@@ -893,7 +986,7 @@ impl ShadingRate {
             ShadingRate::PerSample => axes::Shading::PerSample,
             ShadingRate::TextureSpace => axes::Shading::TextureSpace,
             ShadingRate::TextureSpacePerPixel => axes::Shading::TextureSpacePerPixel,
-            ShadingRate::Decoupled | ShadingRate::Aas | ShadingRate::AasIsotropic => axes::Shading::Decoupled,
+            ShadingRate::Decoupled { .. } => axes::Shading::Decoupled,
         }
     }
 }
@@ -949,9 +1042,8 @@ pub struct StochasticDraws {
     object_tint_log: Vec<Option<[u32; 3]>>,
     /// Σ −log₂ T per channel, pixel and sample of a pass (with tinted objects only).
     tints: Option<Tracked<Buffer>>,
-    /// The decoupled rates' memoization cache (`decoupled.glsl`), cleared every frame, and every
-    /// triangle's grid (frame numbering; vec4: axis, spacing along it, across it).
-    decoupled: Option<(Tracked<Buffer>, Buffer)>,
+    /// The decoupled rates' buffers.
+    decoupled: Option<DecoupledBuffers>,
     /// Texture-space shading's pass 1 ([`ShadingRate::TextureSpace`]), and the sampler its shading
     /// pass reads the atlases with.
     atlas: Option<super::texture_space::AtlasPasses>,
@@ -1442,7 +1534,27 @@ impl StochasticDraws {
                 storage,
                 if grids.is_empty() { &placeholder } else { &grids },
             )?;
-            Some((cache, grids))
+            // The deferred mode's queue (its header, then an entry per table entry) and compact G-buffer
+            // (an entry per pixel and sample of a pass); the memoization cache's pipelines name them
+            // too, so it binds placeholders.
+            let deferred = options.shading.deferred();
+            let (queue_entries, refs) =
+                if deferred { (options.cache_entries as u64, pixels * per_pass as u64) } else { (1, 1) };
+            let queue = Tracked::new(Buffer::new(
+                device,
+                "decoupled deferred queue",
+                DEFERRED_QUEUE_HEADER_BYTES + 4 * queue_entries,
+                storage | vk::BufferUsageFlags::TRANSFER_DST | vk::BufferUsageFlags::INDIRECT_BUFFER,
+                MemoryLocation::GpuOnly,
+            )?);
+            let refs = Buffer::new(
+                device,
+                "decoupled deferred G-buffer",
+                refs * DEFERRED_REF_BYTES,
+                storage,
+                MemoryLocation::GpuOnly,
+            )?;
+            Some(DecoupledBuffers { cache, grids, queue, refs, deferred })
         } else {
             None
         };
@@ -1468,9 +1580,11 @@ impl StochasticDraws {
         if let Some(b) = &tints {
             writes.push(DescriptorWrite::storage_buffer(7, b));
         }
-        if let Some((cache, grids)) = &decoupled {
-            writes.push(DescriptorWrite::storage_buffer(8, cache));
-            writes.push(DescriptorWrite::storage_buffer(9, grids));
+        if let Some(b) = &decoupled {
+            writes.push(DescriptorWrite::storage_buffer(8, &b.cache));
+            writes.push(DescriptorWrite::storage_buffer(9, &b.grids));
+            writes.push(DescriptorWrite::storage_buffer(10, &b.queue));
+            writes.push(DescriptorWrite::storage_buffer(11, &b.refs));
         }
         write_descriptors(device, technique_set, &writes);
         let mut object_sets = Vec::with_capacity(world.objects.len());
@@ -1623,13 +1737,25 @@ impl StochasticDraws {
             shading_invocations: raw[2] as u64,
             fragments: raw[3] as u64,
             atlas_texels: atlas,
-            cache: self.decoupled.is_some().then_some(CacheCounters {
+            cache: self.decoupled.as_ref().map(|_| CacheCounters {
                 lookups: raw[4] as u64,
                 hits: raw[5] as u64,
                 evictions: raw[6] as u64,
                 busy: raw[7] as u64,
+                overflows: raw[8] as u64,
+                memory: self.decoupled_memory(),
             }),
         }))
+    }
+
+    /// The deferred mode's memory (None with the other rates).
+    pub fn decoupled_memory(&self) -> Option<DecoupledMemory> {
+        let dc = self.decoupled.as_ref().filter(|dc| dc.deferred)?;
+        Some(DecoupledMemory {
+            samples: self.size.0 as u64 * self.size.1 as u64 * self.per_pass as u64,
+            refs_bytes: dc.refs.size,
+            table_bytes: dc.cache.size + dc.queue.size,
+        })
     }
 
     /// The compute-expanded hull's buffer capacity and this frame's vertex count per object (None
@@ -1846,6 +1972,7 @@ impl StochasticDraws {
             atlas_gutter: atlas.map_or(0, |a| a.gutter()),
             one_sided: self.object_one_sided.get(o).copied().unwrap_or(false) as u32,
             cache_entries: if self.decoupled.is_some() { self.options.cache_entries } else { 0 },
+            decoupled_phase: DecoupledPhase::Memo as u32,
         }
     }
 
@@ -1962,16 +2089,26 @@ impl StochasticDraws {
         let visibility = g.import_buffer("stochastic visibility", &self.visibility);
         let accum = g.import_image("stochastic accumulation", &self.accum);
         let tints = self.tints.as_ref().map(|t| g.import_buffer("stochastic tints", t));
-        if let Some((c, _)) = &self.decoupled {
-            // Cleared once a frame: every shading dispatch of every pass shares it.
-            let h = g.import_buffer("decoupled shading cache", c);
-            g.pass("clear decoupled cache").overwrite(h, Access::TransferWrite).record(move |ctx| {
-                let b = ctx.buffer(h);
-                unsafe { ctx.device.raw.cmd_fill_buffer(ctx.cmd, b.raw, 0, vk::WHOLE_SIZE, 0) };
-                Ok(())
-            });
-            shading_uses.push((h.into(), Access::ComputeShaderReadOther));
-            shading_uses.push((h.into(), Access::ComputeShaderWrite));
+        if let Some(dc) = &self.decoupled {
+            // Cleared once a frame: every shading dispatch of every pass shares them.
+            let h = g.import_buffer("decoupled shading cache", &dc.cache);
+            let q = g.import_buffer("decoupled deferred queue", &dc.queue);
+            g.pass("clear decoupled cache")
+                .overwrite(h, Access::TransferWrite)
+                .overwrite(q, Access::TransferWrite)
+                .record(move |ctx| {
+                    for b in [h, q] {
+                        let b = ctx.buffer(b);
+                        unsafe { ctx.device.raw.cmd_fill_buffer(ctx.cmd, b.raw, 0, vk::WHOLE_SIZE, 0) };
+                    }
+                    Ok(())
+                });
+            for b in [h, q] {
+                shading_uses.push((b.into(), Access::ComputeShaderReadOther));
+                shading_uses.push((b.into(), Access::ComputeShaderWrite));
+            }
+            // The deferred shading dispatch's arguments, written by the dispatch before it.
+            shading_uses.push((q.into(), Access::IndirectBuffer));
         }
         if let Some(a) = &self.atlas {
             for h in a.add_passes(&mut g, inputs, shadow_handles).into_iter().flatten() {
@@ -2211,13 +2348,18 @@ impl StochasticDraws {
         let world = inputs.world;
         let view = inputs.camera;
         let barrier = || {
-            // Read-modify-write of the accumulation image by consecutive dispatches.
+            // Read-modify-write of the accumulation image by consecutive dispatches; the deferred mode's
+            // table, queue and G-buffer, and its shading dispatch's indirect arguments.
             let b = vk::MemoryBarrier2::default()
                 .src_stage_mask(vk::PipelineStageFlags2::COMPUTE_SHADER)
                 .src_access_mask(vk::AccessFlags2::SHADER_STORAGE_WRITE)
-                .dst_stage_mask(vk::PipelineStageFlags2::COMPUTE_SHADER)
+                .dst_stage_mask(
+                    vk::PipelineStageFlags2::COMPUTE_SHADER | vk::PipelineStageFlags2::DRAW_INDIRECT,
+                )
                 .dst_access_mask(
-                    vk::AccessFlags2::SHADER_STORAGE_READ | vk::AccessFlags2::SHADER_STORAGE_WRITE,
+                    vk::AccessFlags2::SHADER_STORAGE_READ
+                        | vk::AccessFlags2::SHADER_STORAGE_WRITE
+                        | vk::AccessFlags2::INDIRECT_COMMAND_READ,
                 );
             let dep = vk::DependencyInfo::default().memory_barriers(std::slice::from_ref(&b));
             unsafe { d.raw.cmd_pipeline_barrier2(cmd, &dep) };
@@ -2245,31 +2387,47 @@ impl StochasticDraws {
         }
         let mut first = true;
         let full = [0, 0, w, h];
-        let mut dispatch =
-            |pipeline: &Pipeline, object: u32, sets: [vk::DescriptorSet; 2], rect: [u32; 4]| {
-                let [x0, y0, rw, rh] = rect;
-                if rw == 0 || rh == 0 {
-                    return;
-                }
-                if !first {
-                    barrier();
-                }
-                first = false;
-                unsafe {
-                    d.raw.cmd_bind_pipeline(cmd, bind, pipeline.raw);
-                    d.raw.cmd_bind_descriptor_sets(cmd, bind, layout, OBJECT_SET_INDEX, &sets, &[]);
-                    let push =
-                        StochasticPush { origin_x: x0, origin_y: y0, ..self.base_push(view, object, pass) };
-                    d.raw.cmd_push_constants(
+        let queue = self.decoupled.as_ref().map(|dc| dc.queue.raw);
+        let mut dispatch = |pipeline: &Pipeline,
+                            object: u32,
+                            sets: [vk::DescriptorSet; 2],
+                            rect: [u32; 4],
+                            phase: DecoupledPhase| {
+            let [x0, y0, rw, rh] = rect;
+            if rw == 0 || rh == 0 {
+                return;
+            }
+            if !first {
+                barrier();
+            }
+            first = false;
+            unsafe {
+                d.raw.cmd_bind_pipeline(cmd, bind, pipeline.raw);
+                d.raw.cmd_bind_descriptor_sets(cmd, bind, layout, OBJECT_SET_INDEX, &sets, &[]);
+                let push = StochasticPush {
+                    origin_x: x0,
+                    origin_y: y0,
+                    decoupled_phase: phase as u32,
+                    ..self.base_push(view, object, pass)
+                };
+                d.raw.cmd_push_constants(
+                    cmd,
+                    layout,
+                    vk::ShaderStageFlags::COMPUTE,
+                    0,
+                    bytemuck::bytes_of(&push),
+                );
+                match phase {
+                    DecoupledPhase::Args => d.raw.cmd_dispatch(cmd, 1, 1, 1),
+                    DecoupledPhase::Shade => d.raw.cmd_dispatch_indirect(
                         cmd,
-                        layout,
-                        vk::ShaderStageFlags::COMPUTE,
-                        0,
-                        bytemuck::bytes_of(&push),
-                    );
-                    d.raw.cmd_dispatch(cmd, rw.div_ceil(8), rh.div_ceil(8), 1);
+                        queue.expect("the deferred mode has its queue"),
+                        DEFERRED_ARGS_OFFSET,
+                    ),
+                    _ => d.raw.cmd_dispatch(cmd, rw.div_ceil(8), rh.div_ceil(8), 1),
                 }
-            };
+            }
+        };
         // The background dispatch reads no object's data; any permutation does it. Set 1 and 2 of the
         // first drawn object (or of the first object) keep the layout's sets valid.
         let i = (0..world.objects.len()).find(|&i| self.is_drawn(i, world)).unwrap_or(0);
@@ -2278,11 +2436,27 @@ impl StochasticDraws {
             SHADE_BACKGROUND,
             [world.objects[i].set, self.object_sets[i]],
             full,
+            DecoupledPhase::Memo,
         );
+        // The deferred mode: allocate, then shade the new entries, then resolve (module docs of
+        // decoupled.glsl); the others: one dispatch.
+        let phases: &[DecoupledPhase] = if self.decoupled.as_ref().is_some_and(|dc| dc.deferred) {
+            &[DecoupledPhase::Allocate, DecoupledPhase::Args, DecoupledPhase::Shade, DecoupledPhase::Resolve]
+        } else {
+            &[DecoupledPhase::Memo]
+        };
         for (effects, pipeline) in &self.shade_pipelines {
             for (i, o) in world.objects.iter().enumerate() {
                 if self.object_effects[i] == *effects && self.is_drawn(i, world) {
-                    dispatch(pipeline, i as u32, [o.set, self.object_sets[i]], self.shade_rects[i]);
+                    for &phase in phases {
+                        dispatch(
+                            pipeline,
+                            i as u32,
+                            [o.set, self.object_sets[i]],
+                            self.shade_rects[i],
+                            phase,
+                        );
+                    }
                 }
             }
         }
