@@ -6,7 +6,8 @@
 #    deferred mode's hash table of 64 … 65536 entries, with the counters' frame (lookups, hits,
 #    evictions, lost stores, overflows; shading invocations);
 #  * the distinct keys (shading points) of the pixel, isotropic-AAS and AAS grids on four scenes, from
-#    the reference (`shutter reference --shading …`: the least any cache can shade);
+#    the reference (`shutter reference --shading …`: the least any cache can shade); the sweep plotted
+#    against them (scripts/plot-cache-sweep.py);
 #  * error against a 1024-spp reference: one interleaved `shutter quality` per scene (`default`,
 #    `one-mover`) of every shading mode — per-pixel, per-sample, decoupled and AAS with either cache,
 #    texture-space (ATSS) — at S = 4, 16 and 64;
@@ -41,6 +42,8 @@ $S bench default --size 160x90 --spp 16 --frames 3 --warmup 1 "${configs[@]}" \
     echo "$row |"
   done
 } > docs/quality/decoupled/keys.md
+python3 scripts/plot-cache-sweep.py docs/quality/decoupled/cache-default.csv docs/quality/decoupled/keys.md \
+  docs/quality/decoupled/cache-default.svg
 SCENES_ONLY=1 bash scripts/atss-lights.sh
 for n in 1 16 64 256; do
   $S bench "out/atss/lights-$n.toml" --spp 8 --frames 3 --warmup 1 \
@@ -58,3 +61,16 @@ for scene in default one-mover; do
   $S quality "$scene" --size 160x90 --reference-spp 1024 --cache out/cache --frames 1 --warmup 1 \
     "${series[@]}" --out "docs/quality/decoupled/quality-$scene"
 done
+# Images at S = 64 on `default` against the reference quality cached: per mode the image and its FLIP
+# map (the deferred modes' images are the memoization modes').
+hash=$(sed -n 's/.*content hash \([0-9a-f]*\).*/\1/p' docs/quality/decoupled/quality-default.md)
+ref=$(ls -t out/cache/reference-v*-"$hash"-160x90-1024spp-seed1.exr | head -1)
+mkdir -p docs/quality/decoupled/images
+for shading in per-sample per-pixel decoupled aas texture-space; do
+  $S render default --technique stochastic --shading "$shading" --size 160x90 --spp 64 \
+    --out "out/decoupled-$shading-s64.exr" > /dev/null
+  $S convert "out/decoupled-$shading-s64.exr" "docs/quality/decoupled/images/default-$shading-s64.png"
+  $S compare "$ref" "out/decoupled-$shading-s64.exr" --diff "docs/quality/decoupled/images/default-$shading-s64-flip.png" \
+    > /dev/null
+done
+$S convert "$ref" docs/quality/decoupled/images/default-reference.png
