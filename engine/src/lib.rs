@@ -17,6 +17,7 @@ pub mod gpu;
 pub mod graph;
 pub mod image;
 pub mod image_io;
+pub mod interleaved;
 pub mod limits;
 pub mod metrics;
 pub mod plan;

@@ -10,7 +10,7 @@
 //! strata. The aperture shape and shutter curve are applied by warping these uniform samples
 //! ([`ApertureShape::map`], [`ShutterCurve::warp`]), never by special code in a technique.
 
-use glam::Vec2;
+use glam::{Vec2, Vec3};
 use serde::Deserialize;
 
 /// Minimal PCG32 (O'Neill 2014): small, fast, seedable, identical on every platform.
@@ -68,6 +68,15 @@ pub fn grid_shape(n: u32) -> (u32, u32) {
         m -= 1;
     }
     (m, n / m)
+}
+
+/// Two unit vectors completing the unit vector `n` to a right-handed orthonormal frame `(t, b, n)`,
+/// continuous but across `n.z = 0` (Duff et al., "Building an Orthonormal Basis, Revisited", 2017).
+pub fn orthonormal_frame(n: Vec3) -> (Vec3, Vec3) {
+    let sign = 1.0f32.copysign(n.z);
+    let a = -1.0 / (sign + n.z);
+    let b = n.x * n.y * a;
+    (Vec3::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x), Vec3::new(b, sign + n.y * n.y * a, -n.y))
 }
 
 /// `n` multi-jittered points in [0,1)²: one per cell of an `m × k` grid and one per 1D stratum of width

@@ -114,7 +114,7 @@ pub fn single_object_scene(
             material: Material { albedo: Vec3::ONE, ..Material::default() },
         }],
         lights: vec![],
-        environment: Environment { ambient: Vec3::ONE, background: Vec3::ZERO },
+        environment: Environment { ambient: Vec3::ONE, background: Vec3::ZERO, ..Default::default() },
     }
 }
 

@@ -43,7 +43,11 @@ fn probe_scene(w: u32, h: u32) -> Scene {
             ),
         ],
         lights: vec![Light::Directional { direction: SUN, color: Vec3::splat(0.9), shadows: false }],
-        environment: Environment { ambient: Vec3::splat(0.1), background: Vec3::new(0.2, 0.3, 0.5) },
+        environment: Environment {
+            ambient: Vec3::splat(0.1),
+            background: Vec3::new(0.2, 0.3, 0.5),
+            ..Default::default()
+        },
     }
 }
 

@@ -54,7 +54,11 @@ fn scene(light: Light, caster: Object) -> Scene {
             caster,
         ],
         lights: vec![light],
-        environment: Environment { ambient: Vec3::splat(0.05), background: Vec3::new(0.2, 0.3, 0.5) },
+        environment: Environment {
+            ambient: Vec3::splat(0.05),
+            background: Vec3::new(0.2, 0.3, 0.5),
+            ..Default::default()
+        },
     }
 }
 

@@ -117,6 +117,35 @@ enum Command {
         /// all of them, its one pass).
         #[arg(long)]
         per_pass: Option<u32>,
+        /// One-bounce indirect light by instant radiosity with this many photons from the lights
+        /// (every shaded point gathers every VPL; still scenes) instead of a bounce ray per sample.
+        #[arg(long)]
+        vpls: Option<u32>,
+        /// With --vpls: clamp the VPLs' 1/d² at this distance (scene units; 0: off, unbiased).
+        #[arg(long, default_value_t = 0.0)]
+        clamp: f32,
+        /// With --vpls: the CPU mirror of interleaved deferred shading (engine/src/interleaved.rs) on
+        /// a pinhole G-buffer of one sample at each pixel's centre (--spp is ignored): each pixel of
+        /// an NxM pattern gathers its own subset of the VPLs; 1x1 with --filter none is the brute
+        /// force.
+        #[arg(long)]
+        interleave: Option<String>,
+        /// With --interleave: the two-pass split's block, in patterns (BxB).
+        #[arg(long, default_value = "4x4")]
+        block: String,
+        /// With --interleave: `full` (the paper's edge-aware Gaussian), `axis` (the same stopping at
+        /// each axis' own edges), `plain` (the Gaussian ignoring discontinuities) or `none`.
+        #[arg(long, default_value = "full")]
+        filter: String,
+        /// With --interleave: the Gaussian's radius in pixels (default: the pattern's larger side).
+        #[arg(long)]
+        radius: Option<u32>,
+        /// With --interleave: fetch the kernel in bilinear pairs.
+        #[arg(long)]
+        bilinear: bool,
+        /// With --interleave: no shadow rays to the VPLs (the paper's SNSM).
+        #[arg(long)]
+        snsm: bool,
         #[command(flatten)]
         image: ImageArgs,
     },
@@ -426,6 +455,13 @@ fn run() -> Result<()> {
                 cache_entries: cache,
             };
             let sc = load_scene(&scene)?;
+            if sc.environment.indirect != shutter::scene::Indirect::None {
+                eprintln!(
+                    "note: `{}` renders direct light only; the scene's indirect light (`{}`) is in the reference (`shutter reference`) alone for now",
+                    technique.name(),
+                    sc.environment.indirect.name()
+                );
+            }
             let mut settings = RenderSettings::from_scene(&sc).with_stochastic(stochastic);
             settings.transparency = transparency;
             settings.shadows = shadows;
@@ -561,7 +597,81 @@ fn run() -> Result<()> {
             }
             println!("wrote {}", out.display());
         }
-        Command::Reference { scene, spp, shading, per_pass, image: ImageArgs { size, seed, out } } => {
+        Command::Reference {
+            scene,
+            vpls,
+            clamp,
+            interleave: Some(pattern),
+            block,
+            filter,
+            radius,
+            bilinear,
+            snsm,
+            image: ImageArgs { size, seed, out },
+            ..
+        } => {
+            let sc = load_scene(&scene)?;
+            let (width, height) = size.unwrap_or((sc.image.width, sc.image.height));
+            let Some(count) = vpls else {
+                return Err(anyhow::anyhow!("--interleave shades virtual point lights: give --vpls N"));
+            };
+            let pattern: shutter::interleaved::Pattern = pattern.parse()?;
+            let block: shutter::interleaved::Pattern = block.parse()?;
+            let blur = match filter.as_str() {
+                "none" => None,
+                "plain" | "full" | "axis" => Some(shutter::interleaved::Blur {
+                    radius: radius.unwrap_or(pattern.n.max(pattern.m)),
+                    bilinear,
+                    edges: match filter.as_str() {
+                        "plain" => shutter::interleaved::Edges::Ignore,
+                        "full" => shutter::interleaved::Edges::Texel,
+                        _ => shutter::interleaved::Edges::Axis,
+                    },
+                }),
+                other => return Err(anyhow::anyhow!("--filter `{other}`: none, plain, full or axis")),
+            };
+            let seed = seed.unwrap_or(sc.image.seed);
+            let start = std::time::Instant::now();
+            let v = shutter::reference::VplSettings { count, clamp, seed };
+            let lights = shutter::reference::virtual_point_lights(&sc, &v)?;
+            let gs = shutter::reference::gbuffer::render_gbuffer(&sc, width, height)?;
+            let settings = shutter::interleaved::InterleavedSettings {
+                pattern,
+                block: (block.n, block.m),
+                blur,
+                discontinuity: Default::default(),
+                clamp,
+                visibility: !snsm,
+            };
+            let image = shutter::interleaved::render(&gs, &lights, &settings)?;
+            let secs = start.elapsed().as_secs_f64();
+            let out = match out {
+                Some(o) => o,
+                None => default_out(&scene, "interleaved-cpu", "exr")?,
+            };
+            save_image(&out, &image)?;
+            println!(
+                "{} interleaved (CPU) {}x{}: {} VPLs from {count} photons, pattern {}, filter {filter}{}, {} in {secs:.1} s; wrote {}",
+                sc.name,
+                width,
+                height,
+                lights.len(),
+                pattern.name(),
+                if bilinear { " (bilinear)" } else { "" },
+                if snsm { "no VPL visibility" } else { "VPL shadow rays" },
+                out.display()
+            );
+        }
+        Command::Reference {
+            scene,
+            spp,
+            shading,
+            per_pass,
+            vpls,
+            clamp,
+            image: ImageArgs { size, seed, out },
+            ..
+        } => {
             let sc = load_scene(&scene)?;
             let (width, height) = size.unwrap_or((sc.image.width, sc.image.height));
             let Some(shading) = shading.parse::<ShadingRate>()?.reference(per_pass.unwrap_or(spp)) else {
@@ -575,7 +685,15 @@ fn run() -> Result<()> {
             let seed = seed.unwrap_or(sc.image.seed);
             let settings = ReferenceSettings { width, height, spp, seed, progress: true, shading };
             let start = std::time::Instant::now();
-            let (image, stats) = shutter::reference::render_reference_with_stats(&sc, &settings)?;
+            let (image, stats) = match vpls {
+                None => shutter::reference::render_reference_with_stats(&sc, &settings)?,
+                Some(count) => {
+                    let v = shutter::reference::VplSettings { count, clamp, seed };
+                    let (image, stats, n) = shutter::reference::render_reference_vpl(&sc, &settings, &v)?;
+                    println!("instant radiosity: {n} virtual point lights from {count} photons, clamped at {clamp}");
+                    (image, stats)
+                }
+            };
             let secs = start.elapsed().as_secs_f64();
             if let Some(keys) = stats.decoupled_keys {
                 println!("decoupled shading: {keys} distinct keys (shading points) among the samples");

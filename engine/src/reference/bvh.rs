@@ -509,6 +509,72 @@ impl Bvh {
         }
     }
 
+    /// The nearest hit `accept` admits at shutter time `time` along the segment `o + s·d`,
+    /// `s_min < s < s_max`, in any direction (one-bounce indirect light's rays), with its ray parameter
+    /// `s` (of the hit's barycentric point, as [`Bvh::for_each_hit`]): nodes beyond the best hit so
+    /// far are skipped.
+    pub fn nearest(
+        &self,
+        o: Vec3,
+        d: Vec3,
+        time: f32,
+        s_min: f32,
+        s_max: f32,
+        mut accept: impl FnMut(u32, &TriangleHit) -> bool,
+    ) -> Option<(Hit, f32)> {
+        let d2 = d.length_squared();
+        let range = s_min < s_max; // false for NaN
+        if self.nodes.is_empty() || !(d2 > 0.0 && d2.is_finite()) || !range {
+            return None;
+        }
+        let inv_d = d.recip();
+        let box_time = ((time - self.t0) * self.inv_len).clamp(0.0, 1.0);
+        let mut best: Option<(Hit, f32)> = None;
+        let mut limit = s_max;
+        let mut stack = [(0u32, 0.0f32); STACK];
+        let root = Self::enter(&self.nodes[0], box_time, o, inv_d, s_min, limit);
+        if root == f32::INFINITY {
+            return None;
+        }
+        stack[0] = (0, root);
+        let mut sp = 1;
+        while sp > 0 {
+            sp -= 1;
+            let (ni, entry) = stack[sp];
+            if entry > limit {
+                continue;
+            }
+            let node = &self.nodes[ni as usize];
+            if node.count > 0 {
+                let first = node.first as usize;
+                for k in first..first + node.count as usize {
+                    let p = self.tris[k].at(time);
+                    let Some(h) = intersect_triangle(&p, o, d) else { continue };
+                    let s = (h.point(&p) - o).dot(d) / d2;
+                    if s > s_min && s < limit && accept(self.ids[k], &h) {
+                        limit = s;
+                        best = Some((Hit { id: self.ids[k], hit: h }, s));
+                    }
+                }
+                continue;
+            }
+            let (l, r) = (ni + 1, node.first);
+            let tl = Self::enter(&self.nodes[l as usize], box_time, o, inv_d, s_min, limit);
+            let tr = Self::enter(&self.nodes[r as usize], box_time, o, inv_d, s_min, limit);
+            // The nearer child on top of the stack.
+            let (near_child, far_child, tn, tf) = if tl <= tr { (l, r, tl, tr) } else { (r, l, tr, tl) };
+            if tf != f32::INFINITY {
+                stack[sp] = (far_child, tf);
+                sp += 1;
+            }
+            if tn != f32::INFINITY {
+                stack[sp] = (near_child, tn);
+                sp += 1;
+            }
+        }
+        best
+    }
+
     /// Reference for tests: the hit [`Bvh::intersect`] should find (same rules), by testing every
     /// triangle in list order.
     pub fn brute_force(

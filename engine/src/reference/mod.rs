@@ -59,6 +59,19 @@
 //!   Lights without `shadows` are unoccluded, and no shadow ray is traced for a light that does not
 //!   reach the point anyway (behind the surface, outside a spot's cone).
 //!
+//! * **Indirect light** (`[environment] indirect = "one-bounce"`, [`crate::scene::Indirect`]). Each
+//!   camera sample's shading point `x` also traces one bounce ray at the sample's shutter time, in a
+//!   cosine-distributed direction around its shading normal ([`cosine_direction`]), from a
+//!   multi-jittered set of the pixel's own in a shuffled order (seeded by the render seed and the
+//!   pixel: stratified over the pixel's samples, uncorrelated with them). A direction below the
+//!   geometric surface carries nothing. The ray stops at the nearest surface of coverage 1 (both
+//!   sides, as shadow rays), attenuated by the transmittance of the partly covering ones before it
+//!   (which reflect nothing themselves); there `y` sends out the diffuse term of its direct light,
+//!   shadowed as above, without ambient or specular. `x` adds `albedo(x)` times it — one sample of the
+//!   Lambertian integral `albedo/π ∫ L cos θ dω`, unbiased: the estimate converges to the model's
+//!   exact one-bounce answer (the closed-form floor-and-sensor test in `tests.rs`). A ray that
+//!   escapes brings nothing (the background and the ambient light no surface).
+//!
 //! Geometry lives in [`Bvh`]s over [`SegmentTriangle`]s, one per interval between consecutive motion
 //! keys of the whole scene (one tree for two-key scenes; boxes at the interval's ends, interpolated at
 //! ray time). Rendering is parallel over 16×16-pixel tiles with rayon; every pixel depends only on its
@@ -66,6 +79,8 @@
 //! checked against [`crate::limits`].
 
 mod bvh;
+pub mod gbuffer;
+pub mod vpl;
 
 use std::time::Instant;
 
@@ -74,13 +89,14 @@ use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use rayon::prelude::*;
 
 pub use bvh::{Bvh, Hit, SegmentTriangle};
+pub use vpl::{virtual_point_lights, VirtualPointLight, VplSettings};
 
 use crate::error::{Error, Result};
 use crate::geometry::{KeyTimes, MovingTriangle, TriangleHit};
 use crate::image::LinearImage;
 use crate::limits::{MAX_IMAGE_DIMENSION, MAX_SPP};
 use crate::sampling::{pixel_sample_set, Pcg32, Sample5, SAMPLE_TILE_SIZE};
-use crate::scene::{Camera, CameraSpaceScene, Intrinsics, Scene, Texture};
+use crate::scene::{Camera, CameraSpaceScene, Indirect, Intrinsics, Scene, Texture};
 use crate::shading::{shade, ShadingLight};
 
 /// Version of what the reference computes: bumped whenever the same scene and settings render to
@@ -101,6 +117,9 @@ pub const REFERENCE_VERSION: u32 = 4;
 /// about 1e-7 of that scale, so the ray clears its own surface with a wide margin, while contact gaps
 /// below 1e-4 of the scene's coordinates are not resolved.
 pub const SHADOW_RAY_OFFSET: f32 = 1e-4;
+/// Mixed into the seed of each pixel's bounce directions (one-bounce indirect light), so they are not
+/// correlated with its camera samples.
+const BOUNCE_SEED: u64 = 0x6f6e_652d_626f_756e;
 /// Side of the square pixel tiles rendered in parallel.
 pub const TILE: u32 = 16;
 
@@ -171,7 +190,18 @@ pub fn render_reference_with_stats(
     scene: &Scene,
     settings: &ReferenceSettings,
 ) -> Result<(LinearImage, ReferenceStats)> {
-    render(scene, settings, None)
+    render(scene, settings, None, None).map(|(image, stats, _)| (image, stats))
+}
+
+/// Renders `scene` with its one-bounce indirect light estimated by instant radiosity ([`vpl`]: the
+/// VPLs of `vpls`, every shaded point gathering every VPL) instead of a bounce ray per sample; also
+/// returns how many VPLs there were.
+pub fn render_reference_vpl(
+    scene: &Scene,
+    settings: &ReferenceSettings,
+    vpls: &VplSettings,
+) -> Result<(LinearImage, ReferenceStats, usize)> {
+    render(scene, settings, None, Some(vpls))
 }
 
 /// Renders `scene` with every pixel taking the same sample set `samples` (sample k at pixel `(x, y)`
@@ -188,18 +218,23 @@ pub fn render_reference_shared_samples(
     if samples.len() != settings.spp as usize {
         return Err(limit("shared samples", samples.len(), &format!("spp = {}", settings.spp)));
     }
-    render(scene, settings, Some(samples)).map(|(image, _)| image)
+    render(scene, settings, Some(samples), None).map(|(image, _, _)| image)
 }
 
 fn render(
     scene: &Scene,
     settings: &ReferenceSettings,
     shared: Option<&[Sample5]>,
-) -> Result<(LinearImage, ReferenceStats)> {
+    vpls: Option<&VplSettings>,
+) -> Result<(LinearImage, ReferenceStats, usize)> {
     validate(settings, &scene.camera)?;
     let start = Instant::now();
     let mut tracer = Tracer::new(scene, settings);
     tracer.shared = shared.map(|s| s.to_vec());
+    if let Some(v) = vpls {
+        tracer.vpls = Some((tracer.virtual_point_lights(v)?, v.clamp));
+    }
+    let vpl_count = tracer.vpls.as_ref().map_or(0, |v| v.0.len());
     let build_seconds = start.elapsed().as_secs_f64();
 
     let (w, h) = (settings.width, settings.height);
@@ -257,7 +292,7 @@ fn render(
         decoupled_keys: matches!(settings.shading, ReferenceShading::Decoupled(_))
             .then_some(keys.len() as u64),
     };
-    Ok((image, stats))
+    Ok((image, stats, vpl_count))
 }
 
 fn limit(what: &'static str, value: impl ToString, limit: &str) -> Error {
@@ -352,6 +387,7 @@ struct Tracer<'a> {
     shadows: Vec<bool>,
     ambient: Vec3,
     background: Vec3,
+    indirect: Indirect,
     spp: u32,
     seed: u64,
     /// [`crate::transparency::coverage_seed`] of `seed`.
@@ -361,6 +397,9 @@ struct Tracer<'a> {
     shared: Option<Vec<Sample5>>,
     /// [`ReferenceShading::Decoupled`] with an AAS grid: each triangle's (by id); empty: pixels.
     grids: Vec<crate::aas::bounds::ShadingGrid>,
+    /// One-bounce indirect light by instant radiosity ([`render_reference_vpl`]): the VPLs and the
+    /// clamping distance; `None`: bounce rays.
+    vpls: Option<(Vec<VirtualPointLight>, f32)>,
 }
 
 impl<'a> Tracer<'a> {
@@ -447,11 +486,13 @@ impl<'a> Tracer<'a> {
             scene_space,
             ambient: scene.environment.ambient,
             background: scene.environment.background,
+            indirect: scene.environment.indirect,
             spp: s.spp,
             seed: s.seed,
             coverage_seed: crate::transparency::coverage_seed(s.seed),
             shading: s.shading,
             shared: None,
+            vpls: None,
         }
     }
 
@@ -498,6 +539,15 @@ impl<'a> Tracer<'a> {
             ReferenceShading::PerSample | ReferenceShading::Decoupled(_) => 1,
             ReferenceShading::PerPixel { per_pass } => per_pass.max(1) as usize,
         };
+        // One-bounce indirect light: each sample's bounce direction from a stratified (multi-jittered)
+        // set of the pixel's own, in a random order.
+        let bounces = (self.indirect == Indirect::OneBounce && self.vpls.is_none()).then(|| {
+            let mut rng =
+                Pcg32::new(self.seed ^ BOUNCE_SEED, y as u64 * MAX_IMAGE_DIMENSION as u64 + x as u64);
+            let mut set = crate::sampling::multi_jittered(self.spp, &mut rng);
+            rng.shuffle(&mut set);
+            set
+        });
         // Per-pixel shading groups of the current chunk: (triangle id, side, object, radiance).
         let mut groups: Vec<(u32, bool, u32, Vec3)> = Vec::new();
         let mut sum = DVec3::ZERO;
@@ -514,17 +564,18 @@ impl<'a> Tracer<'a> {
                 sum += (throughput * self.background).as_dvec3();
                 continue;
             };
+            let bounce = bounces.as_ref().map(|b| b[k]);
             let radiance = if self.shading == ReferenceShading::PerSample {
-                self.shade_hit(&hit, d, time, lights)
+                self.shade_hit(&hit, d, time, bounce, lights)
             } else if let ReferenceShading::Decoupled(_) = self.shading {
-                self.shade_decoupled(&hit, d, time, lights, keys)
+                self.shade_decoupled(&hit, d, time, bounce, lights, keys)
             } else {
                 let side = hit.hit.back;
                 let object = self.surface[hit.id as usize].object;
                 match groups.iter().find(|g| g.0 == hit.id && g.1 == side) {
                     Some(g) => g.3,
                     None => {
-                        let r = self.shade_hit(&hit, d, time, lights);
+                        let r = self.shade_hit(&hit, d, time, bounce, lights);
                         if groups.iter().filter(|g| g.2 == object).count() < PER_PIXEL_SHADING_GROUPS {
                             groups.push((hit.id, side, object, r));
                         }
@@ -637,9 +688,17 @@ impl<'a> Tracer<'a> {
         v
     }
 
-    /// Radiance towards the lens of a primary ray (direction `d`) at `hit`.
-    fn shade_hit(&self, hit: &Hit, d: Vec3, time: f32, lights: &mut Vec<ShadingLight>) -> Vec3 {
-        self.shade_side(hit, d, time, None, lights)
+    /// Radiance towards the lens of a primary ray (direction `d`) at `hit` (`bounce`: as
+    /// [`Tracer::shade_side`]).
+    fn shade_hit(
+        &self,
+        hit: &Hit,
+        d: Vec3,
+        time: f32,
+        bounce: Option<Vec2>,
+        lights: &mut Vec<ShadingLight>,
+    ) -> Vec3 {
+        self.shade_side(hit, d, time, None, bounce, lights)
     }
 
     /// [`ReferenceShading::Decoupled`]: the radiance of the key of a primary ray (direction `d`, shutter
@@ -649,6 +708,7 @@ impl<'a> Tracer<'a> {
         hit: &Hit,
         d: Vec3,
         time: f32,
+        bounce: Option<Vec2>,
         lights: &mut Vec<ShadingLight>,
         keys: &mut Vec<u64>,
     ) -> Vec3 {
@@ -656,31 +716,57 @@ impl<'a> Tracer<'a> {
         let mid = MovingTriangle { v0: p0, v1: p1 }.at(s);
         let grid = self.grids.get(hit.id as usize).unwrap_or(&crate::decoupled::PIXEL_GRID);
         let sp = crate::decoupled::shading_point(&self.intrinsics, &mid, hit.hit.barycentrics, grid);
-        let Some(cell) = sp.cell else { return self.shade_hit(hit, d, time, lights) };
+        let Some(cell) = sp.cell else { return self.shade_hit(hit, d, time, bounce, lights) };
         keys.push(crate::decoupled::key(hit.id, hit.hit.back, cell));
         let w = sp.barycentrics;
         let point = w.x * mid[0] + w.y * mid[1] + w.z * mid[2];
         let at =
             Hit { id: hit.id, hit: TriangleHit { depth_z: -point.z, barycentrics: w, back: hit.hit.back } };
         // From the lens centre (the origin), on the side the sample saw.
-        self.shade_side(&at, point.normalize(), 0.5, Some(hit.hit.back), lights)
+        self.shade_side(&at, point.normalize(), 0.5, Some(hit.hit.back), bounce, lights)
     }
 
     /// Radiance towards the lens of a ray (direction `d`) at `hit` at shutter time `time`, on the side
-    /// `back` says (`None`: the side `d` sees).
+    /// `back` says (`None`: the side `d` sees); with one-bounce indirect light, `bounce` is the
+    /// sample's point of the unit square its bounce direction is drawn from.
     fn shade_side(
         &self,
         hit: &Hit,
         d: Vec3,
         time: f32,
         back: Option<bool>,
+        bounce: Option<Vec2>,
         lights: &mut Vec<ShadingLight>,
     ) -> Vec3 {
+        let x = self.surface_point(hit, d, time, back);
+        self.shadowed_lights(&x, time, lights);
+        let material = &self.materials[self.surface[hit.id as usize].object as usize];
+        let direct = shade(
+            x.position,
+            x.normal,
+            -d,
+            x.albedo,
+            material.specular,
+            material.roughness,
+            lights,
+            self.ambient,
+        );
+        if let Some((vpls, clamp)) = &self.vpls {
+            return direct + x.albedo * self.gather(&x, time, vpls, *clamp);
+        }
+        match bounce {
+            Some(u) => direct + x.albedo * self.bounce_radiance(&x, time, u, lights),
+            None => direct,
+        }
+    }
+
+    /// The surface at `hit` of a ray with direction `d` at shutter time `time`, on the side `back` says
+    /// (`None`: the side `d` sees).
+    fn surface_point(&self, hit: &Hit, d: Vec3, time: f32, back: Option<bool>) -> SurfacePoint {
         let Hit { id, hit } = *hit;
         let tri = &self.surface[id as usize];
         let material = &self.materials[tri.object as usize];
         let w = hit.barycentrics.to_array();
-
         let ([(p0, n0), (p1, n1)], s) = self.segment_at(id, time);
         let p = MovingTriangle { v0: p0, v1: p1 }.at(s);
         let geometric = (p[1] - p[0]).cross(p[2] - p[0]);
@@ -697,27 +783,84 @@ impl<'a> Tracer<'a> {
             let uv = w[0] * tri.uv[0] + w[1] * tri.uv[1] + w[2] * tri.uv[2];
             albedo *= texture.sample_bilinear(uv);
         }
-        lights.clear();
-        lights.extend(self.scene_space.lights.iter().map(|l| l.at(time)));
         // The barycentric point, as the GPU shades (its depth is exactly `hit.depth_z`).
         let position = hit.point(&p);
+        let scale = p.iter().fold(position.abs().max_element(), |m, v| m.max(v.abs().max_element()));
+        SurfacePoint { position, normal: n, geometric, offset: SHADOW_RAY_OFFSET * scale, albedo }
+    }
+
+    /// The lights at shutter time `time` as they reach `x` (module docs, "Shadows"), into `lights`.
+    fn shadowed_lights(&self, x: &SurfacePoint, time: f32, lights: &mut Vec<ShadingLight>) {
+        lights.clear();
+        lights.extend(self.scene_space.lights.iter().map(|l| l.at(time)));
         for (light, _) in lights.iter_mut().zip(&self.shadows).filter(|(_, &shadows)| shadows) {
-            let (l, e) = light.incident(position);
-            if n.dot(l) <= 0.0 || e == Vec3::ZERO {
+            let (l, e) = light.incident(x.position);
+            if x.normal.dot(l) <= 0.0 || e == Vec3::ZERO {
                 continue; // no light arrives to be shadowed
             }
-            let scale = p.iter().fold(position.abs().max_element(), |m, v| m.max(v.abs().max_element()));
-            let offset = SHADOW_RAY_OFFSET * scale;
-            let g = geometric.normalize_or_zero();
-            let origin = position + if g.dot(l) >= 0.0 { offset } else { -offset } * g;
+            let g = x.geometric.normalize_or_zero();
+            let offset = x.offset;
+            let origin = x.position + if g.dot(l) >= 0.0 { offset } else { -offset } * g;
             let v = match light.position() {
                 Ok(at) => self.transmittance(origin, at - origin, 1.0, time, offset),
                 Err(to_light) => self.transmittance(origin, to_light, f32::INFINITY, time, offset),
             };
             *light = light.attenuated(v);
         }
-        shade(position, n, -d, albedo, material.specular, material.roughness, lights, self.ambient)
     }
+
+    /// One-bounce indirect light (module docs, "Indirect light"): the diffuse radiance of the direct
+    /// lights reflected by the surface seen from `x` in the cosine-distributed direction that `u`
+    /// (a point of the unit square) picks around `x`'s normal, times the transmittance in between —
+    /// one sample of `1/π ∫ L(y→x) cos θ dω`.
+    fn bounce_radiance(&self, x: &SurfacePoint, time: f32, u: Vec2, lights: &mut Vec<ShadingLight>) -> Vec3 {
+        let dir = cosine_direction(x.normal, u);
+        // The side of the geometric surface the shading normal faces: a direction below it (where the
+        // shading normal tilts away from the geometry) would leave through the surface itself.
+        let g = x.geometric.normalize_or_zero();
+        let g = if g.dot(x.normal) >= 0.0 { g } else { -g };
+        if dir.dot(g) <= 0.0 {
+            return Vec3::ZERO;
+        }
+        let origin = x.position + x.offset * g;
+        let bvh = &self.bvhs[self.intervals.segment_of(time)];
+        // The nearest surface that stops light (coverage 1); those with less attenuate it.
+        let Some((y_hit, s)) = bvh.nearest(origin, dir, time, 0.0, f32::INFINITY, |id, h| {
+            let m = &self.materials[self.surface[id as usize].object as usize];
+            m.is_opaque() || self.coverage(id, h) >= 1.0
+        }) else {
+            return Vec3::ZERO;
+        };
+        let through = self.transmittance(origin, dir, s, time, x.offset);
+        if through == Vec3::ZERO {
+            return Vec3::ZERO;
+        }
+        let y = self.surface_point(&y_hit, dir, time, None);
+        self.shadowed_lights(&y, time, lights);
+        let roughness = self.materials[self.surface[y_hit.id as usize].object as usize].roughness;
+        // The diffuse term alone: no specular, no ambient.
+        through * shade(y.position, y.normal, -dir, y.albedo, 0.0, roughness, lights, Vec3::ZERO)
+    }
+}
+
+/// A shaded surface point: position, shading normal (facing the ray), geometric normal (unnormalised),
+/// the offset that clears its own surface for a secondary ray, albedo.
+struct SurfacePoint {
+    position: Vec3,
+    normal: Vec3,
+    geometric: Vec3,
+    offset: f32,
+    albedo: Vec3,
+}
+
+/// The direction with cosine-weighted density `cos θ / π` around the unit normal `n` for the point `u`
+/// of the unit square (Malley's method: the concentric disk lifted to the hemisphere; the frame of Duff
+/// et al. 2017).
+pub fn cosine_direction(n: Vec3, u: Vec2) -> Vec3 {
+    let p = crate::sampling::concentric_disk(u);
+    let z = (1.0 - p.length_squared()).max(0.0).sqrt();
+    let (t, b) = crate::sampling::orthonormal_frame(n);
+    (p.x * t + p.y * b + z * n).normalize()
 }
 
 #[cfg(test)]

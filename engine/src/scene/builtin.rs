@@ -35,8 +35,18 @@ use crate::error::{Error, Result};
 /// Names accepted by [`builtin_mesh`].
 pub const BUILTIN_MESHES: &[&str] = &["plane", "box", "sphere", "displaced-sphere", "spot"];
 /// Names accepted by [`builtin_scene`].
-pub const BUILTIN_SCENES: &[&str] =
-    &["default", "static", "focus-sweep", "one-mover", "glass", "foliage", "smoke", "arena", "chess"];
+pub const BUILTIN_SCENES: &[&str] = &[
+    "default",
+    "static",
+    "focus-sweep",
+    "one-mover",
+    "glass",
+    "foliage",
+    "smoke",
+    "arena",
+    "chess",
+    "cornell",
+];
 /// Names of the built-in textures a scene file's `texture` may give instead of a PNG path.
 pub const BUILTIN_TEXTURES: &[&str] = &["spot", "leaves", "checker"];
 
@@ -63,6 +73,7 @@ const SCENE_FOLIAGE: &str = include_str!("../../../scenes/foliage.toml");
 const SCENE_SMOKE: &str = include_str!("../../../scenes/smoke.toml");
 const SCENE_ARENA: &str = include_str!("../../../scenes/arena.toml");
 const SCENE_CHESS: &str = include_str!("../../../scenes/chess.toml");
+const SCENE_CORNELL: &str = include_str!("../../../scenes/cornell.toml");
 
 /// A procedural or embedded mesh by name; `None` when `name` is not a built-in mesh. `detail` is the
 /// tessellation level (ignored by `box`).
@@ -187,6 +198,7 @@ pub fn builtin_scene(name: &str) -> Option<Result<Scene>> {
         "smoke" => SCENE_SMOKE,
         "arena" => SCENE_ARENA,
         "chess" => SCENE_CHESS,
+        "cornell" => SCENE_CORNELL,
         _ => return None,
     };
     Some(super::file::parse_scene(text, Path::new("."), name))

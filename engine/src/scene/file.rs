@@ -77,6 +77,9 @@
 //! [environment]                 # optional
 //! ambient = [0.05, 0.05, 0.05]
 //! background = [0, 0, 0]
+//! indirect = "none"             # or "one-bounce": the direct lights' light reflected diffusely once
+//!                               # more (scene::Indirect; the CPU reference; GPU techniques ignore it
+//!                               # for now and say so)
 //! ```
 //!
 //! Meshes and textures referenced by several objects are loaded once and shared (a mesh per distinct
@@ -232,6 +235,7 @@ enum FileLight {
 struct FileEnvironment {
     ambient: Option<V3>,
     background: Option<V3>,
+    indirect: Option<String>,
 }
 
 /// Loads a scene file. Paths inside it are relative to its folder; the scene is named after the file
@@ -441,6 +445,15 @@ fn parse_with_source(text: &str, base_dir: &Path, default_name: &str, source: &s
         }
         if let Some(b) = env.background {
             environment.background = cx.non_negative3("environment.background", b)?;
+        }
+        if let Some(i) = &env.indirect {
+            environment.indirect = match i.as_str() {
+                "none" => super::Indirect::None,
+                "one-bounce" => super::Indirect::OneBounce,
+                other => {
+                    return Err(cx.err("environment.indirect", format!("`{other}`: `none` or `one-bounce`")))
+                }
+            };
         }
     }
 

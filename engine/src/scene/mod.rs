@@ -208,11 +208,38 @@ pub struct Environment {
     pub ambient: Vec3,
     /// Colour of pixels that see no geometry (linear).
     pub background: Vec3,
+    /// Light reflected between surfaces ([`Indirect`]).
+    pub indirect: Indirect,
 }
 
 impl Default for Environment {
     fn default() -> Self {
-        Environment { ambient: Vec3::splat(0.05), background: Vec3::ZERO }
+        Environment { ambient: Vec3::splat(0.05), background: Vec3::ZERO, indirect: Indirect::None }
+    }
+}
+
+/// Indirect light in the scene model (`[environment] indirect`, docs/INTERLEAVED.md).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum Indirect {
+    /// Direct light (and the constant ambient) only.
+    #[default]
+    None,
+    /// One diffuse bounce: the light of the direct lights that one surface reflects diffusely onto
+    /// another, reflected diffusely again. A surface point `y` lit by the direct lights (shadowed as
+    /// they are) sends out its diffuse radiance `albedo(y) · Σ e·max(n·l, 0)`, the diffuse term of
+    /// [`crate::shading::shade`] without ambient or specular; a shaded point `x` adds
+    /// `albedo(x)/π · ∫ L(y→x) cos θ dω` over its hemisphere — the Lambertian BRDF whose direct term
+    /// `albedo · e · cos θ` the model already uses (light colours are π × irradiance). Transparent
+    /// surfaces between `y` and `x` attenuate it as they do shadow rays.
+    OneBounce,
+}
+
+impl Indirect {
+    pub fn name(&self) -> &'static str {
+        match self {
+            Indirect::None => "none",
+            Indirect::OneBounce => "one-bounce",
+        }
     }
 }
 
