@@ -5,8 +5,8 @@
 # plain Gaussian, the paper's edge-aware one, per-axis edges, the paper's with bilinear pairs) against the
 # brute force (1x1, no filter) with the same VPL visibility — shadow rays (the paper's SSM) and none
 # (SNSM) — RMSE and FLIP (`shutter compare`), and the images and FLIP maps of 4x4.
-# The GPU speed of these steps is not measured here (the GPU technique is not built yet); the CPU
-# seconds are those of a single-threaded mirror. Needs a release build; writes docs/quality/interleaved/.
+# The GPU technique renders the same images (tests/tests/interleaved.rs); its speed is measured by
+# scripts/interleaved-bench.sh. The CPU seconds here are those of a single-threaded mirror. Needs a release build; writes docs/quality/interleaved/.
 # About a minute on 2 cores.
 set -euo pipefail
 cd "$(dirname "$0")/.."

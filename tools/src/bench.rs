@@ -55,8 +55,37 @@ pub fn apply_option(s: &mut RenderSettings, key: &str, value: &str) -> Result<()
         "clusters" => o.clusters = value.parse()?,
         "cache" => o.cache_entries = value.parse().with_context(|| format!("cache `{value}`"))?,
         "transparency" => s.transparency = value.parse()?,
+        // Technique `interleaved`.
+        "vpls" => s.interleaved.photons = value.parse().with_context(|| format!("vpls `{value}`"))?,
+        "clamp" => s.interleaved.clamp = value.parse().with_context(|| format!("clamp `{value}`"))?,
+        "pattern" => s.interleaved.pattern = value.parse()?,
+        "split" => s.interleaved.split = value.parse()?,
+        "block" => {
+            let b: shutter::interleaved::Pattern = value.parse()?;
+            s.interleaved.block = (b.n, b.m);
+        }
+        "filter" => {
+            let radius = s.interleaved.blur.map_or(s.interleaved.pattern.n.max(s.interleaved.pattern.m), |b| b.radius);
+            let bilinear = s.interleaved.blur.is_some_and(|b| b.bilinear);
+            let edges = match value {
+                "none" => None,
+                "plain" => Some(shutter::interleaved::Edges::Ignore),
+                "full" => Some(shutter::interleaved::Edges::Texel),
+                "axis" => Some(shutter::interleaved::Edges::Axis),
+                _ => bail!("filter `{value}`: none, plain, full or axis"),
+            };
+            s.interleaved.blur = edges.map(|edges| shutter::interleaved::Blur { radius, bilinear, edges });
+        }
+        "radius" => match &mut s.interleaved.blur {
+            Some(b) => b.radius = value.parse().with_context(|| format!("radius `{value}`"))?,
+            None => bail!("radius without a filter (filter=none)"),
+        },
+        "bilinear" => match &mut s.interleaved.blur {
+            Some(b) => b.bilinear = value.parse().with_context(|| format!("bilinear `{value}`: true or false"))?,
+            None => bail!("bilinear without a filter (filter=none)"),
+        },
         _ => bail!(
-            "unknown setting `{key}` (spp, shadow-map, transparency, bound, shading, per-pass, intervals, clusters, hull, cache)"
+            "unknown setting `{key}` (spp, shadow-map, transparency, bound, shading, per-pass, intervals, clusters, hull, cache; interleaved: vpls, clamp, pattern, split, block, filter, radius, bilinear)"
         ),
     }
     Ok(())

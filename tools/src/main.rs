@@ -98,6 +98,11 @@ enum Command {
         /// and the PCF radius in texels (docs/SHADOWS.md).
         #[arg(long, default_value = "1024/4/1")]
         shadow_map: String,
+        /// Further settings as `bench -c` takes them, KEY=VALUE, repeatable: for technique
+        /// `interleaved` vpls=N (photons), clamp=D, pattern=NxM, split=one|two, block=BxB (patterns),
+        /// filter=none|plain|full|axis, radius=R, bilinear=true|false (docs/INTERLEAVED.md).
+        #[arg(long = "set", value_name = "KEY=VALUE")]
+        set: Vec<String>,
         #[command(flatten)]
         image: ImageArgs,
     },
@@ -439,6 +444,7 @@ fn run() -> Result<()> {
             cache,
             transparency,
             shadow_map,
+            set,
             image: ImageArgs { size, seed, out },
         } => {
             let technique: Technique = technique.parse()?;
@@ -455,9 +461,11 @@ fn run() -> Result<()> {
                 cache_entries: cache,
             };
             let sc = load_scene(&scene)?;
-            if sc.environment.indirect != shutter::scene::Indirect::None {
+            if sc.environment.indirect != shutter::scene::Indirect::None
+                && technique != Technique::INTERLEAVED
+            {
                 eprintln!(
-                    "note: `{}` renders direct light only; the scene's indirect light (`{}`) is in the reference (`shutter reference`) alone for now",
+                    "note: `{}` renders direct light only; the scene's indirect light (`{}`) is rendered by technique `interleaved` and the reference",
                     technique.name(),
                     sc.environment.indirect.name()
                 );
@@ -465,6 +473,11 @@ fn run() -> Result<()> {
             let mut settings = RenderSettings::from_scene(&sc).with_stochastic(stochastic);
             settings.transparency = transparency;
             settings.shadows = shadows;
+            for kv in &set {
+                let (key, value) =
+                    kv.split_once('=').with_context(|| format!("--set `{kv}` is not KEY=VALUE"))?;
+                bench::apply_option(&mut settings, key.trim(), value.trim())?;
+            }
             if let Some((w, h)) = size {
                 (settings.width, settings.height) = (w, h);
             }

@@ -189,6 +189,17 @@ impl ForwardPipeline {
         samples: u32,
         shadows: Option<&ShadowMaps>,
     ) -> Result<Self> {
+        Self::with_format(device, world, samples, shadows, COLOR_FORMAT)
+    }
+
+    /// [`ForwardPipeline::with_shadows`] into a colour target of `format`.
+    pub fn with_format(
+        device: &Device,
+        world: &GpuWorld,
+        samples: u32,
+        shadows: Option<&ShadowMaps>,
+        format: vk::Format,
+    ) -> Result<Self> {
         let lookup = shadows.map(ShadowLookup::of);
         let vert = forward_vert(device, lookup.is_some())?;
         let (shadow_axis, shadow_color) = lookup.map_or((Shadows::None, false), |l| (l.shadows, l.color));
@@ -204,7 +215,7 @@ impl ForwardPipeline {
                 stages: &[&vert, &frag],
                 vertex_bindings: &bindings,
                 vertex_attributes: &attributes,
-                color_formats: &[COLOR_FORMAT],
+                color_formats: &[format],
                 depth_format: Some(DEPTH_FORMAT),
                 samples,
                 sample_shading: None,

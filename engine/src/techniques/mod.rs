@@ -23,6 +23,7 @@ pub mod auto;
 pub mod compute_hull;
 pub mod forward;
 pub mod graph_probe;
+pub mod interleaved;
 pub mod multipass;
 pub mod oit;
 pub mod pinhole;
@@ -82,6 +83,8 @@ pub struct RenderSettings {
     pub transparency: TransparencyMethod,
     /// The shadow maps of shadow-casting lights (unused without any).
     pub shadows: ShadowSettings,
+    /// Settings of technique `interleaved` (ignored by the others).
+    pub interleaved: interleaved::InterleavedOptions,
 }
 
 impl RenderSettings {
@@ -95,6 +98,7 @@ impl RenderSettings {
             stochastic: StochasticOptions::default(),
             transparency: TransparencyMethod::default(),
             shadows: ShadowSettings::default(),
+            interleaved: Default::default(),
         }
     }
     /// The same with these `stochastic` options.
@@ -518,6 +522,7 @@ pub fn shader_interfaces() -> impl Iterator<Item = &'static crate::gpu::layout::
         shadow_maps::SHADER_INTERFACES,
         oit::SHADER_INTERFACES,
         texture_space::SHADER_INTERFACES,
+        interleaved::SHADER_INTERFACES,
     ]
     .into_iter()
     .flatten()

@@ -2,7 +2,7 @@
 //! shader folder) exposing a `pub const INFO: `[`TechniqueInfo`], added to [`TECHNIQUES`] here with a
 //! constant on [`Technique`] — nothing else in the engine or the CLI names it.
 
-use super::{accumulation, auto, pinhole, stochastic, TechniqueInfo};
+use super::{accumulation, auto, interleaved, pinhole, stochastic, TechniqueInfo};
 
 /// A way of estimating the pixel integral on the GPU: a handle to a registry entry.
 #[derive(Clone, Copy)]
@@ -13,6 +13,7 @@ impl Technique {
     pub const PINHOLE: Technique = Technique(&pinhole::INFO);
     pub const ACCUMULATION: Technique = Technique(&accumulation::INFO);
     pub const STOCHASTIC: Technique = Technique(&stochastic::INFO);
+    pub const INTERLEAVED: Technique = Technique(&interleaved::INFO);
 
     pub fn name(&self) -> &'static str {
         self.0.name
@@ -26,8 +27,13 @@ impl Technique {
 }
 
 /// Every registered technique, the default (`auto`) first.
-pub const TECHNIQUES: &[Technique] =
-    &[Technique::AUTO, Technique::PINHOLE, Technique::ACCUMULATION, Technique::STOCHASTIC];
+pub const TECHNIQUES: &[Technique] = &[
+    Technique::AUTO,
+    Technique::PINHOLE,
+    Technique::ACCUMULATION,
+    Technique::STOCHASTIC,
+    Technique::INTERLEAVED,
+];
 
 impl PartialEq for Technique {
     fn eq(&self, other: &Self) -> bool {

@@ -1,0 +1,690 @@
+//! Technique `interleaved`: interleaved deferred shading of virtual point lights (Segovia, Iehl,
+//! Mitanchey & Péroche 2006; docs/INTERLEAVED.md) for a scene's one-bounce indirect light
+//! (`[environment] indirect = "one-bounce"`), on top of its direct light. The GPU port of
+//! [`crate::interleaved`], which specifies every step; shaders in `shaders-glsl/interleaved/`.
+//!
+//! As a graph, one pass each, timestamped by name:
+//! 1. `interleaved direct`: the forward pipeline's direct light (shadow maps included) at the pixel
+//!    centres, mid-shutter, lens centre; `interleaved G-buffer`: position, normal, albedo
+//!    (`gbuffer.frag`, the same draws);
+//! 2. `interleaved pack` and `interleaved split`: position and normal into the padded layout, then
+//!    split in one pass or two (block split, block translation: `permute.comp`; the pattern 1×1
+//!    splits into itself and skips it, and the gather);
+//! 3. `interleaved shade`: each split texel gathers its sub-buffer's VPL subset, scaled by `n·m`,
+//!    without VPL visibility (the paper's SNSM; its shadow-mapped SSM is not built);
+//! 4. `interleaved gather`: the inverse permutation(s);
+//! 5. `interleaved discontinuity` and 6. `interleaved blur` (both directions) unless the filter is off;
+//! 7. `interleaved compose`: direct + albedo × filtered indirect.
+//!
+//! The VPLs are the reference's ([`crate::reference::virtual_point_lights`], traced on the CPU at
+//! prepare time, uploaded): the CPU mirror with the same settings and no VPL visibility computes the
+//! same image, but for the direct light's shadows (shadow maps here, exact rays there) and the f32
+//! rounding between a rasterized and a ray-traced G-buffer. The pattern 1×1 without a filter is the
+//! brute force: every pixel gathers every VPL. Still, opaque scenes through a pinhole only: the VPLs
+//! are traced at one instant, and the G-buffer holds one sample per pixel.
+
+use ash::vk;
+use bytemuck::{Pod, Zeroable};
+
+use super::forward::{ForwardPipeline, ForwardPush, PassSample, FORWARD_STRUCTS};
+use super::multipass::{accumulation_image, DEPTH_FORMAT};
+use super::shadow_maps::ShadowMaps;
+use super::{FrameContext, FrameInputs, FrameTechnique, PrepareContext, TechniqueFrame, TechniqueInfo};
+use crate::error::{Error, Result};
+use crate::gpu::layout::{shared_struct, vertex_input, Binding, SharedStruct, TECHNIQUE_SET_INDEX};
+use crate::graph::{Access, BufferHandle, ImageHandle, Load, PassContext, Store, Tracked};
+use crate::interleaved::{Blur, Discontinuity, Edges, Layout, Pattern};
+use crate::shaders;
+use crate::vk::{
+    write_descriptors, Buffer, DescriptorPool, DescriptorSetLayout, DescriptorWrite, Faces, GraphicsDesc,
+    Image, ImageDesc, Pipeline, PipelineLayout, ShaderModule,
+};
+use gpu_allocator::MemoryLocation;
+
+/// The registry entry.
+pub const INFO: TechniqueInfo = TechniqueInfo {
+    name: "interleaved",
+    summary: "interleaved deferred shading of virtual point lights for one-bounce indirect light (Segovia et al. 2006): split G-buffer, per-sub-buffer VPL subsets, edge-aware blur",
+    prepare,
+};
+
+fn prepare(ctx: &PrepareContext<'_>) -> Result<Box<dyn FrameTechnique>> {
+    Ok(Box::new(InterleavedTechnique::new(ctx)?))
+}
+
+/// How the split is done.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum Split {
+    /// One permutation.
+    OnePass,
+    /// Block splitting, then block translation (the paper's cache-friendly variant).
+    #[default]
+    TwoPass,
+}
+
+impl std::str::FromStr for Split {
+    type Err = Error;
+    fn from_str(s: &str) -> Result<Self> {
+        match s {
+            "one" => Ok(Split::OnePass),
+            "two" => Ok(Split::TwoPass),
+            _ => Err(Error::Unsupported(format!("split `{s}`: one or two (passes)"))),
+        }
+    }
+}
+
+/// Settings of technique `interleaved`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct InterleavedOptions {
+    /// Photons traced from the lights ([`crate::reference::VplSettings::count`]).
+    pub photons: u32,
+    /// The VPLs' `1/d²` clamping distance, scene units (0: off).
+    pub clamp: f32,
+    pub pattern: Pattern,
+    pub split: Split,
+    /// The two-pass split's block, in patterns.
+    pub block: (u32, u32),
+    /// `None`: no filter.
+    pub blur: Option<Blur>,
+    pub discontinuity: Discontinuity,
+}
+
+impl Default for InterleavedOptions {
+    fn default() -> Self {
+        InterleavedOptions {
+            photons: 1024,
+            clamp: 0.1,
+            pattern: Pattern { n: 4, m: 4 },
+            split: Split::TwoPass,
+            block: (4, 4),
+            blur: Some(Blur { radius: 4, bilinear: false, edges: Edges::Texel }),
+            discontinuity: Discontinuity::default(),
+        }
+    }
+}
+
+/// Set 3 of the compute passes (`interleaved/common.glsl`).
+pub const INTERLEAVED_SET: [Binding; 8] = [
+    Binding { binding: 0, ty: vk::DescriptorType::STORAGE_BUFFER, block: "Texels" },
+    Binding { binding: 1, ty: vk::DescriptorType::STORAGE_BUFFER, block: "Vpls" },
+    Binding { binding: 2, ty: vk::DescriptorType::STORAGE_BUFFER, block: "Flags" },
+    Binding { binding: 3, ty: vk::DescriptorType::STORAGE_IMAGE, block: "g_position" },
+    Binding { binding: 4, ty: vk::DescriptorType::STORAGE_IMAGE, block: "g_normal" },
+    Binding { binding: 5, ty: vk::DescriptorType::STORAGE_IMAGE, block: "g_albedo" },
+    Binding { binding: 6, ty: vk::DescriptorType::STORAGE_IMAGE, block: "g_direct" },
+    Binding { binding: 7, ty: vk::DescriptorType::STORAGE_IMAGE, block: "result" },
+];
+
+/// Push constants of the compute passes (`Push` in `interleaved/common.glsl`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct InterleavedPush {
+    pub width: u32,
+    pub height: u32,
+    pub padded_w: u32,
+    pub padded_h: u32,
+    pub n: u32,
+    pub m: u32,
+    pub block_w: u32,
+    pub block_h: u32,
+    pub sub_w: u32,
+    pub sub_h: u32,
+    pub src: u32,
+    pub dst: u32,
+    pub stride: u32,
+    pub map: u32,
+    pub pull: u32,
+    pub vpl_count: u32,
+    pub clamp2: f32,
+    pub radius: u32,
+    pub axis: u32,
+    pub edges: u32,
+    pub bilinear: u32,
+    pub normal_cos: f32,
+    pub position_rel: f32,
+}
+
+/// A VPL as `Vpls` holds it.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct GpuVpl {
+    pub position: [f32; 4],
+    pub normal: [f32; 4],
+    pub flux: [f32; 4],
+}
+
+/// For the reflection test.
+pub const INTERLEAVED_STRUCTS: &[SharedStruct] = &[
+    shared_struct!(
+        "Push",
+        InterleavedPush,
+        [
+            width,
+            height,
+            padded_w,
+            padded_h,
+            n,
+            m,
+            block_w,
+            block_h,
+            sub_w,
+            sub_h,
+            src,
+            dst,
+            stride,
+            map,
+            pull,
+            vpl_count,
+            clamp2,
+            radius,
+            axis,
+            edges,
+            bilinear,
+            normal_cos,
+            position_rel
+        ]
+    ),
+    shared_struct!("Vpl", GpuVpl, [position, normal, flux]),
+];
+
+/// `MAP_*` of `permute.comp`.
+const MAP_SPLIT: u32 = 0;
+const MAP_BLOCK_SPLIT: u32 = 1;
+const MAP_BLOCK_TRANSLATE: u32 = 2;
+
+/// The G-buffer targets' format.
+const GBUFFER_FORMAT: vk::Format = vk::Format::R32G32B32A32_SFLOAT;
+
+/// Where each region of the texel buffer starts, in vec4s (`n` texels of the padded layout).
+#[derive(Clone, Copy, Debug)]
+struct Regions {
+    packed: u32,
+    split_tmp: u32,
+    split: u32,
+    shaded: u32,
+    gather_tmp: u32,
+    gathered: u32,
+    blur_x: u32,
+    blur_y: u32,
+    total: u32,
+}
+
+impl Regions {
+    fn new(n: u32) -> Regions {
+        Regions {
+            packed: 0,
+            split_tmp: 2 * n,
+            split: 4 * n,
+            shaded: 6 * n,
+            gather_tmp: 7 * n,
+            gathered: 8 * n,
+            blur_x: 9 * n,
+            blur_y: 10 * n,
+            total: 11 * n,
+        }
+    }
+}
+
+struct ComputePipelines {
+    pack: Pipeline,
+    permute: Pipeline,
+    shade: Pipeline,
+    discontinuity: Pipeline,
+    blur: Pipeline,
+    compose: Pipeline,
+    layout: PipelineLayout,
+    set: vk::DescriptorSet,
+    _set_layout: DescriptorSetLayout,
+    _pool: DescriptorPool,
+    _shaders: Vec<ShaderModule>,
+}
+
+/// The technique, prepared for one scene and settings.
+pub struct InterleavedTechnique {
+    options: InterleavedOptions,
+    layout: Layout,
+    regions: Regions,
+    vpl_count: u32,
+    direct: ForwardPipeline,
+    gbuffer: Pipeline,
+    gbuffer_layout: PipelineLayout,
+    _gbuffer_shaders: Vec<ShaderModule>,
+    compute: ComputePipelines,
+    g_position: Tracked<Image>,
+    g_normal: Tracked<Image>,
+    g_albedo: Tracked<Image>,
+    g_direct: Tracked<Image>,
+    result: Tracked<Image>,
+    texels: Tracked<Buffer>,
+    flags: Tracked<Buffer>,
+    _vpls: Buffer,
+    // Dropped after the direct pipeline whose set layout it uses.
+    shadows: Option<ShadowMaps>,
+}
+
+impl InterleavedTechnique {
+    pub fn new(ctx: &PrepareContext<'_>) -> Result<Self> {
+        let (device, world, scene, s) = (ctx.device, ctx.world, ctx.scene, ctx.settings);
+        let options = s.interleaved;
+        if scene.camera.aperture_radius > 0.0 {
+            return Err(Error::Unsupported(
+                "technique interleaved renders through the lens centre (its G-buffer holds one pinhole sample per pixel): give the scene aperture_radius = 0".into(),
+            ));
+        }
+        if super::forward::has_transparency(scene) {
+            return Err(Error::Unsupported(
+                "technique interleaved shades opaque surfaces only: the scene has alpha or tints".into(),
+            ));
+        }
+        let vpls = crate::reference::virtual_point_lights(
+            scene,
+            &crate::reference::VplSettings { count: options.photons, clamp: options.clamp, seed: s.seed },
+        )?;
+        let (width, height) = (s.width, s.height);
+        let layout = Layout::new(width, height, options.pattern, options.block)?;
+        let texel_count = layout.width * layout.height;
+        let regions = Regions::new(texel_count);
+
+        let shadows = ShadowMaps::new(device, world, scene, &s.shadows, &[0.5], s.seed)?;
+        // The direct light in f32 (the forward passes' f16 would round it by 5e-4 of itself).
+        let direct = ForwardPipeline::with_format(device, world, 1, shadows.as_ref(), GBUFFER_FORMAT)?;
+
+        // The G-buffer pipeline: forward.vert, gbuffer.frag, three targets.
+        let vert = super::forward::forward_vert(device, false)?;
+        let frag = ShaderModule::new(device, shaders::INTERLEAVED_GBUFFER_FRAG)?;
+        let stages = vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT;
+        let gbuffer_layout =
+            world.pipeline_layout(device, &[], std::mem::size_of::<ForwardPush>() as u32, stages)?;
+        let (bindings, attributes) = vertex_input();
+        let gbuffer = Pipeline::graphics(
+            device,
+            &gbuffer_layout,
+            &GraphicsDesc {
+                name: "interleaved G-buffer",
+                stages: &[&vert, &frag],
+                vertex_bindings: &bindings,
+                vertex_attributes: &attributes,
+                color_formats: &[GBUFFER_FORMAT; 3],
+                depth_format: Some(DEPTH_FORMAT),
+                samples: 1,
+                sample_shading: None,
+                faces: Faces::PerObject,
+                depth_compare: vk::CompareOp::GREATER,
+                depth_write: true,
+            },
+        )?;
+
+        let target = |name: &str, format: vk::Format| -> Result<Tracked<Image>> {
+            let usage = vk::ImageUsageFlags::COLOR_ATTACHMENT | vk::ImageUsageFlags::STORAGE;
+            Ok(Tracked::new(Image::new(device, name, ImageDesc::new_2d(width, height, format, usage))?))
+        };
+        let g_position = target("interleaved position", GBUFFER_FORMAT)?;
+        let g_normal = target("interleaved normal", GBUFFER_FORMAT)?;
+        let g_albedo = target("interleaved albedo", GBUFFER_FORMAT)?;
+        let g_direct = target("interleaved direct", GBUFFER_FORMAT)?;
+        let result = Tracked::new(accumulation_image(device, "interleaved result", (width, height))?);
+        let storage = vk::BufferUsageFlags::STORAGE_BUFFER;
+        let texels = Tracked::new(Buffer::new(
+            device,
+            "interleaved texels",
+            regions.total as u64 * 16,
+            storage,
+            MemoryLocation::GpuOnly,
+        )?);
+        let flags = Tracked::new(Buffer::new(
+            device,
+            "interleaved discontinuities",
+            (width * height) as u64 * 4,
+            storage,
+            MemoryLocation::GpuOnly,
+        )?);
+        let gpu_vpls: Vec<GpuVpl> = vpls
+            .iter()
+            .map(|v| GpuVpl {
+                position: [v.position.x, v.position.y, v.position.z, 1.0],
+                normal: [v.normal.x, v.normal.y, v.normal.z, 0.0],
+                flux: [v.flux.x, v.flux.y, v.flux.z, 0.0],
+            })
+            .collect();
+        let placeholder = [GpuVpl::default()];
+        let vpl_buffer = Buffer::with_data(
+            device,
+            "interleaved VPLs",
+            storage,
+            if gpu_vpls.is_empty() { &placeholder } else { &gpu_vpls },
+        )?;
+
+        let set_layout = DescriptorSetLayout::from_table(
+            device,
+            "interleaved set layout",
+            &INTERLEAVED_SET,
+            vk::ShaderStageFlags::COMPUTE,
+        )?;
+        let compute_layout = world.pipeline_layout(
+            device,
+            &[&world.empty_layout, &set_layout],
+            std::mem::size_of::<InterleavedPush>() as u32,
+            vk::ShaderStageFlags::COMPUTE,
+        )?;
+        let pool = DescriptorPool::for_tables(device, 1, &[(&INTERLEAVED_SET, 1)])?;
+        let set = pool.allocate(&set_layout)?;
+        write_descriptors(
+            device,
+            set,
+            &[
+                DescriptorWrite::storage_buffer(0, &texels),
+                DescriptorWrite::storage_buffer(1, &vpl_buffer),
+                DescriptorWrite::storage_buffer(2, &flags),
+                DescriptorWrite::StorageImage { binding: 3, view: g_position.view },
+                DescriptorWrite::StorageImage { binding: 4, view: g_normal.view },
+                DescriptorWrite::StorageImage { binding: 5, view: g_albedo.view },
+                DescriptorWrite::StorageImage { binding: 6, view: g_direct.view },
+                DescriptorWrite::StorageImage { binding: 7, view: result.view },
+            ],
+        );
+        let module = |src| ShaderModule::new(device, src);
+        let shader_modules = vec![
+            module(shaders::INTERLEAVED_PACK_COMP)?,
+            module(shaders::INTERLEAVED_PERMUTE_COMP)?,
+            module(shaders::INTERLEAVED_SHADE_COMP)?,
+            module(shaders::INTERLEAVED_DISCONTINUITY_COMP)?,
+            module(shaders::INTERLEAVED_BLUR_COMP)?,
+            module(shaders::INTERLEAVED_COMPOSE_COMP)?,
+        ];
+        let pipeline =
+            |name: &str, i: usize| Pipeline::compute(device, name, &compute_layout, &shader_modules[i]);
+        let compute = ComputePipelines {
+            pack: pipeline("interleaved pack", 0)?,
+            permute: pipeline("interleaved permute", 1)?,
+            shade: pipeline("interleaved shade", 2)?,
+            discontinuity: pipeline("interleaved discontinuity", 3)?,
+            blur: pipeline("interleaved blur", 4)?,
+            compose: pipeline("interleaved compose", 5)?,
+            layout: compute_layout,
+            set,
+            _set_layout: set_layout,
+            _pool: pool,
+            _shaders: shader_modules,
+        };
+        Ok(InterleavedTechnique {
+            options,
+            layout,
+            regions,
+            vpl_count: vpls.len() as u32,
+            direct,
+            gbuffer,
+            gbuffer_layout,
+            _gbuffer_shaders: vec![vert, frag],
+            compute,
+            g_position,
+            g_normal,
+            g_albedo,
+            g_direct,
+            result,
+            texels,
+            flags,
+            _vpls: vpl_buffer,
+            shadows,
+        })
+    }
+
+    /// The push constants every compute pass starts from.
+    fn push(&self) -> InterleavedPush {
+        let l = &self.layout;
+        let blur = self.options.blur.unwrap_or(Blur { radius: 0, bilinear: false, edges: Edges::Ignore });
+        InterleavedPush {
+            width: self.result.desc.width,
+            height: self.result.desc.height,
+            padded_w: l.width,
+            padded_h: l.height,
+            n: l.pattern.n,
+            m: l.pattern.m,
+            block_w: l.block.0,
+            block_h: l.block.1,
+            sub_w: l.sub.0,
+            sub_h: l.sub.1,
+            vpl_count: self.vpl_count,
+            clamp2: self.options.clamp * self.options.clamp,
+            radius: blur.radius,
+            edges: match blur.edges {
+                Edges::Ignore => 0,
+                Edges::Texel => 1,
+                Edges::Axis => 2,
+            },
+            bilinear: blur.bilinear as u32,
+            normal_cos: self.options.discontinuity.normal_deg.to_radians().cos(),
+            position_rel: self.options.discontinuity.position,
+            ..Default::default()
+        }
+    }
+
+    /// Dispatches `pipeline` over `(w, h)` texels with `push`, after a barrier when `barrier`.
+    fn dispatch(
+        &self,
+        ctx: &PassContext<'_>,
+        pipeline: &Pipeline,
+        push: InterleavedPush,
+        (w, h): (u32, u32),
+        barrier: bool,
+    ) {
+        let (d, cmd) = (ctx.device, ctx.cmd);
+        let bind = vk::PipelineBindPoint::COMPUTE;
+        unsafe {
+            if barrier {
+                let b = vk::MemoryBarrier2::default()
+                    .src_stage_mask(vk::PipelineStageFlags2::COMPUTE_SHADER)
+                    .src_access_mask(vk::AccessFlags2::SHADER_STORAGE_WRITE)
+                    .dst_stage_mask(vk::PipelineStageFlags2::COMPUTE_SHADER)
+                    .dst_access_mask(
+                        vk::AccessFlags2::SHADER_STORAGE_READ | vk::AccessFlags2::SHADER_STORAGE_WRITE,
+                    );
+                let dep = vk::DependencyInfo::default().memory_barriers(std::slice::from_ref(&b));
+                d.raw.cmd_pipeline_barrier2(cmd, &dep);
+            }
+            d.raw.cmd_bind_pipeline(cmd, bind, pipeline.raw);
+            d.raw.cmd_bind_descriptor_sets(
+                cmd,
+                bind,
+                self.compute.layout.raw,
+                TECHNIQUE_SET_INDEX,
+                &[self.compute.set],
+                &[],
+            );
+            d.raw.cmd_push_constants(
+                cmd,
+                self.compute.layout.raw,
+                vk::ShaderStageFlags::COMPUTE,
+                0,
+                bytemuck::bytes_of(&push),
+            );
+            d.raw.cmd_dispatch(cmd, w.div_ceil(8), h.div_ceil(8), 1);
+        }
+    }
+
+    /// A permutation of the padded layout (`permute.comp`).
+    fn permute(
+        &self,
+        ctx: &PassContext<'_>,
+        (src, dst): (u32, u32),
+        stride: u32,
+        map: u32,
+        pull: bool,
+        barrier: bool,
+    ) {
+        let push = InterleavedPush { src, dst, stride, map, pull: pull as u32, ..self.push() };
+        self.dispatch(ctx, &self.compute.permute, push, (self.layout.width, self.layout.height), barrier);
+    }
+}
+
+impl FrameTechnique for InterleavedTechnique {
+    fn render(&mut self, inputs: &FrameInputs<'_>, frame: &mut FrameContext<'_>) -> Result<TechniqueFrame> {
+        let this = &*self;
+        let mut g = frame.graph();
+        let inputs = *inputs;
+        let shadows = this.shadows.as_ref().map(|s| (s, s.import(&mut g)));
+        if let Some((s, h)) = shadows {
+            s.add_frame_passes(&mut g, h, &inputs);
+            s.add_pass_passes(&mut g, h, &inputs);
+        }
+        let shadow_reads = shadows.map(|(_, h)| ShadowMaps::reads(h)).unwrap_or_default();
+        let (w, h) = (this.result.desc.width, this.result.desc.height);
+        let position = g.import_image("interleaved position", &this.g_position);
+        let normal = g.import_image("interleaved normal", &this.g_normal);
+        let albedo = g.import_image("interleaved albedo", &this.g_albedo);
+        let direct = g.import_image("interleaved direct", &this.g_direct);
+        let result = g.import_image("interleaved result", &this.result);
+        let texels = g.import_buffer("interleaved texels", &this.texels);
+        let flags = g.import_buffer("interleaved discontinuities", &this.flags);
+        let depth_desc = ImageDesc::new_2d(w, h, DEPTH_FORMAT, vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT);
+        let depth = g.create_image("interleaved depth", depth_desc)?;
+        let gdepth = g.create_image("interleaved G-buffer depth", depth_desc)?;
+        let centre = PassSample { time: 0.5, lens: glam::Vec2::ZERO, jitter: glam::Vec2::ZERO };
+
+        g.pass("interleaved direct")
+            .color(direct, Load::Clear(inputs.world.background), Store::Store)
+            .depth(depth, Load::Clear(0.0), Store::DontCare)
+            .accesses(shadow_reads.iter().copied())
+            .record(move |ctx| {
+                this.direct.record_draws(ctx.device, ctx.cmd, inputs.world, inputs.camera, &centre, |_| true);
+                Ok(())
+            });
+        g.pass("interleaved G-buffer")
+            .color(position, Load::Clear([0.0; 4]), Store::Store)
+            .color(normal, Load::Clear([0.0; 4]), Store::Store)
+            .color(albedo, Load::Clear([0.0; 4]), Store::Store)
+            .depth(gdepth, Load::Clear(0.0), Store::DontCare)
+            .record(move |ctx| {
+                let stages = vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT;
+                let push = |i: usize| ForwardPush::new(inputs.camera, i, &centre);
+                let bind = vk::PipelineBindPoint::GRAPHICS;
+                unsafe { ctx.device.raw.cmd_bind_pipeline(ctx.cmd, bind, this.gbuffer.raw) };
+                inputs.world.record_object_draws(
+                    ctx.device,
+                    ctx.cmd,
+                    inputs.camera,
+                    &this.gbuffer,
+                    &this.gbuffer_layout,
+                    stages,
+                    |_| true,
+                    push,
+                    |_| None,
+                );
+                Ok(())
+            });
+        let r = this.regions;
+        let padded = (this.layout.width, this.layout.height);
+        let image_read = Access::ComputeShaderReadOther;
+        let rw = |b: BufferHandle| {
+            [(b.into(), Access::ComputeShaderReadOther), (b.into(), Access::ComputeShaderWrite)]
+        };
+        let reads = |imgs: &[ImageHandle]| imgs.iter().map(|&i| (i.into(), image_read)).collect::<Vec<_>>();
+        g.pass("interleaved pack").accesses(reads(&[position, normal])).accesses(rw(texels)).record(
+            move |ctx| {
+                let push = InterleavedPush { dst: r.packed, ..this.push() };
+                this.dispatch(ctx, &this.compute.pack, push, padded, false);
+                Ok(())
+            },
+        );
+        let split = this.options.split;
+        // The pattern 1×1 (the brute force) splits into itself: no permutation, no gather.
+        let identity = this.options.pattern == Pattern::ONE;
+        let (shade_src, shade_dst) = if identity { (r.packed, r.gathered) } else { (r.split, r.shaded) };
+        if !identity {
+            g.pass("interleaved split").accesses(rw(texels)).record(move |ctx| {
+                match split {
+                    Split::OnePass => this.permute(ctx, (r.packed, r.split), 2, MAP_SPLIT, false, false),
+                    Split::TwoPass => {
+                        this.permute(ctx, (r.packed, r.split_tmp), 2, MAP_BLOCK_SPLIT, false, false);
+                        this.permute(ctx, (r.split_tmp, r.split), 2, MAP_BLOCK_TRANSLATE, false, true);
+                    }
+                }
+                Ok(())
+            });
+        }
+        g.pass("interleaved shade").accesses(rw(texels)).record(move |ctx| {
+            let push = InterleavedPush { src: shade_src, dst: shade_dst, ..this.push() };
+            this.dispatch(ctx, &this.compute.shade, push, padded, false);
+            Ok(())
+        });
+        if !identity {
+            g.pass("interleaved gather").accesses(rw(texels)).record(move |ctx| {
+                match split {
+                    Split::OnePass => this.permute(ctx, (r.shaded, r.gathered), 1, MAP_SPLIT, true, false),
+                    Split::TwoPass => {
+                        this.permute(ctx, (r.shaded, r.gather_tmp), 1, MAP_BLOCK_TRANSLATE, true, false);
+                        this.permute(ctx, (r.gather_tmp, r.gathered), 1, MAP_BLOCK_SPLIT, true, true);
+                    }
+                }
+                Ok(())
+            });
+        }
+        let filtered = if this.options.blur.is_some() {
+            g.pass("interleaved discontinuity")
+                .accesses(reads(&[position, normal]))
+                .access(flags, Access::ComputeShaderWrite)
+                .record(move |ctx| {
+                    this.dispatch(ctx, &this.compute.discontinuity, this.push(), (w, h), false);
+                    Ok(())
+                });
+            g.pass("interleaved blur")
+                .accesses(rw(texels))
+                .access(flags, Access::ComputeShaderReadOther)
+                .record(move |ctx| {
+                    let x = InterleavedPush { src: r.gathered, dst: r.blur_x, axis: 0, ..this.push() };
+                    this.dispatch(ctx, &this.compute.blur, x, (w, h), false);
+                    let y = InterleavedPush { src: r.blur_x, dst: r.blur_y, axis: 1, ..this.push() };
+                    this.dispatch(ctx, &this.compute.blur, y, (w, h), true);
+                    Ok(())
+                });
+            r.blur_y
+        } else {
+            r.gathered
+        };
+        g.pass("interleaved compose")
+            .accesses(reads(&[position, albedo, direct]))
+            .access(texels, Access::ComputeShaderReadOther)
+            .overwrite(result, Access::ComputeShaderWrite)
+            .record(move |ctx| {
+                let push = InterleavedPush { src: filtered, ..this.push() };
+                this.dispatch(ctx, &this.compute.compose, push, (w, h), false);
+                Ok(())
+            });
+        let readback = g.read_back(result)?;
+        let mut out = frame.run(g)?;
+        Ok(TechniqueFrame {
+            image: out.take_image(readback),
+            passes: 1,
+            msaa_samples: 1,
+            counters: None,
+            clusters: vec![],
+        })
+    }
+
+    fn shadows(&self) -> Option<String> {
+        self.shadows.as_ref().map(ShadowMaps::summary)
+    }
+}
+
+/// What `interleaved/` expects: the G-buffer fragment stage with [`ForwardPush`] (sets 0 and 1); the
+/// compute passes with set 3 [`INTERLEAVED_SET`] and [`InterleavedPush`].
+pub const SHADER_INTERFACES: &[crate::gpu::layout::ShaderInterface] = &[
+    crate::gpu::layout::ShaderInterface::technique(
+        &["interleaved/gbuffer.frag"],
+        None,
+        None,
+        Some(FORWARD_STRUCTS[0]),
+    ),
+    crate::gpu::layout::ShaderInterface::technique(
+        &[
+            "interleaved/pack.comp",
+            "interleaved/permute.comp",
+            "interleaved/shade.comp",
+            "interleaved/discontinuity.comp",
+            "interleaved/blur.comp",
+            "interleaved/compose.comp",
+        ],
+        None,
+        Some(&INTERLEAVED_SET),
+        Some(INTERLEAVED_STRUCTS[0]),
+    ),
+];

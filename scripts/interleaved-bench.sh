@@ -1,0 +1,31 @@
+#!/usr/bin/env bash
+# Technique `interleaved` timed (docs/INTERLEAVED.md): one interleaved `shutter bench` on the built-in
+# `cornell` at 640×480 with about 480 VPLs (558 photons; the paper's Table 4 count) — the brute force
+# (pattern 1x1, no filter) against 8x6 (the paper's pattern) and the others, split in one pass or two
+# by block size, the blur plain, edge-aware, per axis and in bilinear pairs, and without a filter.
+# GPU ms per step come from each pass' timestamps ("per pass"). Needs a release build; writes
+# docs/quality/interleaved/bench-cornell-640.md and .csv. About 3 minutes on the 2-core VM.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+S=target/release/shutter
+out=docs/quality/interleaved
+mkdir -p "$out"
+v=vpls=558
+configs=(
+  -c "interleaved:$v:pattern=1x1:filter=none"
+  -c "interleaved:$v:pattern=8x6"
+  -c "interleaved:$v:pattern=8x6:filter=none"
+  -c "interleaved:$v:pattern=8x6:filter=plain"
+  -c "interleaved:$v:pattern=8x6:filter=axis"
+  -c "interleaved:$v:pattern=8x6:bilinear=true"
+  -c "interleaved:$v:pattern=8x6:split=one"
+  -c "interleaved:$v:pattern=8x6:block=1x1"
+  -c "interleaved:$v:pattern=8x6:block=2x2"
+  -c "interleaved:$v:pattern=8x6:block=8x8"
+  -c "interleaved:$v:pattern=2x2"
+  -c "interleaved:$v:pattern=4x4"
+  -c "interleaved:$v:pattern=8x8"
+)
+$S bench cornell --size 640x480 --frames 3 --warmup 1 --no-counters "${configs[@]}" \
+  --csv "$out/bench-cornell-640.csv" > "$out/bench-cornell-640.md"
+cat "$out/bench-cornell-640.md"
