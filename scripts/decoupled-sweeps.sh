@@ -12,8 +12,8 @@
 #    `one-mover`) of every shading mode — per-pixel, per-sample, decoupled and AAS with either cache,
 #    texture-space (ATSS) — at S = 4, 16 and 64;
 #  * shading cost as a dial: the ATSS light-dial scenes (scripts/atss-lights.sh, 1–256 point lights),
-#    per-sample, per-pixel and decoupled and AAS shading with either cache (64k entries) at S = 8, one
-#    interleaved bench per count.
+#    per-sample, per-pixel, decoupled and AAS shading with either cache (64k entries) and texture-space
+#    shading (ATSS) at S = 8, one interleaved bench per count.
 # About 25 minutes on the 2-core VM (llvmpipe); QUALITY_ONLY=1 runs the quality sweeps only.
 # Needs a release build (cargo build --release); writes docs/quality/decoupled/.
 set -euo pipefail
@@ -49,7 +49,7 @@ for n in 1 16 64 256; do
   $S bench "out/atss/lights-$n.toml" --spp 8 --frames 3 --warmup 1 \
     -c stochastic:shading=per-sample -c stochastic:shading=per-pixel -c stochastic:shading=decoupled \
     -c stochastic:shading=decoupled-deferred -c stochastic:shading=aas -c stochastic:shading=aas-deferred \
-    > "docs/quality/decoupled/lights-$n-s8.md"
+    -c stochastic:shading=texture-space > "docs/quality/decoupled/lights-$n-s8.md"
 done
 fi
 for scene in default one-mover; do

@@ -4,7 +4,7 @@
 # (pattern 1x1, no filter) against 8x6 (the paper's pattern) and the others, split in one pass or two
 # by block size, the blur plain, edge-aware, per axis and in bilinear pairs, and without a filter.
 # GPU ms per step come from each pass' timestamps ("per pass"). Needs a release build; writes
-# docs/quality/interleaved/bench-cornell-640.md and .csv. About 3 minutes on the 2-core VM.
+# docs/quality/interleaved/bench-{cornell,interior}-640.md and .csv. About a minute on the 2-core VM.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 S=target/release/shutter
@@ -29,3 +29,8 @@ configs=(
 $S bench cornell --size 640x480 --frames 3 --warmup 1 --no-counters "${configs[@]}" \
   --csv "$out/bench-cornell-640.csv" > "$out/bench-cornell-640.md"
 cat "$out/bench-cornell-640.md"
+# The textured interior: the brute force against three patterns.
+$S bench interior --size 640x480 --frames 3 --warmup 1 --no-counters -c "interleaved:$v:pattern=1x1:filter=none" \
+  -c "interleaved:$v:pattern=4x4" -c "interleaved:$v:pattern=8x6" -c "interleaved:$v:pattern=8x8" \
+  --csv "$out/bench-interior-640.csv" > "$out/bench-interior-640.md"
+cat "$out/bench-interior-640.md"

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Interleaved deferred shading's image quality, by its CPU mirror (engine/src/interleaved.rs,
 # `shutter reference --vpls N --interleave NxM`), on the built-in `cornell` at 160×120 with 1024 photons
-# (880 VPLs) clamped at 0.1 (docs/INTERLEAVED.md): every pattern (2x2, 4x4, 8x6, 8x8) × filter (none,
+# (880 VPLs on `cornell`) clamped at 0.1, and on the textured `interior` alike (docs/INTERLEAVED.md): every pattern (2x2, 4x4, 8x6, 8x8) × filter (none,
 # plain Gaussian, the paper's edge-aware one, per-axis edges, the paper's with bilinear pairs) against the
 # brute force (1x1, no filter) with the same VPL visibility — shadow rays (the paper's SSM) and none
 # (SNSM) — RMSE and FLIP (`shutter compare`), and the images and FLIP maps of 4x4.
@@ -14,13 +14,14 @@ S=target/release/shutter
 out=docs/quality/interleaved
 tmp=out/interleaved
 mkdir -p "$out" "$tmp"
-run() { $S reference cornell --size 160x120 --vpls 1024 --clamp 0.1 "$@" | sed -n 's/.* in \([0-9.]*\) s;.*/\1/p'; }
+run() { $S reference "$scene" --size 160x120 --vpls 1024 --clamp 0.1 "$@" | sed -n 's/.* in \([0-9.]*\) s;.*/\1/p'; }
 metrics() { $S compare "$1" "$2" | awk '/^RMSE/{r=$2} /^FLIP/{f=$2} END{print r" | "f}'; }
+for scene in cornell interior; do
 {
   for vis in ssm snsm; do
     flag=""
     [ "$vis" = snsm ] && flag="--snsm"
-    brute="$tmp/brute-$vis.exr"
+    brute="$tmp/$scene-brute-$vis.exr"
     secs=$(run --interleave 1x1 --filter none $flag --out "$brute")
     echo ""
     echo "VPL visibility: $vis (brute force: ${secs} s on the CPU)"
@@ -32,16 +33,17 @@ metrics() { $S compare "$1" "$2" | awk '/^RMSE/{r=$2} /^FLIP/{f=$2} END{print r"
         f=${filter%-bilinear}
         extra=""
         [ "$filter" = full-bilinear ] && extra="--bilinear"
-        img="$tmp/$vis-$pattern-$filter.exr"
+        img="$tmp/$scene-$vis-$pattern-$filter.exr"
         secs=$(run --interleave "$pattern" --filter "$f" $extra $flag --out "$img")
         echo "| $pattern | $filter | $secs | $(metrics "$brute" "$img") |"
       done
     done
   done
-} > "$out/interleaved-cornell.md"
-$S convert "$tmp/brute-ssm.exr" "$out/cornell-brute-force.png" > /dev/null
+} > "$out/interleaved-$scene.md"
+$S convert "$tmp/$scene-brute-ssm.exr" "$out/$scene-brute-force.png" > /dev/null
 for filter in none plain full axis; do
-  $S convert "$tmp/ssm-4x4-$filter.exr" "$out/cornell-4x4-$filter.png" > /dev/null
-  $S compare "$tmp/brute-ssm.exr" "$tmp/ssm-4x4-$filter.exr" --diff "$out/cornell-4x4-$filter-flip.png" > /dev/null
+  $S convert "$tmp/$scene-ssm-4x4-$filter.exr" "$out/$scene-4x4-$filter.png" > /dev/null
+  $S compare "$tmp/$scene-brute-ssm.exr" "$tmp/$scene-ssm-4x4-$filter.exr" --diff "$out/$scene-4x4-$filter-flip.png" > /dev/null
 done
-cat "$out/interleaved-cornell.md"
+cat "$out/interleaved-$scene.md"
+done

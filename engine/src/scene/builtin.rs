@@ -46,6 +46,7 @@ pub const BUILTIN_SCENES: &[&str] = &[
     "arena",
     "chess",
     "cornell",
+    "interior",
 ];
 /// Names of the built-in textures a scene file's `texture` may give instead of a PNG path.
 pub const BUILTIN_TEXTURES: &[&str] = &["spot", "leaves", "checker"];
@@ -74,6 +75,7 @@ const SCENE_SMOKE: &str = include_str!("../../../scenes/smoke.toml");
 const SCENE_ARENA: &str = include_str!("../../../scenes/arena.toml");
 const SCENE_CHESS: &str = include_str!("../../../scenes/chess.toml");
 const SCENE_CORNELL: &str = include_str!("../../../scenes/cornell.toml");
+const SCENE_INTERIOR: &str = include_str!("../../../scenes/interior.toml");
 
 /// A procedural or embedded mesh by name; `None` when `name` is not a built-in mesh. `detail` is the
 /// tessellation level (ignored by `box`).
@@ -199,6 +201,7 @@ pub fn builtin_scene(name: &str) -> Option<Result<Scene>> {
         "arena" => SCENE_ARENA,
         "chess" => SCENE_CHESS,
         "cornell" => SCENE_CORNELL,
+        "interior" => SCENE_INTERIOR,
         _ => return None,
     };
     Some(super::file::parse_scene(text, Path::new("."), name))

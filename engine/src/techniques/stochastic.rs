@@ -1508,6 +1508,17 @@ impl StochasticDraws {
             None
         };
         let decoupled = if let Some(kind) = options.shading.decoupled_grid() {
+            // The memoization cache's seqlock relies on the order of plain (relaxed) atomics, which
+            // llvmpipe's sequentially consistent atomics keep and a GPU's need not (decoupled.glsl): on
+            // any other device it could return a half-written value, so it is refused there.
+            if !options.shading.deferred() && !device.caps.is_lavapipe() {
+                return Err(Error::Unsupported(format!(
+                    "--shading {}: the memoization cache is exact only where atomics are sequentially consistent (lavapipe); on {} use `{}-deferred`, whose hash table needs no ordering",
+                    options.shading.name(),
+                    device.caps.device_name,
+                    options.shading.name()
+                )));
+            }
             if !(1..=MAX_CACHE_ENTRIES).contains(&options.cache_entries) {
                 return Err(Error::Unsupported(format!(
                     "a decoupled shading cache of {} entries: 1 ..= {MAX_CACHE_ENTRIES}",
