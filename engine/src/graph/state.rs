@@ -39,15 +39,25 @@ pub fn layout_of(access: AccessType) -> vk::ImageLayout {
 pub struct ResourceState {
     /// The last write since the state began, if any.
     pub last_write: Option<AccessType>,
-    /// Read kinds ordered after `last_write` (by a barrier, or because there was no write).
+    /// Read kinds since `last_write`, the write's own pass' included: what a later write must wait
+    /// for.
     pub reads: Vec<AccessType>,
+    /// Of those, the kinds ordered after `last_write` (by a barrier, or because there was no write):
+    /// a later read of such a kind needs no barrier. A read declared by the pass that writes is not
+    /// among them — it is not ordered after that pass' own write.
+    pub ordered_reads: Vec<AccessType>,
     /// Current layout (images only; `UNDEFINED` for buffers and fresh images).
     pub layout: vk::ImageLayout,
 }
 
 impl Default for ResourceState {
     fn default() -> Self {
-        ResourceState { last_write: None, reads: Vec::new(), layout: vk::ImageLayout::UNDEFINED }
+        ResourceState {
+            last_write: None,
+            reads: Vec::new(),
+            ordered_reads: Vec::new(),
+            layout: vk::ImageLayout::UNDEFINED,
+        }
     }
 }
 
@@ -93,7 +103,7 @@ impl ResourceState {
         }
         let writes = next.iter().any(|&a| is_write(a));
         let layout_change = image && (self.layout != new_layout || (discard && self.layout_is_defined()));
-        let unseen_read = next.iter().any(|a| !self.reads.contains(a));
+        let unseen_read = next.iter().any(|a| !self.ordered_reads.contains(a));
         let needs_barrier = if writes || layout_change {
             // Every earlier access must finish first (and the last write be made available).
             self.last_write.is_some() || !self.reads.is_empty() || layout_change
@@ -115,12 +125,18 @@ impl ResourceState {
         if writes {
             self.last_write = Some(*next.iter().find(|&&a| is_write(a)).expect("a write"));
             self.reads = next.iter().copied().filter(|&a| !is_write(a)).collect();
+            self.ordered_reads.clear();
         } else if layout_change {
             self.reads = next.to_vec();
+            self.ordered_reads = next.to_vec();
         } else {
             for &a in next {
                 if !self.reads.contains(&a) {
                     self.reads.push(a);
+                }
+                // Ordered after the last write now: by the barrier just made, or already.
+                if !self.ordered_reads.contains(&a) {
+                    self.ordered_reads.push(a);
                 }
             }
         }
@@ -170,6 +186,22 @@ mod tests {
         assert_eq!(t.previous, vec![ComputeShaderWrite, FragmentShaderReadOther, ComputeShaderReadOther]);
         let t = s.access(&[HostRead], false, false).unwrap().expect("device-to-host barrier");
         assert_eq!((t.previous, t.next), (vec![TransferWrite], vec![HostRead]));
+    }
+
+    /// A pass that reads and writes a resource: a later pass reading it the same way still waits for
+    /// the write (the first pass' read is not ordered after its own write), and a later write waits
+    /// for both.
+    #[test]
+    fn a_read_in_the_writing_pass_does_not_order_later_reads() {
+        let mut s = ResourceState::default();
+        s.access(&[ComputeShaderReadOther, ComputeShaderWrite], false, false).unwrap();
+        let t = s.access(&[ComputeShaderReadOther], false, false).unwrap().expect("RAW barrier");
+        assert_eq!(t.previous, vec![ComputeShaderWrite]);
+        assert_eq!(s.access(&[ComputeShaderReadOther], false, false).unwrap(), None, "now ordered");
+        let mut s = ResourceState::default();
+        s.access(&[FragmentShaderReadOther, ComputeShaderWrite], false, false).unwrap();
+        let t = s.access(&[TransferWrite], false, false).unwrap().expect("WAW + WAR");
+        assert_eq!(t.previous, vec![ComputeShaderWrite, FragmentShaderReadOther]);
     }
 
     #[test]

@@ -640,12 +640,9 @@ impl FrameTechnique for InterleavedTechnique {
         } else {
             r.gathered
         };
-        // Declared read-write although compose only reads the texels: the graph counts the reads of a
-        // pass that also wrote a resource (the blur) as ordered after its write, so a plain read here
-        // would get no barrier (synchronization validation's READ_AFTER_WRITE).
         g.pass("interleaved compose")
             .accesses(reads(&[position, albedo, direct]))
-            .accesses(rw(texels))
+            .access(texels, Access::ComputeShaderReadOther)
             .overwrite(result, Access::ComputeShaderWrite)
             .record(move |ctx| {
                 let push = InterleavedPush { src: filtered, ..this.push() };
