@@ -2,7 +2,8 @@
 # Technique `interleaved` timed (docs/INTERLEAVED.md): one interleaved `shutter bench` on the built-in
 # `cornell` at 640×480 with about 480 VPLs (558 photons; the paper's Table 4 count) — the brute force
 # (pattern 1x1, no filter) against 8x6 (the paper's pattern) and the others, split in one pass or two
-# by block size, the blur plain, edge-aware, per axis and in bilinear pairs, and without a filter.
+# by block size, the blur plain, edge-aware, per axis and in bilinear pairs, and without a filter; and
+# with the VPLs' cube shadow maps (vpl-maps=32 and 16 texels a face: the paper's SSM) against none (SNSM).
 # GPU ms per step come from each pass' timestamps ("per pass"). Needs a release build; writes
 # docs/quality/interleaved/bench-{cornell,interior}-640.md and .csv. About a minute on the 2-core VM.
 set -euo pipefail
@@ -25,6 +26,9 @@ configs=(
   -c "interleaved:$v:pattern=2x2"
   -c "interleaved:$v:pattern=4x4"
   -c "interleaved:$v:pattern=8x8"
+  -c "interleaved:$v:pattern=1x1:filter=none:vpl-maps=32"
+  -c "interleaved:$v:pattern=8x6:vpl-maps=32"
+  -c "interleaved:$v:pattern=8x6:vpl-maps=16"
 )
 $S bench cornell --size 640x480 --frames 3 --warmup 1 --no-counters "${configs[@]}" \
   --csv "$out/bench-cornell-640.csv" > "$out/bench-cornell-640.md"

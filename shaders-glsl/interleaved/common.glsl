@@ -21,6 +21,11 @@ layout(set = 3, binding = 4, rgba32f) uniform readonly image2D g_normal;
 layout(set = 3, binding = 5, rgba32f) uniform readonly image2D g_albedo;
 layout(set = 3, binding = 6, rgba32f) uniform readonly image2D g_direct;
 layout(set = 3, binding = 7, rgba32f) uniform image2D result;
+// The VPL shadow maps (SSM): an atlas of cube faces, face f of VPL i at index 6 i + f in rows of
+// pc.atlas_cols faces of pc.face_size² texels, each texel the distance from the VPL over pc.far; and
+// each face's camera-space view-projection.
+layout(set = 3, binding = 8) uniform sampler2D vpl_maps;
+layout(set = 3, binding = 9, std430) readonly buffer VplFaces { mat4 vpl_faces[]; };
 
 layout(push_constant) uniform Push {
     uint width;        // the image
@@ -46,6 +51,10 @@ layout(push_constant) uniform Push {
     uint bilinear;
     float normal_cos;  // the discontinuity thresholds
     float position_rel;
+    uint face_size;    // the VPL shadow maps (0: none, SNSM)
+    uint atlas_cols;
+    float far;
+    float shadow_bias; // a receiver is lit when its distance ≤ the map's · (1 + bias) + bias
 } pc;
 
 const uint MAP_SPLIT = 0u;

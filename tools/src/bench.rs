@@ -80,12 +80,18 @@ pub fn apply_option(s: &mut RenderSettings, key: &str, value: &str) -> Result<()
             Some(b) => b.radius = value.parse().with_context(|| format!("radius `{value}`"))?,
             None => bail!("radius without a filter (filter=none)"),
         },
+        "vpl-maps" => {
+            s.interleaved.vpl_maps = match value {
+                "off" => None,
+                v => Some(v.parse().with_context(|| format!("vpl-maps `{value}`: texels a face, or off"))?),
+            }
+        }
         "bilinear" => match &mut s.interleaved.blur {
             Some(b) => b.bilinear = value.parse().with_context(|| format!("bilinear `{value}`: true or false"))?,
             None => bail!("bilinear without a filter (filter=none)"),
         },
         _ => bail!(
-            "unknown setting `{key}` (spp, shadow-map, transparency, bound, shading, per-pass, intervals, clusters, hull, cache; interleaved: vpls, clamp, pattern, split, block, filter, radius, bilinear)"
+            "unknown setting `{key}` (spp, shadow-map, transparency, bound, shading, per-pass, intervals, clusters, hull, cache; interleaved: vpls, clamp, pattern, split, block, filter, radius, bilinear, vpl-maps)"
         ),
     }
     Ok(())

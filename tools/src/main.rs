@@ -100,7 +100,8 @@ enum Command {
         shadow_map: String,
         /// Further settings as `bench -c` takes them, KEY=VALUE, repeatable: for technique
         /// `interleaved` vpls=N (photons), clamp=D, pattern=NxM, split=one|two, block=BxB (patterns),
-        /// filter=none|plain|full|axis, radius=R, bilinear=true|false (docs/INTERLEAVED.md).
+        /// filter=none|plain|full|axis, radius=R, bilinear=true|false, vpl-maps=SIZE|off (a cube
+        /// shadow map per VPL, SIZE² texels a face; off: no VPL visibility) (docs/INTERLEAVED.md).
         #[arg(long = "set", value_name = "KEY=VALUE")]
         set: Vec<String>,
         #[command(flatten)]

@@ -11,14 +11,15 @@
 //!    split in one pass or two (block split, block translation: `permute.comp`; the pattern 1×1
 //!    splits into itself and skips it, and the gather);
 //! 3. `interleaved shade`: each split texel gathers its sub-buffer's VPL subset, scaled by `n·m`,
-//!    without VPL visibility (the paper's SNSM; its shadow-mapped SSM is not built);
+//!    without VPL visibility (the paper's SNSM) or, with [`InterleavedOptions::vpl_maps`], through a
+//!    cube shadow map per VPL (its SSM: `interleaved VPL shadow maps` renders them first);
 //! 4. `interleaved gather`: the inverse permutation(s);
 //! 5. `interleaved discontinuity` and 6. `interleaved blur` (both directions) unless the filter is off;
 //! 7. `interleaved compose`: direct + albedo × filtered indirect.
 //!
 //! The VPLs are the reference's ([`crate::reference::virtual_point_lights`], traced on the CPU at
 //! prepare time, uploaded): the CPU mirror with the same settings and no VPL visibility computes the
-//! same image, but for the direct light's shadows (shadow maps here, exact rays there) and the f32
+//! same image (with shadow maps, the mirror's exact shadow rays are what they approximate), but for the direct light's shadows (shadow maps here, exact rays there) and the f32
 //! rounding between a rasterized and a ray-traced G-buffer. The pattern 1×1 without a filter is the
 //! brute force: every pixel gathers every VPL. Still, opaque scenes through a pinhole only: the VPLs
 //! are traced at one instant, and the G-buffer holds one sample per pixel.
@@ -87,7 +88,14 @@ pub struct InterleavedOptions {
     /// `None`: no filter.
     pub blur: Option<Blur>,
     pub discontinuity: Discontinuity,
+    /// The VPLs' visibility: `None`, none (the paper's SNSM); `Some(size)`, a cube shadow map per VPL
+    /// of `size`² texels per face (its SSM).
+    pub vpl_maps: Option<u32>,
 }
+
+/// The VPL shadow maps' depth bias: a receiver is lit when its distance from the VPL is at most the
+/// map's times (1 + bias) plus bias (scene units) — the texels of a small map span a range of depths.
+pub const VPL_SHADOW_BIAS: f32 = 0.05;
 
 impl Default for InterleavedOptions {
     fn default() -> Self {
@@ -99,12 +107,13 @@ impl Default for InterleavedOptions {
             block: (4, 4),
             blur: Some(Blur { radius: 4, bilinear: false, edges: Edges::Texel }),
             discontinuity: Discontinuity::default(),
+            vpl_maps: None,
         }
     }
 }
 
 /// Set 3 of the compute passes (`interleaved/common.glsl`).
-pub const INTERLEAVED_SET: [Binding; 8] = [
+pub const INTERLEAVED_SET: [Binding; 10] = [
     Binding { binding: 0, ty: vk::DescriptorType::STORAGE_BUFFER, block: "Texels" },
     Binding { binding: 1, ty: vk::DescriptorType::STORAGE_BUFFER, block: "Vpls" },
     Binding { binding: 2, ty: vk::DescriptorType::STORAGE_BUFFER, block: "Flags" },
@@ -113,6 +122,8 @@ pub const INTERLEAVED_SET: [Binding; 8] = [
     Binding { binding: 5, ty: vk::DescriptorType::STORAGE_IMAGE, block: "g_albedo" },
     Binding { binding: 6, ty: vk::DescriptorType::STORAGE_IMAGE, block: "g_direct" },
     Binding { binding: 7, ty: vk::DescriptorType::STORAGE_IMAGE, block: "result" },
+    Binding { binding: 8, ty: vk::DescriptorType::COMBINED_IMAGE_SAMPLER, block: "vpl_maps" },
+    Binding { binding: 9, ty: vk::DescriptorType::STORAGE_BUFFER, block: "VplFaces" },
 ];
 
 /// Push constants of the compute passes (`Push` in `interleaved/common.glsl`).
@@ -142,6 +153,24 @@ pub struct InterleavedPush {
     pub bilinear: u32,
     pub normal_cos: f32,
     pub position_rel: f32,
+    pub face_size: u32,
+    pub atlas_cols: u32,
+    pub far: f32,
+    pub shadow_bias: f32,
+}
+
+/// Push constants of `vpl_shadow.vert` and `.frag`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct VplShadowPush {
+    /// Camera space → the face's clip space.
+    pub face: [[f32; 4]; 4],
+    /// The VPL's position; w: the maps' far distance.
+    pub vpl: [f32; 4],
+    pub object: u32,
+    pub segment: u32,
+    pub segment_time: f32,
+    pub pad: u32,
 }
 
 /// A VPL as `Vpls` holds it.
@@ -181,9 +210,14 @@ pub const INTERLEAVED_STRUCTS: &[SharedStruct] = &[
             edges,
             bilinear,
             normal_cos,
-            position_rel
+            position_rel,
+            face_size,
+            atlas_cols,
+            far,
+            shadow_bias
         ]
     ),
+    shared_struct!("Push", VplShadowPush, [face, vpl, object, segment, segment_time, pad]),
     shared_struct!("Vpl", GpuVpl, [position, normal, flux]),
 ];
 
@@ -258,6 +292,15 @@ pub struct InterleavedTechnique {
     texels: Tracked<Buffer>,
     flags: Tracked<Buffer>,
     _vpls: Buffer,
+    /// The VPL shadow maps (a 1×1 placeholder without them), their faces' matrices and pipeline.
+    vpl_atlas: Tracked<Image>,
+    vpl_faces: Vec<[[f32; 4]; 4]>,
+    _vpl_faces_buffer: Buffer,
+    _vpl_sampler: crate::vk::Sampler,
+    vpl_shadow: Option<(Pipeline, PipelineLayout, Vec<ShaderModule>)>,
+    vpl_positions: Vec<[f32; 4]>,
+    atlas_cols: u32,
+    far: f32,
     // Dropped after the direct pipeline whose set layout it uses.
     shadows: Option<ShadowMaps>,
 }
@@ -366,7 +409,95 @@ impl InterleavedTechnique {
             std::mem::size_of::<InterleavedPush>() as u32,
             vk::ShaderStageFlags::COMPUTE,
         )?;
+        // The VPL shadow maps: six 90° faces per VPL in camera space, distances over `far` (twice the
+        // radius around the camera that holds the scene at mid-shutter, so any two points fit).
+        let radius = ctx
+            .camera
+            .space
+            .objects
+            .iter()
+            .zip(&scene.objects)
+            .flat_map(|(m, o)| o.mesh.positions.iter().map(move |&p| m.positions(p)[0].length()))
+            .fold(0.0f32, f32::max);
+        let far = 2.0 * radius + 1.0;
+        let face_size = options.vpl_maps.unwrap_or(0);
+        if face_size > 4096 {
+            return Err(Error::Unsupported(format!(
+                "VPL shadow maps of {face_size}² texels a face: at most 4096"
+            )));
+        }
+        let faces = if face_size > 0 { 6 * vpls.len() as u32 } else { 0 };
+        let mut vpl_faces = Vec::with_capacity(faces as usize);
+        let axes =
+            [glam::Vec3::X, -glam::Vec3::X, glam::Vec3::Y, -glam::Vec3::Y, glam::Vec3::Z, -glam::Vec3::Z];
+        if face_size > 0 {
+            let proj = glam::Mat4::perspective_rh(std::f32::consts::FRAC_PI_2, 1.0, 0.01, far);
+            for v in &vpls {
+                for (f, axis) in axes.iter().enumerate() {
+                    let up = if f == 2 || f == 3 { glam::Vec3::Z } else { glam::Vec3::Y };
+                    let view = glam::Mat4::look_at_rh(v.position, v.position + *axis, up);
+                    vpl_faces.push((proj * view).to_cols_array_2d());
+                }
+            }
+        }
+        let atlas_cols = if faces > 0 { faces.min(8192 / face_size).max(1) } else { 1 };
+        let atlas_rows = faces.div_ceil(atlas_cols).max(1);
+        let (atlas_w, atlas_h) = ((atlas_cols * face_size).max(1), (atlas_rows * face_size).max(1));
+        if atlas_h > 16384 {
+            return Err(Error::Unsupported(format!(
+                "{} VPL shadow maps of {face_size}² texels a face need an atlas {atlas_w}×{atlas_h}: fewer VPLs or smaller faces",
+                vpls.len()
+            )));
+        }
+        let vpl_atlas = Tracked::new(Image::new(
+            device,
+            "interleaved VPL shadow maps",
+            ImageDesc::new_2d(
+                atlas_w,
+                atlas_h,
+                DEPTH_FORMAT,
+                vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT | vk::ImageUsageFlags::SAMPLED,
+            ),
+        )?);
+        let identity = [glam::Mat4::IDENTITY.to_cols_array_2d()];
+        let vpl_faces_buffer = Buffer::with_data(
+            device,
+            "interleaved VPL faces",
+            storage,
+            if vpl_faces.is_empty() { &identity } else { &vpl_faces },
+        )?;
+        let vpl_sampler = crate::vk::Sampler::nearest_clamp(device, "interleaved VPL shadow maps")?;
+        let vpl_shadow = if face_size > 0 {
+            let vert = ShaderModule::new(device, shaders::INTERLEAVED_VPL_SHADOW_VERT)?;
+            let frag = ShaderModule::new(device, shaders::INTERLEAVED_VPL_SHADOW_FRAG)?;
+            let layout =
+                world.pipeline_layout(device, &[], std::mem::size_of::<VplShadowPush>() as u32, stages)?;
+            let pipeline = Pipeline::graphics(
+                device,
+                &layout,
+                &GraphicsDesc {
+                    name: "interleaved VPL shadow maps",
+                    stages: &[&vert, &frag],
+                    vertex_bindings: &bindings,
+                    // The position only.
+                    vertex_attributes: &attributes[..1],
+                    color_formats: &[],
+                    depth_format: Some(DEPTH_FORMAT),
+                    samples: 1,
+                    sample_shading: None,
+                    // Both sides cast, as the reference's shadow rays see them.
+                    faces: Faces::Both,
+                    depth_compare: vk::CompareOp::LESS,
+                    depth_write: true,
+                },
+            )?;
+            Some((pipeline, layout, vec![vert, frag]))
+        } else {
+            None
+        };
+
         let pool = DescriptorPool::for_tables(device, 1, &[(&INTERLEAVED_SET, 1)])?;
+
         let set = pool.allocate(&set_layout)?;
         write_descriptors(
             device,
@@ -380,13 +511,19 @@ impl InterleavedTechnique {
                 DescriptorWrite::StorageImage { binding: 5, view: g_albedo.view },
                 DescriptorWrite::StorageImage { binding: 6, view: g_direct.view },
                 DescriptorWrite::StorageImage { binding: 7, view: result.view },
+                DescriptorWrite::SampledImage { binding: 8, view: vpl_atlas.view, sampler: vpl_sampler.raw },
+                DescriptorWrite::storage_buffer(9, &vpl_faces_buffer),
             ],
         );
         let module = |src| ShaderModule::new(device, src);
         let shader_modules = vec![
             module(shaders::INTERLEAVED_PACK_COMP)?,
             module(shaders::INTERLEAVED_PERMUTE_COMP)?,
-            module(shaders::INTERLEAVED_SHADE_COMP)?,
+            module(if face_size > 0 {
+                shaders::INTERLEAVED_SHADE_MAPS_COMP
+            } else {
+                shaders::INTERLEAVED_SHADE_COMP
+            })?,
             module(shaders::INTERLEAVED_DISCONTINUITY_COMP)?,
             module(shaders::INTERLEAVED_BLUR_COMP)?,
             module(shaders::INTERLEAVED_COMPOSE_COMP)?,
@@ -424,6 +561,14 @@ impl InterleavedTechnique {
             texels,
             flags,
             _vpls: vpl_buffer,
+            vpl_atlas,
+            vpl_faces,
+            _vpl_faces_buffer: vpl_faces_buffer,
+            _vpl_sampler: vpl_sampler,
+            vpl_shadow,
+            vpl_positions: vpls.iter().map(|v| [v.position.x, v.position.y, v.position.z, far]).collect(),
+            atlas_cols,
+            far,
             shadows,
         })
     }
@@ -454,6 +599,10 @@ impl InterleavedTechnique {
             bilinear: blur.bilinear as u32,
             normal_cos: self.options.discontinuity.normal_deg.to_radians().cos(),
             position_rel: self.options.discontinuity.position,
+            face_size: self.options.vpl_maps.unwrap_or(0),
+            atlas_cols: self.atlas_cols,
+            far: self.far,
+            shadow_bias: VPL_SHADOW_BIAS,
             ..Default::default()
         }
     }
@@ -589,6 +738,61 @@ impl FrameTechnique for InterleavedTechnique {
         // The pattern 1×1 (the brute force) splits into itself: no permutation, no gather.
         let identity = this.options.pattern == Pattern::ONE;
         let (shade_src, shade_dst) = if identity { (r.packed, r.gathered) } else { (r.split, r.shaded) };
+        let atlas = g.import_image("interleaved VPL shadow maps", &this.vpl_atlas);
+        if let Some((pipeline, layout, _)) = &this.vpl_shadow {
+            let size = this.options.vpl_maps.unwrap_or(1);
+            g.pass("interleaved VPL shadow maps").depth(atlas, Load::Clear(1.0), Store::Store).record(
+                move |ctx| {
+                    let (d, cmd) = (ctx.device, ctx.cmd);
+                    let stages = vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT;
+                    unsafe { d.raw.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, pipeline.raw) };
+                    for (face, matrix) in this.vpl_faces.iter().enumerate() {
+                        let (col, row) = (face as u32 % this.atlas_cols, face as u32 / this.atlas_cols);
+                        let (x, y) = (col * size, row * size);
+                        let viewport = vk::Viewport {
+                            x: x as f32,
+                            y: y as f32,
+                            width: size as f32,
+                            height: size as f32,
+                            min_depth: 0.0,
+                            max_depth: 1.0,
+                        };
+                        let scissor = vk::Rect2D {
+                            offset: vk::Offset2D { x: x as i32, y: y as i32 },
+                            extent: vk::Extent2D { width: size, height: size },
+                        };
+                        unsafe {
+                            d.raw.cmd_set_viewport(cmd, 0, &[viewport]);
+                            d.raw.cmd_set_scissor(cmd, 0, &[scissor]);
+                        }
+                        let vpl = this.vpl_positions[face / 6];
+                        let push = |i: usize| {
+                            let (segment, segment_time) = inputs.camera.segment_at(i, 0.5);
+                            VplShadowPush {
+                                face: *matrix,
+                                vpl,
+                                object: i as u32,
+                                segment,
+                                segment_time,
+                                pad: 0,
+                            }
+                        };
+                        inputs.world.record_object_draws(
+                            d,
+                            cmd,
+                            inputs.camera,
+                            pipeline,
+                            layout,
+                            stages,
+                            |_| true,
+                            push,
+                            |_| None,
+                        );
+                    }
+                    Ok(())
+                },
+            );
+        }
         if !identity {
             g.pass("interleaved split").accesses(rw(texels)).record(move |ctx| {
                 match split {
@@ -601,11 +805,14 @@ impl FrameTechnique for InterleavedTechnique {
                 Ok(())
             });
         }
-        g.pass("interleaved shade").accesses(rw(texels)).record(move |ctx| {
-            let push = InterleavedPush { src: shade_src, dst: shade_dst, ..this.push() };
-            this.dispatch(ctx, &this.compute.shade, push, padded, false);
-            Ok(())
-        });
+        g.pass("interleaved shade")
+            .accesses(rw(texels))
+            .access(atlas, Access::ComputeShaderReadSampledImageOrUniformTexelBuffer)
+            .record(move |ctx| {
+                let push = InterleavedPush { src: shade_src, dst: shade_dst, ..this.push() };
+                this.dispatch(ctx, &this.compute.shade, push, padded, false);
+                Ok(())
+            });
         if !identity {
             g.pass("interleaved gather").accesses(rw(texels)).record(move |ctx| {
                 match split {
@@ -675,10 +882,17 @@ pub const SHADER_INTERFACES: &[crate::gpu::layout::ShaderInterface] = &[
         Some(FORWARD_STRUCTS[0]),
     ),
     crate::gpu::layout::ShaderInterface::technique(
+        &["interleaved/vpl_shadow.vert", "interleaved/vpl_shadow.frag"],
+        None,
+        None,
+        Some(INTERLEAVED_STRUCTS[1]),
+    ),
+    crate::gpu::layout::ShaderInterface::technique(
         &[
             "interleaved/pack.comp",
             "interleaved/permute.comp",
             "interleaved/shade.comp",
+            "interleaved/shade_maps.comp",
             "interleaved/discontinuity.comp",
             "interleaved/blur.comp",
             "interleaved/compose.comp",
