@@ -301,6 +301,8 @@ pub struct InterleavedTechnique {
     vpl_positions: Vec<[f32; 4]>,
     atlas_cols: u32,
     far: f32,
+    /// The VPL shadow maps are in the atlas (rendered by the first frame).
+    maps_rendered: bool,
     // Dropped after the direct pipeline whose set layout it uses.
     shadows: Option<ShadowMaps>,
 }
@@ -569,6 +571,7 @@ impl InterleavedTechnique {
             vpl_positions: vpls.iter().map(|v| [v.position.x, v.position.y, v.position.z, far]).collect(),
             atlas_cols,
             far,
+            maps_rendered: false,
             shadows,
         })
     }
@@ -739,7 +742,10 @@ impl FrameTechnique for InterleavedTechnique {
         let identity = this.options.pattern == Pattern::ONE;
         let (shade_src, shade_dst) = if identity { (r.packed, r.gathered) } else { (r.split, r.shaded) };
         let atlas = g.import_image("interleaved VPL shadow maps", &this.vpl_atlas);
-        if let Some((pipeline, layout, _)) = &this.vpl_shadow {
+        // The maps depend on the VPLs and the scene, both fixed for the still scenes this technique
+        // takes: rendered on the first frame only, then read from the atlas.
+        let render_maps = !this.maps_rendered;
+        if let Some((pipeline, layout, _)) = this.vpl_shadow.as_ref().filter(|_| render_maps) {
             let size = this.options.vpl_maps.unwrap_or(1);
             g.pass("interleaved VPL shadow maps").depth(atlas, Load::Clear(1.0), Store::Store).record(
                 move |ctx| {
@@ -858,6 +864,7 @@ impl FrameTechnique for InterleavedTechnique {
             });
         let readback = g.read_back(result)?;
         let mut out = frame.run(g)?;
+        self.maps_rendered = true;
         Ok(TechniqueFrame {
             image: out.take_image(readback),
             passes: 1,
