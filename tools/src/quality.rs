@@ -476,7 +476,8 @@ where
     Ok(())
 }
 
-pub const PALETTE: [RGBColor; 7] = [
+/// The series' colours, in order (Tableau 10): ten series before a colour repeats.
+pub const PALETTE: [RGBColor; 10] = [
     RGBColor(214, 39, 40),
     RGBColor(31, 119, 180),
     RGBColor(44, 160, 44),
@@ -484,6 +485,9 @@ pub const PALETTE: [RGBColor; 7] = [
     RGBColor(255, 127, 14),
     RGBColor(23, 190, 207),
     RGBColor(140, 86, 75),
+    RGBColor(227, 119, 194),
+    RGBColor(127, 127, 127),
+    RGBColor(188, 189, 34),
 ];
 
 /// A tick label with three significant digits.
