@@ -34,7 +34,8 @@ fn gpu(r: &mut Renderer, scene: &Scene, o: InterleavedOptions) -> LinearImage {
     r.render(scene, Technique::INTERLEAVED, &s).expect("interleaved render").image
 }
 
-fn cpu(scene: &Scene, o: &InterleavedOptions) -> LinearImage {
+/// The CPU mirror with `o`'s settings, with exact shadow rays to the VPLs (`visibility`) or none.
+fn cpu(scene: &Scene, o: &InterleavedOptions, visibility: bool) -> LinearImage {
     let v = VplSettings { count: o.photons, clamp: o.clamp, seed: scene.image.seed };
     let vpls = virtual_point_lights(scene, &v).unwrap();
     let gs = render_gbuffer(scene, W, H).unwrap();
@@ -44,7 +45,7 @@ fn cpu(scene: &Scene, o: &InterleavedOptions) -> LinearImage {
         blur: o.blur,
         discontinuity: o.discontinuity,
         clamp: o.clamp,
-        visibility: false,
+        visibility,
     };
     shutter::interleaved::render(&gs, &vpls, &s).unwrap()
 }
@@ -80,7 +81,7 @@ fn interleaved_matches_its_cpu_mirror() {
     ];
     for (name, o) in configs {
         let g = gpu(&mut r, &scene, o);
-        let c = cpu(&scene, &o);
+        let c = cpu(&scene, &o, false);
         assert!(g.all_finite());
         let far = differing(&c, &g, 0.02);
         let n = (W * H) as usize;
@@ -149,20 +150,7 @@ fn vpl_shadow_maps_approach_exact_visibility() {
     let scene = cornell();
     let mut r = renderer();
     let base = InterleavedOptions { photons: 128, ..Default::default() };
-    let exact = {
-        let v = VplSettings { count: base.photons, clamp: base.clamp, seed: scene.image.seed };
-        let vpls = virtual_point_lights(&scene, &v).unwrap();
-        let gs = render_gbuffer(&scene, W, H).unwrap();
-        let s = InterleavedSettings {
-            pattern: base.pattern,
-            block: base.block,
-            blur: base.blur,
-            discontinuity: base.discontinuity,
-            clamp: base.clamp,
-            visibility: true,
-        };
-        shutter::interleaved::render(&gs, &vpls, &s).unwrap()
-    };
+    let exact = cpu(&scene, &base, true);
     let maps = gpu(&mut r, &scene, InterleavedOptions { vpl_maps: Some(32), ..base });
     let none = gpu(&mut r, &scene, base);
     let (m_maps, m_none) = (

@@ -1234,23 +1234,33 @@ fn hard_smooth_lens_matches_the_reference() {
 const DECOUPLED: ShadingRate =
     ShadingRate::Decoupled { grid: shutter::decoupled::GridKind::Pixel, deferred: false };
 
-#[test]
-fn decoupled_shading_matches_the_reference_whatever_the_cache() {
-    let scene = builtin_scene("default").expect("built-in").expect("parses");
-    let (w, h, spp) = (96, 54, 8);
-    let mut r = renderer();
-    let mut images = vec![];
+/// The reference's decoupled shading on `grid` of `scene` at `w × h`, `spp`, seed 5 (the seed of the
+/// decoupled tests' renders), and its count of distinct keys.
+fn decoupled_reference(
+    scene: &Scene,
+    (w, h, spp): (u32, u32, u32),
+    grid: shutter::decoupled::GridKind,
+) -> (LinearImage, u64) {
     let settings = ReferenceSettings {
         width: w,
         height: h,
         spp,
         seed: 5,
         progress: false,
-        shading: shutter::reference::ReferenceShading::Decoupled(shutter::decoupled::GridKind::Pixel),
+        shading: shutter::reference::ReferenceShading::Decoupled(grid),
     };
     let (truth, stats) =
-        shutter::reference::render_reference_with_stats(&scene, &settings).expect("reference");
-    let keys = stats.decoupled_keys.expect("decoupled keys");
+        shutter::reference::render_reference_with_stats(scene, &settings).expect("reference");
+    (truth, stats.decoupled_keys.expect("decoupled keys"))
+}
+
+#[test]
+fn decoupled_shading_matches_the_reference_whatever_the_cache() {
+    let scene = builtin_scene("default").expect("built-in").expect("parses");
+    let (w, h, spp) = (96, 54, 8);
+    let mut r = renderer();
+    let mut images = vec![];
+    let (truth, keys) = decoupled_reference(&scene, (w, h, spp), shutter::decoupled::GridKind::Pixel);
     for cache_entries in [1, 1 << 16, 1 << 16] {
         let o = StochasticOptions {
             instrumented: true,
@@ -1301,7 +1311,6 @@ fn decoupled_shading_matches_the_reference_whatever_the_cache() {
 #[test]
 fn aas_grids_shade_fewer_points_and_match_the_reference() {
     use shutter::decoupled::GridKind;
-    use shutter::reference::ReferenceShading;
     let scene = builtin_scene("default").expect("built-in").expect("parses");
     let (w, h, spp) = (96, 54, 8);
     let mut r = renderer();
@@ -1311,19 +1320,9 @@ fn aas_grids_shade_fewer_points_and_match_the_reference() {
         (ShadingRate::Decoupled { grid: GridKind::AasIsotropic, deferred: false }, GridKind::AasIsotropic),
         (ShadingRate::Decoupled { grid: GridKind::Aas, deferred: false }, GridKind::Aas),
     ] {
-        let settings = ReferenceSettings {
-            width: w,
-            height: h,
-            spp,
-            seed: 5,
-            progress: false,
-            shading: ReferenceShading::Decoupled(kind),
-        };
-        let (truth, stats) =
-            shutter::reference::render_reference_with_stats(&scene, &settings).expect("reference");
+        let (truth, n) = decoupled_reference(&scene, (w, h, spp), kind);
         let out = render(&mut r, &scene, w, h, spp, 5, options(BoundKind::Adaptive, rate));
         let m = compare(&truth, &out.image).unwrap();
-        let n = stats.decoupled_keys.expect("keys");
         println!("{}: {n} distinct keys; RMSE {:.6} against the reference", rate.name(), m.rmse);
         save_comparison(&format!("aas-default-{}", rate.name()), &truth, &out.image);
         assert!(m.rmse < HARD_RMSE_MAX, "{}: RMSE {}", rate.name(), m.rmse);
@@ -1343,22 +1342,11 @@ fn aas_grids_shade_fewer_points_and_match_the_reference() {
 #[test]
 fn deferred_decoupled_shading_allocates_each_key_once() {
     use shutter::decoupled::GridKind;
-    use shutter::reference::ReferenceShading;
     let scene = builtin_scene("default").expect("built-in").expect("parses");
     let (w, h, spp) = (96, 54, 8);
     let mut r = renderer();
     for grid in [GridKind::Pixel, GridKind::Aas] {
-        let settings = ReferenceSettings {
-            width: w,
-            height: h,
-            spp,
-            seed: 5,
-            progress: false,
-            shading: ReferenceShading::Decoupled(grid),
-        };
-        let (truth, stats) =
-            shutter::reference::render_reference_with_stats(&scene, &settings).expect("reference");
-        let keys = stats.decoupled_keys.expect("decoupled keys");
+        let (truth, keys) = decoupled_reference(&scene, (w, h, spp), grid);
         let rate = ShadingRate::Decoupled { grid, deferred: true };
         let mut images = vec![];
         // One pass, a second run, two passes of 4 samples; then tables of 1 and 256 entries.

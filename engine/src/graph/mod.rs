@@ -742,19 +742,8 @@ fn begin_rendering(
     if let Some(d) = &depth {
         info = info.depth_attachment(d);
     }
-    unsafe {
-        device.raw.cmd_begin_rendering(cmd, &info);
-        let viewport = vk::Viewport {
-            x: 0.0,
-            y: 0.0,
-            width: extent.width as f32,
-            height: extent.height as f32,
-            min_depth: 0.0,
-            max_depth: 1.0,
-        };
-        device.raw.cmd_set_viewport(cmd, 0, &[viewport]);
-        device.raw.cmd_set_scissor(cmd, 0, &[area]);
-    }
+    unsafe { device.raw.cmd_begin_rendering(cmd, &info) };
+    crate::vk::set_viewport(device, cmd, area);
     extent
 }
 

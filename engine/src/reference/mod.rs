@@ -817,12 +817,10 @@ impl<'a> Tracer<'a> {
         let dir = cosine_direction(x.normal, u);
         // The side of the geometric surface the shading normal faces: a direction below it (where the
         // shading normal tilts away from the geometry) would leave through the surface itself.
-        let g = x.geometric.normalize_or_zero();
-        let g = if g.dot(x.normal) >= 0.0 { g } else { -g };
+        let (g, origin) = x.lit_side();
         if dir.dot(g) <= 0.0 {
             return Vec3::ZERO;
         }
-        let origin = x.position + x.offset * g;
         let bvh = &self.bvhs[self.intervals.segment_of(time)];
         // The nearest surface that stops light (coverage 1); those with less attenuate it.
         let Some((y_hit, s)) = bvh.nearest(origin, dir, time, 0.0, f32::INFINITY, |id, h| {
@@ -851,6 +849,16 @@ struct SurfacePoint {
     geometric: Vec3,
     offset: f32,
     albedo: Vec3,
+}
+
+impl SurfacePoint {
+    /// The unit geometric normal on the side the shading normal faces, and the point raised off the
+    /// surface by the offset on that side: where a secondary ray leaving that side starts.
+    fn lit_side(&self) -> (Vec3, Vec3) {
+        let g = self.geometric.normalize_or_zero();
+        let g = if g.dot(self.normal) >= 0.0 { g } else { -g };
+        (g, self.position + self.offset * g)
+    }
 }
 
 /// The direction with cosine-weighted density `cos θ / π` around the unit normal `n` for the point `u`

@@ -172,10 +172,8 @@ impl Tracer<'_> {
         let bvh = &self.bvhs[self.intervals.segment_of(time)];
         let mut leave = |tracer: &Self, hit: &super::Hit, flux: Vec3| {
             let y = tracer.surface_point(hit, dir, time, None);
-            let g = y.geometric.normalize_or_zero();
-            let g = if g.dot(y.normal) >= 0.0 { g } else { -g };
             vpls.push(VirtualPointLight {
-                position: y.position + y.offset * g,
+                position: y.lit_side().1,
                 normal: y.normal,
                 flux: flux * y.albedo,
             });
@@ -208,9 +206,8 @@ impl Tracer<'_> {
 
     /// The one-bounce light the VPLs send to `x` (module docs, "Gathering"), before `x`'s albedo.
     pub(super) fn gather(&self, x: &SurfacePoint, time: f32, vpls: &[VirtualPointLight], clamp: f32) -> Vec3 {
-        let g = x.geometric.normalize_or_zero();
-        let g = if g.dot(x.normal) >= 0.0 { g } else { -g };
-        self.gather_at(x.position + x.offset * g, x.normal, Some(g), x.offset, time, vpls, clamp, true)
+        let (g, origin) = x.lit_side();
+        self.gather_at(origin, x.normal, Some(g), x.offset, time, vpls, clamp, true)
     }
 
     /// The gathering from `origin` (raised off its surface by `offset`) with shading normal `normal`:

@@ -623,15 +623,12 @@ impl InterleavedTechnique {
         let bind = vk::PipelineBindPoint::COMPUTE;
         unsafe {
             if barrier {
-                let b = vk::MemoryBarrier2::default()
-                    .src_stage_mask(vk::PipelineStageFlags2::COMPUTE_SHADER)
-                    .src_access_mask(vk::AccessFlags2::SHADER_STORAGE_WRITE)
-                    .dst_stage_mask(vk::PipelineStageFlags2::COMPUTE_SHADER)
-                    .dst_access_mask(
-                        vk::AccessFlags2::SHADER_STORAGE_READ | vk::AccessFlags2::SHADER_STORAGE_WRITE,
-                    );
-                let dep = vk::DependencyInfo::default().memory_barriers(std::slice::from_ref(&b));
-                d.raw.cmd_pipeline_barrier2(cmd, &dep);
+                crate::vk::compute_write_barrier(
+                    d,
+                    cmd,
+                    vk::PipelineStageFlags2::COMPUTE_SHADER,
+                    vk::AccessFlags2::SHADER_STORAGE_READ | vk::AccessFlags2::SHADER_STORAGE_WRITE,
+                );
             }
             d.raw.cmd_bind_pipeline(cmd, bind, pipeline.raw);
             d.raw.cmd_bind_descriptor_sets(
@@ -754,23 +751,11 @@ impl FrameTechnique for InterleavedTechnique {
                     unsafe { d.raw.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, pipeline.raw) };
                     for (face, matrix) in this.vpl_faces.iter().enumerate() {
                         let (col, row) = (face as u32 % this.atlas_cols, face as u32 / this.atlas_cols);
-                        let (x, y) = (col * size, row * size);
-                        let viewport = vk::Viewport {
-                            x: x as f32,
-                            y: y as f32,
-                            width: size as f32,
-                            height: size as f32,
-                            min_depth: 0.0,
-                            max_depth: 1.0,
-                        };
-                        let scissor = vk::Rect2D {
-                            offset: vk::Offset2D { x: x as i32, y: y as i32 },
-                            extent: vk::Extent2D { width: size, height: size },
-                        };
-                        unsafe {
-                            d.raw.cmd_set_viewport(cmd, 0, &[viewport]);
-                            d.raw.cmd_set_scissor(cmd, 0, &[scissor]);
-                        }
+                        crate::vk::set_viewport(
+                            d,
+                            cmd,
+                            crate::vk::atlas_square(col * size, row * size, size),
+                        );
                         let vpl = this.vpl_positions[face / 6];
                         let push = |i: usize| {
                             let (segment, segment_time) = inputs.camera.segment_at(i, 0.5);

@@ -384,22 +384,7 @@ impl ShadowMaps {
             let seed = map_seed(self.coverage_seed, f as u32, pass);
             for j in 0..self.plan.sub_maps {
                 let (x, y) = (origin[0] + j * size, origin[1]);
-                let viewport = vk::Viewport {
-                    x: x as f32,
-                    y: y as f32,
-                    width: size as f32,
-                    height: size as f32,
-                    min_depth: 0.0,
-                    max_depth: 1.0,
-                };
-                let scissor = vk::Rect2D {
-                    offset: vk::Offset2D { x: x as i32, y: y as i32 },
-                    extent: vk::Extent2D { width: size, height: size },
-                };
-                unsafe {
-                    d.raw.cmd_set_viewport(cmd, 0, &[viewport]);
-                    d.raw.cmd_set_scissor(cmd, 0, &[scissor]);
-                }
+                crate::vk::set_viewport(d, cmd, crate::vk::atlas_square(x, y, size));
                 let samples = CoverageSamples {
                     seed,
                     samples: self.plan.samples(),

@@ -2361,19 +2361,14 @@ impl StochasticDraws {
         let barrier = || {
             // Read-modify-write of the accumulation image by consecutive dispatches; the deferred mode's
             // table, queue and G-buffer, and its shading dispatch's indirect arguments.
-            let b = vk::MemoryBarrier2::default()
-                .src_stage_mask(vk::PipelineStageFlags2::COMPUTE_SHADER)
-                .src_access_mask(vk::AccessFlags2::SHADER_STORAGE_WRITE)
-                .dst_stage_mask(
-                    vk::PipelineStageFlags2::COMPUTE_SHADER | vk::PipelineStageFlags2::DRAW_INDIRECT,
-                )
-                .dst_access_mask(
-                    vk::AccessFlags2::SHADER_STORAGE_READ
-                        | vk::AccessFlags2::SHADER_STORAGE_WRITE
-                        | vk::AccessFlags2::INDIRECT_COMMAND_READ,
-                );
-            let dep = vk::DependencyInfo::default().memory_barriers(std::slice::from_ref(&b));
-            unsafe { d.raw.cmd_pipeline_barrier2(cmd, &dep) };
+            crate::vk::compute_write_barrier(
+                d,
+                cmd,
+                vk::PipelineStageFlags2::COMPUTE_SHADER | vk::PipelineStageFlags2::DRAW_INDIRECT,
+                vk::AccessFlags2::SHADER_STORAGE_READ
+                    | vk::AccessFlags2::SHADER_STORAGE_WRITE
+                    | vk::AccessFlags2::INDIRECT_COMMAND_READ,
+            );
         };
         unsafe {
             d.raw.cmd_bind_descriptor_sets(

@@ -82,6 +82,48 @@ impl Drop for CommandRecorder {
     }
 }
 
+/// Viewport and scissor both set to `area` (depth range 0–1): the whole render area, or one map's
+/// square in an atlas.
+pub fn set_viewport(device: &Device, cmd: vk::CommandBuffer, area: vk::Rect2D) {
+    let viewport = vk::Viewport {
+        x: area.offset.x as f32,
+        y: area.offset.y as f32,
+        width: area.extent.width as f32,
+        height: area.extent.height as f32,
+        min_depth: 0.0,
+        max_depth: 1.0,
+    };
+    unsafe {
+        device.raw.cmd_set_viewport(cmd, 0, &[viewport]);
+        device.raw.cmd_set_scissor(cmd, 0, &[area]);
+    }
+}
+
+/// A `size`² square of an atlas at `(x, y)`.
+pub fn atlas_square(x: u32, y: u32, size: u32) -> vk::Rect2D {
+    vk::Rect2D {
+        offset: vk::Offset2D { x: x as i32, y: y as i32 },
+        extent: vk::Extent2D { width: size, height: size },
+    }
+}
+
+/// One global barrier from compute shaders' storage writes to the `dst_stages` accesses
+/// `dst_access`: consecutive dispatches inside one graph pass.
+pub fn compute_write_barrier(
+    device: &Device,
+    cmd: vk::CommandBuffer,
+    dst_stages: vk::PipelineStageFlags2,
+    dst_access: vk::AccessFlags2,
+) {
+    let b = vk::MemoryBarrier2::default()
+        .src_stage_mask(vk::PipelineStageFlags2::COMPUTE_SHADER)
+        .src_access_mask(vk::AccessFlags2::SHADER_STORAGE_WRITE)
+        .dst_stage_mask(dst_stages)
+        .dst_access_mask(dst_access);
+    let dep = vk::DependencyInfo::default().memory_barriers(std::slice::from_ref(&b));
+    unsafe { device.raw.cmd_pipeline_barrier2(cmd, &dep) };
+}
+
 /// One pipeline barrier with the given image barriers (synchronization2).
 pub fn image_barriers(device: &Device, cmd: vk::CommandBuffer, barriers: &[vk::ImageMemoryBarrier2]) {
     let dep = vk::DependencyInfo::default().image_memory_barriers(barriers);

@@ -14,7 +14,7 @@ mod pipeline;
 mod queries;
 mod transfer;
 
-pub use commands::{image_barriers, CommandRecorder};
+pub use commands::{atlas_square, compute_write_barrier, image_barriers, set_viewport, CommandRecorder};
 pub use context::{Capabilities, Device, DeviceDesc, DeviceShared, Feature, ValidationReport};
 pub use image::{aspect_of, barrier, Image, ImageDesc, Sampler};
 pub use memory::Buffer;
