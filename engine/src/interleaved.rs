@@ -30,13 +30,26 @@
 //!    filter, so textures are not blurred).
 //!
 //! The brute-force baseline is the pattern 1 × 1 without a filter: every texel gathers every VPL.
+//!
+//! **Depth of field and motion: by accumulation** ([`frame_passes`], [`render_frame`]). A scene with a
+//! lens or motion is rendered as P = `spp` whole interleaved frames, each through one
+//! (subpixel, lens, time) sample shared by every pixel — the samples of technique `accumulation` —
+//! and averaged: each pass' G-buffer holds what the camera sees through its sample (so a G-buffer
+//! texel is one sample of its pixel, never a mix of surfaces), and the filter works within a pass.
+//! The VPLs of a still scene are one set, traced at mid-shutter, lighting every pass; a moving scene
+//! gets a set per pass, traced at the pass' time with a seed of its own ([`pass_vpls`]). A still
+//! pinhole scene keeps the single pass through the pixel centres.
 
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 
 use crate::error::{Error, Result};
 use crate::image::LinearImage;
-use crate::reference::gbuffer::{GBuffer, GBufferScene};
-use crate::reference::VirtualPointLight;
+use crate::reference::gbuffer::{render_gbuffer_at, GBuffer, GBufferScene};
+use crate::reference::{virtual_point_lights_at, VirtualPointLight, VplSettings};
+use crate::scene::camera_space::CameraSpaceScene;
+use crate::scene::Scene;
+use crate::techniques::accumulation::accumulation_passes;
+use crate::techniques::forward::PassSample;
 
 /// An `n × m` interleaving pattern.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -433,6 +446,69 @@ pub fn render(
         }
     }
     Ok(image)
+}
+
+/// The passes of an interleaved frame of `scene` (module docs): one through the pixel centres at
+/// mid-shutter and the lens centre when the scene has neither a lens nor motion; otherwise `spp` passes
+/// with the samples of technique `accumulation` (seed `seed`).
+pub fn frame_passes(scene: &Scene, spp: u32, seed: u64) -> Vec<PassSample> {
+    let c = &scene.camera;
+    if c.aperture_radius == 0.0 && CameraSpaceScene::new(scene).is_still() {
+        return vec![PassSample { time: 0.5, lens: Vec2::ZERO, jitter: Vec2::ZERO }];
+    }
+    accumulation_passes(spp.max(1), seed, c.aperture, c.shutter)
+}
+
+/// The VPL sets that light `passes` (module docs): for a still scene one set, traced at mid-shutter;
+/// for a moving one a set per pass, traced at its time, the photons of pass `p` seeded by
+/// [`pass_vpl_seed`].
+pub fn pass_vpls(
+    scene: &Scene,
+    s: &VplSettings,
+    passes: &[PassSample],
+) -> Result<Vec<Vec<VirtualPointLight>>> {
+    if CameraSpaceScene::new(scene).is_still() {
+        return Ok(vec![virtual_point_lights_at(scene, s, 0.5)?]);
+    }
+    passes
+        .iter()
+        .enumerate()
+        .map(|(p, pass)| {
+            let v = VplSettings { seed: pass_vpl_seed(s.seed, p as u32), ..*s };
+            virtual_point_lights_at(scene, &v, pass.time)
+        })
+        .collect()
+}
+
+/// The photon seed of pass `pass` of a moving scene: independent photons per pass, so the passes
+/// average the VPLs' noise as well as the blur.
+pub fn pass_vpl_seed(seed: u64, pass: u32) -> u64 {
+    seed ^ (pass as u64 + 1).wrapping_mul(0x9e37_79b9_7f4a_7c15)
+}
+
+/// The image of an interleaved frame (module docs): every pass of `passes` rendered by [`render`] on
+/// its own G-buffer with its VPL set (`vpl_sets[p]`, or the only one), accumulated with weight `1/P`
+/// in pass order as the GPU adds them.
+pub fn render_frame(
+    scene: &Scene,
+    (width, height): (u32, u32),
+    passes: &[PassSample],
+    vpl_sets: &[Vec<VirtualPointLight>],
+    s: &InterleavedSettings,
+) -> Result<LinearImage> {
+    let weight = 1.0 / passes.len().max(1) as f32;
+    let mut sum = LinearImage::new(width, height);
+    for (p, sample) in passes.iter().enumerate() {
+        let gs = render_gbuffer_at(scene, width, height, sample)?;
+        let vpls = vpl_sets.get(p).or(vpl_sets.last()).map_or(&[][..], |v| &v[..]);
+        let image = render(&gs, vpls, s)?;
+        for (acc, v) in sum.pixels.iter_mut().zip(&image.pixels) {
+            for c in 0..4 {
+                acc[c] += weight * v[c];
+            }
+        }
+    }
+    Ok(sum)
 }
 
 #[cfg(test)]

@@ -21,11 +21,16 @@ layout(set = 3, binding = 4, rgba32f) uniform readonly image2D g_normal;
 layout(set = 3, binding = 5, rgba32f) uniform readonly image2D g_albedo;
 layout(set = 3, binding = 6, rgba32f) uniform readonly image2D g_direct;
 layout(set = 3, binding = 7, rgba32f) uniform image2D result;
-// The VPL shadow maps (SSM): an atlas of cube faces, face f of VPL i at index 6 i + f in rows of
+// The VPL shadow maps (SSM): an atlas of cube faces of the pass' VPL set, face f of its VPL i at index 6 i + f in rows of
 // pc.atlas_cols faces of pc.face_size² texels, each texel the distance from the VPL over pc.far; and
-// each face's camera-space view-projection.
+// each face's camera-space view-projection, every set's (the pass' set from 6 vpl_first).
 layout(set = 3, binding = 8) uniform sampler2D vpl_maps;
 layout(set = 3, binding = 9, std430) readonly buffer VplFaces { mat4 vpl_faces[]; };
+// The blur with hardware-filtered pairs (blur_sampled.glsl): the gathered light copied into an image,
+// and the x pass' result, each read through a linear sampler with unnormalized coordinates.
+layout(set = 3, binding = 10) uniform sampler2D blur_x_source;
+layout(set = 3, binding = 11) uniform sampler2D blur_y_source;
+layout(set = 3, binding = 12, rgba32f) uniform writeonly image2D blur_mid;
 
 layout(push_constant) uniform Push {
     uint width;        // the image
@@ -43,6 +48,7 @@ layout(push_constant) uniform Push {
     uint stride;       // vec4s per texel of a permutation
     uint map;          // MAP_* (permute.comp)
     uint pull;         // 1: dst[p] = src[map(p)]; 0: dst[map(p)] = src[p]
+    uint vpl_first;    // the pass' VPL set: vpls[vpl_first ..][.. vpl_count]
     uint vpl_count;
     float clamp2;      // the VPLs' clamping distance, squared
     uint radius;       // the blur
@@ -55,6 +61,7 @@ layout(push_constant) uniform Push {
     uint atlas_cols;
     float far;
     float shadow_bias; // a receiver is lit when its distance ≤ the map's · (1 + bias) + bias
+    float weight;      // the pass' share of the frame (compose.comp): 1 / passes
 } pc;
 
 const uint MAP_SPLIT = 0u;

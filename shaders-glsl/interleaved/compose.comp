@@ -1,7 +1,7 @@
 #version 460
 // Interleaved deferred shading, step 7: the direct light plus the albedo times the filtered indirect
 // light (pc.src, one vec4 per texel in rows of pc.padded_w) on surfaces; the background keeps the direct
-// pass' clear.
+// pass' clear. Added with the pass' weight to the frame's result (cleared before the first pass).
 #include "interleaved/common.glsl"
 
 void main() {
@@ -11,5 +11,5 @@ void main() {
     if (imageLoad(g_position, p).w > 0.5) {
         c += imageLoad(g_albedo, p).rgb * texels[pc.src + uint(p.y) * pc.padded_w + uint(p.x)].rgb;
     }
-    imageStore(result, p, vec4(c, 1.0));
+    imageStore(result, p, imageLoad(result, p) + pc.weight * vec4(c, 1.0));
 }

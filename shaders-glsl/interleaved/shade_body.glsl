@@ -15,13 +15,14 @@
 const float SHADOW_RAY_OFFSET = 1e-4;  // reference::SHADOW_RAY_OFFSET
 const float PI = 3.14159265358979;
 
-// Whether VPL i's shadow map sees the point p at distance `dist` from it in direction d: the cube face of
+// Whether VPL i (of the pass' set) shadow map sees the point p at distance `dist` from it in direction d: the cube face of
 // d's major axis (+x, −x, +y, −y, +z, −z), the texel p projects to, its stored distance with the bias.
 bool vpl_sees(uint i, vec3 p, vec3 d, float dist) {
     vec3 a = abs(d);
     uint f = a.x >= a.y && a.x >= a.z ? (d.x > 0.0 ? 0u : 1u) : (a.y >= a.z ? (d.y > 0.0 ? 2u : 3u) : (d.z > 0.0 ? 4u : 5u));
+    // The atlas holds the pass' set (face 6 i + f); the matrices every set's, from the set's first.
     uint face = 6u * i + f;
-    vec4 clip = vpl_faces[face] * vec4(p, 1.0);
+    vec4 clip = vpl_faces[6u * pc.vpl_first + face] * vec4(p, 1.0);
     vec2 ndc = clip.xy / clip.w;
     ivec2 t = clamp(ivec2((ndc * 0.5 + 0.5) * float(pc.face_size)), ivec2(0), ivec2(int(pc.face_size) - 1));
     ivec2 origin = ivec2(int(face % pc.atlas_cols), int(face / pc.atlas_cols)) * int(pc.face_size);
@@ -43,15 +44,16 @@ void main() {
         float offset = SHADOW_RAY_OFFSET * max(max(max(a.x, a.y), a.z), 1.0);
         vec3 origin = position.xyz + offset * normal;
         for (uint i = k; i < pc.vpl_count; i += subsets) {
-            vec3 d = vpls[i].position.xyz - origin;
+            Vpl v = vpls[pc.vpl_first + i];
+            vec3 d = v.position.xyz - origin;
             float d2 = dot(d, d);
             vec3 dir = d / sqrt(d2);
-            float cx = dot(normal, dir), cy = -dot(vpls[i].normal.xyz, dir);
+            float cx = dot(normal, dir), cy = -dot(v.normal.xyz, dir);
             bool lit = d2 > 0.0 && cx > 0.0 && cy > 0.0;
 #ifdef VPL_SHADOW_MAPS
             lit = lit && vpl_sees(i, origin, -d, sqrt(d2));
 #endif
-            sum += lit ? vpls[i].flux.rgb * (cx * cy / (PI * PI * max(d2, pc.clamp2))) : vec3(0.0);
+            sum += lit ? v.flux.rgb * (cx * cy / (PI * PI * max(d2, pc.clamp2))) : vec3(0.0);
         }
         sum *= float(subsets);
     }

@@ -87,7 +87,14 @@ pub fn apply_option(s: &mut RenderSettings, key: &str, value: &str) -> Result<()
             }
         }
         "bilinear" => match &mut s.interleaved.blur {
-            Some(b) => b.bilinear = value.parse().with_context(|| format!("bilinear `{value}`: true or false"))?,
+            Some(b) => {
+                (b.bilinear, s.interleaved.bilinear_sampler) = match value {
+                    "false" => (false, false),
+                    "true" | "pairs" => (true, false),
+                    "sampler" => (true, true),
+                    _ => bail!("bilinear `{value}`: false, true (pairs lerped in the shader) or sampler (pairs fetched by the hardware's linear filter)"),
+                }
+            }
             None => bail!("bilinear without a filter (filter=none)"),
         },
         _ => bail!(

@@ -100,7 +100,8 @@ enum Command {
         shadow_map: String,
         /// Further settings as `bench -c` takes them, KEY=VALUE, repeatable: for technique
         /// `interleaved` vpls=N (photons), clamp=D, pattern=NxM, split=one|two, block=BxB (patterns),
-        /// filter=none|plain|full|axis, radius=R, bilinear=true|false, vpl-maps=SIZE|off (a cube
+        /// filter=none|plain|full|axis, radius=R, bilinear=true|false|sampler (sampler: the pairs
+        /// fetched by the hardware's linear filter), vpl-maps=SIZE|off (a cube
         /// shadow map per VPL, SIZE² texels a face; off: no VPL visibility) (docs/INTERLEAVED.md).
         #[arg(long = "set", value_name = "KEY=VALUE")]
         set: Vec<String>,
@@ -131,9 +132,10 @@ enum Command {
         #[arg(long, default_value_t = 0.0)]
         clamp: f32,
         /// With --vpls: the CPU mirror of interleaved deferred shading (engine/src/interleaved.rs) on
-        /// a pinhole G-buffer of one sample at each pixel's centre (--spp is ignored): each pixel of
-        /// an NxM pattern gathers its own subset of the VPLs; 1x1 with --filter none is the brute
-        /// force.
+        /// a G-buffer of one sample at each pixel's centre (a still pinhole scene) or, for a scene
+        /// with a lens or motion, --spp accumulated passes of one (subpixel, lens, time) sample each:
+        /// each pixel of an NxM pattern gathers its own subset of the VPLs; 1x1 with --filter none is
+        /// the brute force.
         #[arg(long)]
         interleave: Option<String>,
         /// With --interleave: the two-pass split's block, in patterns (BxB).
@@ -613,6 +615,7 @@ fn run() -> Result<()> {
         }
         Command::Reference {
             scene,
+            spp,
             vpls,
             clamp,
             interleave: Some(pattern),
@@ -647,8 +650,8 @@ fn run() -> Result<()> {
             let seed = seed.unwrap_or(sc.image.seed);
             let start = std::time::Instant::now();
             let v = shutter::reference::VplSettings { count, clamp, seed };
-            let lights = shutter::reference::virtual_point_lights(&sc, &v)?;
-            let gs = shutter::reference::gbuffer::render_gbuffer(&sc, width, height)?;
+            let passes = shutter::interleaved::frame_passes(&sc, spp, seed);
+            let sets = shutter::interleaved::pass_vpls(&sc, &v, &passes)?;
             let settings = shutter::interleaved::InterleavedSettings {
                 pattern,
                 block: (block.n, block.m),
@@ -657,7 +660,7 @@ fn run() -> Result<()> {
                 clamp,
                 visibility: !snsm,
             };
-            let image = shutter::interleaved::render(&gs, &lights, &settings)?;
+            let image = shutter::interleaved::render_frame(&sc, (width, height), &passes, &sets, &settings)?;
             let secs = start.elapsed().as_secs_f64();
             let out = match out {
                 Some(o) => o,
@@ -665,11 +668,13 @@ fn run() -> Result<()> {
             };
             save_image(&out, &image)?;
             println!(
-                "{} interleaved (CPU) {}x{}: {} VPLs from {count} photons, pattern {}, filter {filter}{}, {} in {secs:.1} s; wrote {}",
+                "{} interleaved (CPU) {}x{}, {} pass(es): {} VPLs from {count} photons{}, pattern {}, filter {filter}{}, {} in {secs:.1} s; wrote {}",
                 sc.name,
                 width,
                 height,
-                lights.len(),
+                passes.len(),
+                sets[0].len(),
+                if sets.len() > 1 { " (pass 1; a set per pass)" } else { "" },
                 pattern.name(),
                 if bilinear { " (bilinear)" } else { "" },
                 if snsm { "no VPL visibility" } else { "VPL shadow rays" },

@@ -1,5 +1,6 @@
 //! The CPU G-buffer of interleaved deferred shading ([`crate::interleaved`]): per pixel, what the
-//! pinhole camera sees through the pixel's centre at mid-shutter — position and shading normal
+//! camera sees through the pixel's centre at mid-shutter through the lens centre, or through one
+//! pass' sample of (subpixel, lens, time) shared by every pixel ([`render_gbuffer_at`]) — position and shading normal
 //! (camera space), albedo, the direct light (the model's shading, shadowed) — and the one-bounce light
 //! of a set of VPLs gathered there ([`Tracer::gather_irradiance`]), all of them or each sub-buffer's
 //! subset.
@@ -10,6 +11,7 @@ use super::{Hit, ReferenceSettings, Tracer, VirtualPointLight};
 use crate::error::Result;
 use crate::scene::Scene;
 use crate::shading::shade;
+use crate::techniques::forward::PassSample;
 
 /// One texel: `None` where the pixel's centre sees the background.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -28,6 +30,8 @@ pub struct GBuffer {
     pub height: u32,
     pub texels: Vec<Option<GTexel>>,
     pub background: Vec3,
+    /// The shutter time it was rendered at.
+    pub time: f32,
 }
 
 /// What [`render_gbuffer`] hands to the gathering of VPL light: the G-buffer and a gatherer that
@@ -37,23 +41,38 @@ pub struct GBufferScene<'a> {
     pub gbuffer: GBuffer,
 }
 
-/// The G-buffer of `scene` at `width × height`.
+/// The G-buffer of `scene` at `width × height`: pixel centres, mid-shutter, the lens centre.
 pub fn render_gbuffer(scene: &Scene, width: u32, height: u32) -> Result<GBufferScene<'_>> {
+    let centre = PassSample { time: 0.5, lens: Vec2::ZERO, jitter: Vec2::ZERO };
+    render_gbuffer_at(scene, width, height, &centre)
+}
+
+/// The G-buffer of `scene` at `width × height` seen through `sample`, every pixel's: pixel centre plus
+/// its jitter, its lens point (the unit aperture's, mapped to the shape) and its shutter time — one
+/// pass of an accumulation frame, as the rasterizer renders it.
+pub fn render_gbuffer_at<'a>(
+    scene: &'a Scene,
+    width: u32,
+    height: u32,
+    sample: &PassSample,
+) -> Result<GBufferScene<'a>> {
     let settings =
         ReferenceSettings { width, height, spp: 1, seed: 0, progress: false, shading: Default::default() };
     super::validate(&settings, &scene.camera)?;
     let tracer = Tracer::new(scene, &settings);
     let mut texels = Vec::with_capacity((width * height) as usize);
     let mut lights = Vec::new();
+    let time = sample.time;
     for y in 0..height {
         for x in 0..width {
-            let (o, d) = tracer.intrinsics.primary_ray(Vec2::new(x as f32 + 0.5, y as f32 + 0.5), Vec2::ZERO);
-            let hit = tracer.camera_hit(o, d, 0.5, (x, y), 0).0;
-            texels.push(hit.map(|hit| tracer.texel(&hit, d, &mut lights)));
+            let pixel = Vec2::new(x as f32 + 0.5, y as f32 + 0.5) + sample.jitter;
+            let (o, d) = tracer.intrinsics.primary_ray(pixel, sample.lens);
+            let hit = tracer.camera_hit(o, d, time, (x, y), 0).0;
+            texels.push(hit.map(|hit| tracer.texel(&hit, d, time, &mut lights)));
         }
     }
     let background = tracer.background;
-    Ok(GBufferScene { tracer, gbuffer: GBuffer { width, height, texels, background } })
+    Ok(GBufferScene { tracer, gbuffer: GBuffer { width, height, texels, background, time } })
 }
 
 impl GBufferScene<'_> {
@@ -61,14 +80,14 @@ impl GBufferScene<'_> {
     /// with their shadow rays (`visibility`) or without (the paper's SNSM), clamped at `clamp`.
     pub fn gather(&self, i: usize, vpls: &[VirtualPointLight], clamp: f32, visibility: bool) -> Vec3 {
         let Some(t) = self.gbuffer.texels[i] else { return Vec3::ZERO };
-        self.tracer.gather_texel(&t, vpls, clamp, visibility)
+        self.tracer.gather_texel(&t, self.gbuffer.time, vpls, clamp, visibility)
     }
 }
 
 impl Tracer<'_> {
-    fn texel(&self, hit: &Hit, d: Vec3, lights: &mut Vec<crate::shading::ShadingLight>) -> GTexel {
-        let x = self.surface_point(hit, d, 0.5, None);
-        self.shadowed_lights(&x, 0.5, lights);
+    fn texel(&self, hit: &Hit, d: Vec3, time: f32, lights: &mut Vec<crate::shading::ShadingLight>) -> GTexel {
+        let x = self.surface_point(hit, d, time, None);
+        self.shadowed_lights(&x, time, lights);
         let m = &self.materials[self.surface[hit.id as usize].object as usize];
         let direct = shade(x.position, x.normal, -d, x.albedo, m.specular, m.roughness, lights, self.ambient);
         GTexel { position: x.position, normal: x.normal, albedo: x.albedo, direct }
@@ -76,8 +95,15 @@ impl Tracer<'_> {
 
     /// [`Tracer::gather_at`] at a G-buffer texel: its position raised along its normal (the texel keeps
     /// no geometric normal).
-    fn gather_texel(&self, t: &GTexel, vpls: &[VirtualPointLight], clamp: f32, visibility: bool) -> Vec3 {
+    fn gather_texel(
+        &self,
+        t: &GTexel,
+        time: f32,
+        vpls: &[VirtualPointLight],
+        clamp: f32,
+        visibility: bool,
+    ) -> Vec3 {
         let offset = super::SHADOW_RAY_OFFSET * t.position.abs().max_element().max(1.0);
-        self.gather_at(t.position + offset * t.normal, t.normal, None, offset, 0.5, vpls, clamp, visibility)
+        self.gather_at(t.position + offset * t.normal, t.normal, None, offset, time, vpls, clamp, visibility)
     }
 }

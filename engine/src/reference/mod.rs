@@ -89,7 +89,7 @@ use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use rayon::prelude::*;
 
 pub use bvh::{Bvh, Hit, SegmentTriangle};
-pub use vpl::{virtual_point_lights, VirtualPointLight, VplSettings};
+pub use vpl::{virtual_point_lights, virtual_point_lights_at, VirtualPointLight, VplSettings};
 
 use crate::error::{Error, Result};
 use crate::geometry::{KeyTimes, MovingTriangle, TriangleHit};
@@ -232,7 +232,8 @@ fn render(
     let mut tracer = Tracer::new(scene, settings);
     tracer.shared = shared.map(|s| s.to_vec());
     if let Some(v) = vpls {
-        tracer.vpls = Some((tracer.virtual_point_lights(v)?, v.clamp));
+        tracer.check_still_scene()?;
+        tracer.vpls = Some((tracer.virtual_point_lights(v, 0.5)?, v.clamp));
     }
     let vpl_count = tracer.vpls.as_ref().map_or(0, |v| v.0.len());
     let build_seconds = start.elapsed().as_secs_f64();

@@ -66,15 +66,30 @@ const VPL_SEED: u64 = 0x7670_6c73_5f69_7221;
 /// The VPLs of `scene` (module docs), in camera space at mid-shutter. Errors for a scene that moves
 /// (the VPLs of one instant would not light the others) and for a count outside `1 ..= MAX_VPLS`.
 pub fn virtual_point_lights(scene: &Scene, s: &VplSettings) -> Result<Vec<VirtualPointLight>> {
-    let settings = ReferenceSettings {
+    let tracer = Tracer::new(scene, &vpl_tracer_settings(s));
+    tracer.check_still_scene()?;
+    tracer.virtual_point_lights(s, 0.5)
+}
+
+/// The VPLs of `scene` at shutter time `time`, in camera space at that instant: moving scenes
+/// included — what lights the surfaces seen at `time` (technique `interleaved` traces a set per pass
+/// of a moving scene). Errors for a count outside `1 ..= MAX_VPLS` and a time outside `[0, 1]`.
+pub fn virtual_point_lights_at(scene: &Scene, s: &VplSettings, time: f32) -> Result<Vec<VirtualPointLight>> {
+    if !(0.0..=1.0).contains(&time) {
+        return Err(Error::Unsupported(format!("VPLs at shutter time {time}: a time in [0, 1]")));
+    }
+    Tracer::new(scene, &vpl_tracer_settings(s)).virtual_point_lights(s, time)
+}
+
+fn vpl_tracer_settings(s: &VplSettings) -> ReferenceSettings {
+    ReferenceSettings {
         width: 1,
         height: 1,
         spp: 1,
         seed: s.seed,
         progress: false,
         shading: Default::default(),
-    };
-    Tracer::new(scene, &settings).virtual_point_lights(s)
+    }
 }
 
 impl Tracer<'_> {
@@ -93,13 +108,6 @@ impl Tracer<'_> {
                 s.clamp
             )));
         }
-        let moves = self.scene_space.objects.iter().any(|o| o.is_moving())
-            || self.scene_space.lights.iter().any(|l| l.at(0.0) != l.at(1.0));
-        if moves {
-            return Err(Error::Unsupported(
-                "virtual point lights need a still scene (nothing moving, the camera included): they are traced at one instant".into(),
-            ));
-        }
         if self.indirect != Indirect::OneBounce {
             return Err(Error::Unsupported(
                 "virtual point lights estimate one-bounce indirect light: the scene has none ([environment] indirect = \"one-bounce\")".into(),
@@ -108,9 +116,19 @@ impl Tracer<'_> {
         Ok(())
     }
 
-    pub(super) fn virtual_point_lights(&self, s: &VplSettings) -> Result<Vec<VirtualPointLight>> {
+    /// Refuses a scene that moves: one set of VPLs, traced at one instant, would not light the others.
+    pub(super) fn check_still_scene(&self) -> Result<()> {
+        if !self.scene_space.is_still() {
+            return Err(Error::Unsupported(
+                "virtual point lights need a still scene (nothing moving, the camera included): they are traced at one instant".into(),
+            ));
+        }
+        Ok(())
+    }
+
+    /// The VPLs at shutter time `time` (module docs).
+    pub(super) fn virtual_point_lights(&self, s: &VplSettings, time: f32) -> Result<Vec<VirtualPointLight>> {
         self.check_vpl_scene(s)?;
-        let time = 0.5;
         let lights: Vec<ShadingLight> = self.scene_space.lights.iter().map(|l| l.at(time)).collect();
         let (centre, radius) = self.bounding_sphere(time);
         // Each light's power (luminance of its flux), for its share of the photons.

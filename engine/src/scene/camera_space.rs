@@ -171,6 +171,12 @@ impl CameraSpaceScene {
     }
 
     /// All lights at shutter time `t`.
+    /// Whether nothing moves in camera space over the shutter: no object, no light (the camera's
+    /// motion moves both).
+    pub fn is_still(&self) -> bool {
+        !self.objects.iter().any(|o| o.is_moving()) && self.lights.iter().all(|l| l.at(0.0) == l.at(1.0))
+    }
+
     pub fn lights_at(&self, t: f32) -> Vec<ShadingLight> {
         self.lights.iter().map(|l| l.at(t)).collect()
     }

@@ -4,9 +4,8 @@
 //! [`crate::interleaved`], which specifies every step; shaders in `shaders-glsl/interleaved/`.
 //!
 //! As a graph, one pass each, timestamped by name:
-//! 1. `interleaved direct`: the forward pipeline's direct light (shadow maps included) at the pixel
-//!    centres, mid-shutter, lens centre; `interleaved G-buffer`: position, normal, albedo
-//!    (`gbuffer.frag`, the same draws);
+//! 1. `interleaved direct`: the forward pipeline's direct light (shadow maps included) through the
+//!    pass' sample; `interleaved G-buffer`: position, normal, albedo (`gbuffer.frag`, the same draws);
 //! 2. `interleaved pack` and `interleaved split`: position and normal into the padded layout, then
 //!    split in one pass or two (block split, block translation: `permute.comp`; the pattern 1×1
 //!    splits into itself and skips it, and the gather);
@@ -15,14 +14,21 @@
 //!    cube shadow map per VPL (its SSM: `interleaved VPL shadow maps` renders them first);
 //! 4. `interleaved gather`: the inverse permutation(s);
 //! 5. `interleaved discontinuity` and 6. `interleaved blur` (both directions) unless the filter is off;
-//! 7. `interleaved compose`: direct + albedo × filtered indirect.
+//! 7. `interleaved compose`: direct + albedo × filtered indirect, added to the frame with the pass'
+//!    weight.
+//!
+//! A still pinhole scene is one such pass, through the pixel centres at mid-shutter. A scene with a
+//! lens or motion repeats all seven steps for `spp` passes, each through one (subpixel, lens, time)
+//! sample shared by every pixel — technique `accumulation`'s samples — and averages them
+//! ([`crate::interleaved::frame_passes`]). A moving scene's VPLs are a set per pass, traced at its
+//! time, and its VPL shadow maps are rendered in every pass; a still scene's are one set, its maps
+//! rendered once.
 //!
 //! The VPLs are the reference's ([`crate::reference::virtual_point_lights`], traced on the CPU at
 //! prepare time, uploaded): the CPU mirror with the same settings and no VPL visibility computes the
 //! same image (with shadow maps, the mirror's exact shadow rays are what they approximate), but for the direct light's shadows (shadow maps here, exact rays there) and the f32
 //! rounding between a rasterized and a ray-traced G-buffer. The pattern 1×1 without a filter is the
-//! brute force: every pixel gathers every VPL. Still, opaque scenes through a pinhole only: the VPLs
-//! are traced at one instant, and the G-buffer holds one sample per pixel.
+//! brute force: every pixel gathers every VPL. Opaque scenes only.
 
 use ash::vk;
 use bytemuck::{Pod, Zeroable};
@@ -33,7 +39,9 @@ use super::shadow_maps::ShadowMaps;
 use super::{FrameContext, FrameInputs, FrameTechnique, PrepareContext, TechniqueFrame, TechniqueInfo};
 use crate::error::{Error, Result};
 use crate::gpu::layout::{shared_struct, vertex_input, Binding, SharedStruct, TECHNIQUE_SET_INDEX};
-use crate::graph::{Access, BufferHandle, ImageHandle, Load, PassContext, Store, Tracked};
+use crate::graph::{
+    Access, BufferHandle, FrameGraph, ImageHandle, Load, PassContext, ResourceHandle, Store, Tracked,
+};
 use crate::interleaved::{Blur, Discontinuity, Edges, Layout, Pattern};
 use crate::shaders;
 use crate::vk::{
@@ -87,6 +95,9 @@ pub struct InterleavedOptions {
     pub block: (u32, u32),
     /// `None`: no filter.
     pub blur: Option<Blur>,
+    /// With the blur's bilinear pairs: each pair fetched by the hardware's linear filter (a sampler
+    /// over an image, the paper's trick) rather than two loads lerped in the shader.
+    pub bilinear_sampler: bool,
     pub discontinuity: Discontinuity,
     /// The VPLs' visibility: `None`, none (the paper's SNSM); `Some(size)`, a cube shadow map per VPL
     /// of `size`² texels per face (its SSM).
@@ -106,6 +117,7 @@ impl Default for InterleavedOptions {
             split: Split::TwoPass,
             block: (4, 4),
             blur: Some(Blur { radius: 4, bilinear: false, edges: Edges::Texel }),
+            bilinear_sampler: false,
             discontinuity: Discontinuity::default(),
             vpl_maps: None,
         }
@@ -113,7 +125,7 @@ impl Default for InterleavedOptions {
 }
 
 /// Set 3 of the compute passes (`interleaved/common.glsl`).
-pub const INTERLEAVED_SET: [Binding; 10] = [
+pub const INTERLEAVED_SET: [Binding; 13] = [
     Binding { binding: 0, ty: vk::DescriptorType::STORAGE_BUFFER, block: "Texels" },
     Binding { binding: 1, ty: vk::DescriptorType::STORAGE_BUFFER, block: "Vpls" },
     Binding { binding: 2, ty: vk::DescriptorType::STORAGE_BUFFER, block: "Flags" },
@@ -124,6 +136,9 @@ pub const INTERLEAVED_SET: [Binding; 10] = [
     Binding { binding: 7, ty: vk::DescriptorType::STORAGE_IMAGE, block: "result" },
     Binding { binding: 8, ty: vk::DescriptorType::COMBINED_IMAGE_SAMPLER, block: "vpl_maps" },
     Binding { binding: 9, ty: vk::DescriptorType::STORAGE_BUFFER, block: "VplFaces" },
+    Binding { binding: 10, ty: vk::DescriptorType::COMBINED_IMAGE_SAMPLER, block: "blur_x_source" },
+    Binding { binding: 11, ty: vk::DescriptorType::COMBINED_IMAGE_SAMPLER, block: "blur_y_source" },
+    Binding { binding: 12, ty: vk::DescriptorType::STORAGE_IMAGE, block: "blur_mid" },
 ];
 
 /// Push constants of the compute passes (`Push` in `interleaved/common.glsl`).
@@ -145,6 +160,7 @@ pub struct InterleavedPush {
     pub stride: u32,
     pub map: u32,
     pub pull: u32,
+    pub vpl_first: u32,
     pub vpl_count: u32,
     pub clamp2: f32,
     pub radius: u32,
@@ -157,6 +173,7 @@ pub struct InterleavedPush {
     pub atlas_cols: u32,
     pub far: f32,
     pub shadow_bias: f32,
+    pub weight: f32,
 }
 
 /// Push constants of `vpl_shadow.vert` and `.frag`.
@@ -203,6 +220,7 @@ pub const INTERLEAVED_STRUCTS: &[SharedStruct] = &[
             stride,
             map,
             pull,
+            vpl_first,
             vpl_count,
             clamp2,
             radius,
@@ -214,7 +232,8 @@ pub const INTERLEAVED_STRUCTS: &[SharedStruct] = &[
             face_size,
             atlas_cols,
             far,
-            shadow_bias
+            shadow_bias,
+            weight
         ]
     ),
     shared_struct!("Push", VplShadowPush, [face, vpl, object, segment, segment_time, pad]),
@@ -265,6 +284,8 @@ struct ComputePipelines {
     shade: Pipeline,
     discontinuity: Pipeline,
     blur: Pipeline,
+    /// The blur's x and y passes with hardware-filtered pairs (`bilinear_sampler`).
+    blur_sampled: Option<(Pipeline, Pipeline)>,
     compose: Pipeline,
     layout: PipelineLayout,
     set: vk::DescriptorSet,
@@ -278,7 +299,10 @@ pub struct InterleavedTechnique {
     options: InterleavedOptions,
     layout: Layout,
     regions: Regions,
-    vpl_count: u32,
+    /// The frame's passes ([`crate::interleaved::frame_passes`]).
+    passes: Vec<PassSample>,
+    /// Each VPL set's first VPL and count in `Vpls`: one for a still scene, one per pass otherwise.
+    vpl_sets: Vec<(u32, u32)>,
     direct: ForwardPipeline,
     gbuffer: Pipeline,
     gbuffer_layout: PipelineLayout,
@@ -291,6 +315,11 @@ pub struct InterleavedTechnique {
     result: Tracked<Image>,
     texels: Tracked<Buffer>,
     flags: Tracked<Buffer>,
+    /// The hardware-filtered blur's images (1×1 placeholders without it): the gathered light, and
+    /// the x pass' result.
+    blur_in: Tracked<Image>,
+    blur_mid: Tracked<Image>,
+    _blur_sampler: crate::vk::Sampler,
     _vpls: Buffer,
     /// The VPL shadow maps (a 1×1 placeholder without them), their faces' matrices and pipeline.
     vpl_atlas: Tracked<Image>,
@@ -298,10 +327,11 @@ pub struct InterleavedTechnique {
     _vpl_faces_buffer: Buffer,
     _vpl_sampler: crate::vk::Sampler,
     vpl_shadow: Option<(Pipeline, PipelineLayout, Vec<ShaderModule>)>,
+    /// Every set's VPLs' positions (w: `far`), in `Vpls` order.
     vpl_positions: Vec<[f32; 4]>,
     atlas_cols: u32,
     far: f32,
-    /// The VPL shadow maps are in the atlas (rendered by the first frame).
+    /// The VPL shadow maps of a still scene are in the atlas (rendered by the first frame).
     maps_rendered: bool,
     // Dropped after the direct pipeline whose set layout it uses.
     shadows: Option<ShadowMaps>,
@@ -311,26 +341,30 @@ impl InterleavedTechnique {
     pub fn new(ctx: &PrepareContext<'_>) -> Result<Self> {
         let (device, world, scene, s) = (ctx.device, ctx.world, ctx.scene, ctx.settings);
         let options = s.interleaved;
-        if scene.camera.aperture_radius > 0.0 {
-            return Err(Error::Unsupported(
-                "technique interleaved renders through the lens centre (its G-buffer holds one pinhole sample per pixel): give the scene aperture_radius = 0".into(),
-            ));
-        }
         if super::forward::has_transparency(scene) {
             return Err(Error::Unsupported(
                 "technique interleaved shades opaque surfaces only: the scene has alpha or tints".into(),
             ));
         }
-        let vpls = crate::reference::virtual_point_lights(
-            scene,
-            &crate::reference::VplSettings { count: options.photons, clamp: options.clamp, seed: s.seed },
-        )?;
+        let passes = crate::interleaved::frame_passes(scene, s.spp, s.seed);
+        let vpl_settings =
+            crate::reference::VplSettings { count: options.photons, clamp: options.clamp, seed: s.seed };
+        let sets = crate::interleaved::pass_vpls(scene, &vpl_settings, &passes)?;
+        let mut vpl_sets = Vec::with_capacity(sets.len());
+        let mut first = 0;
+        for set in &sets {
+            vpl_sets.push((first, set.len() as u32));
+            first += set.len() as u32;
+        }
+        let largest_set = vpl_sets.iter().map(|s| s.1).max().unwrap_or(0);
+        let vpls: Vec<crate::reference::VirtualPointLight> = sets.into_iter().flatten().collect();
         let (width, height) = (s.width, s.height);
         let layout = Layout::new(width, height, options.pattern, options.block)?;
         let texel_count = layout.width * layout.height;
         let regions = Regions::new(texel_count);
 
-        let shadows = ShadowMaps::new(device, world, scene, &s.shadows, &[0.5], s.seed)?;
+        let pass_times: Vec<f32> = passes.iter().map(|p| p.time).collect();
+        let shadows = ShadowMaps::new(device, world, scene, &s.shadows, &pass_times, s.seed)?;
         // The direct light in f32 (the forward passes' f16 would round it by 5e-4 of itself).
         let direct = ForwardPipeline::with_format(device, world, 1, shadows.as_ref(), GBUFFER_FORMAT)?;
 
@@ -373,7 +407,8 @@ impl InterleavedTechnique {
             device,
             "interleaved texels",
             regions.total as u64 * 16,
-            storage,
+            // A transfer source for the hardware-filtered blur's copy.
+            storage | vk::BufferUsageFlags::TRANSFER_SRC,
             MemoryLocation::GpuOnly,
         )?);
         let flags = Tracked::new(Buffer::new(
@@ -398,6 +433,24 @@ impl InterleavedTechnique {
             storage,
             if gpu_vpls.is_empty() { &placeholder } else { &gpu_vpls },
         )?;
+
+        let sampled_blur = options.bilinear_sampler && options.blur.is_some_and(|b| b.bilinear);
+        if options.bilinear_sampler && !sampled_blur {
+            return Err(Error::Unsupported(
+                "bilinear=sampler: the hardware-filtered pairs need a filter with bilinear pairs".into(),
+            ));
+        }
+        if sampled_blur {
+            device.caps.require(crate::vk::Feature::LinearFilterRgba32f, "interleaved bilinear=sampler")?;
+        }
+        let (bw, bh) = if sampled_blur { (width, height) } else { (1, 1) };
+        let blur_image = |name: &str, usage: vk::ImageUsageFlags| -> Result<Tracked<Image>> {
+            let usage = usage | vk::ImageUsageFlags::SAMPLED;
+            Ok(Tracked::new(Image::new(device, name, ImageDesc::new_2d(bw, bh, GBUFFER_FORMAT, usage))?))
+        };
+        let blur_in = blur_image("interleaved blur source", vk::ImageUsageFlags::TRANSFER_DST)?;
+        let blur_mid = blur_image("interleaved blur x", vk::ImageUsageFlags::STORAGE)?;
+        let blur_sampler = crate::vk::Sampler::linear_unnormalized(device, "interleaved blur")?;
 
         let set_layout = DescriptorSetLayout::from_table(
             device,
@@ -428,8 +481,9 @@ impl InterleavedTechnique {
                 "VPL shadow maps of {face_size}² texels a face: at most 4096"
             )));
         }
-        let faces = if face_size > 0 { 6 * vpls.len() as u32 } else { 0 };
-        let mut vpl_faces = Vec::with_capacity(faces as usize);
+        // The atlas holds one set's maps (a moving scene's are re-rendered for each pass' set).
+        let faces = if face_size > 0 { 6 * largest_set } else { 0 };
+        let mut vpl_faces = Vec::with_capacity(6 * vpls.len());
         let axes =
             [glam::Vec3::X, -glam::Vec3::X, glam::Vec3::Y, -glam::Vec3::Y, glam::Vec3::Z, -glam::Vec3::Z];
         if face_size > 0 {
@@ -515,6 +569,9 @@ impl InterleavedTechnique {
                 DescriptorWrite::StorageImage { binding: 7, view: result.view },
                 DescriptorWrite::SampledImage { binding: 8, view: vpl_atlas.view, sampler: vpl_sampler.raw },
                 DescriptorWrite::storage_buffer(9, &vpl_faces_buffer),
+                DescriptorWrite::SampledImage { binding: 10, view: blur_in.view, sampler: blur_sampler.raw },
+                DescriptorWrite::SampledImage { binding: 11, view: blur_mid.view, sampler: blur_sampler.raw },
+                DescriptorWrite::StorageImage { binding: 12, view: blur_mid.view },
             ],
         );
         let module = |src| ShaderModule::new(device, src);
@@ -529,6 +586,8 @@ impl InterleavedTechnique {
             module(shaders::INTERLEAVED_DISCONTINUITY_COMP)?,
             module(shaders::INTERLEAVED_BLUR_COMP)?,
             module(shaders::INTERLEAVED_COMPOSE_COMP)?,
+            module(shaders::INTERLEAVED_BLUR_SAMPLED_X_COMP)?,
+            module(shaders::INTERLEAVED_BLUR_SAMPLED_Y_COMP)?,
         ];
         let pipeline =
             |name: &str, i: usize| Pipeline::compute(device, name, &compute_layout, &shader_modules[i]);
@@ -539,6 +598,14 @@ impl InterleavedTechnique {
             discontinuity: pipeline("interleaved discontinuity", 3)?,
             blur: pipeline("interleaved blur", 4)?,
             compose: pipeline("interleaved compose", 5)?,
+            blur_sampled: if sampled_blur {
+                Some((
+                    pipeline("interleaved blur x (sampled)", 6)?,
+                    pipeline("interleaved blur y (sampled)", 7)?,
+                ))
+            } else {
+                None
+            },
             layout: compute_layout,
             set,
             _set_layout: set_layout,
@@ -549,7 +616,8 @@ impl InterleavedTechnique {
             options,
             layout,
             regions,
-            vpl_count: vpls.len() as u32,
+            passes,
+            vpl_sets,
             direct,
             gbuffer,
             gbuffer_layout,
@@ -562,6 +630,9 @@ impl InterleavedTechnique {
             result,
             texels,
             flags,
+            blur_in,
+            blur_mid,
+            _blur_sampler: blur_sampler,
             _vpls: vpl_buffer,
             vpl_atlas,
             vpl_faces,
@@ -576,8 +647,9 @@ impl InterleavedTechnique {
         })
     }
 
-    /// The push constants every compute pass starts from.
-    fn push(&self) -> InterleavedPush {
+    /// The push constants every compute pass of pass `pass` starts from.
+    fn push(&self, pass: u32) -> InterleavedPush {
+        let (vpl_first, vpl_count) = self.vpl_set(pass);
         let l = &self.layout;
         let blur = self.options.blur.unwrap_or(Blur { radius: 0, bilinear: false, edges: Edges::Ignore });
         InterleavedPush {
@@ -591,7 +663,8 @@ impl InterleavedTechnique {
             block_h: l.block.1,
             sub_w: l.sub.0,
             sub_h: l.sub.1,
-            vpl_count: self.vpl_count,
+            vpl_first,
+            vpl_count,
             clamp2: self.options.clamp * self.options.clamp,
             radius: blur.radius,
             edges: match blur.edges {
@@ -606,8 +679,15 @@ impl InterleavedTechnique {
             atlas_cols: self.atlas_cols,
             far: self.far,
             shadow_bias: VPL_SHADOW_BIAS,
+            weight: 1.0 / self.passes.len() as f32,
             ..Default::default()
         }
+    }
+
+    /// Pass `pass`' VPL set: its first VPL and count.
+    fn vpl_set(&self, pass: u32) -> (u32, u32) {
+        let sets = &self.vpl_sets;
+        sets.get(pass as usize).or(sets.last()).copied().unwrap_or((0, 0))
     }
 
     /// Dispatches `pipeline` over `(w, h)` texels with `push`, after a barrier when `barrier`.
@@ -660,7 +740,7 @@ impl InterleavedTechnique {
         pull: bool,
         barrier: bool,
     ) {
-        let push = InterleavedPush { src, dst, stride, map, pull: pull as u32, ..self.push() };
+        let push = InterleavedPush { src, dst, stride, map, pull: pull as u32, ..self.push(ctx.iteration) };
         self.dispatch(ctx, &self.compute.permute, push, (self.layout.width, self.layout.height), barrier);
     }
 }
@@ -673,7 +753,6 @@ impl FrameTechnique for InterleavedTechnique {
         let shadows = this.shadows.as_ref().map(|s| (s, s.import(&mut g)));
         if let Some((s, h)) = shadows {
             s.add_frame_passes(&mut g, h, &inputs);
-            s.add_pass_passes(&mut g, h, &inputs);
         }
         let shadow_reads = shadows.map(|(_, h)| ShadowMaps::reads(h)).unwrap_or_default();
         let (w, h) = (this.result.desc.width, this.result.desc.height);
@@ -684,27 +763,210 @@ impl FrameTechnique for InterleavedTechnique {
         let result = g.import_image("interleaved result", &this.result);
         let texels = g.import_buffer("interleaved texels", &this.texels);
         let flags = g.import_buffer("interleaved discontinuities", &this.flags);
+        let atlas = g.import_image("interleaved VPL shadow maps", &this.vpl_atlas);
+        let blur_in = g.import_image("interleaved blur source", &this.blur_in);
+        let blur_mid = g.import_image("interleaved blur x", &this.blur_mid);
         let depth_desc = ImageDesc::new_2d(w, h, DEPTH_FORMAT, vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT);
         let depth = g.create_image("interleaved depth", depth_desc)?;
         let gdepth = g.create_image("interleaved G-buffer depth", depth_desc)?;
-        let centre = PassSample { time: 0.5, lens: glam::Vec2::ZERO, jitter: glam::Vec2::ZERO };
+        // The VPL shadow maps depend on the VPLs and the scene: a still scene's are rendered on the
+        // first frame only, then read from the atlas; a moving scene's, for each pass' set.
+        let still_maps = this.vpl_sets.len() == 1;
+        if still_maps && !this.maps_rendered {
+            this.add_vpl_map_pass(&mut g, atlas, &inputs);
+        }
+        g.clear_color("interleaved clear", result, [0.0; 4]);
+        g.repeat(this.passes.len() as u32, |g| {
+            if let Some((s, h)) = shadows {
+                s.add_pass_passes(g, h, &inputs);
+            }
+            if !still_maps {
+                this.add_vpl_map_pass(g, atlas, &inputs);
+            }
+            this.add_pass(
+                g,
+                &inputs,
+                &shadow_reads,
+                PassImages {
+                    position,
+                    normal,
+                    albedo,
+                    direct,
+                    result,
+                    depth,
+                    gdepth,
+                    atlas,
+                    blur_in,
+                    blur_mid,
+                },
+                (texels, flags),
+            );
+            Ok(())
+        })?;
+        let readback = g.read_back(result)?;
+        let mut out = frame.run(g)?;
+        self.maps_rendered = true;
+        Ok(TechniqueFrame {
+            image: out.take_image(readback),
+            passes: self.passes.len() as u32,
+            msaa_samples: 1,
+            counters: None,
+            clusters: vec![],
+        })
+    }
 
+    fn shadows(&self) -> Option<String> {
+        self.shadows.as_ref().map(ShadowMaps::summary)
+    }
+}
+
+/// The images one pass uses.
+#[derive(Clone, Copy)]
+struct PassImages {
+    position: ImageHandle,
+    normal: ImageHandle,
+    albedo: ImageHandle,
+    direct: ImageHandle,
+    result: ImageHandle,
+    depth: ImageHandle,
+    gdepth: ImageHandle,
+    atlas: ImageHandle,
+    blur_in: ImageHandle,
+    blur_mid: ImageHandle,
+}
+
+impl InterleavedTechnique {
+    /// `interleaved VPL shadow maps` (when the technique has them): the cube maps of the VPL set of the
+    /// repeat's pass (of the only set, outside the repeat), every object drawn for every face at the
+    /// pass' time.
+    fn add_vpl_map_pass<'a>(&'a self, g: &mut FrameGraph<'a>, atlas: ImageHandle, inputs: &FrameInputs<'a>) {
+        let Some((pipeline, layout, _)) = self.vpl_shadow.as_ref() else { return };
+        let inputs = *inputs;
+        let size = self.options.vpl_maps.unwrap_or(1);
+        g.pass("interleaved VPL shadow maps").depth(atlas, Load::Clear(1.0), Store::Store).record(
+            move |ctx| {
+                let (d, cmd) = (ctx.device, ctx.cmd);
+                let stages = vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT;
+                unsafe { d.raw.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, pipeline.raw) };
+                let (first, count) = self.vpl_set(ctx.iteration);
+                let time = self.passes[(ctx.iteration as usize).min(self.passes.len() - 1)].time;
+                let faces = 6 * first as usize..6 * (first + count) as usize;
+                for (face, matrix) in self.vpl_faces[faces.clone()].iter().enumerate() {
+                    let (col, row) = (face as u32 % self.atlas_cols, face as u32 / self.atlas_cols);
+                    crate::vk::set_viewport(d, cmd, crate::vk::atlas_square(col * size, row * size, size));
+                    let vpl = self.vpl_positions[faces.start / 6 + face / 6];
+                    let push = |i: usize| {
+                        let (segment, segment_time) = inputs.camera.segment_at(i, time);
+                        VplShadowPush { face: *matrix, vpl, object: i as u32, segment, segment_time, pad: 0 }
+                    };
+                    inputs.world.record_object_draws(
+                        d,
+                        cmd,
+                        inputs.camera,
+                        pipeline,
+                        layout,
+                        stages,
+                        |_| true,
+                        push,
+                        |_| None,
+                    );
+                }
+                Ok(())
+            },
+        );
+    }
+
+    /// `interleaved blur` with hardware-filtered pairs, three graph passes under one name: the
+    /// gathered light copied into an image, the x pass sampling it into `blur mid`, the y pass
+    /// sampling that into the texel buffer's blurred region.
+    fn add_sampled_blur<'a>(
+        &'a self,
+        g: &mut FrameGraph<'a>,
+        im: &PassImages,
+        (texels, flags): (BufferHandle, BufferHandle),
+    ) {
+        let Some((blur_x, blur_y)) = self.compute.blur_sampled.as_ref() else { return };
+        let (r, (w, h)) = (self.regions, (self.result.desc.width, self.result.desc.height));
+        let padded_w = self.layout.width;
+        let blur_in = im.blur_in;
+        g.pass("interleaved blur")
+            .access(texels, Access::TransferRead)
+            .overwrite(blur_in, Access::TransferWrite)
+            .record(move |ctx| {
+                let target = ctx.image(blur_in);
+                let region = vk::BufferImageCopy::default()
+                    .buffer_offset(r.gathered as u64 * 16)
+                    .buffer_row_length(padded_w)
+                    .image_subresource(vk::ImageSubresourceLayers {
+                        aspect_mask: vk::ImageAspectFlags::COLOR,
+                        mip_level: 0,
+                        base_array_layer: 0,
+                        layer_count: 1,
+                    })
+                    .image_extent(vk::Extent3D { width: w, height: h, depth: 1 });
+                unsafe {
+                    ctx.device.raw.cmd_copy_buffer_to_image(
+                        ctx.cmd,
+                        ctx.buffer(texels).raw,
+                        target.raw,
+                        vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+                        &[region],
+                    )
+                };
+                Ok(())
+            });
+        let sampled = Access::ComputeShaderReadSampledImageOrUniformTexelBuffer;
+        g.pass("interleaved blur")
+            .access(blur_in, sampled)
+            .access(flags, Access::ComputeShaderReadOther)
+            .overwrite(im.blur_mid, Access::ComputeShaderWrite)
+            .record(move |ctx| {
+                self.dispatch(ctx, blur_x, self.push(ctx.iteration), (w, h), false);
+                Ok(())
+            });
+        g.pass("interleaved blur")
+            .access(im.blur_mid, sampled)
+            .access(flags, Access::ComputeShaderReadOther)
+            .access(texels, Access::ComputeShaderWrite)
+            .record(move |ctx| {
+                let push = InterleavedPush { dst: r.blur_y, ..self.push(ctx.iteration) };
+                self.dispatch(ctx, blur_y, push, (w, h), false);
+                Ok(())
+            });
+    }
+
+    /// The seven steps of one pass (module docs), inside the frame's repeat: the pass is
+    /// `ctx.iteration`.
+    fn add_pass<'a>(
+        &'a self,
+        g: &mut FrameGraph<'a>,
+        inputs: &FrameInputs<'a>,
+        shadow_reads: &[(ResourceHandle, Access)],
+        im: PassImages,
+        (texels, flags): (BufferHandle, BufferHandle),
+    ) {
+        let this = self;
+        let inputs = *inputs;
+        let (w, h) = (this.result.desc.width, this.result.desc.height);
+        let sample = move |ctx: &PassContext<'_>| this.passes[ctx.iteration as usize];
         g.pass("interleaved direct")
-            .color(direct, Load::Clear(inputs.world.background), Store::Store)
-            .depth(depth, Load::Clear(0.0), Store::DontCare)
+            .color(im.direct, Load::Clear(inputs.world.background), Store::Store)
+            .depth(im.depth, Load::Clear(0.0), Store::DontCare)
             .accesses(shadow_reads.iter().copied())
             .record(move |ctx| {
-                this.direct.record_draws(ctx.device, ctx.cmd, inputs.world, inputs.camera, &centre, |_| true);
+                let s = sample(ctx);
+                this.direct.record_draws(ctx.device, ctx.cmd, inputs.world, inputs.camera, &s, |_| true);
                 Ok(())
             });
         g.pass("interleaved G-buffer")
-            .color(position, Load::Clear([0.0; 4]), Store::Store)
-            .color(normal, Load::Clear([0.0; 4]), Store::Store)
-            .color(albedo, Load::Clear([0.0; 4]), Store::Store)
-            .depth(gdepth, Load::Clear(0.0), Store::DontCare)
+            .color(im.position, Load::Clear([0.0; 4]), Store::Store)
+            .color(im.normal, Load::Clear([0.0; 4]), Store::Store)
+            .color(im.albedo, Load::Clear([0.0; 4]), Store::Store)
+            .depth(im.gdepth, Load::Clear(0.0), Store::DontCare)
             .record(move |ctx| {
+                let s = sample(ctx);
                 let stages = vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT;
-                let push = |i: usize| ForwardPush::new(inputs.camera, i, &centre);
+                let push = |i: usize| ForwardPush::new(inputs.camera, i, &s);
                 let bind = vk::PipelineBindPoint::GRAPHICS;
                 unsafe { ctx.device.raw.cmd_bind_pipeline(ctx.cmd, bind, this.gbuffer.raw) };
                 inputs.world.record_object_draws(
@@ -727,9 +989,9 @@ impl FrameTechnique for InterleavedTechnique {
             [(b.into(), Access::ComputeShaderReadOther), (b.into(), Access::ComputeShaderWrite)]
         };
         let reads = |imgs: &[ImageHandle]| imgs.iter().map(|&i| (i.into(), image_read)).collect::<Vec<_>>();
-        g.pass("interleaved pack").accesses(reads(&[position, normal])).accesses(rw(texels)).record(
+        g.pass("interleaved pack").accesses(reads(&[im.position, im.normal])).accesses(rw(texels)).record(
             move |ctx| {
-                let push = InterleavedPush { dst: r.packed, ..this.push() };
+                let push = InterleavedPush { dst: r.packed, ..this.push(ctx.iteration) };
                 this.dispatch(ctx, &this.compute.pack, push, padded, false);
                 Ok(())
             },
@@ -738,52 +1000,6 @@ impl FrameTechnique for InterleavedTechnique {
         // The pattern 1×1 (the brute force) splits into itself: no permutation, no gather.
         let identity = this.options.pattern == Pattern::ONE;
         let (shade_src, shade_dst) = if identity { (r.packed, r.gathered) } else { (r.split, r.shaded) };
-        let atlas = g.import_image("interleaved VPL shadow maps", &this.vpl_atlas);
-        // The maps depend on the VPLs and the scene, both fixed for the still scenes this technique
-        // takes: rendered on the first frame only, then read from the atlas.
-        let render_maps = !this.maps_rendered;
-        if let Some((pipeline, layout, _)) = this.vpl_shadow.as_ref().filter(|_| render_maps) {
-            let size = this.options.vpl_maps.unwrap_or(1);
-            g.pass("interleaved VPL shadow maps").depth(atlas, Load::Clear(1.0), Store::Store).record(
-                move |ctx| {
-                    let (d, cmd) = (ctx.device, ctx.cmd);
-                    let stages = vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT;
-                    unsafe { d.raw.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, pipeline.raw) };
-                    for (face, matrix) in this.vpl_faces.iter().enumerate() {
-                        let (col, row) = (face as u32 % this.atlas_cols, face as u32 / this.atlas_cols);
-                        crate::vk::set_viewport(
-                            d,
-                            cmd,
-                            crate::vk::atlas_square(col * size, row * size, size),
-                        );
-                        let vpl = this.vpl_positions[face / 6];
-                        let push = |i: usize| {
-                            let (segment, segment_time) = inputs.camera.segment_at(i, 0.5);
-                            VplShadowPush {
-                                face: *matrix,
-                                vpl,
-                                object: i as u32,
-                                segment,
-                                segment_time,
-                                pad: 0,
-                            }
-                        };
-                        inputs.world.record_object_draws(
-                            d,
-                            cmd,
-                            inputs.camera,
-                            pipeline,
-                            layout,
-                            stages,
-                            |_| true,
-                            push,
-                            |_| None,
-                        );
-                    }
-                    Ok(())
-                },
-            );
-        }
         if !identity {
             g.pass("interleaved split").accesses(rw(texels)).record(move |ctx| {
                 match split {
@@ -798,9 +1014,9 @@ impl FrameTechnique for InterleavedTechnique {
         }
         g.pass("interleaved shade")
             .accesses(rw(texels))
-            .access(atlas, Access::ComputeShaderReadSampledImageOrUniformTexelBuffer)
+            .access(im.atlas, Access::ComputeShaderReadSampledImageOrUniformTexelBuffer)
             .record(move |ctx| {
-                let push = InterleavedPush { src: shade_src, dst: shade_dst, ..this.push() };
+                let push = InterleavedPush { src: shade_src, dst: shade_dst, ..this.push(ctx.iteration) };
                 this.dispatch(ctx, &this.compute.shade, push, padded, false);
                 Ok(())
             });
@@ -818,49 +1034,40 @@ impl FrameTechnique for InterleavedTechnique {
         }
         let filtered = if this.options.blur.is_some() {
             g.pass("interleaved discontinuity")
-                .accesses(reads(&[position, normal]))
+                .accesses(reads(&[im.position, im.normal]))
                 .access(flags, Access::ComputeShaderWrite)
                 .record(move |ctx| {
-                    this.dispatch(ctx, &this.compute.discontinuity, this.push(), (w, h), false);
+                    this.dispatch(ctx, &this.compute.discontinuity, this.push(ctx.iteration), (w, h), false);
                     Ok(())
                 });
-            g.pass("interleaved blur")
-                .accesses(rw(texels))
-                .access(flags, Access::ComputeShaderReadOther)
-                .record(move |ctx| {
-                    let x = InterleavedPush { src: r.gathered, dst: r.blur_x, axis: 0, ..this.push() };
-                    this.dispatch(ctx, &this.compute.blur, x, (w, h), false);
-                    let y = InterleavedPush { src: r.blur_x, dst: r.blur_y, axis: 1, ..this.push() };
-                    this.dispatch(ctx, &this.compute.blur, y, (w, h), true);
-                    Ok(())
-                });
+            if this.compute.blur_sampled.is_some() {
+                this.add_sampled_blur(g, &im, (texels, flags));
+            } else {
+                g.pass("interleaved blur")
+                    .accesses(rw(texels))
+                    .access(flags, Access::ComputeShaderReadOther)
+                    .record(move |ctx| {
+                        let base = this.push(ctx.iteration);
+                        let x = InterleavedPush { src: r.gathered, dst: r.blur_x, axis: 0, ..base };
+                        this.dispatch(ctx, &this.compute.blur, x, (w, h), false);
+                        let y = InterleavedPush { src: r.blur_x, dst: r.blur_y, axis: 1, ..base };
+                        this.dispatch(ctx, &this.compute.blur, y, (w, h), true);
+                        Ok(())
+                    });
+            }
             r.blur_y
         } else {
             r.gathered
         };
         g.pass("interleaved compose")
-            .accesses(reads(&[position, albedo, direct]))
+            .accesses(reads(&[im.position, im.albedo, im.direct]))
             .access(texels, Access::ComputeShaderReadOther)
-            .overwrite(result, Access::ComputeShaderWrite)
+            .access(im.result, Access::ComputeShaderReadWrite)
             .record(move |ctx| {
-                let push = InterleavedPush { src: filtered, ..this.push() };
+                let push = InterleavedPush { src: filtered, ..this.push(ctx.iteration) };
                 this.dispatch(ctx, &this.compute.compose, push, (w, h), false);
                 Ok(())
             });
-        let readback = g.read_back(result)?;
-        let mut out = frame.run(g)?;
-        self.maps_rendered = true;
-        Ok(TechniqueFrame {
-            image: out.take_image(readback),
-            passes: 1,
-            msaa_samples: 1,
-            counters: None,
-            clusters: vec![],
-        })
-    }
-
-    fn shadows(&self) -> Option<String> {
-        self.shadows.as_ref().map(ShadowMaps::summary)
     }
 }
 
@@ -888,6 +1095,8 @@ pub const SHADER_INTERFACES: &[crate::gpu::layout::ShaderInterface] = &[
             "interleaved/discontinuity.comp",
             "interleaved/blur.comp",
             "interleaved/compose.comp",
+            "interleaved/blur_sampled_x.comp",
+            "interleaved/blur_sampled_y.comp",
         ],
         None,
         Some(&INTERLEAVED_SET),

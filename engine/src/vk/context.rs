@@ -76,6 +76,11 @@ pub struct Capabilities {
     pub max_uniform_buffer_range: u32,
     /// MSAA samples sit at the standard sample locations of the Vulkan spec.
     pub standard_sample_locations: bool,
+    /// `SAMPLED_IMAGE_FILTER_LINEAR` for optimal-tiling `R32G32B32A32_SFLOAT` (optional in Vulkan):
+    /// the interleaved blur's hardware-sampled pairs.
+    pub linear_filter_rgba32f: bool,
+    /// `subTexelPrecisionBits`: the fraction bits of a linear filter's weights (≥ 4; 8 on lavapipe).
+    pub sub_texel_precision_bits: u32,
     pub max_image_dimension_2d: u32,
     /// `maxBoundDescriptorSets` (shadow maps use set 4).
     pub max_bound_descriptor_sets: u32,
@@ -97,6 +102,8 @@ pub enum Feature {
     ConservativeRasterization,
     BufferInt64Atomics,
     TimestampQueries,
+    /// Linear filtering of `R32G32B32A32_SFLOAT` images.
+    LinearFilterRgba32f,
     /// MSAA with this many samples for colour and depth.
     Msaa(u32),
 }
@@ -113,6 +120,9 @@ impl Feature {
             Feature::ConservativeRasterization => "VK_EXT_conservative_rasterization".into(),
             Feature::BufferInt64Atomics => "shaderInt64 and shaderBufferInt64Atomics".into(),
             Feature::TimestampQueries => "timestampComputeAndGraphics".into(),
+            Feature::LinearFilterRgba32f => {
+                "VK_FORMAT_FEATURE_SAMPLED_IMAGE_FILTER_LINEAR_BIT for R32G32B32A32_SFLOAT".into()
+            }
             Feature::Msaa(n) => {
                 format!("{n}x MSAA (framebufferColorSampleCounts & framebufferDepthSampleCounts)")
             }
@@ -136,6 +146,7 @@ impl Capabilities {
             Feature::ConservativeRasterization => self.conservative_rasterization,
             Feature::BufferInt64Atomics => self.buffer_int64_atomics,
             Feature::TimestampQueries => self.timestamps,
+            Feature::LinearFilterRgba32f => self.linear_filter_rgba32f,
             Feature::Msaa(n) => self.framebuffer_sample_counts.contains(&n),
         }
     }
@@ -455,6 +466,12 @@ impl DeviceShared {
             max_storage_buffer_range: limits.max_storage_buffer_range,
             max_uniform_buffer_range: limits.max_uniform_buffer_range,
             standard_sample_locations: limits.standard_sample_locations == vk::TRUE,
+            linear_filter_rgba32f: unsafe {
+                instance.get_physical_device_format_properties(physical, vk::Format::R32G32B32A32_SFLOAT)
+            }
+            .optimal_tiling_features
+            .contains(vk::FormatFeatureFlags::SAMPLED_IMAGE_FILTER_LINEAR),
+            sub_texel_precision_bits: limits.sub_texel_precision_bits,
             max_image_dimension_2d: limits.max_image_dimension2_d,
             max_bound_descriptor_sets: limits.max_bound_descriptor_sets,
             timestamps: limits.timestamp_compute_and_graphics == vk::TRUE

@@ -151,6 +151,24 @@ impl Sampler {
         device.set_name(raw, name);
         Ok(Sampler { raw, device: device.clone() })
     }
+
+    /// Linear filtering at unnormalized texel coordinates (texel t's centre at t + 0.5), clamped to
+    /// the edge, one level: one fetch that blends two neighbouring texels by a chosen fraction.
+    pub fn linear_unnormalized(device: &Device, name: &str) -> Result<Sampler> {
+        let info = vk::SamplerCreateInfo::default()
+            .mag_filter(vk::Filter::LINEAR)
+            .min_filter(vk::Filter::LINEAR)
+            .mipmap_mode(vk::SamplerMipmapMode::NEAREST)
+            .address_mode_u(vk::SamplerAddressMode::CLAMP_TO_EDGE)
+            .address_mode_v(vk::SamplerAddressMode::CLAMP_TO_EDGE)
+            .address_mode_w(vk::SamplerAddressMode::CLAMP_TO_EDGE)
+            .min_lod(0.0)
+            .max_lod(0.0)
+            .unnormalized_coordinates(true);
+        let raw = unsafe { device.raw.create_sampler(&info, None) }.vk("vkCreateSampler")?;
+        device.set_name(raw, name);
+        Ok(Sampler { raw, device: device.clone() })
+    }
 }
 
 impl Drop for Sampler {
