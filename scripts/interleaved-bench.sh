@@ -38,3 +38,10 @@ $S bench interior --size 640x480 --frames 3 --warmup 1 --no-counters -c "interle
   -c "interleaved:$v:pattern=4x4" -c "interleaved:$v:pattern=8x6" -c "interleaved:$v:pattern=8x8" \
   --csv "$out/bench-interior-640.csv" > "$out/bench-interior-640.md"
 cat "$out/bench-interior-640.md"
+# The blur's bilinear pairs lerped in the shader (bilinear=true) against fetched by the hardware's
+# linear filter from an image (bilinear=sampler, the paper's trick, with the copy into the image),
+# and the plain kernel, at 8x6.
+$S bench cornell --size 640x480 --frames 3 --warmup 1 --no-counters -c "interleaved:$v:pattern=8x6" \
+  -c "interleaved:$v:pattern=8x6:bilinear=true" -c "interleaved:$v:pattern=8x6:bilinear=sampler" \
+  --csv "$out/bench-blur-640.csv" > "$out/bench-blur-640.md"
+cat "$out/bench-blur-640.md"
