@@ -192,18 +192,14 @@ impl SampleTile {
 }
 
 /// Shape of the aperture, inscribed in the unit disk (the lens radius is `aperture_radius`).
-#[derive(Clone, Copy, Debug, PartialEq, Deserialize, Default)]
-#[serde(tag = "shape", rename_all = "kebab-case", deny_unknown_fields)]
+/// Scene files spell it `aperture = { shape = … }` (`scene::file`).
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
 pub enum ApertureShape {
     /// A round aperture.
     #[default]
     Disk,
     /// A regular polygon of `blades` sides (≥ 3) inscribed in the unit circle, rotated by `rotation_deg`.
-    Blades {
-        blades: u32,
-        #[serde(default)]
-        rotation_deg: f32,
-    },
+    Blades { blades: u32, rotation_deg: f32 },
     /// A round aperture whose transmission falls off smoothly at its rim: the smooth lens of
     /// Vaidyanathan et al. 2012 (§4, a smoothstep over `[0.9 r, 1.1 r]` of the lens radius `r`), whose
     /// spectrum has less support than the sharp disk's. Here the camera's `aperture_radius` is the

@@ -1,7 +1,8 @@
 //! Scene files: TOML (+ OBJ meshes + PNG textures) → a resolved [`Scene`].
 //!
 //! Paths inside a scene file are relative to the file's folder. Unknown keys are errors naming the
-//! key, and every value is validated (finite, in range) with an error naming the file and the field.
+//! key, and every value is validated (finite, in range; a vector or colour exactly three numbers) with
+//! an error naming the file and the field.
 //!
 //! ```toml
 //! name = "optional"             # default: the file stem (or the built-in's name)
@@ -101,7 +102,75 @@ use crate::sampling::{ApertureShape, ShutterCurve};
 
 use crate::limits::{MAX_IMAGE_DIMENSION, MAX_MOTION_KEYS, MAX_SPP};
 
-type V3 = [f32; 3];
+/// A vector or colour `[x, y, z]` as the file wrote it: the first three numbers and how many there
+/// were, so that [`Ctx::vec3`] — the one place every vector passes — refuses any other length naming
+/// the field (serde's own `[f32; 3]` stops reading after three and ignores the rest).
+#[derive(Clone, Copy, Debug)]
+struct V3 {
+    xyz: [f32; 3],
+    len: usize,
+}
+
+impl From<[f32; 3]> for V3 {
+    fn from(xyz: [f32; 3]) -> Self {
+        V3 { xyz, len: 3 }
+    }
+}
+
+/// One number of a vector (an integer or a float); anything else is "expected a number".
+struct Number(f32);
+
+impl<'de> Deserialize<'de> for Number {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> std::result::Result<Self, D::Error> {
+        d.deserialize_any(NumberVisitor).map(Number)
+    }
+}
+
+struct NumberVisitor;
+
+impl serde::de::Visitor<'_> for NumberVisitor {
+    type Value = f32;
+    fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+        f.write_str("a number")
+    }
+    fn visit_f64<E>(self, x: f64) -> std::result::Result<f32, E> {
+        Ok(x as f32)
+    }
+    fn visit_i64<E>(self, x: i64) -> std::result::Result<f32, E> {
+        Ok(x as f32)
+    }
+    fn visit_u64<E>(self, x: u64) -> std::result::Result<f32, E> {
+        Ok(x as f32)
+    }
+}
+
+/// Reads every element of an array of numbers: the first three and the count.
+fn read_v3<'de, A: serde::de::SeqAccess<'de>>(mut seq: A) -> std::result::Result<V3, A::Error> {
+    let mut v = V3 { xyz: [0.0; 3], len: 0 };
+    while let Some(Number(x)) = seq.next_element()? {
+        if v.len < 3 {
+            v.xyz[v.len] = x;
+        }
+        v.len += 1;
+    }
+    Ok(v)
+}
+
+impl<'de> Deserialize<'de> for V3 {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> std::result::Result<Self, D::Error> {
+        struct Visitor;
+        impl<'de> serde::de::Visitor<'de> for Visitor {
+            type Value = V3;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                f.write_str("an array of 3 numbers [x, y, z]")
+            }
+            fn visit_seq<A: serde::de::SeqAccess<'de>>(self, seq: A) -> std::result::Result<V3, A::Error> {
+                read_v3(seq)
+            }
+        }
+        d.deserialize_seq(Visitor)
+    }
+}
 
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -137,9 +206,23 @@ struct FileCamera {
     focus_distance: Option<f32>,
     near: Option<f32>,
     far: Option<f32>,
-    aperture: Option<ApertureShape>,
+    aperture: Option<FileAperture>,
     shutter: Option<ShutterCurve>,
     close: Option<FilePose>,
+}
+
+/// `aperture = { shape = … }`. Every shape is a table variant so that a key the shape does not take
+/// (`{ shape = "disk", blades = 6 }`) is an error: serde ignores extra keys beside a unit variant's tag.
+#[derive(Deserialize)]
+#[serde(tag = "shape", rename_all = "kebab-case", deny_unknown_fields)]
+enum FileAperture {
+    Disk {},
+    Blades {
+        blades: u32,
+        #[serde(default)]
+        rotation_deg: f32,
+    },
+    SmoothDisk {},
 }
 
 #[derive(Deserialize)]
@@ -184,11 +267,38 @@ struct FileTransform {
     scale: Option<FileScale>,
 }
 
-#[derive(Deserialize)]
-#[serde(untagged)]
+/// `scale`: one number for every axis or `[x, y, z]`.
 enum FileScale {
     Uniform(f32),
     PerAxis(V3),
+}
+
+impl<'de> Deserialize<'de> for FileScale {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> std::result::Result<Self, D::Error> {
+        struct Visitor;
+        impl<'de> serde::de::Visitor<'de> for Visitor {
+            type Value = FileScale;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                f.write_str("a number or an array of 3 numbers [x, y, z]")
+            }
+            fn visit_f64<E>(self, x: f64) -> std::result::Result<FileScale, E> {
+                Ok(FileScale::Uniform(x as f32))
+            }
+            fn visit_i64<E>(self, x: i64) -> std::result::Result<FileScale, E> {
+                Ok(FileScale::Uniform(x as f32))
+            }
+            fn visit_u64<E>(self, x: u64) -> std::result::Result<FileScale, E> {
+                Ok(FileScale::Uniform(x as f32))
+            }
+            fn visit_seq<A: serde::de::SeqAccess<'de>>(
+                self,
+                seq: A,
+            ) -> std::result::Result<FileScale, A::Error> {
+                read_v3(seq).map(FileScale::PerAxis)
+            }
+        }
+        d.deserialize_any(Visitor)
+    }
 }
 
 #[derive(Deserialize, Default)]
@@ -287,7 +397,12 @@ impl Ctx<'_> {
             Err(self.err(field, format!("{x} is not a finite number")))
         }
     }
+    /// The one place a file's vector becomes a [`Vec3`]: exactly three finite numbers.
     fn vec3(&self, field: &str, v: V3) -> Result<Vec3> {
+        if v.len != 3 {
+            return Err(self.err(field, format!("expected 3 numbers [x, y, z], got {}", v.len)));
+        }
+        let v = v.xyz;
         for (i, x) in v.iter().enumerate() {
             if !x.is_finite() {
                 return Err(self.err(field, format!("component {i} is {x}, not a finite number")));
@@ -482,7 +597,7 @@ fn resolve_pose(cx: &Ctx, field: &str, position: V3, look_at: V3, up: V3) -> Res
 }
 
 fn resolve_camera(cx: &Ctx, c: &FileCamera) -> Result<Camera> {
-    let up = c.up.unwrap_or([0.0, 1.0, 0.0]);
+    let up = c.up.unwrap_or(V3::from([0.0, 1.0, 0.0]));
     let open = resolve_pose(cx, "camera", c.position, c.look_at, up)?;
     let close = match &c.close {
         Some(p) => Some(resolve_pose(
@@ -504,13 +619,19 @@ fn resolve_camera(cx: &Ctx, c: &FileCamera) -> Result<Camera> {
     let far = c.far.unwrap_or(1000.0);
     cx.range("camera.near", near, near > 0.0, "> 0")?;
     cx.range("camera.far", far, far > near, "> near")?;
-    let aperture = c.aperture.unwrap_or_default();
-    if let ApertureShape::Blades { blades, rotation_deg } = aperture {
-        if blades < 3 {
-            return Err(cx.err("camera.aperture.blades", format!("{blades} is out of range: must be ≥ 3")));
+    let aperture = match c.aperture {
+        None | Some(FileAperture::Disk {}) => ApertureShape::Disk,
+        Some(FileAperture::SmoothDisk {}) => ApertureShape::SmoothDisk,
+        Some(FileAperture::Blades { blades, rotation_deg }) => {
+            if blades < 3 {
+                return Err(
+                    cx.err("camera.aperture.blades", format!("{blades} is out of range: must be ≥ 3"))
+                );
+            }
+            cx.finite("camera.aperture.rotation_deg", rotation_deg)?;
+            ApertureShape::Blades { blades, rotation_deg }
         }
-        cx.finite("camera.aperture.rotation_deg", rotation_deg)?;
-    }
+    };
     Ok(Camera {
         open,
         close,
@@ -554,8 +675,8 @@ fn resolve_trs(
     rotate_deg: Option<V3>,
     scale: Option<&FileScale>,
 ) -> Result<[Vec3; 3]> {
-    let translate = cx.vec3(&format!("{field}.translate"), translate.unwrap_or([0.0; 3]))?;
-    let rot = cx.vec3(&format!("{field}.rotate_deg"), rotate_deg.unwrap_or([0.0; 3]))?;
+    let translate = cx.vec3(&format!("{field}.translate"), translate.unwrap_or(V3::from([0.0; 3])))?;
+    let rot = cx.vec3(&format!("{field}.rotate_deg"), rotate_deg.unwrap_or(V3::from([0.0; 3])))?;
     let scale = match scale {
         None => Vec3::ONE,
         Some(FileScale::Uniform(s)) => Vec3::splat(cx.finite(&format!("{field}.scale"), *s)?),
@@ -658,7 +779,7 @@ fn resolve_material(
             }
         }),
     };
-    let default_albedo = if texture.is_some() { [1.0; 3] } else { [0.8; 3] };
+    let default_albedo = V3::from(if texture.is_some() { [1.0; 3] } else { [0.8; 3] });
     let albedo = cx.non_negative3(&format!("{field}.albedo"), m.albedo.unwrap_or(default_albedo))?;
     let specular = m.specular.unwrap_or(0.0);
     cx.range(&format!("{field}.specular"), specular, specular >= 0.0, "≥ 0")?;
@@ -670,7 +791,7 @@ fn resolve_material(
     if alpha_from_texture && texture.is_none() {
         return Err(cx.err(&format!("{field}.alpha_from_texture"), "needs a texture"));
     }
-    let tint = cx.vec3(&format!("{field}.tint"), m.tint.unwrap_or([1.0; 3]))?;
+    let tint = cx.vec3(&format!("{field}.tint"), m.tint.unwrap_or(V3::from([1.0; 3])))?;
     if tint.min_element() < 0.0 || tint.max_element() > 1.0 {
         return Err(
             cx.err(&format!("{field}.tint"), format!("{tint} is out of range: each component in [0, 1]"))
@@ -925,6 +1046,86 @@ mod tests {
         assert!(e.contains("transform_close"), "{e}");
     }
 
+    /// Issue 16: every vector and colour takes exactly three numbers, a shape takes only its own keys,
+    /// and no message names a Rust type.
+    #[test]
+    fn strict_vectors_shapes_and_scales() {
+        let obj =
+            |table: &str, keys: &str| format!("{CAMERA}[[object]]\nmesh = \"box\"\n[{table}]\n{keys}\n");
+        let light = |keys: &str| format!("{CAMERA}[[light]]\n{keys}\n");
+        let o = "object[0] (`object0`)";
+        let cases = [
+            ("[camera]\nposition = [0, 1, 5, 99]\nlook_at = [0, 0, 0]\n".to_string(), "camera.position", 4),
+            ("[camera]\nposition = [0, 1]\nlook_at = [0, 0, 0]\n".to_string(), "camera.position", 2),
+            ("[camera]\nposition = [0, 1, 5]\nlook_at = []\n".to_string(), "camera.look_at", 0),
+            (format!("{CAMERA}up = [0, 1, 0, 0]\n"), "camera.up", 4),
+            (format!("{CAMERA}[camera.close]\nposition = [1, 1, 5, 1]\n"), "camera.close.position", 4),
+            (obj("object.transform", "translate = [1, 2, 3, 4]"), &format!("{o}.transform.translate"), 4),
+            (obj("object.transform", "rotate_deg = [90]"), &format!("{o}.transform.rotate_deg"), 1),
+            (obj("object.transform", "scale = [1, 2]"), &format!("{o}.transform.scale"), 2),
+            (
+                obj("object.transform_close", "translate = [1, 2]"),
+                &format!("{o}.transform_close.translate"),
+                2,
+            ),
+            (obj("object.material", "albedo = [1, 1, 1, 1]"), &format!("{o}.material.albedo"), 4),
+            (obj("object.material", "tint = [1, 1]"), &format!("{o}.material.tint"), 2),
+            (
+                obj("[object.transform_key]]\ntime = 0.5\n#", "translate = [1, 2, 3, 4]"),
+                &format!("{o}.transform_key[0].translate"),
+                4,
+            ),
+            (
+                light("type = \"directional\"\ndirection = [0, -1, 0, 0]\ncolor = [1, 1, 1]"),
+                "light[0].direction",
+                4,
+            ),
+            (light("type = \"point\"\nposition = [0, 1, 0]\ncolor = [1, 1]"), "light[0].color", 2),
+            (format!("{CAMERA}[environment]\nambient = [0.1, 0.1, 0.1, 1]\n"), "environment.ambient", 4),
+            (format!("{CAMERA}[environment]\nbackground = [0.1]\n"), "environment.background", 1),
+        ];
+        for (text, field, got) in cases {
+            assert_eq!(
+                err(&text),
+                format!("scene error in scene `test`: {field}: expected 3 numbers [x, y, z], got {got}"),
+                "{text}"
+            );
+        }
+        // The issue's example: the wrong type inside is a TOML error on that line, in words.
+        let e = err("[camera]\nposition = [0, 1, 5, 99, \"junk\"]\nlook_at = [0, 0, 0]\n");
+        assert!(
+            e.contains("position = [0, 1, 5, 99, \"junk\"]")
+                && e.contains("invalid type: string \"junk\", expected a number"),
+            "{e}"
+        );
+        // A scale is a number or three; the message says so, not which Rust type failed.
+        for bad in ["\"big\"", "true"] {
+            let e = err(&obj("object.transform", &format!("scale = {bad}")));
+            assert!(e.contains("expected a number or an array of 3 numbers [x, y, z]"), "{e}");
+            assert!(!e.contains("FileScale") && !e.contains("untagged"), "{e}");
+        }
+        let s = parse(&obj("object.transform", "scale = [1, 2, 3]")).unwrap();
+        assert!(
+            (s.objects[0].transform_open().transform_point3(Vec3::ONE) - Vec3::new(1.0, 2.0, 3.0)).length()
+                < 1e-6
+        );
+        // An aperture shape takes only its own keys.
+        for (aperture, key) in [
+            ("{ shape = \"disk\", blades = 6 }", "blades"),
+            ("{ shape = \"smooth-disk\", rotation_deg = 10 }", "rotation_deg"),
+            ("{ shape = \"blades\", blades = 6, radius = 1 }", "radius"),
+        ] {
+            let e = err(&format!("{CAMERA}aperture = {aperture}\n"));
+            assert!(e.contains(&format!("unknown field `{key}`")), "{aperture}: {e}");
+        }
+        let e = err(&format!("{CAMERA}aperture = {{ shape = \"hexagon\" }}\n"));
+        assert!(e.contains("unknown variant `hexagon`") && e.contains("`smooth-disk`"), "{e}");
+        assert_eq!(
+            parse(&format!("{CAMERA}aperture = {{ shape = \"disk\" }}\n")).unwrap().camera.aperture,
+            ApertureShape::Disk
+        );
+    }
+
     #[test]
     fn malformed_and_unknown_keys() {
         assert!(err("[camera\nposition = ").contains("invalid scene TOML"));
@@ -1007,7 +1208,7 @@ mod tests {
             ("tint = [2, 0, 0]", "material.tint"),
             ("tint = [0, -0.5, 0]", "material.tint"),
             ("tint = [nan, 0, 0]", "material.tint"),
-            ("tint = [1, 1]", "tint = [1, 1]"), // a TOML type error: it quotes the line
+            ("tint = [1, 1]", "material.tint: expected 3 numbers [x, y, z], got 2"),
             ("alpha_from_texture = true", "material.alpha_from_texture"),
             ("alpha_from_texture = 1", "alpha_from_texture"),
             ("one_sided = \"yes\"", "one_sided"),
