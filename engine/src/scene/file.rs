@@ -1364,6 +1364,26 @@ mod tests {
         assert_eq!(s.objects[0].mesh.triangle_count(), 1);
         assert_eq!(s.objects[0].mesh.stats.skipped_degenerate, 2);
         assert_eq!(s.skipped_triangles(), 2);
+        let skipped = s.skipped_by_mesh();
+        assert_eq!(skipped.len(), 1);
+        assert_eq!(
+            skipped[0].to_string(),
+            "2 zero-area or duplicate-vertex triangles skipped in the mesh of object `object0` (1 kept)"
+        );
+        // A mesh shared by two objects is one entry naming both; a clean mesh is none.
+        std::fs::write(
+            &scene_path,
+            format!(
+                "{text}[[object]]\nname = \"twin\"\nmesh = \"{}\"\nnormalize = true\n[[object]]\nmesh = \"box\"\n",
+                name(&obj)
+            ),
+        )
+        .unwrap();
+        let s = load_scene_file(&scene_path).unwrap();
+        assert_eq!(
+            s.skipped_by_mesh().iter().map(|m| m.to_string()).collect::<Vec<_>>(),
+            ["2 zero-area or duplicate-vertex triangles skipped in the mesh of objects `object0`, `twin` (1 kept)"]
+        );
         assert_eq!(s.objects[0].material.albedo, Vec3::ONE);
         assert_eq!(s.objects[0].material.texture.as_ref().unwrap().width, 1);
 
