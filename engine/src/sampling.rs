@@ -11,7 +11,6 @@
 //! ([`ApertureShape::map`], [`ShutterCurve::warp`]), never by special code in a technique.
 
 use glam::{Vec2, Vec3};
-use serde::Deserialize;
 
 /// Minimal PCG32 (O'Neill 2014): small, fast, seedable, identical on every platform.
 #[derive(Clone, Debug)]
@@ -327,8 +326,8 @@ pub fn concentric_disk(sq: Vec2) -> Vec2 {
 }
 
 /// Shutter curve S(t): how the exposure is weighted over `[0, 1]`. Applied by warping uniform time.
-#[derive(Clone, Copy, Debug, PartialEq, Deserialize, Default)]
-#[serde(rename_all = "kebab-case")]
+/// Scene files spell it `shutter = "box" | "tent"` (`scene::file`).
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
 pub enum ShutterCurve {
     /// Constant exposure while open (the default; DESIGN.md).
     #[default]

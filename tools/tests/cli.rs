@@ -185,6 +185,7 @@ fn strict_input_is_refused_with_a_message_in_the_users_terms() {
         "blades.toml",
         b"[camera]\nposition = [0, 1, 5]\nlook_at = [0, 0, 0]\naperture = { shape = \"disk\", blades = 6 }\n",
     );
+    let five = temp("five.json", b"5\n");
     let missing = std::env::temp_dir().join("shutter-cli-no-such-image.exr").display().to_string();
     let md = std::env::temp_dir().join(format!("shutter-cli-{}-bounds.png", std::process::id()));
     // (arguments, exit code, the message: every line of it where it is short, else what it must say)
@@ -228,11 +229,24 @@ fn strict_input_is_refused_with_a_message_in_the_users_terms() {
             vec!["error: --compare: no series `stochastic`; the series are `pinhole`, `accumulation` (a series' name is its -s without @…)\n".into()],
         ),
         (
+            vec!["quality", "static", "-s", "pinhole@1,0"],
+            1,
+            vec!["error: sample count `0` in `pinhole@1,0`: give whole numbers ≥ 1\n".into()],
+        ),
+        (
             vec!["bounds", "static", "--out", md.to_str().unwrap()],
             1,
             vec![format!(
                 "error: --out {}: `bounds` writes a markdown table, give a .md path (with --focus the plot goes beside it as .png and .svg)\n",
                 md.display()
+            )],
+        ),
+        // A report that is not one: what was expected, not a Rust type.
+        (
+            vec!["bench-compare", "--old", &five, "--new", &five],
+            1,
+            vec![format!(
+                "error: parsing {five} as a bench report: invalid type: integer `5`, expected a `shutter bench --json` report (a JSON object) at line 1 column 1\n"
             )],
         ),
         // An I/O error says its cause once.
@@ -256,7 +270,7 @@ fn strict_input_is_refused_with_a_message_in_the_users_terms() {
         assert!(!err.contains("untagged") && !err.contains("FileScale"), "{args:?}: {err}");
     }
     assert!(!md.exists(), "bounds wrote {}", md.display());
-    for p in [junk, long, scale, blades] {
+    for p in [junk, long, scale, blades, five] {
         let _ = std::fs::remove_file(p);
     }
 }

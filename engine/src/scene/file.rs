@@ -199,7 +199,10 @@ impl<'de> Deserialize<'de> for V3 {
 }
 
 #[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(
+    deny_unknown_fields,
+    expecting = "a scene: tables [image], [camera], [[object]], [[light]], [environment]"
+)]
 struct FileScene {
     name: Option<String>,
     #[serde(default)]
@@ -213,7 +216,7 @@ struct FileScene {
 }
 
 #[derive(Deserialize, Default)]
-#[serde(deny_unknown_fields)]
+#[serde(deny_unknown_fields, expecting = "a table [image] (width, height, spp, seed)")]
 struct FileImage {
     width: Option<i64>,
     height: Option<i64>,
@@ -222,7 +225,7 @@ struct FileImage {
 }
 
 #[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(deny_unknown_fields, expecting = "a table [camera] (position, look_at, …)")]
 struct FileCamera {
     position: V3,
     look_at: V3,
@@ -233,7 +236,7 @@ struct FileCamera {
     near: Option<f32>,
     far: Option<f32>,
     aperture: Option<FileAperture>,
-    shutter: Option<ShutterCurve>,
+    shutter: Option<FileShutterCurve>,
     close: Option<FilePose>,
     // The photographic spelling (one or the other of each pair; resolve_camera).
     focal_length_mm: Option<f32>,
@@ -244,10 +247,48 @@ struct FileCamera {
     shutter_interval: Option<Vec<Number>>,
 }
 
+/// `shutter = "box" | "tent"`: the curve. An array there is someone giving the open interval, which
+/// has keys of its own.
+struct FileShutterCurve(ShutterCurve);
+
+impl<'de> Deserialize<'de> for FileShutterCurve {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> std::result::Result<Self, D::Error> {
+        struct Visitor;
+        impl<'de> serde::de::Visitor<'de> for Visitor {
+            type Value = FileShutterCurve;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                f.write_str("the shutter curve, \"box\" or \"tent\"")
+            }
+            fn visit_str<E: serde::de::Error>(self, v: &str) -> std::result::Result<FileShutterCurve, E> {
+                match v {
+                    "box" => Ok(FileShutterCurve(ShutterCurve::Box)),
+                    "tent" => Ok(FileShutterCurve(ShutterCurve::Tent)),
+                    other => Err(E::unknown_variant(other, &["box", "tent"])),
+                }
+            }
+            fn visit_seq<A: serde::de::SeqAccess<'de>>(
+                self,
+                _: A,
+            ) -> std::result::Result<FileShutterCurve, A::Error> {
+                Err(serde::de::Error::custom(
+                    "`shutter` is the shutter curve, \"box\" or \"tent\"; give the part of the frame the \
+                     shutter is open as shutter_interval = [open, close] or shutter_angle_deg",
+                ))
+            }
+        }
+        d.deserialize_any(Visitor)
+    }
+}
+
 /// `aperture = { shape = … }`. Every shape is a table variant so that a key the shape does not take
 /// (`{ shape = "disk", blades = 6 }`) is an error: serde ignores extra keys beside a unit variant's tag.
 #[derive(Deserialize)]
-#[serde(tag = "shape", rename_all = "kebab-case", deny_unknown_fields)]
+#[serde(
+    tag = "shape",
+    rename_all = "kebab-case",
+    deny_unknown_fields,
+    expecting = "a table { shape = \"disk\" }, { shape = \"blades\", blades = N } or { shape = \"smooth-disk\" }"
+)]
 enum FileAperture {
     Disk {},
     Blades {
@@ -259,7 +300,7 @@ enum FileAperture {
 }
 
 #[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(deny_unknown_fields, expecting = "a table [camera.close] (position, look_at, up)")]
 struct FilePose {
     position: Option<V3>,
     look_at: Option<V3>,
@@ -267,7 +308,7 @@ struct FilePose {
 }
 
 #[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(deny_unknown_fields, expecting = "a table [[object]] (name, mesh, transform, material, …)")]
 struct FileObject {
     name: Option<String>,
     mesh: String,
@@ -284,7 +325,10 @@ struct FileObject {
 }
 
 #[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(
+    deny_unknown_fields,
+    expecting = "a table [[object.transform_key]] (time, translate, rotate_deg, scale)"
+)]
 struct FileTransformKey {
     time: f32,
     translate: Option<V3>,
@@ -293,7 +337,7 @@ struct FileTransformKey {
 }
 
 #[derive(Deserialize, Default)]
-#[serde(deny_unknown_fields)]
+#[serde(deny_unknown_fields, expecting = "a table of translate, rotate_deg and scale")]
 struct FileTransform {
     translate: Option<V3>,
     rotate_deg: Option<V3>,
@@ -335,7 +379,7 @@ impl<'de> Deserialize<'de> for FileScale {
 }
 
 #[derive(Deserialize, Default)]
-#[serde(deny_unknown_fields)]
+#[serde(deny_unknown_fields, expecting = "a table [object.material] (albedo, texture, specular, …)")]
 struct FileMaterial {
     albedo: Option<V3>,
     texture: Option<String>,
@@ -348,7 +392,12 @@ struct FileMaterial {
 }
 
 #[derive(Deserialize)]
-#[serde(tag = "type", rename_all = "lowercase", deny_unknown_fields)]
+#[serde(
+    tag = "type",
+    rename_all = "lowercase",
+    deny_unknown_fields,
+    expecting = "a table [[light]] with type = \"directional\", \"point\" or \"spot\""
+)]
 enum FileLight {
     Directional {
         direction: V3,
@@ -374,7 +423,7 @@ enum FileLight {
 }
 
 #[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(deny_unknown_fields, expecting = "a table [environment] (ambient, background, indirect)")]
 struct FileEnvironment {
     ambient: Option<V3>,
     background: Option<V3>,
@@ -792,7 +841,7 @@ fn resolve_camera(cx: &Ctx, c: &FileCamera, image: &ImageSettings) -> Result<(Ca
         aperture_radius,
         focus_distance,
         aperture,
-        shutter: c.shutter.unwrap_or_default(),
+        shutter: c.shutter.as_ref().map_or_else(ShutterCurve::default, |c| c.0),
         near,
         far,
     };
@@ -1291,6 +1340,35 @@ mod tests {
         assert!(
             (s.objects[0].transform_open().transform_point3(Vec3::ONE) - Vec3::new(1.0, 2.0, 3.0)).length()
                 < 1e-6
+        );
+        // A value of the wrong kind: what was expected, in the file's words, never a Rust type.
+        let box_ = "[[object]]\nmesh = \"box\"\n";
+        for (text, expected) in [
+            ("camera = 5\n".to_string(), "expected a table [camera] (position, look_at, …)"),
+            ("image = 5\n".to_string(), "expected a table [image] (width, height, spp, seed)"),
+            (format!("{CAMERA}close = 5\n"), "expected a table [camera.close] (position, look_at, up)"),
+            (format!("{CAMERA}aperture = \"disk\"\n"), "expected a table { shape = \"disk\" }, { shape = \"blades\", blades = N } or { shape = \"smooth-disk\" }"),
+            (format!("object = [1]\n{CAMERA}"), "expected a table [[object]] (name, mesh, transform, material, …)"),
+            (format!("{CAMERA}{box_}transform = 1\n"), "expected a table of translate, rotate_deg and scale"),
+            (format!("{CAMERA}{box_}transform_key = [1]\n"), "expected a table [[object.transform_key]] (time, translate, rotate_deg, scale)"),
+            (format!("{CAMERA}{box_}material = 1\n"), "expected a table [object.material] (albedo, texture, specular, …)"),
+            (format!("light = [1]\n{CAMERA}"), "expected a table [[light]] with type = \"directional\", \"point\" or \"spot\""),
+            (format!("environment = 1\n{CAMERA}"), "expected a table [environment] (ambient, background, indirect)"),
+            (format!("{CAMERA}up = 1\n"), "expected an array of 3 numbers [x, y, z]"),
+            (format!("{CAMERA}shutter = 5\n"), "expected the shutter curve, \"box\" or \"tent\""),
+            (format!("{CAMERA}shutter = \"slow\"\n"), "unknown variant `slow`, expected `box` or `tent`"),
+            (
+                format!("{CAMERA}shutter = [0, 0.5]\n"),
+                "`shutter` is the shutter curve, \"box\" or \"tent\"; give the part of the frame the shutter is open as shutter_interval = [open, close] or shutter_angle_deg",
+            ),
+        ] {
+            let e = err(&text);
+            assert!(e.contains(expected), "{text}: {e}");
+            assert!(!e.contains("File") && !e.contains("struct") && !e.contains("enum "), "{text}: {e}");
+        }
+        assert_eq!(
+            parse(&format!("{CAMERA}shutter = \"tent\"\n")).unwrap().camera.shutter,
+            ShutterCurve::Tent
         );
         // An aperture shape takes only its own keys.
         for (aperture, key) in [
