@@ -12,13 +12,10 @@ pub enum Error {
     /// A requested size, sample count or similar is outside what the engine accepts.
     #[error("{what} = {value} is out of range: {limit}")]
     Limit { what: &'static str, value: String, limit: String },
-    /// A file could not be read or written.
-    #[error("I/O error on {path}: {source}")]
-    Io {
-        path: PathBuf,
-        #[source]
-        source: std::io::Error,
-    },
+    /// A file could not be read or written. The message includes the cause, so it is not also a
+    /// `source()`: `{:#}` (anyhow's chain) would print it twice.
+    #[error("I/O error on {path}: {cause}")]
+    Io { path: PathBuf, cause: std::io::Error },
     /// An image file could not be decoded or encoded.
     #[error("image error on {path}: {message}")]
     Image { path: PathBuf, message: String },
@@ -36,7 +33,7 @@ pub enum Error {
     MissingFeature { device: String, feature: String, needed_by: String },
     /// GPU memory allocation failed.
     #[error("GPU allocation failed: {0}")]
-    Allocation(#[from] gpu_allocator::AllocationError),
+    Allocation(gpu_allocator::AllocationError),
     /// The validation layer reported errors while validation was on.
     #[error("Vulkan validation reported {errors} error(s) and {warnings} warning(s); first: {first}")]
     Validation { errors: u32, warnings: u32, first: String },
@@ -44,6 +41,9 @@ pub enum Error {
     /// pass and the resource.
     #[error("frame graph: {0}")]
     Graph(String),
+    /// An environment variable has a value Shutter does not understand.
+    #[error("environment variable {name}={value:?}: expected {expected}")]
+    Environment { name: &'static str, value: String, expected: &'static str },
     /// A request that the chosen technique does not support.
     #[error("{0}")]
     Unsupported(String),
@@ -53,8 +53,15 @@ impl Error {
     pub(crate) fn scene(context: impl Into<String>, message: impl Into<String>) -> Self {
         Error::Scene { context: context.into(), message: message.into() }
     }
-    pub(crate) fn io(path: impl Into<PathBuf>, source: std::io::Error) -> Self {
-        Error::Io { path: path.into(), source }
+    pub(crate) fn io(path: impl Into<PathBuf>, cause: std::io::Error) -> Self {
+        Error::Io { path: path.into(), cause }
+    }
+}
+
+// Not `#[from]`: that would make the allocation error a `source()` as well as part of the message.
+impl From<gpu_allocator::AllocationError> for Error {
+    fn from(e: gpu_allocator::AllocationError) -> Self {
+        Error::Allocation(e)
     }
 }
 

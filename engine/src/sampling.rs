@@ -11,7 +11,6 @@
 //! ([`ApertureShape::map`], [`ShutterCurve::warp`]), never by special code in a technique.
 
 use glam::{Vec2, Vec3};
-use serde::Deserialize;
 
 /// Minimal PCG32 (O'Neill 2014): small, fast, seedable, identical on every platform.
 #[derive(Clone, Debug)]
@@ -192,18 +191,14 @@ impl SampleTile {
 }
 
 /// Shape of the aperture, inscribed in the unit disk (the lens radius is `aperture_radius`).
-#[derive(Clone, Copy, Debug, PartialEq, Deserialize, Default)]
-#[serde(tag = "shape", rename_all = "kebab-case", deny_unknown_fields)]
+/// Scene files spell it `aperture = { shape = … }` (`scene::file`).
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
 pub enum ApertureShape {
     /// A round aperture.
     #[default]
     Disk,
     /// A regular polygon of `blades` sides (≥ 3) inscribed in the unit circle, rotated by `rotation_deg`.
-    Blades {
-        blades: u32,
-        #[serde(default)]
-        rotation_deg: f32,
-    },
+    Blades { blades: u32, rotation_deg: f32 },
     /// A round aperture whose transmission falls off smoothly at its rim: the smooth lens of
     /// Vaidyanathan et al. 2012 (§4, a smoothstep over `[0.9 r, 1.1 r]` of the lens radius `r`), whose
     /// spectrum has less support than the sharp disk's. Here the camera's `aperture_radius` is the
@@ -331,8 +326,8 @@ pub fn concentric_disk(sq: Vec2) -> Vec2 {
 }
 
 /// Shutter curve S(t): how the exposure is weighted over `[0, 1]`. Applied by warping uniform time.
-#[derive(Clone, Copy, Debug, PartialEq, Deserialize, Default)]
-#[serde(rename_all = "kebab-case")]
+/// Scene files spell it `shutter = "box" | "tent"` (`scene::file`).
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
 pub enum ShutterCurve {
     /// Constant exposure while open (the default; DESIGN.md).
     #[default]

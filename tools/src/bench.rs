@@ -105,6 +105,7 @@ pub fn apply_option(s: &mut RenderSettings, key: &str, value: &str) -> Result<()
 }
 
 #[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(expecting = "a statistic object (median, min, max)")]
 pub struct Stat {
     pub median: f64,
     pub min: f64,
@@ -128,6 +129,7 @@ impl Stat {
 }
 
 #[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(expecting = "a sample-counter object")]
 pub struct Counters {
     pub fragments: u64,
     pub samples_tested: u64,
@@ -161,6 +163,7 @@ impl From<SampleCounters> for Counters {
 }
 
 #[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(expecting = "a configuration's result object")]
 pub struct ConfigResult {
     pub label: String,
     pub technique: String,
@@ -184,6 +187,7 @@ pub struct ConfigResult {
 }
 
 #[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(expecting = "a `shutter bench --json` report (a JSON object)")]
 pub struct BenchReport {
     pub scene: String,
     pub width: u32,

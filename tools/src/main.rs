@@ -15,7 +15,6 @@ use shutter::image_io::{load_image, save_image};
 use shutter::metrics::{compare, write_flip_diff_png};
 use shutter::reference::ReferenceSettings;
 use shutter::scene::builtin::BUILTIN_SCENES;
-use shutter::scene::file::load_scene;
 use shutter::techniques::{RenderSettings, Renderer, ShadingRate, StochasticOptions, Technique};
 
 #[derive(Parser)]
@@ -211,7 +210,7 @@ enum Command {
         #[arg(long, num_args = 1.., required = true)]
         new: Vec<PathBuf>,
         /// Fail (exit 1) when a configuration's new ÷ old exceeds this (in the measures of --gate).
-        #[arg(long)]
+        #[arg(long, value_parser = parse_ratio)]
         max_ratio: Option<f64>,
         /// Which ratio --max-ratio applies to: `process` (process CPU time per frame, every thread —
         /// the steadiest on a shared machine), `cpu` (frame wall time), `gpu` (summed timestamp
@@ -242,7 +241,7 @@ enum Command {
         #[arg(long)]
         no_counters: bool,
         /// Fail (exit 1) when a configuration's median GPU ms exceeds this multiple of the first's.
-        #[arg(long)]
+        #[arg(long, value_parser = parse_ratio)]
         max_ratio: Option<f64>,
         #[arg(long)]
         json: Option<PathBuf>,
@@ -302,8 +301,8 @@ enum Command {
         /// Image size WxH. Default: the scene's [image] size.
         #[arg(long, value_parser = parse_size)]
         size: Option<(u32, u32)>,
-        /// Blur (pixels) below which an effect is not simulated.
-        #[arg(long, default_value_t = shutter::plan::DEFAULT_THRESHOLD_PX)]
+        /// Blur (pixels, ≥ 0) below which an effect is not simulated.
+        #[arg(long, default_value_t = shutter::plan::DEFAULT_THRESHOLD_PX, value_parser = parse_threshold)]
         threshold: f32,
         /// Also print what `--shading texture-space` gives each object: its shading space (own uvs or
         /// generated charts, and why), its fitted atlas and its memory, the triangles pass 1 culls.
@@ -361,7 +360,36 @@ fn parse_size(s: &str) -> std::result::Result<(u32, u32), String> {
     let (w, h) = s.split_once(['x', 'X']).ok_or_else(|| format!("size `{s}` is not WxH (e.g. 640x360)"))?;
     let w = w.trim().parse::<u32>().map_err(|e| format!("width `{w}`: {e}"))?;
     let h = h.trim().parse::<u32>().map_err(|e| format!("height `{h}`: {e}"))?;
+    if w == 0 || h == 0 {
+        return Err(format!("size `{s}`: width and height must be at least 1 pixel"));
+    }
     Ok((w, h))
+}
+
+/// `--max-ratio`: a finite number > 0.
+fn parse_ratio(s: &str) -> std::result::Result<f64, String> {
+    match s.trim().parse::<f64>() {
+        Ok(r) if r.is_finite() && r > 0.0 => Ok(r),
+        _ => Err(format!("`{s}` is not a ratio: give a finite number > 0 (e.g. 1.1)")),
+    }
+}
+
+/// `plan --threshold`: a finite number of pixels ≥ 0.
+fn parse_threshold(s: &str) -> std::result::Result<f32, String> {
+    match s.trim().parse::<f32>() {
+        Ok(px) if px.is_finite() && px >= 0.0 => Ok(px),
+        _ => Err(format!("`{s}` is not a blur threshold: give a finite number of pixels ≥ 0 (e.g. 0.5)")),
+    }
+}
+
+/// Loads a built-in scene or a scene file and says on stderr what cleaning its meshes skipped, per
+/// mesh (the README promises the count).
+fn load_scene(spec: &str) -> Result<shutter::scene::Scene> {
+    let sc = shutter::scene::file::load_scene(spec)?;
+    for skipped in sc.skipped_by_mesh() {
+        eprintln!("note: {skipped}");
+    }
+    Ok(sc)
 }
 
 fn default_out(scene: &str, what: &str, ext: &str) -> Result<PathBuf> {
@@ -760,6 +788,16 @@ fn run() -> Result<()> {
             per_object,
             image: ImageArgs { size, seed, out },
         } => {
+            if let Some(out) = &out {
+                // The table is markdown; the focus sweep's plot goes beside it as .png and .svg.
+                if !out.extension().is_some_and(|e| e.eq_ignore_ascii_case("md")) {
+                    anyhow::bail!(
+                        "--out {}: `bounds` writes a markdown table, give a .md path (with --focus the plot \
+                         goes beside it as .png and .svg)",
+                        out.display()
+                    );
+                }
+            }
             let sc = load_scene(&scene)?;
             let (width, height) = size.unwrap_or((sc.image.width, sc.image.height));
             let bounds = if bounds.is_empty() {
@@ -848,9 +886,6 @@ fn run() -> Result<()> {
             let rows = bench::compare(&old, &new)?;
             println!("{}", bench::comparison_markdown(&old[0].scene, (old.len(), new.len()), &rows));
             if let Some(max) = max_ratio {
-                if !(max.is_finite() && max > 0.0) {
-                    anyhow::bail!("--max-ratio must be a positive number, not {max}");
-                }
                 let over: Vec<String> = rows
                     .iter()
                     .filter(|r| {
@@ -921,6 +956,15 @@ fn run() -> Result<()> {
                     })
                     .collect::<Result<Vec<_>>>()?
             };
+            for name in compare.iter().flat_map(|(a, b)| [a, b]) {
+                if !series.iter().any(|s| &s.name == name) {
+                    let names: Vec<String> = series.iter().map(|s| format!("`{}`", s.name)).collect();
+                    anyhow::bail!(
+                        "--compare: no series `{name}`; the series are {} (a series' name is its -s without @…)",
+                        names.join(", ")
+                    );
+                }
+            }
             let args = quality::QualityArgs {
                 series,
                 reference_spp,

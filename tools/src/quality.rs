@@ -40,7 +40,10 @@ impl Series {
             spec.split_once('@').with_context(|| format!("series `{spec}` has no @S1,S2,..."))?;
         let spp = spp
             .split(',')
-            .map(|s| s.trim().parse::<u32>().with_context(|| format!("sample count `{s}` in `{spec}`")))
+            .map(|s| match s.trim().parse::<u32>() {
+                Ok(n) if n >= 1 => Ok(n),
+                _ => anyhow::bail!("sample count `{s}` in `{spec}`: give whole numbers ≥ 1"),
+            })
             .collect::<Result<Vec<_>>>()?;
         let mut parts = name.split(':');
         let technique: Technique = parts.next().unwrap_or_default().trim().parse()?;

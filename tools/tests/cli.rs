@@ -171,3 +171,163 @@ fn plan_bench_and_quality_work_and_quality_resumes() {
     assert_eq!(csv.lines().count(), 4, "{csv}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// Issue 16, item 5: each bad input is a clear error, asserted word for word where the CLI writes it.
+#[test]
+fn strict_input_is_refused_with_a_message_in_the_users_terms() {
+    let junk = temp("junk.toml", b"[camera]\nposition = [0, 1, 5, 99, \"junk\"]\nlook_at = [0, 0, 0]\n");
+    let long = temp("long.toml", b"[camera]\nposition = [0, 1, 5, 99]\nlook_at = [0, 0, 0]\n");
+    let scale = temp(
+        "scale.toml",
+        b"[camera]\nposition = [0, 1, 5]\nlook_at = [0, 0, 0]\n[[object]]\nmesh = \"box\"\n[object.transform]\nscale = \"big\"\n",
+    );
+    let blades = temp(
+        "blades.toml",
+        b"[camera]\nposition = [0, 1, 5]\nlook_at = [0, 0, 0]\naperture = { shape = \"disk\", blades = 6 }\n",
+    );
+    let five = temp("five.json", b"5\n");
+    let missing = std::env::temp_dir().join("shutter-cli-no-such-image.exr").display().to_string();
+    let md = std::env::temp_dir().join(format!("shutter-cli-{}-bounds.png", std::process::id()));
+    // (arguments, exit code, the message: every line of it where it is short, else what it must say)
+    let cases: Vec<(Vec<&str>, i32, Vec<String>)> = vec![
+        (
+            vec!["plan", &long],
+            1,
+            vec![format!("error: scene error in {long}: camera.position: expected 3 numbers [x, y, z], got 4\n")],
+        ),
+        (vec!["plan", &junk], 1, vec!["invalid type: string \"junk\", expected a number".into()]),
+        (vec!["plan", &scale], 1, vec!["expected a number or an array of 3 numbers [x, y, z]".into()]),
+        (vec!["plan", &blades], 1, vec!["unknown field `blades`".into()]),
+        (
+            vec!["plan", "static", "--threshold", "nan"],
+            2,
+            vec!["`nan` is not a blur threshold: give a finite number of pixels ≥ 0 (e.g. 0.5)".into()],
+        ),
+        (
+            vec!["plan", "static", "--threshold=-1"],
+            2,
+            vec!["`-1` is not a blur threshold: give a finite number of pixels ≥ 0 (e.g. 0.5)".into()],
+        ),
+        (
+            vec!["plan", "static", "--size", "0x0"],
+            2,
+            vec!["size `0x0`: width and height must be at least 1 pixel".into()],
+        ),
+        (
+            vec!["bench", "static", "--max-ratio", "nan"],
+            2,
+            vec!["`nan` is not a ratio: give a finite number > 0 (e.g. 1.1)".into()],
+        ),
+        (
+            vec!["bench-compare", "--old", "a.json", "--new", "b.json", "--max-ratio", "0"],
+            2,
+            vec!["`0` is not a ratio: give a finite number > 0 (e.g. 1.1)".into()],
+        ),
+        (
+            vec!["quality", "static", "-s", "pinhole@1", "-s", "accumulation@1", "--compare", "accumulation,stochastic"],
+            1,
+            vec!["error: --compare: no series `stochastic`; the series are `pinhole`, `accumulation` (a series' name is its -s without @…)\n".into()],
+        ),
+        (
+            vec!["quality", "static", "-s", "pinhole@1,0"],
+            1,
+            vec!["error: sample count `0` in `pinhole@1,0`: give whole numbers ≥ 1\n".into()],
+        ),
+        (
+            vec!["bounds", "static", "--out", md.to_str().unwrap()],
+            1,
+            vec![format!(
+                "error: --out {}: `bounds` writes a markdown table, give a .md path (with --focus the plot goes beside it as .png and .svg)\n",
+                md.display()
+            )],
+        ),
+        // A report that is not one: what was expected, not a Rust type.
+        (
+            vec!["bench-compare", "--old", &five, "--new", &five],
+            1,
+            vec![format!(
+                "error: parsing {five} as a bench report: invalid type: integer `5`, expected a `shutter bench --json` report (a JSON object) at line 1 column 1\n"
+            )],
+        ),
+        // An I/O error says its cause once.
+        (
+            vec!["compare", &missing, &missing],
+            1,
+            vec![format!("error: I/O error on {missing}: No such file or directory (os error 2)\n")],
+        ),
+    ];
+    for (args, code, needles) in cases {
+        let (got, _, err) = shutter(&args);
+        assert_eq!(got, code, "{args:?}: {err}");
+        assert!(err.starts_with("error:") && !err.contains("panicked"), "{args:?}: {err}");
+        for n in needles {
+            if n.starts_with("error:") {
+                assert_eq!(err, n, "{args:?}");
+            } else {
+                assert!(err.contains(&n), "{args:?}: {err}");
+            }
+        }
+        assert!(!err.contains("untagged") && !err.contains("FileScale"), "{args:?}: {err}");
+    }
+    assert!(!md.exists(), "bounds wrote {}", md.display());
+    for p in [junk, long, scale, blades, five] {
+        let _ = std::fs::remove_file(p);
+    }
+}
+
+/// `SHUTTER_VALIDATION`: the usual spellings of on and off; anything else is an error, not "on".
+#[test]
+fn validation_flag_is_parsed_not_guessed() {
+    let probe = |value: &str| {
+        let out = Command::new(env!("CARGO_BIN_EXE_shutter"))
+            .arg("probe")
+            .env("SHUTTER_VALIDATION", value)
+            .output()
+            .expect("run shutter");
+        (
+            out.status.code().unwrap_or(-1),
+            String::from_utf8_lossy(&out.stdout).into_owned(),
+            String::from_utf8_lossy(&out.stderr).into_owned(),
+        )
+    };
+    for (value, state) in
+        [("false", "off"), ("OFF", "off"), ("no", "off"), ("0", "off"), ("true", "on"), ("Yes", "on")]
+    {
+        let (code, out, err) = probe(value);
+        assert_eq!(code, 0, "{value}: {err}");
+        assert!(out.lines().any(|l| l == format!("validation        {state}")), "{value}: {out}");
+    }
+    let (code, _, err) = probe("maybe");
+    assert_eq!(code, 1);
+    assert_eq!(
+        err,
+        "error: environment variable SHUTTER_VALIDATION=\"maybe\": expected 1, true, on or yes to turn it on; \
+         0, false, off or no to turn it off\n"
+    );
+}
+
+/// Issue 16, item 6: triangles skipped while cleaning a mesh are counted per mesh on stderr.
+#[test]
+fn skipped_triangles_are_reported_per_mesh() {
+    let obj = temp("degenerate.obj", b"v 0 0 0\nv 1 0 0\nv 0 1 0\nv 2 0 0\nf 1 2 3\nf 1 2 4\nf 2 2 3\n");
+    let obj_name = std::path::Path::new(&obj).file_name().unwrap().to_string_lossy().into_owned();
+    let scene = temp(
+        "degenerate.toml",
+        format!(
+            "[camera]\nposition = [0, 0.5, 4]\nlook_at = [0, 0.5, 0]\n[[object]]\nname = \"sliver\"\nmesh = \"{obj_name}\"\n\
+             [[object]]\nname = \"again\"\nmesh = \"{obj_name}\"\n[[object]]\nname = \"clean\"\nmesh = \"box\"\n"
+        )
+        .as_bytes(),
+    );
+    let (code, _, err) = shutter(&["plan", &scene, "--size", "16x9"]);
+    assert_eq!(code, 0, "{err}");
+    assert_eq!(
+        err,
+        "note: 2 zero-area or duplicate-vertex triangles skipped in the mesh of objects `sliver`, `again` (1 kept)\n"
+    );
+    let (code, _, err) = shutter(&["plan", "static", "--size", "16x9"]);
+    assert_eq!((code, err.as_str()), (0, ""), "a clean scene says nothing");
+    for p in [obj, scene] {
+        let _ = std::fs::remove_file(p);
+    }
+}

@@ -1,7 +1,8 @@
 //! Scene files: TOML (+ OBJ meshes + PNG textures) → a resolved [`Scene`].
 //!
 //! Paths inside a scene file are relative to the file's folder. Unknown keys are errors naming the
-//! key, and every value is validated (finite, in range) with an error naming the file and the field.
+//! key, and every value is validated (finite, in range; a vector or colour exactly three numbers) with
+//! an error naming the file and the field.
 //!
 //! ```toml
 //! name = "optional"             # default: the file stem (or the built-in's name)
@@ -17,8 +18,8 @@
 //! look_at = [0, 0.5, 0]         # required, ≠ position
 //! up = [0, 1, 0]                # default +Y; not parallel to the view direction
 //! vfov_deg = 40                 # in (0, 180)
-//! aperture_radius = 0.0         # lens radius A in world units, ≥ 0 (0 = pinhole)
-//! focus_distance = 6.0          # F > 0; default |look_at − position|
+//! aperture_radius = 0.0         # lens radius A in scene units (metres), ≥ 0 (0 = pinhole)
+//! focus_distance = 6.0          # F > 0, metres along the view axis; default |look_at − position|
 //! near = 0.05                   # 0 < near < far
 //! far = 1000
 //! aperture = { shape = "disk" } # or { shape = "blades", blades = 6, rotation_deg = 0 } (blades ≥ 3),
@@ -30,7 +31,33 @@
 //! position = [0.05, 1, 6]
 //! look_at = [0.05, 0.5, 0]
 //! up = [0, 1, 0]
+//! ```
 //!
+//! Scene units are **metres**. The camera may instead be given in the terms of a real camera (Blender,
+//! Unreal, pbrt), each key in place of the one it stands for — giving both of a pair is an error:
+//!
+//! ```toml
+//! [camera]
+//! focal_length_mm = 50          # instead of vfov_deg: vfov = 2·atan(sensor height / (2·focal length))
+//! sensor_width_mm = 36          # default 36 (full frame); the sensor has [image]'s aspect ratio, so its
+//!                               # height is width × height / width of [image] (kept if --size changes it)
+//! # sensor_height_mm = 24       # or the height itself (not both)
+//! f_stop = 2.8                  # instead of aperture_radius: A = focal length / (2·f_stop), in metres
+//!                               # (50 mm at f/2.8: A = 0.00893); needs focal_length_mm
+//! shutter_angle_deg = 180       # the shutter is open for this part of the frame, from its start
+//! # shutter_interval = [0.25, 0.75]  # or open and close as fractions of the frame, 0 ≤ open < close ≤ 1
+//! ```
+//!
+//! With `shutter_angle_deg` or `shutter_interval`, `[camera.close]` and every object's
+//! `transform_close`, `transform_key` times and `motion_keys` describe the whole frame (0 = its start,
+//! 1 = its end, as pbrt's transform times) and the motion is cut to the part the shutter sees: the
+//! camera's position, look_at and up, and each object's transform between its keys, taken linearly in
+//! frame time (`motion_keys` are spread over the open shutter). `shutter_angle_deg = 360` is the same
+//! scene as none. For a camera that stands still or moves without turning (position and look_at
+//! shifted alike) this is exactly the model's camera-space motion over the frame, cut; for one that
+//! turns it is an approximation of it.
+//!
+//! ```toml
 //! [[object]]                    # any number
 //! name = "spot"                 # default "object<i>" (i counts from 0)
 //! mesh = "spot"                 # built-in: plane, box, sphere, displaced-sphere, spot — or an .obj path
@@ -101,10 +128,81 @@ use crate::sampling::{ApertureShape, ShutterCurve};
 
 use crate::limits::{MAX_IMAGE_DIMENSION, MAX_MOTION_KEYS, MAX_SPP};
 
-type V3 = [f32; 3];
+/// A vector or colour `[x, y, z]` as the file wrote it: the first three numbers and how many there
+/// were, so that [`Ctx::vec3`] — the one place every vector passes — refuses any other length naming
+/// the field (serde's own `[f32; 3]` stops reading after three and ignores the rest).
+#[derive(Clone, Copy, Debug)]
+struct V3 {
+    xyz: [f32; 3],
+    len: usize,
+}
+
+impl From<[f32; 3]> for V3 {
+    fn from(xyz: [f32; 3]) -> Self {
+        V3 { xyz, len: 3 }
+    }
+}
+
+/// One number of a vector (an integer or a float); anything else is "expected a number".
+struct Number(f32);
+
+impl<'de> Deserialize<'de> for Number {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> std::result::Result<Self, D::Error> {
+        d.deserialize_any(NumberVisitor).map(Number)
+    }
+}
+
+struct NumberVisitor;
+
+impl serde::de::Visitor<'_> for NumberVisitor {
+    type Value = f32;
+    fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+        f.write_str("a number")
+    }
+    fn visit_f64<E>(self, x: f64) -> std::result::Result<f32, E> {
+        Ok(x as f32)
+    }
+    fn visit_i64<E>(self, x: i64) -> std::result::Result<f32, E> {
+        Ok(x as f32)
+    }
+    fn visit_u64<E>(self, x: u64) -> std::result::Result<f32, E> {
+        Ok(x as f32)
+    }
+}
+
+/// Reads every element of an array of numbers: the first three and the count.
+fn read_v3<'de, A: serde::de::SeqAccess<'de>>(mut seq: A) -> std::result::Result<V3, A::Error> {
+    let mut v = V3 { xyz: [0.0; 3], len: 0 };
+    while let Some(Number(x)) = seq.next_element()? {
+        if v.len < 3 {
+            v.xyz[v.len] = x;
+        }
+        v.len += 1;
+    }
+    Ok(v)
+}
+
+impl<'de> Deserialize<'de> for V3 {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> std::result::Result<Self, D::Error> {
+        struct Visitor;
+        impl<'de> serde::de::Visitor<'de> for Visitor {
+            type Value = V3;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                f.write_str("an array of 3 numbers [x, y, z]")
+            }
+            fn visit_seq<A: serde::de::SeqAccess<'de>>(self, seq: A) -> std::result::Result<V3, A::Error> {
+                read_v3(seq)
+            }
+        }
+        d.deserialize_seq(Visitor)
+    }
+}
 
 #[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(
+    deny_unknown_fields,
+    expecting = "a scene: tables [image], [camera], [[object]], [[light]], [environment]"
+)]
 struct FileScene {
     name: Option<String>,
     #[serde(default)]
@@ -118,7 +216,7 @@ struct FileScene {
 }
 
 #[derive(Deserialize, Default)]
-#[serde(deny_unknown_fields)]
+#[serde(deny_unknown_fields, expecting = "a table [image] (width, height, spp, seed)")]
 struct FileImage {
     width: Option<i64>,
     height: Option<i64>,
@@ -127,7 +225,7 @@ struct FileImage {
 }
 
 #[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(deny_unknown_fields, expecting = "a table [camera] (position, look_at, …)")]
 struct FileCamera {
     position: V3,
     look_at: V3,
@@ -137,13 +235,72 @@ struct FileCamera {
     focus_distance: Option<f32>,
     near: Option<f32>,
     far: Option<f32>,
-    aperture: Option<ApertureShape>,
-    shutter: Option<ShutterCurve>,
+    aperture: Option<FileAperture>,
+    shutter: Option<FileShutterCurve>,
     close: Option<FilePose>,
+    // The photographic spelling (one or the other of each pair; resolve_camera).
+    focal_length_mm: Option<f32>,
+    sensor_width_mm: Option<f32>,
+    sensor_height_mm: Option<f32>,
+    f_stop: Option<f32>,
+    shutter_angle_deg: Option<f32>,
+    shutter_interval: Option<Vec<Number>>,
+}
+
+/// `shutter = "box" | "tent"`: the curve. An array there is someone giving the open interval, which
+/// has keys of its own.
+struct FileShutterCurve(ShutterCurve);
+
+impl<'de> Deserialize<'de> for FileShutterCurve {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> std::result::Result<Self, D::Error> {
+        struct Visitor;
+        impl<'de> serde::de::Visitor<'de> for Visitor {
+            type Value = FileShutterCurve;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                f.write_str("the shutter curve, \"box\" or \"tent\"")
+            }
+            fn visit_str<E: serde::de::Error>(self, v: &str) -> std::result::Result<FileShutterCurve, E> {
+                match v {
+                    "box" => Ok(FileShutterCurve(ShutterCurve::Box)),
+                    "tent" => Ok(FileShutterCurve(ShutterCurve::Tent)),
+                    other => Err(E::unknown_variant(other, &["box", "tent"])),
+                }
+            }
+            fn visit_seq<A: serde::de::SeqAccess<'de>>(
+                self,
+                _: A,
+            ) -> std::result::Result<FileShutterCurve, A::Error> {
+                Err(serde::de::Error::custom(
+                    "`shutter` is the shutter curve, \"box\" or \"tent\"; give the part of the frame the \
+                     shutter is open as shutter_interval = [open, close] or shutter_angle_deg",
+                ))
+            }
+        }
+        d.deserialize_any(Visitor)
+    }
+}
+
+/// `aperture = { shape = … }`. Every shape is a table variant so that a key the shape does not take
+/// (`{ shape = "disk", blades = 6 }`) is an error: serde ignores extra keys beside a unit variant's tag.
+#[derive(Deserialize)]
+#[serde(
+    tag = "shape",
+    rename_all = "kebab-case",
+    deny_unknown_fields,
+    expecting = "a table { shape = \"disk\" }, { shape = \"blades\", blades = N } or { shape = \"smooth-disk\" }"
+)]
+enum FileAperture {
+    Disk {},
+    Blades {
+        blades: u32,
+        #[serde(default)]
+        rotation_deg: f32,
+    },
+    SmoothDisk {},
 }
 
 #[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(deny_unknown_fields, expecting = "a table [camera.close] (position, look_at, up)")]
 struct FilePose {
     position: Option<V3>,
     look_at: Option<V3>,
@@ -151,7 +308,7 @@ struct FilePose {
 }
 
 #[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(deny_unknown_fields, expecting = "a table [[object]] (name, mesh, transform, material, …)")]
 struct FileObject {
     name: Option<String>,
     mesh: String,
@@ -168,7 +325,10 @@ struct FileObject {
 }
 
 #[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(
+    deny_unknown_fields,
+    expecting = "a table [[object.transform_key]] (time, translate, rotate_deg, scale)"
+)]
 struct FileTransformKey {
     time: f32,
     translate: Option<V3>,
@@ -177,22 +337,49 @@ struct FileTransformKey {
 }
 
 #[derive(Deserialize, Default)]
-#[serde(deny_unknown_fields)]
+#[serde(deny_unknown_fields, expecting = "a table of translate, rotate_deg and scale")]
 struct FileTransform {
     translate: Option<V3>,
     rotate_deg: Option<V3>,
     scale: Option<FileScale>,
 }
 
-#[derive(Deserialize)]
-#[serde(untagged)]
+/// `scale`: one number for every axis or `[x, y, z]`.
 enum FileScale {
     Uniform(f32),
     PerAxis(V3),
 }
 
+impl<'de> Deserialize<'de> for FileScale {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> std::result::Result<Self, D::Error> {
+        struct Visitor;
+        impl<'de> serde::de::Visitor<'de> for Visitor {
+            type Value = FileScale;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                f.write_str("a number or an array of 3 numbers [x, y, z]")
+            }
+            fn visit_f64<E>(self, x: f64) -> std::result::Result<FileScale, E> {
+                Ok(FileScale::Uniform(x as f32))
+            }
+            fn visit_i64<E>(self, x: i64) -> std::result::Result<FileScale, E> {
+                Ok(FileScale::Uniform(x as f32))
+            }
+            fn visit_u64<E>(self, x: u64) -> std::result::Result<FileScale, E> {
+                Ok(FileScale::Uniform(x as f32))
+            }
+            fn visit_seq<A: serde::de::SeqAccess<'de>>(
+                self,
+                seq: A,
+            ) -> std::result::Result<FileScale, A::Error> {
+                read_v3(seq).map(FileScale::PerAxis)
+            }
+        }
+        d.deserialize_any(Visitor)
+    }
+}
+
 #[derive(Deserialize, Default)]
-#[serde(deny_unknown_fields)]
+#[serde(deny_unknown_fields, expecting = "a table [object.material] (albedo, texture, specular, …)")]
 struct FileMaterial {
     albedo: Option<V3>,
     texture: Option<String>,
@@ -205,7 +392,12 @@ struct FileMaterial {
 }
 
 #[derive(Deserialize)]
-#[serde(tag = "type", rename_all = "lowercase", deny_unknown_fields)]
+#[serde(
+    tag = "type",
+    rename_all = "lowercase",
+    deny_unknown_fields,
+    expecting = "a table [[light]] with type = \"directional\", \"point\" or \"spot\""
+)]
 enum FileLight {
     Directional {
         direction: V3,
@@ -231,7 +423,7 @@ enum FileLight {
 }
 
 #[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(deny_unknown_fields, expecting = "a table [environment] (ambient, background, indirect)")]
 struct FileEnvironment {
     ambient: Option<V3>,
     background: Option<V3>,
@@ -287,7 +479,12 @@ impl Ctx<'_> {
             Err(self.err(field, format!("{x} is not a finite number")))
         }
     }
+    /// The one place a file's vector becomes a [`Vec3`]: exactly three finite numbers.
     fn vec3(&self, field: &str, v: V3) -> Result<Vec3> {
+        if v.len != 3 {
+            return Err(self.err(field, format!("expected 3 numbers [x, y, z], got {}", v.len)));
+        }
+        let v = v.xyz;
         for (i, x) in v.iter().enumerate() {
             if !x.is_finite() {
                 return Err(self.err(field, format!("component {i} is {x}, not a finite number")));
@@ -353,7 +550,7 @@ fn parse_with_source(text: &str, base_dir: &Path, default_name: &str, source: &s
         },
     };
 
-    let camera = resolve_camera(&cx, &file.camera)?;
+    let (camera, shutter) = resolve_camera(&cx, &file.camera, &image)?;
 
     // Keyed by everything that shapes the mesh; the simplify fraction by its bits.
     let mut meshes: HashMap<(String, Option<u32>, bool, u32), Arc<Mesh>> = HashMap::new();
@@ -375,7 +572,7 @@ fn parse_with_source(text: &str, base_dir: &Path, default_name: &str, source: &s
                 m
             }
         };
-        let transforms = resolve_motion(&cx, &field, o)?;
+        let transforms = resolve_motion(&cx, &field, o, shutter)?;
         let material = resolve_material(
             &cx,
             &format!("{field}.material"),
@@ -481,10 +678,70 @@ fn resolve_pose(cx: &Ctx, field: &str, position: V3, look_at: V3, up: V3) -> Res
     Ok(CameraPose { position, look_at, up })
 }
 
-fn resolve_camera(cx: &Ctx, c: &FileCamera) -> Result<Camera> {
-    let up = c.up.unwrap_or([0.0, 1.0, 0.0]);
-    let open = resolve_pose(cx, "camera", c.position, c.look_at, up)?;
-    let close = match &c.close {
+/// The part of the frame the shutter is open, `(open, close)` in frame fractions, when the camera
+/// gives `shutter_angle_deg` or `shutter_interval`: the scene's open and close poses and transforms
+/// are then the frame's start and end, and [`retime`] cuts the motion down to the interval.
+type ShutterInterval = Option<(f32, f32)>;
+
+/// A full-frame sensor's width, the sensor when `focal_length_mm` comes without one (Blender's
+/// default sensor width too).
+pub const DEFAULT_SENSOR_WIDTH_MM: f32 = 36.0;
+
+/// The vertical field of view of a lens of focal length `focal_mm` on a sensor `sensor_height_mm`
+/// high: `2·atan(h / 2f)` (a lens focused at infinity; the model's pinhole, DESIGN.md "Pinhole").
+pub fn vfov_deg_of_lens(focal_mm: f32, sensor_height_mm: f32) -> f32 {
+    (2.0 * (sensor_height_mm as f64 / (2.0 * focal_mm as f64)).atan()).to_degrees() as f32
+}
+
+/// The thin lens' radius in scene units (metres) of a lens of focal length `focal_mm` at f-number
+/// `f_stop`: the entrance pupil's diameter is f/N, so A = f/(2N), millimetres → metres.
+pub fn aperture_radius_of_lens(focal_mm: f32, f_stop: f32) -> f32 {
+    (focal_mm as f64 / (2.0 * f_stop as f64) / 1000.0) as f32
+}
+
+/// `a + (b − a)·s` with the ends exact (s = 0 gives a, s = 1 gives b, bit for bit).
+fn lerp_exact_ends<T: Copy + std::ops::Add<Output = T> + std::ops::Mul<f32, Output = T>>(
+    a: T,
+    b: T,
+    s: f32,
+) -> T {
+    if s <= 0.0 {
+        a
+    } else if s >= 1.0 {
+        b
+    } else {
+        a * (1.0 - s) + b * s
+    }
+}
+
+fn resolve_camera(cx: &Ctx, c: &FileCamera, image: &ImageSettings) -> Result<(Camera, ShutterInterval)> {
+    let both = |a: &str, b: &str| cx.err(&format!("camera.{b}"), format!("give {a} or {b}, not both"));
+    let shutter = match (c.shutter_angle_deg, &c.shutter_interval) {
+        (Some(_), Some(_)) => return Err(both("shutter_angle_deg", "shutter_interval")),
+        (Some(angle), None) => {
+            cx.range("camera.shutter_angle_deg", angle, angle > 0.0 && angle <= 360.0, "in (0, 360]")?;
+            Some((0.0, angle / 360.0))
+        }
+        (None, Some(interval)) => {
+            let f = "camera.shutter_interval";
+            let [Number(open), Number(close)] = interval[..] else {
+                return Err(cx.err(f, format!("expected 2 numbers [open, close], got {}", interval.len())));
+            };
+            cx.finite(f, open)?;
+            cx.finite(f, close)?;
+            if !(0.0 <= open && open < close && close <= 1.0) {
+                return Err(cx.err(
+                    f,
+                    format!("[{open}, {close}] is out of range: must be 0 ≤ open < close ≤ 1 (fractions of the frame)"),
+                ));
+            }
+            Some((open, close))
+        }
+        (None, None) => None,
+    };
+    let up = c.up.unwrap_or(V3::from([0.0, 1.0, 0.0]));
+    let mut open = resolve_pose(cx, "camera", c.position, c.look_at, up)?;
+    let mut close = match &c.close {
         Some(p) => Some(resolve_pose(
             cx,
             "camera.close",
@@ -494,9 +751,69 @@ fn resolve_camera(cx: &Ctx, c: &FileCamera) -> Result<Camera> {
         )?),
         None => None,
     };
-    let vfov_deg = c.vfov_deg.unwrap_or(40.0);
+    if let (Some((a, b)), Some(end)) = (shutter, close) {
+        // The frame's start and end poses → the shutter's: position, look_at and up each linear in time.
+        // The interpolated pose is checked like a written one (look_at ≠ position, up not parallel).
+        let start = open;
+        let at = |s: f32, field: &str| {
+            let v = |a: Vec3, b: Vec3| V3::from(lerp_exact_ends(a, b, s).to_array());
+            resolve_pose(
+                cx,
+                field,
+                v(start.position, end.position),
+                v(start.look_at, end.look_at),
+                v(start.up, end.up),
+            )
+        };
+        open = at(a, "camera (at shutter open)")?;
+        close = Some(at(b, "camera (at shutter close)")?);
+    }
+    let focal = match c.focal_length_mm {
+        Some(f) => Some(cx.range("camera.focal_length_mm", f, f > 0.0, "> 0")?),
+        None => None,
+    };
+    let vfov_deg = match (c.vfov_deg, focal) {
+        (Some(_), Some(_)) => return Err(both("vfov_deg", "focal_length_mm")),
+        (Some(v), None) => v,
+        (None, None) => {
+            for (key, given) in
+                [("sensor_width_mm", c.sensor_width_mm), ("sensor_height_mm", c.sensor_height_mm)]
+            {
+                if given.is_some() {
+                    return Err(cx.err(
+                        &format!("camera.{key}"),
+                        "needs focal_length_mm (the sensor and the focal length give the field of view)",
+                    ));
+                }
+            }
+            40.0
+        }
+        (None, Some(f)) => {
+            let sensor_height = match (c.sensor_width_mm, c.sensor_height_mm) {
+                (Some(_), Some(_)) => return Err(both("sensor_width_mm", "sensor_height_mm")),
+                (None, Some(h)) => cx.range("camera.sensor_height_mm", h, h > 0.0, "> 0")?,
+                (w, None) => {
+                    let w = w.unwrap_or(DEFAULT_SENSOR_WIDTH_MM);
+                    cx.range("camera.sensor_width_mm", w, w > 0.0, "> 0")?;
+                    // The sensor has the image's aspect ratio ([image] width × height).
+                    (w as f64 * image.height as f64 / image.width as f64) as f32
+                }
+            };
+            vfov_deg_of_lens(f, sensor_height)
+        }
+    };
     cx.range("camera.vfov_deg", vfov_deg, vfov_deg > 0.0 && vfov_deg < 180.0, "in (0, 180)")?;
-    let aperture_radius = c.aperture_radius.unwrap_or(0.0);
+    let aperture_radius = match (c.aperture_radius, c.f_stop, focal) {
+        (Some(_), Some(_), _) => return Err(both("aperture_radius", "f_stop")),
+        (_, Some(_), None) => {
+            return Err(cx.err(
+                "camera.f_stop",
+                "needs focal_length_mm (the aperture's diameter is the focal length ÷ the f-stop)",
+            ))
+        }
+        (_, Some(n), Some(f)) => aperture_radius_of_lens(f, cx.range("camera.f_stop", n, n > 0.0, "> 0")?),
+        (a, None, _) => a.unwrap_or(0.0),
+    };
     cx.range("camera.aperture_radius", aperture_radius, aperture_radius >= 0.0, "≥ 0")?;
     let focus_distance = c.focus_distance.unwrap_or_else(|| (open.look_at - open.position).length());
     cx.range("camera.focus_distance", focus_distance, focus_distance > 0.0, "> 0")?;
@@ -504,24 +821,49 @@ fn resolve_camera(cx: &Ctx, c: &FileCamera) -> Result<Camera> {
     let far = c.far.unwrap_or(1000.0);
     cx.range("camera.near", near, near > 0.0, "> 0")?;
     cx.range("camera.far", far, far > near, "> near")?;
-    let aperture = c.aperture.unwrap_or_default();
-    if let ApertureShape::Blades { blades, rotation_deg } = aperture {
-        if blades < 3 {
-            return Err(cx.err("camera.aperture.blades", format!("{blades} is out of range: must be ≥ 3")));
+    let aperture = match c.aperture {
+        None | Some(FileAperture::Disk {}) => ApertureShape::Disk,
+        Some(FileAperture::SmoothDisk {}) => ApertureShape::SmoothDisk,
+        Some(FileAperture::Blades { blades, rotation_deg }) => {
+            if blades < 3 {
+                return Err(
+                    cx.err("camera.aperture.blades", format!("{blades} is out of range: must be ≥ 3"))
+                );
+            }
+            cx.finite("camera.aperture.rotation_deg", rotation_deg)?;
+            ApertureShape::Blades { blades, rotation_deg }
         }
-        cx.finite("camera.aperture.rotation_deg", rotation_deg)?;
-    }
-    Ok(Camera {
+    };
+    let camera = Camera {
         open,
         close,
         vfov_deg,
         aperture_radius,
         focus_distance,
         aperture,
-        shutter: c.shutter.unwrap_or_default(),
+        shutter: c.shutter.as_ref().map_or_else(ShutterCurve::default, |c| c.0),
         near,
         far,
-    })
+    };
+    Ok((camera, shutter))
+}
+
+/// Object keys in frame time → the shutter's `[a, b]`: the motion at `a` and `b` (linear between the
+/// keys around them — the matrices' blend, which is the model's camera-space motion seen by a camera
+/// that does not turn), the keys strictly between kept, times rescaled to `[0, 1]`.
+fn retime(keys: Vec<(f32, Mat4)>, (a, b): (f32, f32)) -> Vec<(f32, Mat4)> {
+    if keys.len() < 2 {
+        return keys;
+    }
+    let at = |t: f32| {
+        let i = keys.windows(2).position(|w| t <= w[1].0).unwrap_or(keys.len() - 2);
+        let ((t0, m0), (t1, m1)) = (keys[i], keys[i + 1]);
+        lerp_exact_ends(m0, m1, (t - t0) / (t1 - t0))
+    };
+    let mut out = vec![(0.0, at(a))];
+    out.extend(keys.iter().filter(|k| k.0 > a && k.0 < b).map(|&(t, m)| ((t - a) / (b - a), m)));
+    out.push((1.0, at(b)));
+    out
 }
 
 fn resolve_mesh(cx: &Ctx, field: &str, base_dir: &Path, o: &FileObject) -> Result<Mesh> {
@@ -554,8 +896,8 @@ fn resolve_trs(
     rotate_deg: Option<V3>,
     scale: Option<&FileScale>,
 ) -> Result<[Vec3; 3]> {
-    let translate = cx.vec3(&format!("{field}.translate"), translate.unwrap_or([0.0; 3]))?;
-    let rot = cx.vec3(&format!("{field}.rotate_deg"), rotate_deg.unwrap_or([0.0; 3]))?;
+    let translate = cx.vec3(&format!("{field}.translate"), translate.unwrap_or(V3::from([0.0; 3])))?;
+    let rot = cx.vec3(&format!("{field}.rotate_deg"), rotate_deg.unwrap_or(V3::from([0.0; 3])))?;
     let scale = match scale {
         None => Vec3::ONE,
         Some(FileScale::Uniform(s)) => Vec3::splat(cx.finite(&format!("{field}.scale"), *s)?),
@@ -584,7 +926,12 @@ fn resolve_trs_of(cx: &Ctx, field: &str, t: Option<&FileTransform>) -> Result<[V
 
 /// An object's transform keys ([`Object::transforms`]) from `transform`, `transform_close`,
 /// `motion_keys` and `[[object.transform_key]]`.
-fn resolve_motion(cx: &Ctx, field: &str, o: &FileObject) -> Result<Vec<(f32, Mat4)>> {
+fn resolve_motion(
+    cx: &Ctx,
+    field: &str,
+    o: &FileObject,
+    shutter: ShutterInterval,
+) -> Result<Vec<(f32, Mat4)>> {
     let open = resolve_trs_of(cx, &format!("{field}.transform"), o.transform.as_ref())?;
     let close = match &o.transform_close {
         Some(t) => Some(resolve_trs_of(cx, &format!("{field}.transform_close"), Some(t))?),
@@ -600,11 +947,14 @@ fn resolve_motion(cx: &Ctx, field: &str, o: &FileObject) -> Result<Vec<(f32, Mat
         let Some(close) = close else {
             return Err(cx.err(&f, "needs [object.transform_close] (the motion it samples)"));
         };
-        // Evenly spaced keys; translate, rotation angles and scale each interpolated linearly.
+        // Evenly spaced keys over the open shutter; translate, rotation angles and scale each
+        // interpolated linearly in frame time.
+        let (a, b) = shutter.unwrap_or((0.0, 1.0));
         return Ok((0..k)
             .map(|i| {
                 let t = if i + 1 == k { 1.0 } else { i as f32 / (k - 1) as f32 };
-                let trs = [0, 1, 2].map(|c| open[c] + (close[c] - open[c]) * t);
+                let frame = lerp_exact_ends(a, b, t);
+                let trs = [0, 1, 2].map(|c| open[c] + (close[c] - open[c]) * frame);
                 (t, trs_matrix(trs))
             })
             .collect());
@@ -634,7 +984,10 @@ fn resolve_motion(cx: &Ctx, field: &str, o: &FileObject) -> Result<Vec<(f32, Mat
         None if keys.len() > 1 => keys.push((1.0, keys[0].1)),
         None => {}
     }
-    Ok(keys)
+    Ok(match shutter {
+        Some(interval) => retime(keys, interval),
+        None => keys,
+    })
 }
 
 fn resolve_material(
@@ -658,7 +1011,7 @@ fn resolve_material(
             }
         }),
     };
-    let default_albedo = if texture.is_some() { [1.0; 3] } else { [0.8; 3] };
+    let default_albedo = V3::from(if texture.is_some() { [1.0; 3] } else { [0.8; 3] });
     let albedo = cx.non_negative3(&format!("{field}.albedo"), m.albedo.unwrap_or(default_albedo))?;
     let specular = m.specular.unwrap_or(0.0);
     cx.range(&format!("{field}.specular"), specular, specular >= 0.0, "≥ 0")?;
@@ -670,7 +1023,7 @@ fn resolve_material(
     if alpha_from_texture && texture.is_none() {
         return Err(cx.err(&format!("{field}.alpha_from_texture"), "needs a texture"));
     }
-    let tint = cx.vec3(&format!("{field}.tint"), m.tint.unwrap_or([1.0; 3]))?;
+    let tint = cx.vec3(&format!("{field}.tint"), m.tint.unwrap_or(V3::from([1.0; 3])))?;
     if tint.min_element() < 0.0 || tint.max_element() > 1.0 {
         return Err(
             cx.err(&format!("{field}.tint"), format!("{tint} is out of range: each component in [0, 1]"))
@@ -925,6 +1278,264 @@ mod tests {
         assert!(e.contains("transform_close"), "{e}");
     }
 
+    /// Issue 16: every vector and colour takes exactly three numbers, a shape takes only its own keys,
+    /// and no message names a Rust type.
+    #[test]
+    fn strict_vectors_shapes_and_scales() {
+        let obj =
+            |table: &str, keys: &str| format!("{CAMERA}[[object]]\nmesh = \"box\"\n[{table}]\n{keys}\n");
+        let light = |keys: &str| format!("{CAMERA}[[light]]\n{keys}\n");
+        let o = "object[0] (`object0`)";
+        let cases = [
+            ("[camera]\nposition = [0, 1, 5, 99]\nlook_at = [0, 0, 0]\n".to_string(), "camera.position", 4),
+            ("[camera]\nposition = [0, 1]\nlook_at = [0, 0, 0]\n".to_string(), "camera.position", 2),
+            ("[camera]\nposition = [0, 1, 5]\nlook_at = []\n".to_string(), "camera.look_at", 0),
+            (format!("{CAMERA}up = [0, 1, 0, 0]\n"), "camera.up", 4),
+            (format!("{CAMERA}[camera.close]\nposition = [1, 1, 5, 1]\n"), "camera.close.position", 4),
+            (obj("object.transform", "translate = [1, 2, 3, 4]"), &format!("{o}.transform.translate"), 4),
+            (obj("object.transform", "rotate_deg = [90]"), &format!("{o}.transform.rotate_deg"), 1),
+            (obj("object.transform", "scale = [1, 2]"), &format!("{o}.transform.scale"), 2),
+            (
+                obj("object.transform_close", "translate = [1, 2]"),
+                &format!("{o}.transform_close.translate"),
+                2,
+            ),
+            (obj("object.material", "albedo = [1, 1, 1, 1]"), &format!("{o}.material.albedo"), 4),
+            (obj("object.material", "tint = [1, 1]"), &format!("{o}.material.tint"), 2),
+            (
+                obj("[object.transform_key]]\ntime = 0.5\n#", "translate = [1, 2, 3, 4]"),
+                &format!("{o}.transform_key[0].translate"),
+                4,
+            ),
+            (
+                light("type = \"directional\"\ndirection = [0, -1, 0, 0]\ncolor = [1, 1, 1]"),
+                "light[0].direction",
+                4,
+            ),
+            (light("type = \"point\"\nposition = [0, 1, 0]\ncolor = [1, 1]"), "light[0].color", 2),
+            (format!("{CAMERA}[environment]\nambient = [0.1, 0.1, 0.1, 1]\n"), "environment.ambient", 4),
+            (format!("{CAMERA}[environment]\nbackground = [0.1]\n"), "environment.background", 1),
+        ];
+        for (text, field, got) in cases {
+            assert_eq!(
+                err(&text),
+                format!("scene error in scene `test`: {field}: expected 3 numbers [x, y, z], got {got}"),
+                "{text}"
+            );
+        }
+        // The issue's example: the wrong type inside is a TOML error on that line, in words.
+        let e = err("[camera]\nposition = [0, 1, 5, 99, \"junk\"]\nlook_at = [0, 0, 0]\n");
+        assert!(
+            e.contains("position = [0, 1, 5, 99, \"junk\"]")
+                && e.contains("invalid type: string \"junk\", expected a number"),
+            "{e}"
+        );
+        // A scale is a number or three; the message says so, not which Rust type failed.
+        for bad in ["\"big\"", "true"] {
+            let e = err(&obj("object.transform", &format!("scale = {bad}")));
+            assert!(e.contains("expected a number or an array of 3 numbers [x, y, z]"), "{e}");
+            assert!(!e.contains("FileScale") && !e.contains("untagged"), "{e}");
+        }
+        let s = parse(&obj("object.transform", "scale = [1, 2, 3]")).unwrap();
+        assert!(
+            (s.objects[0].transform_open().transform_point3(Vec3::ONE) - Vec3::new(1.0, 2.0, 3.0)).length()
+                < 1e-6
+        );
+        // A value of the wrong kind: what was expected, in the file's words, never a Rust type.
+        let box_ = "[[object]]\nmesh = \"box\"\n";
+        for (text, expected) in [
+            ("camera = 5\n".to_string(), "expected a table [camera] (position, look_at, …)"),
+            ("image = 5\n".to_string(), "expected a table [image] (width, height, spp, seed)"),
+            (format!("{CAMERA}close = 5\n"), "expected a table [camera.close] (position, look_at, up)"),
+            (format!("{CAMERA}aperture = \"disk\"\n"), "expected a table { shape = \"disk\" }, { shape = \"blades\", blades = N } or { shape = \"smooth-disk\" }"),
+            (format!("object = [1]\n{CAMERA}"), "expected a table [[object]] (name, mesh, transform, material, …)"),
+            (format!("{CAMERA}{box_}transform = 1\n"), "expected a table of translate, rotate_deg and scale"),
+            (format!("{CAMERA}{box_}transform_key = [1]\n"), "expected a table [[object.transform_key]] (time, translate, rotate_deg, scale)"),
+            (format!("{CAMERA}{box_}material = 1\n"), "expected a table [object.material] (albedo, texture, specular, …)"),
+            (format!("light = [1]\n{CAMERA}"), "expected a table [[light]] with type = \"directional\", \"point\" or \"spot\""),
+            (format!("environment = 1\n{CAMERA}"), "expected a table [environment] (ambient, background, indirect)"),
+            (format!("{CAMERA}up = 1\n"), "expected an array of 3 numbers [x, y, z]"),
+            (format!("{CAMERA}shutter = 5\n"), "expected the shutter curve, \"box\" or \"tent\""),
+            (format!("{CAMERA}shutter = \"slow\"\n"), "unknown variant `slow`, expected `box` or `tent`"),
+            (
+                format!("{CAMERA}shutter = [0, 0.5]\n"),
+                "`shutter` is the shutter curve, \"box\" or \"tent\"; give the part of the frame the shutter is open as shutter_interval = [open, close] or shutter_angle_deg",
+            ),
+        ] {
+            let e = err(&text);
+            assert!(e.contains(expected), "{text}: {e}");
+            assert!(!e.contains("File") && !e.contains("struct") && !e.contains("enum "), "{text}: {e}");
+        }
+        assert_eq!(
+            parse(&format!("{CAMERA}shutter = \"tent\"\n")).unwrap().camera.shutter,
+            ShutterCurve::Tent
+        );
+        // An aperture shape takes only its own keys.
+        for (aperture, key) in [
+            ("{ shape = \"disk\", blades = 6 }", "blades"),
+            ("{ shape = \"smooth-disk\", rotation_deg = 10 }", "rotation_deg"),
+            ("{ shape = \"blades\", blades = 6, radius = 1 }", "radius"),
+        ] {
+            let e = err(&format!("{CAMERA}aperture = {aperture}\n"));
+            assert!(e.contains(&format!("unknown field `{key}`")), "{aperture}: {e}");
+        }
+        let e = err(&format!("{CAMERA}aperture = {{ shape = \"hexagon\" }}\n"));
+        assert!(e.contains("unknown variant `hexagon`") && e.contains("`smooth-disk`"), "{e}");
+        assert_eq!(
+            parse(&format!("{CAMERA}aperture = {{ shape = \"disk\" }}\n")).unwrap().camera.aperture,
+            ApertureShape::Disk
+        );
+    }
+
+    /// Issue 16, item 2: focal length, sensor and f-stop give exactly the camera that vfov_deg and
+    /// aperture_radius of the same values give, and they match the physics they stand for.
+    #[test]
+    fn photographic_camera_keys_give_the_same_camera() {
+        let camera = |image: &str, keys: &str| {
+            parse(&format!("{image}[camera]\nposition = [0, 1, 5]\nlook_at = [0, 0, 0]\n{keys}\n"))
+                .unwrap()
+                .camera
+        };
+        // 50 mm on a 24 mm high sensor at f/2: vfov 2·atan(12/50) ≈ 26.99°, A = 50 / 4 mm = 12.5 mm.
+        let (vfov, a) = (vfov_deg_of_lens(50.0, 24.0), aperture_radius_of_lens(50.0, 2.0));
+        assert!((vfov - 26.9915).abs() < 1e-3 && a == 0.0125, "{vfov} {a}");
+        let photo = camera("", "focal_length_mm = 50\nsensor_height_mm = 24\nf_stop = 2");
+        assert_eq!(photo, camera("", &format!("vfov_deg = {vfov}\naperture_radius = {a}")));
+        // The pixel scale is the lens' magnification: s = H·f / sensor height (360 px · 50 / 24 = 750).
+        assert!((photo.intrinsics(640, 360).pixel_scale - 750.0).abs() < 1e-2);
+        // The default sensor is 36 mm wide with the image's aspect: 20.25 mm high at 640×360.
+        let vfov = vfov_deg_of_lens(35.0, 20.25);
+        assert_eq!(camera("", "focal_length_mm = 35"), camera("", &format!("vfov_deg = {vfov}")));
+        assert_eq!(
+            camera("", "focal_length_mm = 35\nsensor_width_mm = 36"),
+            camera("", &format!("vfov_deg = {vfov}"))
+        );
+        let portrait = "[image]\nwidth = 200\nheight = 300\n";
+        let vfov = vfov_deg_of_lens(24.0, 36.0);
+        assert_eq!(
+            camera(portrait, "focal_length_mm = 24\nsensor_width_mm = 24\nf_stop = 8"),
+            camera(
+                portrait,
+                &format!("vfov_deg = {vfov}\naperture_radius = {}", aperture_radius_of_lens(24.0, 8.0))
+            )
+        );
+
+        // Pairs: one or the other; ranges; f_stop and a sensor need a focal length.
+        for (keys, message) in [
+            ("vfov_deg = 40\nfocal_length_mm = 50", "camera.focal_length_mm: give vfov_deg or focal_length_mm, not both"),
+            ("focal_length_mm = 50\naperture_radius = 0.1\nf_stop = 2", "camera.f_stop: give aperture_radius or f_stop, not both"),
+            ("focal_length_mm = 50\nsensor_width_mm = 36\nsensor_height_mm = 24", "camera.sensor_height_mm: give sensor_width_mm or sensor_height_mm, not both"),
+            ("shutter_angle_deg = 180\nshutter_interval = [0, 0.5]", "camera.shutter_interval: give shutter_angle_deg or shutter_interval, not both"),
+            ("f_stop = 2", "camera.f_stop: needs focal_length_mm (the aperture's diameter is the focal length ÷ the f-stop)"),
+            ("sensor_width_mm = 36", "camera.sensor_width_mm: needs focal_length_mm (the sensor and the focal length give the field of view)"),
+            ("focal_length_mm = 0", "camera.focal_length_mm: 0 is out of range: must be > 0"),
+            ("focal_length_mm = nan", "camera.focal_length_mm: NaN is not a finite number"),
+            ("focal_length_mm = 50\nf_stop = -2", "camera.f_stop: -2 is out of range: must be > 0"),
+            ("focal_length_mm = 50\nsensor_height_mm = 0", "camera.sensor_height_mm: 0 is out of range: must be > 0"),
+            ("shutter_angle_deg = 0", "camera.shutter_angle_deg: 0 is out of range: must be in (0, 360]"),
+            ("shutter_angle_deg = 400", "camera.shutter_angle_deg: 400 is out of range: must be in (0, 360]"),
+            ("shutter_interval = [0.5, 0.5]", "camera.shutter_interval: [0.5, 0.5] is out of range: must be 0 ≤ open < close ≤ 1 (fractions of the frame)"),
+            ("shutter_interval = [-0.5, 0.5]", "camera.shutter_interval: [-0.5, 0.5] is out of range: must be 0 ≤ open < close ≤ 1 (fractions of the frame)"),
+            ("shutter_interval = [0, 0.5, 1]", "camera.shutter_interval: expected 2 numbers [open, close], got 3"),
+            ("shutter_interval = [inf, 0.5]", "camera.shutter_interval: inf is not a finite number"),
+        ] {
+            let e = err(&format!("{CAMERA}{keys}\n"));
+            assert_eq!(e, format!("scene error in scene `test`: {message}"), "{keys}");
+        }
+    }
+
+    /// Issue 16, item 2: a shutter angle or interval cuts the frame's motion (camera and objects) to
+    /// the open shutter — exactly the scene whose close poses are where the frame's motion is then.
+    #[test]
+    fn shutter_angle_and_interval_cut_the_frames_motion() {
+        let scene = |camera: &str, close_x: f32, object: &str| {
+            parse(&format!(
+                "[camera]\nposition = [0, 1, 5]\nlook_at = [0, 0, 0]\n{camera}\n[camera.close]\nposition = [{close_x}, 1, 5]\n\
+                 [[object]]\nmesh = \"box\"\n{object}\n"
+            ))
+            .unwrap()
+        };
+        let same = |a: &Scene, b: &Scene| {
+            assert_eq!(a.camera, b.camera);
+            assert_eq!(a.objects.len(), b.objects.len());
+            for (x, y) in a.objects.iter().zip(&b.objects) {
+                assert_eq!(x.transforms, y.transforms, "{}", x.name);
+            }
+        };
+        let slide = |x0: f32, x1: f32| {
+            format!("[object.transform]\ntranslate = [{x0}, 0, 0]\n[object.transform_close]\ntranslate = [{x1}, 0, 0]\n")
+        };
+        // 360°: the whole frame, the same scene as no key.
+        same(&scene("shutter_angle_deg = 360", 0.5, &slide(0.0, 1.0)), &scene("", 0.5, &slide(0.0, 1.0)));
+        same(&scene("shutter_interval = [0, 1]", 0.5, &slide(0.0, 1.0)), &scene("", 0.5, &slide(0.0, 1.0)));
+        // 180°: the first half of the frame.
+        same(&scene("shutter_angle_deg = 180", 0.5, &slide(0.0, 1.0)), &scene("", 0.25, &slide(0.0, 0.5)));
+        // [0.25, 0.75]: the middle half — the camera from x = 0.25 to 0.75 of a 1-unit pan.
+        let mid = scene("shutter_interval = [0.25, 0.75]", 1.0, &slide(0.0, 2.0));
+        let want = parse(&format!(
+            "[camera]\nposition = [0.25, 1, 5]\nlook_at = [0, 0, 0]\n[camera.close]\nposition = [0.75, 1, 5]\n\
+             [[object]]\nmesh = \"box\"\n{}\n",
+            slide(0.5, 1.5)
+        ))
+        .unwrap();
+        // The camera's look_at is the frame's at both ends (it was not given in [camera.close]).
+        same(&mid, &want);
+        // motion_keys are spread over the open shutter: 5 keys over half of a 180° turn = 90°.
+        let spin =
+            |deg: u32| format!("motion_keys = 5\n[object.transform_close]\nrotate_deg = [0, {deg}, 0]\n");
+        same(&scene("shutter_angle_deg = 180", 0.0, &spin(180)), &scene("", 0.0, &spin(90)));
+        // Explicit keys: kept inside the interval (times rescaled), the motion cut at its ends.
+        let keyed = scene(
+            "shutter_interval = [0, 0.5]",
+            0.0,
+            &format!("{}[[object.transform_key]]\ntime = 0.25\ntranslate = [3, 0, 0]\n", slide(0.0, 1.0)),
+        );
+        let t = &keyed.objects[0].transforms;
+        assert_eq!(t.iter().map(|k| k.0).collect::<Vec<_>>(), [0.0, 0.5, 1.0]);
+        assert_eq!(t[1].1, Mat4::from_translation(Vec3::new(3.0, 0.0, 0.0)));
+        // At frame time 0.5, two thirds of the way from the key (3 at 0.25) to the end (1 at 1).
+        assert!((t[2].1.w_axis.x - (3.0 - 2.0 / 3.0)).abs() < 1e-6, "{}", t[2].1);
+        // A still object stays still; a still camera stays still.
+        let still = parse(&format!("{CAMERA}shutter_angle_deg = 90\n[[object]]\nmesh = \"box\"\n")).unwrap();
+        assert!(still.camera.close.is_none() && !still.objects[0].is_moving());
+    }
+
+    /// Every file in `scenes/` loads from disk: the built-ins (the same scene as embedded) and the
+    /// examples loaded by path, such as `spot-85mm.toml` (an OBJ and a PNG beside it, a camera in
+    /// millimetres, f-stops and a shutter angle).
+    #[test]
+    fn every_file_in_scenes_loads() {
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes");
+        let mut files = 0;
+        for entry in std::fs::read_dir(&dir).unwrap() {
+            let path = entry.unwrap().path();
+            if path.extension().is_none_or(|e| e != "toml") {
+                continue;
+            }
+            let s = load_scene_file(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+            if BUILTIN_SCENES.contains(&s.name.as_str()) {
+                assert_eq!(s.content_hash(), load_scene(&s.name).unwrap().content_hash(), "{}", s.name);
+            }
+            files += 1;
+        }
+        assert!(files > BUILTIN_SCENES.len(), "{files} files");
+        let s = load_scene_file(&dir.join("spot-85mm.toml")).unwrap();
+        assert_eq!(s.camera.vfov_deg, vfov_deg_of_lens(85.0, 36.0 * 360.0 / 640.0));
+        assert_eq!(s.camera.aperture_radius, aperture_radius_of_lens(85.0, 1.4));
+        assert!((s.camera.aperture_radius - 0.030357).abs() < 1e-6);
+        let spot = s.objects.iter().find(|o| o.name == "spot").unwrap();
+        assert!(spot.mesh.triangle_count() == 5856 && spot.mesh.has_uvs() && spot.material.texture.is_some());
+        assert_eq!(s.skipped_triangles(), 0);
+        // The 180° shutter: the ball's 0.3 m of the frame, 0.15 m of it while the shutter is open.
+        let ball = s.objects.iter().find(|o| o.name == "rolling-ball").unwrap();
+        let moved = ball.transform_at_close().w_axis.x - ball.transform_open().w_axis.x;
+        assert!((moved - 0.15).abs() < 1e-6, "{moved}");
+        let k = s.camera.intrinsics(640, 360);
+        assert!((k.pixel_scale - 360.0 * 85.0 / 20.25).abs() < 0.05, "{}", k.pixel_scale);
+        assert!(k.circle_of_confusion_px(centre(&s, "spot").0).abs() < 0.5);
+        assert!(k.circle_of_confusion_px(centre(&s, "near-ball").0).abs() > 5.0);
+    }
+
     #[test]
     fn malformed_and_unknown_keys() {
         assert!(err("[camera\nposition = ").contains("invalid scene TOML"));
@@ -1007,7 +1618,7 @@ mod tests {
             ("tint = [2, 0, 0]", "material.tint"),
             ("tint = [0, -0.5, 0]", "material.tint"),
             ("tint = [nan, 0, 0]", "material.tint"),
-            ("tint = [1, 1]", "tint = [1, 1]"), // a TOML type error: it quotes the line
+            ("tint = [1, 1]", "material.tint: expected 3 numbers [x, y, z], got 2"),
             ("alpha_from_texture = true", "material.alpha_from_texture"),
             ("alpha_from_texture = 1", "alpha_from_texture"),
             ("one_sided = \"yes\"", "one_sided"),
@@ -1163,6 +1774,26 @@ mod tests {
         assert_eq!(s.objects[0].mesh.triangle_count(), 1);
         assert_eq!(s.objects[0].mesh.stats.skipped_degenerate, 2);
         assert_eq!(s.skipped_triangles(), 2);
+        let skipped = s.skipped_by_mesh();
+        assert_eq!(skipped.len(), 1);
+        assert_eq!(
+            skipped[0].to_string(),
+            "2 zero-area or duplicate-vertex triangles skipped in the mesh of object `object0` (1 kept)"
+        );
+        // A mesh shared by two objects is one entry naming both; a clean mesh is none.
+        std::fs::write(
+            &scene_path,
+            format!(
+                "{text}[[object]]\nname = \"twin\"\nmesh = \"{}\"\nnormalize = true\n[[object]]\nmesh = \"box\"\n",
+                name(&obj)
+            ),
+        )
+        .unwrap();
+        let s = load_scene_file(&scene_path).unwrap();
+        assert_eq!(
+            s.skipped_by_mesh().iter().map(|m| m.to_string()).collect::<Vec<_>>(),
+            ["2 zero-area or duplicate-vertex triangles skipped in the mesh of objects `object0`, `twin` (1 kept)"]
+        );
         assert_eq!(s.objects[0].material.albedo, Vec3::ONE);
         assert_eq!(s.objects[0].material.texture.as_ref().unwrap().width, 1);
 

@@ -306,6 +306,51 @@ impl Scene {
     pub fn skipped_triangles(&self) -> usize {
         self.objects.iter().map(|o| o.mesh.stats.skipped_degenerate).sum()
     }
+    /// Per mesh that lost triangles while cleaning (zero-area, duplicate-vertex), how many, with the
+    /// objects that use it (objects share a mesh loaded once), in object order: what the CLI reports.
+    pub fn skipped_by_mesh(&self) -> Vec<SkippedTriangles> {
+        let mut out: Vec<(&Arc<Mesh>, SkippedTriangles)> = Vec::new();
+        for o in self.objects.iter().filter(|o| o.mesh.stats.skipped_degenerate > 0) {
+            match out.iter_mut().find(|(m, _)| Arc::ptr_eq(m, &o.mesh)) {
+                Some((_, s)) => s.objects.push(o.name.clone()),
+                None => out.push((
+                    &o.mesh,
+                    SkippedTriangles {
+                        objects: vec![o.name.clone()],
+                        skipped: o.mesh.stats.skipped_degenerate,
+                        kept: o.mesh.triangle_count(),
+                    },
+                )),
+            }
+        }
+        out.into_iter().map(|(_, s)| s).collect()
+    }
+}
+
+/// One mesh's triangles skipped while cleaning it ([`Scene::skipped_by_mesh`]).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct SkippedTriangles {
+    /// The objects that use the mesh.
+    pub objects: Vec<String>,
+    /// Zero-area and duplicate-vertex triangles dropped.
+    pub skipped: usize,
+    /// Triangles rendered.
+    pub kept: usize,
+}
+
+impl std::fmt::Display for SkippedTriangles {
+    fn fmt(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+        let names: Vec<String> = self.objects.iter().map(|n| format!("`{n}`")).collect();
+        write!(
+            f,
+            "{} zero-area or duplicate-vertex triangle{} skipped in the mesh of object{} {} ({} kept)",
+            self.skipped,
+            if self.skipped == 1 { "" } else { "s" },
+            if names.len() == 1 { "" } else { "s" },
+            names.join(", "),
+            self.kept
+        )
+    }
 }
 
 /// 64-bit FNV-1a.

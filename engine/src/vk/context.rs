@@ -32,14 +32,38 @@ pub struct DeviceDesc {
 
 impl DeviceDesc {
     /// Validation defaults to on in debug builds (and therefore in tests), off in release builds;
-    /// `SHUTTER_VALIDATION=0|1` overrides it.
-    pub fn from_env() -> Self {
-        let flag = |name: &str| std::env::var(name).ok().map(|v| v != "0" && !v.is_empty());
-        DeviceDesc {
+    /// `SHUTTER_VALIDATION` overrides it ([`parse_env_flag`]: `1`/`0`, `true`/`false`, `on`/`off`,
+    /// `yes`/`no`; anything else is an error).
+    pub fn from_env() -> Result<Self> {
+        let flag = |name: &'static str| -> Result<Option<bool>> {
+            match std::env::var(name) {
+                Ok(v) => parse_env_flag(name, &v),
+                Err(std::env::VarError::NotPresent) => Ok(None),
+                Err(std::env::VarError::NotUnicode(v)) => Err(Error::Environment {
+                    name,
+                    value: v.to_string_lossy().into_owned(),
+                    expected: ENV_FLAG_VALUES,
+                }),
+            }
+        };
+        Ok(DeviceDesc {
             device_name: std::env::var("SHUTTER_DEVICE").ok().filter(|s| !s.is_empty()),
-            validation: flag("SHUTTER_VALIDATION").unwrap_or(cfg!(debug_assertions)),
-            sync_validation: flag("SHUTTER_SYNC_VALIDATION").unwrap_or(false),
-        }
+            validation: flag("SHUTTER_VALIDATION")?.unwrap_or(cfg!(debug_assertions)),
+            sync_validation: flag("SHUTTER_SYNC_VALIDATION")?.unwrap_or(false),
+        })
+    }
+}
+
+const ENV_FLAG_VALUES: &str = "1, true, on or yes to turn it on; 0, false, off or no to turn it off";
+
+/// An on/off environment variable's value, case-insensitive: `1`/`true`/`on`/`yes` or
+/// `0`/`false`/`off`/`no`; empty is unset (None); anything else is an error naming the variable.
+pub fn parse_env_flag(name: &'static str, value: &str) -> Result<Option<bool>> {
+    match value.trim().to_ascii_lowercase().as_str() {
+        "" => Ok(None),
+        "1" | "true" | "on" | "yes" => Ok(Some(true)),
+        "0" | "false" | "off" | "no" => Ok(Some(false)),
+        _ => Err(Error::Environment { name, value: value.to_string(), expected: ENV_FLAG_VALUES }),
     }
 }
 
@@ -622,6 +646,32 @@ impl Drop for MessengerGuard {
             if self.messenger != vk::DebugUtilsMessengerEXT::null() {
                 unsafe { du.destroy_debug_utils_messenger(self.messenger, None) };
             }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn env_flags_take_the_usual_spellings_and_refuse_the_rest() {
+        for on in ["1", "true", "TRUE", "on", "On", "yes", " yes "] {
+            assert_eq!(parse_env_flag("SHUTTER_VALIDATION", on).unwrap(), Some(true), "{on}");
+        }
+        for off in ["0", "false", "False", "off", "OFF", "no"] {
+            assert_eq!(parse_env_flag("SHUTTER_VALIDATION", off).unwrap(), Some(false), "{off}");
+        }
+        assert_eq!(parse_env_flag("SHUTTER_VALIDATION", "").unwrap(), None);
+        for bad in ["2", "maybe", "enable", "-1"] {
+            let e = parse_env_flag("SHUTTER_VALIDATION", bad).unwrap_err().to_string();
+            assert_eq!(
+                e,
+                format!(
+                    "environment variable SHUTTER_VALIDATION=\"{bad}\": expected 1, true, on or yes to turn \
+                     it on; 0, false, off or no to turn it off"
+                )
+            );
         }
     }
 }

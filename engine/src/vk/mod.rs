@@ -15,7 +15,9 @@ mod queries;
 mod transfer;
 
 pub use commands::{atlas_square, compute_write_barrier, image_barriers, set_viewport, CommandRecorder};
-pub use context::{Capabilities, Device, DeviceDesc, DeviceShared, Feature, ValidationReport};
+pub use context::{
+    parse_env_flag, Capabilities, Device, DeviceDesc, DeviceShared, Feature, ValidationReport,
+};
 pub use image::{aspect_of, barrier, Image, ImageDesc, Sampler};
 pub use memory::Buffer;
 pub use pipeline::{
@@ -28,5 +30,5 @@ pub use transfer::{read_rgba32f, srgb_mip_chain, upload_texture};
 /// Creates the device as the environment says (`SHUTTER_DEVICE`, `SHUTTER_VALIDATION`,
 /// `SHUTTER_SYNC_VALIDATION`).
 pub fn create_device() -> crate::Result<Device> {
-    DeviceShared::new(&DeviceDesc::from_env())
+    DeviceShared::new(&DeviceDesc::from_env()?)
 }
