@@ -7,12 +7,13 @@ mod quality;
 
 use std::path::{Path, PathBuf};
 
-use anyhow::{Context, Result};
+use anyhow::{bail, Context, Result};
 use clap::{Parser, Subcommand};
 
 use shutter::bounds::BoundKind;
 use shutter::image_io::{load_image, save_image};
 use shutter::metrics::{compare, write_flip_diff_png};
+use shutter::quality_plan::{CostModel, QualityTarget};
 use shutter::reference::ReferenceSettings;
 use shutter::scene::builtin::BUILTIN_SCENES;
 use shutter::techniques::{RenderSettings, Renderer, ShadingRate, StochasticOptions, Technique};
@@ -40,9 +41,18 @@ enum Command {
         #[arg(long, default_value = "auto", value_parser = technique_names())]
         technique: String,
         /// Samples per pixel S (accumulation: passes; stochastic: MSAA samples × passes). Default: the
-        /// scene's [image] spp.
+        /// scene's [image] spp; for `auto`, the samples the quality target needs (--quality).
         #[arg(long)]
         spp: Option<u32>,
+        /// `auto` without --spp: draft, good (the default) or final — a mean FLIP against the ground
+        /// truth of 0.04, 0.018 or 0.01. A pilot measures the scene's noise and the cost model
+        /// (`shutter calibrate`) the techniques' cost; the planner takes the technique and S that
+        /// reach it in the least predicted time (docs/QUALITY.md, "Quality targets").
+        #[arg(long, conflicts_with_all = ["spp", "target_flip"])]
+        quality: Option<String>,
+        /// `auto` without --spp: a mean FLIP target in (0, 1) instead of --quality's names.
+        #[arg(long, conflicts_with = "spp")]
+        target_flip: Option<f32>,
         /// Stochastic bound: device (the one calibrated fastest on the device, `shutter probe` says
         /// which), bbox, 2d-hexagon, parallel-edge-triangle, variable-radius-triangle, 3d-hexagon,
         /// wedge, reduced-wedge, convex-hull, adaptive, or per-object[/SHARP/BLURRED/PX] (a kind per
@@ -308,6 +318,13 @@ enum Command {
         /// generated charts, and why), its fitted atlas and its memory, the triangles pass 1 culls.
         #[arg(long)]
         atlases: bool,
+        /// Also run the quality planner for this target (draft, good, final): the pilot renders on
+        /// the GPU, then every candidate technique with its S, predicted ms and FLIP.
+        #[arg(long, conflicts_with = "target_flip")]
+        quality: Option<String>,
+        /// The quality planner for a mean FLIP target in (0, 1).
+        #[arg(long)]
+        target_flip: Option<f32>,
     },
     /// Print the device, driver and capabilities.
     Probe,
@@ -330,6 +347,58 @@ enum Command {
     Scenes,
     /// List the techniques (the registry, engine/src/techniques/registry.rs) with one line each.
     Techniques,
+}
+
+/// `--quality NAME` or `--target-flip X` (at most one).
+fn quality_target(quality: Option<&str>, target_flip: Option<f32>) -> Result<Option<QualityTarget>> {
+    Ok(match (quality, target_flip) {
+        (Some(_), Some(_)) => bail!("give --quality or --target-flip, not both"),
+        (Some(q), None) => Some(q.parse()?),
+        (None, Some(f)) => Some(QualityTarget::from_flip(f)?),
+        (None, None) => None,
+    })
+}
+
+/// `shutter calibrate`'s cost model: `accumulation` and the per-object stochastic frame (`auto` at
+/// fixed S) on `scene` at S = `spp`, `frames` warm frames each, two seeds each; the ratios of their
+/// median GPU ms and of their noise (FLIP between the seeds), saved where the quality planner loads
+/// it. Returns a report and the model.
+fn calibrate_cost(scene: &str, size: (u32, u32), spp: u32, frames: usize) -> Result<(String, CostModel)> {
+    let sc = load_scene(scene)?;
+    let mut settings = RenderSettings::from_scene(&sc);
+    (settings.width, settings.height, settings.spp) = (size.0, size.1, spp);
+    let mut renderer = Renderer::new(shutter::vk::create_device()?)?;
+    let mut measure = |technique: Technique| -> Result<(f64, f64)> {
+        let outs = renderer.render_frames(&sc, technique, &settings, frames + 1)?;
+        let mut ms: Vec<f64> = outs[1..].iter().map(|o| o.timings.total_ms()).collect();
+        ms.sort_by(f64::total_cmp);
+        let other = RenderSettings { seed: settings.seed ^ 0x5eed, ..settings };
+        let b = renderer.render(&sc, technique, &other)?;
+        Ok((ms[ms.len() / 2], shutter::metrics::compare(&outs[0].image, &b.image)?.flip))
+    };
+    let (acc_ms, acc_noise) = measure(Technique::ACCUMULATION)?;
+    let (st_ms, st_noise) = measure(Technique::AUTO)?;
+    let caps = renderer.device().caps.clone();
+    let model = CostModel {
+        driver_id: caps.driver_id.clone(),
+        device_name: caps.device_name.clone(),
+        stochastic_ms_ratio: st_ms / acc_ms,
+        stochastic_flip_ratio: st_noise / acc_noise,
+        source: format!(
+            "`shutter calibrate` ({}, {}x{}, S = {spp}): accumulation {acc_ms:.1} ms, noise FLIP {acc_noise:.4}; stochastic {st_ms:.1} ms, {st_noise:.4}",
+            sc.name, size.0, size.1
+        ),
+    };
+    let path = model.save(&caps)?;
+    let report = format!(
+        "cost model for {} ({}): the per-object stochastic frame takes {:.2}x accumulation's GPU ms and has {:.2}x its noise at equal S; saved to {} (the quality planner's, `render --quality`)",
+        caps.device_name,
+        caps.driver_id,
+        model.stochastic_ms_ratio,
+        model.stochastic_flip_ratio,
+        path.display()
+    );
+    Ok((report, model))
 }
 
 /// The registered techniques' names, with their summaries for `--help`.
@@ -465,6 +534,8 @@ fn run() -> Result<()> {
             scene,
             technique,
             spp,
+            quality,
+            target_flip,
             bound,
             shading,
             instrumented,
@@ -478,7 +549,11 @@ fn run() -> Result<()> {
             set,
             image: ImageArgs { size, seed, out },
         } => {
-            let technique: Technique = technique.parse()?;
+            let mut technique: Technique = technique.parse()?;
+            let target = quality_target(quality.as_deref(), target_flip)?;
+            if target.is_some() && technique != Technique::AUTO {
+                bail!("--quality and --target-flip choose the technique and S of `auto`; `{technique}` takes --spp");
+            }
             let transparency: shutter::transparency::TransparencyMethod = transparency.parse()?;
             let shadows: shutter::shadows::ShadowSettings = shadow_map.parse()?;
             let stochastic = StochasticOptions {
@@ -521,6 +596,16 @@ fn run() -> Result<()> {
             let device = shutter::vk::create_device()?;
             let device_name = device.caps.device_name.clone();
             let mut renderer = Renderer::new(device)?;
+            // `auto` without --spp: the quality planner picks the technique and S.
+            if technique == Technique::AUTO && spp.is_none() {
+                let target = target.unwrap_or(QualityTarget::Good);
+                let cost = CostModel::load(&renderer.device().caps)?;
+                let qp = shutter::quality_plan::plan_quality(&mut renderer, &sc, &settings, target, &cost)?;
+                println!("auto: {}", qp.summary());
+                if qp.pilot.is_some() {
+                    (technique, settings.spp) = (qp.choice.technique, qp.choice.spp);
+                }
+            }
             let output = renderer.render(&sc, technique, &settings)?;
             let out = match out {
                 Some(o) => o,
@@ -988,7 +1073,7 @@ fn run() -> Result<()> {
             quality::plot(&sc, &args, &points)?;
             eprintln!("wrote {} and {}", md_path.display(), out.with_extension("csv").display());
         }
-        Command::Plan { scene, size, threshold, atlases } => {
+        Command::Plan { scene, size, threshold, atlases, quality, target_flip } => {
             let sc = load_scene(&scene)?;
             let (w, h) = size.unwrap_or((sc.image.width, sc.image.height));
             println!("# plan of `{}`\n", sc.name);
@@ -1002,6 +1087,30 @@ fn run() -> Result<()> {
             if atlases {
                 print_atlas_plan(&sc, w, h)?;
             }
+            if let Some(target) = quality_target(quality.as_deref(), target_flip)? {
+                let mut renderer = Renderer::new(shutter::vk::create_device()?)?;
+                let cost = CostModel::load(&renderer.device().caps)?;
+                let mut settings = RenderSettings::from_scene(&sc);
+                (settings.width, settings.height) = (w, h);
+                let qp = shutter::quality_plan::plan_quality(&mut renderer, &sc, &settings, target, &cost)?;
+                println!(
+                    "
+{}",
+                    qp.summary()
+                );
+                if !qp.candidates.is_empty() {
+                    println!(
+                        "
+| candidate | S | predicted GPU ms | predicted FLIP |\n|---|---:|---:|---:|"
+                    );
+                    for c in &qp.candidates {
+                        println!(
+                            "| {} | {} | {:.1} | {:.4} |",
+                            c.technique, c.spp, c.predicted_ms, c.predicted_flip
+                        );
+                    }
+                }
+            }
         }
         Command::Probe => {
             let device = shutter::vk::create_device()?;
@@ -1013,6 +1122,8 @@ fn run() -> Result<()> {
             }
         }
         Command::Calibrate { scene, size, spp, frames, warmup } => {
+            let cost = calibrate_cost(&scene, size, spp, frames.max(1))?;
+            println!("{}\n", cost.0);
             let sc = load_scene(&scene)?;
             let mut defaults = RenderSettings::from_scene(&sc);
             (defaults.width, defaults.height) = size;

@@ -331,3 +331,25 @@ fn skipped_triangles_are_reported_per_mesh() {
         let _ = std::fs::remove_file(p);
     }
 }
+
+/// The quality targets of `auto`: bad names and values, and what does not combine, are refused
+/// before any rendering; a still scene plans `pinhole` without a pilot.
+#[test]
+fn quality_targets_are_checked_and_printed() {
+    let cases: Vec<(Vec<&str>, i32, &str)> = vec![
+        (vec!["render", "static", "--quality", "better"], 1, "draft, good or final"),
+        (vec!["render", "static", "--target-flip", "2"], 1, "between 0 and 1"),
+        (vec!["render", "static", "--target-flip", "nan"], 1, "between 0 and 1"),
+        (vec!["render", "static", "--technique", "pinhole", "--quality", "good"], 1, "takes --spp"),
+        (vec!["render", "static", "--quality", "good", "--spp", "4"], 2, "--spp"),
+        (vec!["render", "static", "--quality", "good", "--target-flip", "0.1"], 2, "--target-flip"),
+    ];
+    for (args, code, needle) in cases {
+        let (c, _, err) = shutter(&args);
+        assert_eq!(c, code, "{args:?}: {err}");
+        assert!(err.starts_with("error:") && err.contains(needle), "{args:?}: {err}");
+    }
+    let (c, out, err) = shutter(&["plan", "static", "--size", "64x36", "--quality", "final"]);
+    assert_eq!(c, 0, "{err}");
+    assert!(out.contains("nothing to simulate, pinhole"), "{out}");
+}
