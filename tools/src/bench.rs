@@ -415,12 +415,11 @@ impl BenchReport {
 
     pub fn write(&self, json: Option<&PathBuf>, csv: Option<&PathBuf>) -> Result<()> {
         if let Some(p) = json {
-            std::fs::write(p, serde_json::to_string_pretty(self)?)
-                .with_context(|| format!("writing {}", p.display()))?;
+            shutter::image_io::write_file_atomically(p, serde_json::to_string_pretty(self)?.as_bytes())?;
             eprintln!("wrote {}", p.display());
         }
         if let Some(p) = csv {
-            std::fs::write(p, self.csv()).with_context(|| format!("writing {}", p.display()))?;
+            shutter::image_io::write_file_atomically(p, self.csv().as_bytes())?;
             eprintln!("wrote {}", p.display());
         }
         Ok(())

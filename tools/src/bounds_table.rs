@@ -76,7 +76,7 @@ pub fn sweep(
     let (md, all) = sweep_rows(renderer, scene, a, focus)?;
     if let Some(stem) = plot {
         // The report first, so a plot that fails loses no measurement.
-        std::fs::write(stem, &md).with_context(|| format!("writing {}", stem.display()))?;
+        shutter::image_io::write_file_atomically(stem, md.as_bytes())?;
         register_font()?;
         let spp = a.spp[0];
         let title = format!(

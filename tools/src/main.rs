@@ -11,7 +11,9 @@ use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
 
 use shutter::bounds::BoundKind;
-use shutter::image_io::{load_image, save_image};
+use shutter::image_io::{
+    check_image_output, check_output_file, load_image, save_image, write_file_atomically,
+};
 use shutter::metrics::{compare, write_flip_diff_png};
 use shutter::reference::ReferenceSettings;
 use shutter::scene::builtin::BUILTIN_SCENES;
@@ -488,14 +490,16 @@ fn run() -> Result<()> {
             if let Some(s) = seed {
                 settings.seed = s;
             }
-            let device = shutter::vk::create_device()?;
-            let device_name = device.caps.device_name.clone();
-            let mut renderer = Renderer::new(device)?;
-            let output = renderer.render(&sc, technique, &settings)?;
+            // Before any rendering: a bad output path fails now, not after minutes of work.
             let out = match out {
                 Some(o) => o,
                 None => default_out(&scene, technique.name(), "png")?,
             };
+            check_image_output(&out)?;
+            let device = shutter::vk::create_device()?;
+            let device_name = device.caps.device_name.clone();
+            let mut renderer = Renderer::new(device)?;
+            let output = renderer.render(&sc, technique, &settings)?;
             save_image(&out, &output.image)?;
             println!(
                 "{} {} {}x{} spp {} on {}: {} passes, MSAA {}x, GPU {:.1} ms, CPU frame {:.1} ms, upload {:.1} ms",
@@ -645,6 +649,11 @@ fn run() -> Result<()> {
                 other => return Err(anyhow::anyhow!("--filter `{other}`: none, plain, full or axis")),
             };
             let seed = seed.unwrap_or(sc.image.seed);
+            let out = match out {
+                Some(o) => o,
+                None => default_out(&scene, "interleaved-cpu", "exr")?,
+            };
+            check_image_output(&out)?;
             let start = std::time::Instant::now();
             let v = shutter::reference::VplSettings { count, clamp, seed };
             let lights = shutter::reference::virtual_point_lights(&sc, &v)?;
@@ -659,10 +668,6 @@ fn run() -> Result<()> {
             };
             let image = shutter::interleaved::render(&gs, &lights, &settings)?;
             let secs = start.elapsed().as_secs_f64();
-            let out = match out {
-                Some(o) => o,
-                None => default_out(&scene, "interleaved-cpu", "exr")?,
-            };
             save_image(&out, &image)?;
             println!(
                 "{} interleaved (CPU) {}x{}: {} VPLs from {count} photons, pattern {}, filter {filter}{}, {} in {secs:.1} s; wrote {}",
@@ -697,6 +702,11 @@ fn run() -> Result<()> {
                 .into());
             };
             let seed = seed.unwrap_or(sc.image.seed);
+            let out = match out {
+                Some(o) => o,
+                None => default_out(&scene, "reference", "exr")?,
+            };
+            check_image_output(&out)?;
             let settings = ReferenceSettings { width, height, spp, seed, progress: true, shading };
             let start = std::time::Instant::now();
             let (image, stats) = match vpls {
@@ -712,10 +722,6 @@ fn run() -> Result<()> {
             if let Some(keys) = stats.decoupled_keys {
                 println!("decoupled shading: {keys} distinct keys (shading points) among the samples");
             }
-            let out = match out {
-                Some(o) => o,
-                None => default_out(&scene, "reference", "exr")?,
-            };
             save_image(&out, &image)?;
             println!(
                 "{} reference {}x{} spp {} in {:.1} s on {} CPU threads; wrote {}",
@@ -741,6 +747,7 @@ fn run() -> Result<()> {
             }
         }
         Command::Convert { input, output } => {
+            check_image_output(&output)?;
             save_image(&output, &load_image(&input)?)?;
             println!("wrote {}", output.display());
         }
@@ -772,6 +779,9 @@ fn run() -> Result<()> {
                 height,
                 seed: seed.unwrap_or(sc.image.seed),
             };
+            if let Some(out) = &out {
+                check_output_file(out)?;
+            }
             let mut renderer = Renderer::new(shutter::vk::create_device()?)?;
             let md = if let Some(pair) = per_object {
                 anyhow::ensure!(!focus.is_empty(), "--per-object needs --focus");
@@ -792,7 +802,7 @@ fn run() -> Result<()> {
             };
             println!("{md}");
             if let Some(out) = out {
-                std::fs::write(&out, &md).with_context(|| format!("writing {}", out.display()))?;
+                write_file_atomically(&out, md.as_bytes())?;
                 eprintln!("wrote {}", out.display());
             }
         }
@@ -818,6 +828,9 @@ fn run() -> Result<()> {
             defaults.seed = seed.unwrap_or(defaults.seed);
             let configs =
                 configs.iter().map(|c| bench::Config::parse(c, &defaults)).collect::<Result<Vec<_>>>()?;
+            for path in json.iter().chain(&csv) {
+                check_output_file(path)?;
+            }
             let mut renderer = Renderer::new(shutter::vk::create_device()?)?;
             let args = bench::BenchArgs { configs, frames: frames.max(1), warmup, counters: !no_counters };
             let report = bench::run(&mut renderer, &sc, &args)?;
@@ -935,7 +948,7 @@ fn run() -> Result<()> {
             let md = quality::markdown(&sc, &args, &points, &device);
             println!("{md}");
             let md_path = out.with_extension("md");
-            std::fs::write(&md_path, &md).with_context(|| format!("writing {}", md_path.display()))?;
+            write_file_atomically(&md_path, md.as_bytes())?;
             quality::plot(&sc, &args, &points)?;
             eprintln!("wrote {} and {}", md_path.display(), out.with_extension("csv").display());
         }

@@ -195,6 +195,10 @@ pub fn run(renderer: &mut Renderer, scene: &Scene, a: &QualityArgs) -> Result<Ve
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
     }
     let csv_path = a.out.with_extension("csv");
+    // Before the reference and the sweep: every output can be written.
+    for ext in ["csv", "md", "png", "svg"] {
+        shutter::image_io::check_output_file(a.out.with_extension(ext))?;
+    }
     let mut points = resume(&csv_path, &key)?;
     let todo: Vec<(usize, u32)> = a
         .series

@@ -171,3 +171,48 @@ fn plan_bench_and_quality_work_and_quality_resumes() {
     assert_eq!(csv.lines().count(), 4, "{csv}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// An output that cannot be written fails at once, before any rendering (these renders would take
+/// minutes), with the path and the reason; nothing is left behind.
+#[test]
+fn bad_output_fails_before_any_rendering() {
+    let dir = std::env::temp_dir().join(format!("shutter-cli-{}-outputs", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let folder = dir.join("a-folder.png");
+    std::fs::create_dir_all(&folder).unwrap();
+    let missing = dir.join("no-such-folder").join("x.exr");
+    let readonly = dir.join("readonly.exr");
+    std::fs::write(&readonly, b"old").unwrap();
+    let mut perms = std::fs::metadata(&readonly).unwrap().permissions();
+    perms.set_readonly(true);
+    std::fs::set_permissions(&readonly, perms).unwrap();
+    let long_render =
+        ["render", "default", "--technique", "accumulation", "--spp", "60000", "--size", "1920x1080"];
+    let long_reference = ["reference", "default", "--spp", "60000", "--size", "1920x1080"];
+    let bmp = dir.join("x.bmp");
+    let cases: Vec<(&[&str], &std::path::Path, &str)> = vec![
+        (&long_render, &missing, "does not exist"),
+        (&long_render, &folder, "folder"),
+        (&long_render, &bmp, ".png"),
+        (&long_reference, &readonly, "read-only"),
+        (&long_reference, &missing, "does not exist"),
+    ];
+    for (args, out, needle) in cases {
+        let start = std::time::Instant::now();
+        let mut args = args.to_vec();
+        args.extend(["--out", out.to_str().unwrap()]);
+        let (code, stdout, err) = shutter(&args);
+        let secs = start.elapsed().as_secs_f64();
+        assert_eq!(code, 1, "{args:?}: {err}");
+        assert!(
+            err.starts_with("error: cannot write") || err.contains("unsupported image extension"),
+            "{err}"
+        );
+        assert!(err.contains(needle) && err.contains(out.to_str().unwrap()), "{args:?}: {err}");
+        assert!(stdout.is_empty() && secs < 20.0, "{args:?} rendered ({secs:.1} s): {stdout}");
+    }
+    assert_eq!(std::fs::read(&readonly).unwrap(), b"old");
+    let left: Vec<_> = std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().file_name()).collect();
+    let _ = std::fs::remove_dir_all(&dir);
+    assert_eq!(left.len(), 2, "{left:?}");
+}
