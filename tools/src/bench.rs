@@ -14,6 +14,7 @@ use std::path::PathBuf;
 
 use anyhow::{bail, Context, Result};
 use serde::{Deserialize, Serialize};
+use shutter::progress::{check_interrupt, Progress};
 use shutter::scene::Scene;
 use shutter::techniques::{RenderSettings, Renderer, SampleCounters, StochasticOptions, Technique};
 
@@ -205,11 +206,7 @@ pub fn run(renderer: &mut Renderer, scene: &Scene, a: &BenchArgs) -> Result<Benc
     if a.configs.is_empty() {
         bail!("no configurations to benchmark");
     }
-    let progress = indicatif::ProgressBar::new(((a.warmup + a.frames) * a.configs.len()) as u64);
-    progress.set_style(
-        indicatif::ProgressStyle::with_template("{msg} [{bar:30}] {pos}/{len} frames, {elapsed}")
-            .expect("progress template"),
-    );
+    let progress = Progress::new("bench", ((a.warmup + a.frames) * a.configs.len()) as u64, "frames");
     progress.set_message("preparing");
     let mut prepared = Vec::with_capacity(a.configs.len());
     for c in &a.configs {
@@ -223,6 +220,7 @@ pub fn run(renderer: &mut Renderer, scene: &Scene, a: &BenchArgs) -> Result<Benc
     for round in 0..a.warmup + a.frames {
         progress.set_message(if round < a.warmup { "warm-up" } else { "timed" });
         for (i, p) in prepared.iter_mut().enumerate() {
+            check_interrupt()?;
             let out =
                 renderer.render_prepared(p).with_context(|| format!("rendering `{}`", a.configs[i].label))?;
             if round >= a.warmup {
@@ -232,7 +230,7 @@ pub fn run(renderer: &mut Renderer, scene: &Scene, a: &BenchArgs) -> Result<Benc
         }
     }
     drop(prepared);
-    progress.finish_and_clear();
+    progress.finish();
 
     let mut results = Vec::with_capacity(a.configs.len());
     for (c, outs) in a.configs.iter().zip(&outputs) {

@@ -424,9 +424,35 @@ fn print_atlas_plan(sc: &shutter::scene::Scene, w: u32, h: u32) -> anyhow::Resul
 }
 
 fn main() {
+    install_interrupt_handler();
     if let Err(e) = run() {
+        if e.chain().any(|c| matches!(c.downcast_ref::<shutter::Error>(), Some(shutter::Error::Interrupted)))
+        {
+            eprintln!("interrupted: stopped cleanly, nothing written");
+            std::process::exit(EXIT_INTERRUPTED);
+        }
         eprintln!("error: {e:#}");
         std::process::exit(1);
+    }
+}
+
+/// The shell's code for a process ended by SIGINT (128 + 2).
+const EXIT_INTERRUPTED: i32 = 130;
+
+/// Ctrl-C: the first asks the work to stop at its next step (a tile, a submission of passes, a frame:
+/// the device is then idle and everything is freed in order, `shutter::progress`); the second quits at
+/// once.
+fn install_interrupt_handler() {
+    let installed = ctrlc::set_handler(|| {
+        if shutter::progress::interrupted() {
+            eprintln!("\ninterrupted again: quitting at once");
+            std::process::exit(EXIT_INTERRUPTED);
+        }
+        shutter::progress::request_interrupt();
+        eprintln!("\ninterrupt: stopping after the current step (Ctrl-C again to quit at once)");
+    });
+    if let Err(e) = installed {
+        eprintln!("note: no Ctrl-C handler ({e}); Ctrl-C ends the process at once");
     }
 }
 
@@ -499,7 +525,9 @@ fn run() -> Result<()> {
             let device = shutter::vk::create_device()?;
             let device_name = device.caps.device_name.clone();
             let mut renderer = Renderer::new(device)?;
+            renderer.show_progress(true);
             let output = renderer.render(&sc, technique, &settings)?;
+            shutter::progress::check_interrupt()?;
             save_image(&out, &output.image)?;
             println!(
                 "{} {} {}x{} spp {} on {}: {} passes, MSAA {}x, GPU {:.1} ms, CPU frame {:.1} ms, upload {:.1} ms",
@@ -668,6 +696,7 @@ fn run() -> Result<()> {
             };
             let image = shutter::interleaved::render(&gs, &lights, &settings)?;
             let secs = start.elapsed().as_secs_f64();
+            shutter::progress::check_interrupt()?;
             save_image(&out, &image)?;
             println!(
                 "{} interleaved (CPU) {}x{}: {} VPLs from {count} photons, pattern {}, filter {filter}{}, {} in {secs:.1} s; wrote {}",
@@ -719,6 +748,7 @@ fn run() -> Result<()> {
                 }
             };
             let secs = start.elapsed().as_secs_f64();
+            shutter::progress::check_interrupt()?;
             if let Some(keys) = stats.decoupled_keys {
                 println!("decoupled shading: {keys} distinct keys (shading points) among the samples");
             }
@@ -769,7 +799,16 @@ fn run() -> Result<()> {
             } else {
                 bounds.iter().map(|b| b.parse()).collect::<shutter::Result<Vec<_>>>()?
             };
+            // Timed configurations: per S pinhole, accumulation twice and every bound, per focus
+            // distance; the per-object sweep times at most one split per object and one more.
+            let steps = if per_object.is_some() {
+                focus.len() * (sc.objects.len() + 1)
+            } else {
+                spp.len() * (3 + bounds.len()) * focus.len().max(1)
+            };
+            let progress = shutter::progress::Progress::new("bounds", steps as u64, "configurations");
             let args = bounds_table::BoundsTableArgs {
+                progress,
                 spp,
                 bounds,
                 shading: shading.parse()?,

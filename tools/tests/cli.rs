@@ -216,3 +216,53 @@ fn bad_output_fails_before_any_rendering() {
     let _ = std::fs::remove_dir_all(&dir);
     assert_eq!(left.len(), 2, "{left:?}");
 }
+
+/// Ctrl-C during a long GPU render: the render stops between two submissions of passes, the process
+/// exits with 130 and a one-line note — no panic, no validation message, no output file, no temporary
+/// file. The progress lines (forced on: stderr is a pipe here) say the render was under way.
+#[cfg(unix)]
+#[test]
+fn ctrl_c_stops_a_long_render_cleanly() {
+    use std::io::{BufRead, BufReader};
+    use std::process::Stdio;
+    let dir = std::env::temp_dir().join(format!("shutter-cli-{}-sigint", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let out = dir.join("long.exr");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_shutter"))
+        .args(["render", "static", "--technique", "accumulation", "--spp", "60000", "--size", "32x18"])
+        .args(["--out", out.to_str().unwrap()])
+        .env("SHUTTER_VALIDATION", "1")
+        .env("SHUTTER_PROGRESS", "lines")
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("run shutter");
+    let stderr = child.stderr.take().unwrap();
+    let (tx, rx) = std::sync::mpsc::channel();
+    let reader = std::thread::spawn(move || {
+        let mut all = String::new();
+        for line in BufReader::new(stderr).lines() {
+            let line = line.unwrap_or_default();
+            if line.starts_with("render: ") {
+                let _ = tx.send(());
+            }
+            all.push_str(&line);
+            all.push('\n');
+        }
+        all
+    });
+    let started = rx.recv_timeout(std::time::Duration::from_secs(120));
+    let kill = Command::new("kill").args(["-INT", &child.id().to_string()]).status().expect("kill");
+    assert!(kill.success());
+    let status = child.wait().expect("wait");
+    let err = reader.join().unwrap();
+    assert!(started.is_ok(), "no progress line before the signal: {err}");
+    assert_eq!(status.code(), Some(130), "{status:?}: {err}");
+    assert!(err.contains("interrupted: stopped cleanly"), "{err}");
+    for bad in ["panicked", "VUID", "alidation", "error:"] {
+        assert!(!err.contains(bad), "`{bad}` in: {err}");
+    }
+    let left: Vec<_> = std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().file_name()).collect();
+    let _ = std::fs::remove_dir_all(&dir);
+    assert!(left.is_empty(), "left behind: {left:?}");
+}
