@@ -99,7 +99,7 @@ impl Progress {
         let bar = (mode == ProgressMode::Bar).then(|| {
             let bar = ProgressBar::with_draw_target(Some(total), ProgressDrawTarget::stderr());
             let template =
-                format!("{label} {{msg}} [{{bar:30}}] {{pos}}/{{len}} {unit}, {{elapsed}}, eta {{eta}}");
+                format!("{label} [{{bar:30}}] {{pos}}/{{len}} {unit}, {{elapsed}}, eta {{eta}} {{msg}}");
             if let Ok(style) = ProgressStyle::with_template(&template) {
                 bar.set_style(style);
             }
