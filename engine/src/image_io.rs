@@ -132,7 +132,7 @@ pub fn check_output_file(path: impl AsRef<Path>) -> Result<()> {
 /// [`check_output_file`] for an image: also that the extension is one [`save_image`] writes.
 pub fn check_image_output(path: impl AsRef<Path>) -> Result<()> {
     let path = path.as_ref();
-    image_format(path)?;
+    output_format(path)?;
     check_output_file(path)
 }
 
@@ -238,17 +238,17 @@ pub fn write_png(path: impl AsRef<Path>, image: &LinearImage) -> Result<()> {
 
 /// The image formats [`save_image`] writes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum ImageFormat {
+enum OutputFormat {
     Exr,
     Png,
 }
 
 /// The format named by the path's extension, case-insensitive; an error lists the supported ones.
-fn image_format(path: &Path) -> Result<ImageFormat> {
+fn output_format(path: &Path) -> Result<OutputFormat> {
     let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
     match ext.as_deref() {
-        Some("exr") => Ok(ImageFormat::Exr),
-        Some("png") => Ok(ImageFormat::Png),
+        Some("exr") => Ok(OutputFormat::Exr),
+        Some("png") => Ok(OutputFormat::Png),
         other => Err(image_error(
             path,
             format!(
@@ -264,9 +264,9 @@ fn image_format(path: &Path) -> Result<ImageFormat> {
 /// or nothing ([`write_file_atomically`]).
 pub fn save_image(path: impl AsRef<Path>, image: &LinearImage) -> Result<()> {
     let path = path.as_ref();
-    match image_format(path)? {
-        ImageFormat::Exr => write_exr(path, image),
-        ImageFormat::Png => write_png(path, image),
+    match output_format(path)? {
+        OutputFormat::Exr => write_exr(path, image),
+        OutputFormat::Png => write_png(path, image),
     }
 }
 
