@@ -19,6 +19,13 @@ pub enum Error {
     /// An image file could not be decoded or encoded.
     #[error("image error on {path}: {message}")]
     Image { path: PathBuf, message: String },
+    /// An output file cannot be written there (checked before any work), or writing it failed — in
+    /// which case any previous file of that name is left as it was.
+    #[error("cannot write {path}: {message}")]
+    Output { path: PathBuf, message: String },
+    /// The user interrupted the work (Ctrl-C); nothing is left in flight on the device.
+    #[error("interrupted")]
+    Interrupted,
     /// A Vulkan call failed; `call` names it.
     #[error("Vulkan call {call} failed: {result}")]
     Vulkan { call: &'static str, result: ash::vk::Result },

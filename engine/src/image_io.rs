@@ -1,11 +1,19 @@
 //! Image files: linear OpenEXR and sRGB-encoded PNG, in and out of [`LinearImage`].
 //!
-//! EXR holds linear light as written (RGBA, 32-bit float, lossless). PNG holds 8-bit sRGB: writing clamps
-//! each linear colour channel to [0, 1], sRGB-encodes it and rounds to the nearest code; alpha is stored
-//! linearly. [`load_image`] recognises the format by the file's leading bytes, not by its name.
+//! EXR holds linear light as written (RGBA, 32-bit float, lossless, scan lines in increasing order, so
+//! the same image always gives the same bytes). PNG holds 8-bit sRGB: writing clamps each linear colour
+//! channel to [0, 1], sRGB-encodes it and rounds to the nearest code; alpha is stored linearly.
+//! [`load_image`] recognises the format by the file's leading bytes, not by its name.
+//!
+//! Writing is all or nothing: the file is encoded in memory, written to a temporary file beside the
+//! target, synced and renamed over it ([`write_file_atomically`]), so a full disk or a crash never
+//! leaves a truncated image nor destroys the previous one. [`check_image_output`] checks a path
+//! (extension, folder, permission) before any rendering starts.
 
-use std::io::Cursor;
-use std::path::Path;
+use std::fs::File;
+use std::io::{Cursor, Write};
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
 
 use crate::error::{Error, Result};
 use crate::image::LinearImage;
@@ -64,29 +72,146 @@ fn check_size(path: &Path, image: &LinearImage) -> Result<()> {
     Ok(())
 }
 
-/// Writes `image` as an OpenEXR file: linear RGBA, 32-bit float per channel, lossless.
-pub fn write_exr(path: impl AsRef<Path>, image: &LinearImage) -> Result<()> {
-    use exr::prelude::{Image, SpecificChannels, Vec2, WritableImage};
+fn output_error(path: &Path, message: impl Into<String>) -> Error {
+    Error::Output { path: path.to_path_buf(), message: message.into() }
+}
+
+/// The folder a file at `path` lands in (`.` for a bare file name).
+fn parent_dir(path: &Path) -> &Path {
+    match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    }
+}
+
+/// A fresh name beside `path` for the temporary file of an atomic write: hidden, with the process id
+/// and a counter, so concurrent writers (threads or processes) never share one.
+fn temp_sibling(path: &Path) -> PathBuf {
+    static COUNTER: AtomicU64 = AtomicU64::new(0);
+    let n = COUNTER.fetch_add(1, Ordering::Relaxed);
+    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_else(|| "output".into());
+    parent_dir(path).join(format!(".{name}.{}-{n}.tmp", std::process::id()))
+}
+
+/// Checks that a file can be written at `path` before any work is done: its folder exists, is a
+/// folder and lets us create a file (probed by creating and removing one), and `path` is neither a
+/// folder nor a read-only file. The error names the path and what is wrong.
+pub fn check_output_file(path: impl AsRef<Path>) -> Result<()> {
     let path = path.as_ref();
+    if path.file_name().is_none() {
+        return Err(output_error(path, "the path names no file"));
+    }
+    if path.is_dir() {
+        return Err(output_error(path, "it is a folder; give a file name"));
+    }
+    let dir = parent_dir(path);
+    match std::fs::metadata(dir) {
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+            return Err(output_error(path, format!("the folder `{}` does not exist", dir.display())));
+        }
+        Err(e) => return Err(output_error(path, format!("cannot read the folder `{}`: {e}", dir.display()))),
+        Ok(m) if !m.is_dir() => {
+            return Err(output_error(path, format!("`{}` is not a folder", dir.display())));
+        }
+        Ok(_) => {}
+    }
+    if std::fs::metadata(path).is_ok_and(|m| m.permissions().readonly()) {
+        return Err(output_error(path, "the file exists and is read-only"));
+    }
+    let probe = temp_sibling(path);
+    match std::fs::OpenOptions::new().write(true).create_new(true).open(&probe) {
+        Ok(file) => {
+            drop(file);
+            let _ = std::fs::remove_file(&probe);
+            Ok(())
+        }
+        Err(e) => Err(output_error(path, format!("cannot create a file in `{}`: {e}", dir.display()))),
+    }
+}
+
+/// [`check_output_file`] for an image: also that the extension is one [`save_image`] writes.
+pub fn check_image_output(path: impl AsRef<Path>) -> Result<()> {
+    let path = path.as_ref();
+    output_format(path)?;
+    check_output_file(path)
+}
+
+/// Writes `bytes` to `path` all or nothing: into a temporary file beside it, synced, then renamed over
+/// it. On any failure (a full disk, a lost permission) the temporary file is removed and a previous
+/// file at `path` is left as it was; the error names `path`.
+pub fn write_file_atomically(path: impl AsRef<Path>, bytes: &[u8]) -> Result<()> {
+    write_atomically_with(path.as_ref(), |file| file.write_all(bytes))
+}
+
+/// [`write_file_atomically`] with the writing done by `write` into the open temporary file (tests
+/// inject a writer that fails part-way).
+pub(crate) fn write_atomically_with(
+    path: &Path,
+    write: impl FnOnce(&mut File) -> std::io::Result<()>,
+) -> Result<()> {
+    let temp = temp_sibling(path);
+    let mut file = std::fs::OpenOptions::new()
+        .write(true)
+        .create_new(true)
+        .open(&temp)
+        .map_err(|e| output_error(path, format!("cannot create `{}`: {e}", temp.display())))?;
+    let written = write(&mut file).and_then(|()| file.sync_all());
+    drop(file);
+    let renamed = written.and_then(|()| std::fs::rename(&temp, path));
+    if let Err(e) = renamed {
+        let _ = std::fs::remove_file(&temp);
+        return Err(output_error(
+            path,
+            format!("{e}; nothing was written (a previous file is left as it was)"),
+        ));
+    }
+    Ok(())
+}
+
+/// The EXR encoding: lossless RLE, scan lines stored in increasing order. The order makes the bytes a
+/// function of the pixels: with `Unspecified` the encoder writes chunks as its threads finish them.
+const EXR_ENCODING: exr::prelude::Encoding = exr::prelude::Encoding {
+    compression: exr::prelude::Compression::RLE,
+    blocks: exr::prelude::Blocks::ScanLines,
+    line_order: exr::prelude::LineOrder::Increasing,
+};
+
+/// `image` encoded as OpenEXR (see [`write_exr`]); the same pixels always give the same bytes.
+pub fn encode_exr(image: &LinearImage) -> Result<Vec<u8>> {
+    encode_exr_naming(Path::new("(EXR in memory)"), image)
+}
+
+/// [`encode_exr`] with errors naming `path`.
+fn encode_exr_naming(path: &Path, image: &LinearImage) -> Result<Vec<u8>> {
+    use exr::prelude::{Image, SpecificChannels, Vec2, WritableImage};
     check_size(path, image)?;
     let width = image.width as usize;
     let channels = SpecificChannels::rgba(|Vec2(x, y): Vec2<usize>| {
         let p = image.pixels[y * width + x];
         (p[0], p[1], p[2], p[3])
     });
-    let exr_image = Image::from_channels((width, image.height as usize), channels);
+    let exr_image = Image::from_encoded_channels((width, image.height as usize), EXR_ENCODING, channels);
     let mut bytes = Vec::new();
     exr_image
         .write()
         .to_buffered(Cursor::new(&mut bytes))
         .map_err(|e| image_error(path, format!("cannot encode EXR: {e}")))?;
-    std::fs::write(path, bytes).map_err(|e| Error::io(path, e))
+    Ok(bytes)
+}
+
+/// Writes `image` as an OpenEXR file: linear RGBA, 32-bit float per channel, lossless, byte-identical
+/// for identical pixels; all or nothing ([`write_file_atomically`]).
+pub fn write_exr(path: impl AsRef<Path>, image: &LinearImage) -> Result<()> {
+    let path = path.as_ref();
+    let bytes = encode_exr_naming(path, image)?;
+    write_file_atomically(path, &bytes)
 }
 
 /// Writes `image` as an 8-bit sRGB PNG.
 ///
 /// Colour is clamped to [0, 1], sRGB-encoded and rounded to the nearest code (see [`to_srgb8`]). The file
-/// is RGB when every alpha is 1, RGBA (alpha stored linearly) otherwise.
+/// is RGB when every alpha is 1, RGBA (alpha stored linearly) otherwise. All or nothing
+/// ([`write_file_atomically`]).
 pub fn write_png(path: impl AsRef<Path>, image: &LinearImage) -> Result<()> {
     let path = path.as_ref();
     check_size(path, image)?;
@@ -108,16 +233,22 @@ pub fn write_png(path: impl AsRef<Path>, image: &LinearImage) -> Result<()> {
             .write_image(&data, image.width, image.height, color)
             .map_err(|e| image_error(path, format!("cannot encode PNG: {e}")))?;
     }
-    std::fs::write(path, bytes).map_err(|e| Error::io(path, e))
+    write_file_atomically(path, &bytes)
 }
 
-/// Writes `image` in the format named by the path's extension (`.exr` or `.png`, case-insensitive).
-pub fn save_image(path: impl AsRef<Path>, image: &LinearImage) -> Result<()> {
-    let path = path.as_ref();
+/// The image formats [`save_image`] writes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum OutputFormat {
+    Exr,
+    Png,
+}
+
+/// The format named by the path's extension, case-insensitive; an error lists the supported ones.
+fn output_format(path: &Path) -> Result<OutputFormat> {
     let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
     match ext.as_deref() {
-        Some("exr") => write_exr(path, image),
-        Some("png") => write_png(path, image),
+        Some("exr") => Ok(OutputFormat::Exr),
+        Some("png") => Ok(OutputFormat::Png),
         other => Err(image_error(
             path,
             format!(
@@ -126,6 +257,16 @@ pub fn save_image(path: impl AsRef<Path>, image: &LinearImage) -> Result<()> {
                 SUPPORTED_EXTENSIONS.iter().map(|e| format!(".{e}")).collect::<Vec<_>>().join(", ")
             ),
         )),
+    }
+}
+
+/// Writes `image` in the format named by the path's extension (`.exr` or `.png`, case-insensitive), all
+/// or nothing ([`write_file_atomically`]).
+pub fn save_image(path: impl AsRef<Path>, image: &LinearImage) -> Result<()> {
+    let path = path.as_ref();
+    match output_format(path)? {
+        OutputFormat::Exr => write_exr(path, image),
+        OutputFormat::Png => write_png(path, image),
     }
 }
 
@@ -316,6 +457,180 @@ mod tests {
             assert!(matches!(err, Error::Image { .. }), "{err}");
             assert!(err.to_string().contains(&path.display().to_string()), "{err}");
         }
+    }
+
+    /// A fresh, empty folder for one test.
+    fn temp_dir(name: &str) -> PathBuf {
+        let dir = temp_path(name);
+        std::fs::create_dir_all(&dir).unwrap();
+        dir
+    }
+
+    fn noisy_image(width: u32, height: u32) -> LinearImage {
+        let mut img = LinearImage::new(width, height);
+        let mut state = 0x9e37_79b9_u32;
+        for y in 0..height {
+            for x in 0..width {
+                let mut next = || {
+                    state ^= state << 13;
+                    state ^= state >> 17;
+                    state ^= state << 5;
+                    (state >> 8) as f32 / (1 << 24) as f32
+                };
+                img.set(x, y, [next() * 4.0, next(), (x + y) as f32 * 0.01, 1.0]);
+            }
+        }
+        img
+    }
+
+    #[test]
+    fn exr_bytes_are_identical_across_runs_with_increasing_line_order() {
+        // Big enough for the encoder to compress chunks on several threads.
+        let img = noisy_image(320, 240);
+        let dir = temp_dir("exr-determinism");
+        let files: Vec<Vec<u8>> = (0..5)
+            .map(|i| {
+                let path = dir.join(format!("run{i}.exr"));
+                write_exr(&path, &img).unwrap();
+                std::fs::read(&path).unwrap()
+            })
+            .collect();
+        std::fs::remove_dir_all(&dir).ok();
+        for (i, f) in files.iter().enumerate() {
+            assert!(f == &files[0], "run {i}'s EXR differs from run 0's");
+        }
+        assert_eq!(encode_exr(&img).unwrap(), files[0]);
+        let meta = exr::meta::MetaData::read_from_buffered(Cursor::new(&files[0]), false).unwrap();
+        assert_eq!(meta.headers[0].line_order, exr::meta::attribute::LineOrder::Increasing);
+        assert_eq!(meta.headers[0].blocks, exr::meta::BlockDescription::ScanLines);
+        assert_eq!(load_image_bytes(&files[0]), img);
+    }
+
+    fn load_image_bytes(bytes: &[u8]) -> LinearImage {
+        decode_exr(Path::new("bytes"), bytes.to_vec()).unwrap()
+    }
+
+    #[test]
+    fn exr_keeps_values_beyond_half_float() {
+        let mut img = test_image(4, 2, true);
+        img.set(1, 1, [65504.0 * 4.0, 1.0e9, 70000.5, 1.0]);
+        assert_eq!(load_image_bytes(&encode_exr(&img).unwrap()), img);
+    }
+
+    /// A `Write` that accepts `budget` bytes, then fails as a full disk does.
+    struct FullDisk<'a> {
+        inner: &'a mut File,
+        budget: usize,
+    }
+
+    impl Write for FullDisk<'_> {
+        fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+            if self.budget == 0 {
+                return Err(std::io::Error::from_raw_os_error(28)); // ENOSPC
+            }
+            let n = buf.len().min(self.budget);
+            self.budget -= n;
+            self.inner.write(&buf[..n])
+        }
+        fn flush(&mut self) -> std::io::Result<()> {
+            self.inner.flush()
+        }
+    }
+
+    #[test]
+    fn a_full_disk_keeps_the_old_file_and_leaves_no_partial_file() {
+        let dir = temp_dir("full-disk");
+        let old = noisy_image(16, 8);
+        let new = noisy_image(64, 32);
+        for ext in ["exr", "png"] {
+            let path = dir.join(format!("image.{ext}"));
+            save_image(&path, &old).unwrap();
+            let before = std::fs::read(&path).unwrap();
+            let bytes = match ext {
+                "exr" => encode_exr(&new).unwrap(),
+                _ => {
+                    let scratch = dir.join("scratch.png");
+                    write_png(&scratch, &new).unwrap();
+                    let b = std::fs::read(&scratch).unwrap();
+                    std::fs::remove_file(&scratch).unwrap();
+                    b
+                }
+            };
+            let err = write_atomically_with(&path, |f| FullDisk { inner: f, budget: 100 }.write_all(&bytes))
+                .unwrap_err();
+            let msg = err.to_string();
+            assert!(matches!(err, Error::Output { .. }), "{msg}");
+            assert!(msg.contains(&path.display().to_string()) && msg.contains("os error 28"), "{msg}");
+            assert!(msg.contains("left as it was"), "{msg}");
+            assert_eq!(std::fs::read(&path).unwrap(), before, "the old .{ext} was touched");
+            assert_eq!(load_image(&path).unwrap().width, old.width);
+            // A failed first write leaves no file at all.
+            let fresh = dir.join(format!("fresh.{ext}"));
+            assert!(write_atomically_with(&fresh, |f| FullDisk { inner: f, budget: 0 }.write_all(&bytes))
+                .is_err());
+            assert!(!fresh.exists());
+        }
+        let left: Vec<_> = std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().file_name()).collect();
+        std::fs::remove_dir_all(&dir).ok();
+        assert_eq!(left.len(), 2, "temporary files left behind: {left:?}");
+    }
+
+    #[test]
+    fn a_successful_write_replaces_the_old_file() {
+        let dir = temp_dir("replace");
+        let path = dir.join("a.exr");
+        save_image(&path, &noisy_image(8, 8)).unwrap();
+        let new = noisy_image(12, 4);
+        save_image(&path, &new).unwrap();
+        let back = load_image(&path).unwrap();
+        let left = std::fs::read_dir(&dir).unwrap().count();
+        std::fs::remove_dir_all(&dir).ok();
+        assert_eq!(back, new);
+        assert_eq!(left, 1);
+    }
+
+    #[test]
+    fn bad_output_paths_are_refused_before_any_work() {
+        let dir = temp_dir("bad-out");
+        let missing = dir.join("no-such-folder").join("x.png");
+        let err = check_image_output(&missing).unwrap_err().to_string();
+        assert!(err.contains("does not exist") && err.contains("no-such-folder"), "{err}");
+        let err = check_image_output(dir.join("x.jpg")).unwrap_err().to_string();
+        assert!(err.contains(".exr") && err.contains(".png"), "{err}");
+        let folder = dir.join("folder.png");
+        std::fs::create_dir(&folder).unwrap();
+        let err = check_image_output(&folder).unwrap_err().to_string();
+        assert!(err.contains("folder"), "{err}");
+        let file = dir.join("file");
+        std::fs::write(&file, b"x").unwrap();
+        let err = check_image_output(file.join("x.exr")).unwrap_err().to_string();
+        assert!(err.contains("is not a folder"), "{err}");
+        let readonly = dir.join("readonly.exr");
+        std::fs::write(&readonly, b"x").unwrap();
+        let mut perms = std::fs::metadata(&readonly).unwrap().permissions();
+        perms.set_readonly(true);
+        std::fs::set_permissions(&readonly, perms).unwrap();
+        let err = check_image_output(&readonly).unwrap_err().to_string();
+        assert!(err.contains("read-only"), "{err}");
+        check_image_output(dir.join("ok.EXR")).unwrap();
+        check_output_file(dir.join("notes.md")).unwrap();
+        // A folder we may not write into (unless we are root, whom permissions do not stop).
+        #[cfg(unix)]
+        {
+            use std::os::unix::fs::PermissionsExt;
+            let locked = dir.join("locked");
+            std::fs::create_dir(&locked).unwrap();
+            std::fs::set_permissions(&locked, std::fs::Permissions::from_mode(0o555)).unwrap();
+            let root = std::fs::write(locked.join("probe"), b"").is_ok();
+            if !root {
+                let err = check_image_output(locked.join("x.png")).unwrap_err().to_string();
+                assert!(err.contains("cannot create a file in") && err.contains("locked"), "{err}");
+            }
+            std::fs::set_permissions(&locked, std::fs::Permissions::from_mode(0o755)).unwrap();
+        }
+        let left: Vec<_> = std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().file_name()).collect();
+        std::fs::remove_dir_all(&dir).ok();
+        assert!(left.iter().all(|n| !n.to_string_lossy().ends_with(".tmp")), "{left:?}");
     }
 
     #[test]

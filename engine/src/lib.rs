@@ -21,6 +21,7 @@ pub mod interleaved;
 pub mod limits;
 pub mod metrics;
 pub mod plan;
+pub mod progress;
 pub mod quality_plan;
 pub mod reference;
 pub mod sampling;

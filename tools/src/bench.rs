@@ -14,6 +14,7 @@ use std::path::PathBuf;
 
 use anyhow::{bail, Context, Result};
 use serde::{Deserialize, Serialize};
+use shutter::progress::{check_interrupt, Progress};
 use shutter::scene::Scene;
 use shutter::techniques::{RenderSettings, Renderer, SampleCounters, StochasticOptions, Technique};
 
@@ -216,11 +217,7 @@ pub fn run(renderer: &mut Renderer, scene: &Scene, a: &BenchArgs) -> Result<Benc
     if a.configs.is_empty() {
         bail!("no configurations to benchmark");
     }
-    let progress = indicatif::ProgressBar::new(((a.warmup + a.frames) * a.configs.len()) as u64);
-    progress.set_style(
-        indicatif::ProgressStyle::with_template("{msg} [{bar:30}] {pos}/{len} frames, {elapsed}")
-            .expect("progress template"),
-    );
+    let progress = Progress::new("bench", ((a.warmup + a.frames) * a.configs.len()) as u64, "frames");
     progress.set_message("preparing");
     let mut prepared = Vec::with_capacity(a.configs.len());
     for c in &a.configs {
@@ -234,6 +231,7 @@ pub fn run(renderer: &mut Renderer, scene: &Scene, a: &BenchArgs) -> Result<Benc
     for round in 0..a.warmup + a.frames {
         progress.set_message(if round < a.warmup { "warm-up" } else { "timed" });
         for (i, p) in prepared.iter_mut().enumerate() {
+            check_interrupt()?;
             let out =
                 renderer.render_prepared(p).with_context(|| format!("rendering `{}`", a.configs[i].label))?;
             if round >= a.warmup {
@@ -243,7 +241,7 @@ pub fn run(renderer: &mut Renderer, scene: &Scene, a: &BenchArgs) -> Result<Benc
         }
     }
     drop(prepared);
-    progress.finish_and_clear();
+    progress.finish();
 
     let mut results = Vec::with_capacity(a.configs.len());
     for (c, outs) in a.configs.iter().zip(&outputs) {
@@ -426,12 +424,11 @@ impl BenchReport {
 
     pub fn write(&self, json: Option<&PathBuf>, csv: Option<&PathBuf>) -> Result<()> {
         if let Some(p) = json {
-            std::fs::write(p, serde_json::to_string_pretty(self)?)
-                .with_context(|| format!("writing {}", p.display()))?;
+            shutter::image_io::write_file_atomically(p, serde_json::to_string_pretty(self)?.as_bytes())?;
             eprintln!("wrote {}", p.display());
         }
         if let Some(p) = csv {
-            std::fs::write(p, self.csv()).with_context(|| format!("writing {}", p.display()))?;
+            shutter::image_io::write_file_atomically(p, self.csv().as_bytes())?;
             eprintln!("wrote {}", p.display());
         }
         Ok(())

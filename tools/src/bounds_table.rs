@@ -31,6 +31,8 @@ pub struct BoundsTableArgs {
     pub width: u32,
     pub height: u32,
     pub seed: u64,
+    /// One step per timed configuration.
+    pub progress: shutter::progress::Progress,
 }
 
 fn median(mut v: Vec<f64>) -> f64 {
@@ -50,7 +52,9 @@ fn timed(
     s: &RenderSettings,
     a: &BoundsTableArgs,
 ) -> Result<f64> {
+    shutter::progress::check_interrupt()?;
     let out: Vec<RenderOutput> = r.render_frames(scene, t, s, a.warmup + a.frames)?;
+    a.progress.inc(1);
     Ok(median(out.iter().skip(a.warmup).map(|o| o.timings.total_ms()).collect()))
 }
 
@@ -76,7 +80,7 @@ pub fn sweep(
     let (md, all) = sweep_rows(renderer, scene, a, focus)?;
     if let Some(stem) = plot {
         // The report first, so a plot that fails loses no measurement.
-        std::fs::write(stem, &md).with_context(|| format!("writing {}", stem.display()))?;
+        shutter::image_io::write_file_atomically(stem, md.as_bytes())?;
         register_font()?;
         let spp = a.spp[0];
         let title = format!(
@@ -311,6 +315,7 @@ fn measure(
         clusters: shutter::techniques::Clusters::Off,
         ..Default::default()
     };
+    shutter::progress::check_interrupt()?;
     let counted = renderer.render(scene, Technique::STOCHASTIC, &base.with_stochastic(opts))?;
     let c = counted.stats.counters.expect("instrumented render has counters");
     let settings = base.with_stochastic(StochasticOptions { instrumented: false, ..opts });

@@ -11,7 +11,9 @@ use anyhow::{bail, Context, Result};
 use clap::{Parser, Subcommand};
 
 use shutter::bounds::BoundKind;
-use shutter::image_io::{load_image, save_image};
+use shutter::image_io::{
+    check_image_output, check_output_file, load_image, save_image, write_file_atomically,
+};
 use shutter::metrics::{compare, write_flip_diff_png};
 use shutter::quality_plan::{CostModel, QualityTarget};
 use shutter::reference::ReferenceSettings;
@@ -521,9 +523,35 @@ fn print_atlas_plan(sc: &shutter::scene::Scene, w: u32, h: u32) -> anyhow::Resul
 }
 
 fn main() {
+    install_interrupt_handler();
     if let Err(e) = run() {
+        if e.chain().any(|c| matches!(c.downcast_ref::<shutter::Error>(), Some(shutter::Error::Interrupted)))
+        {
+            eprintln!("interrupted: stopped cleanly, nothing written");
+            std::process::exit(EXIT_INTERRUPTED);
+        }
         eprintln!("error: {e:#}");
         std::process::exit(1);
+    }
+}
+
+/// The shell's code for a process ended by SIGINT (128 + 2).
+const EXIT_INTERRUPTED: i32 = 130;
+
+/// Ctrl-C: the first asks the work to stop at its next step (a tile, a submission of passes, a frame:
+/// the device is then idle and everything is freed in order, `shutter::progress`); the second quits at
+/// once.
+fn install_interrupt_handler() {
+    let installed = ctrlc::set_handler(|| {
+        if shutter::progress::interrupted() {
+            eprintln!("\ninterrupted again: quitting at once");
+            std::process::exit(EXIT_INTERRUPTED);
+        }
+        shutter::progress::request_interrupt();
+        eprintln!("\ninterrupt: stopping after the current step (Ctrl-C again to quit at once)");
+    });
+    if let Err(e) = installed {
+        eprintln!("note: no Ctrl-C handler ({e}); Ctrl-C ends the process at once");
     }
 }
 
@@ -593,9 +621,16 @@ fn run() -> Result<()> {
             if let Some(s) = seed {
                 settings.seed = s;
             }
+            // Before any rendering: a bad output path fails now, not after minutes of work.
+            let out = match out {
+                Some(o) => o,
+                None => default_out(&scene, technique.name(), "png")?,
+            };
+            check_image_output(&out)?;
             let device = shutter::vk::create_device()?;
             let device_name = device.caps.device_name.clone();
             let mut renderer = Renderer::new(device)?;
+            renderer.show_progress(true);
             // `auto` without --spp: the quality planner picks the technique and S.
             if technique == Technique::AUTO && spp.is_none() {
                 let target = target.unwrap_or(QualityTarget::Good);
@@ -607,10 +642,7 @@ fn run() -> Result<()> {
                 }
             }
             let output = renderer.render(&sc, technique, &settings)?;
-            let out = match out {
-                Some(o) => o,
-                None => default_out(&scene, technique.name(), "png")?,
-            };
+            shutter::progress::check_interrupt()?;
             save_image(&out, &output.image)?;
             println!(
                 "{} {} {}x{} spp {} on {}: {} passes, MSAA {}x, GPU {:.1} ms, CPU frame {:.1} ms, upload {:.1} ms",
@@ -761,6 +793,11 @@ fn run() -> Result<()> {
                 other => return Err(anyhow::anyhow!("--filter `{other}`: none, plain, full or axis")),
             };
             let seed = seed.unwrap_or(sc.image.seed);
+            let out = match out {
+                Some(o) => o,
+                None => default_out(&scene, "interleaved-cpu", "exr")?,
+            };
+            check_image_output(&out)?;
             let start = std::time::Instant::now();
             let v = shutter::reference::VplSettings { count, clamp, seed };
             let passes = shutter::interleaved::frame_passes(&sc, spp, seed);
@@ -775,10 +812,7 @@ fn run() -> Result<()> {
             };
             let image = shutter::interleaved::render_frame(&sc, (width, height), &passes, &sets, &settings)?;
             let secs = start.elapsed().as_secs_f64();
-            let out = match out {
-                Some(o) => o,
-                None => default_out(&scene, "interleaved-cpu", "exr")?,
-            };
+            shutter::progress::check_interrupt()?;
             save_image(&out, &image)?;
             println!(
                 "{} interleaved (CPU) {}x{}, {} pass(es): {} VPLs from {count} photons{}, pattern {}, filter {filter}{}, {} in {secs:.1} s; wrote {}",
@@ -815,6 +849,11 @@ fn run() -> Result<()> {
                 .into());
             };
             let seed = seed.unwrap_or(sc.image.seed);
+            let out = match out {
+                Some(o) => o,
+                None => default_out(&scene, "reference", "exr")?,
+            };
+            check_image_output(&out)?;
             let settings = ReferenceSettings { width, height, spp, seed, progress: true, shading };
             let start = std::time::Instant::now();
             let (image, stats) = match vpls {
@@ -827,13 +866,10 @@ fn run() -> Result<()> {
                 }
             };
             let secs = start.elapsed().as_secs_f64();
+            shutter::progress::check_interrupt()?;
             if let Some(keys) = stats.decoupled_keys {
                 println!("decoupled shading: {keys} distinct keys (shading points) among the samples");
             }
-            let out = match out {
-                Some(o) => o,
-                None => default_out(&scene, "reference", "exr")?,
-            };
             save_image(&out, &image)?;
             println!(
                 "{} reference {}x{} spp {} in {:.1} s on {} CPU threads; wrote {}",
@@ -859,6 +895,7 @@ fn run() -> Result<()> {
             }
         }
         Command::Convert { input, output } => {
+            check_image_output(&output)?;
             save_image(&output, &load_image(&input)?)?;
             println!("wrote {}", output.display());
         }
@@ -890,7 +927,16 @@ fn run() -> Result<()> {
             } else {
                 bounds.iter().map(|b| b.parse()).collect::<shutter::Result<Vec<_>>>()?
             };
+            // Timed configurations: per S pinhole, accumulation twice and every bound, per focus
+            // distance; the per-object sweep times at most one split per object and one more.
+            let steps = if per_object.is_some() {
+                focus.len() * (sc.objects.len() + 1)
+            } else {
+                spp.len() * (3 + bounds.len()) * focus.len().max(1)
+            };
+            let progress = shutter::progress::Progress::new("bounds", steps as u64, "configurations");
             let args = bounds_table::BoundsTableArgs {
+                progress,
                 spp,
                 bounds,
                 shading: shading.parse()?,
@@ -900,6 +946,9 @@ fn run() -> Result<()> {
                 height,
                 seed: seed.unwrap_or(sc.image.seed),
             };
+            if let Some(out) = &out {
+                check_output_file(out)?;
+            }
             let mut renderer = Renderer::new(shutter::vk::create_device()?)?;
             let md = if let Some(pair) = per_object {
                 anyhow::ensure!(!focus.is_empty(), "--per-object needs --focus");
@@ -920,7 +969,7 @@ fn run() -> Result<()> {
             };
             println!("{md}");
             if let Some(out) = out {
-                std::fs::write(&out, &md).with_context(|| format!("writing {}", out.display()))?;
+                write_file_atomically(&out, md.as_bytes())?;
                 eprintln!("wrote {}", out.display());
             }
         }
@@ -946,6 +995,9 @@ fn run() -> Result<()> {
             defaults.seed = seed.unwrap_or(defaults.seed);
             let configs =
                 configs.iter().map(|c| bench::Config::parse(c, &defaults)).collect::<Result<Vec<_>>>()?;
+            for path in json.iter().chain(&csv) {
+                check_output_file(path)?;
+            }
             let mut renderer = Renderer::new(shutter::vk::create_device()?)?;
             let args = bench::BenchArgs { configs, frames: frames.max(1), warmup, counters: !no_counters };
             let report = bench::run(&mut renderer, &sc, &args)?;
@@ -1069,7 +1121,7 @@ fn run() -> Result<()> {
             let md = quality::markdown(&sc, &args, &points, &device);
             println!("{md}");
             let md_path = out.with_extension("md");
-            std::fs::write(&md_path, &md).with_context(|| format!("writing {}", md_path.display()))?;
+            write_file_atomically(&md_path, md.as_bytes())?;
             quality::plot(&sc, &args, &points)?;
             eprintln!("wrote {} and {}", md_path.display(), out.with_extension("csv").display());
         }

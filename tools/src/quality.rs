@@ -198,6 +198,10 @@ pub fn run(renderer: &mut Renderer, scene: &Scene, a: &QualityArgs) -> Result<Ve
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
     }
     let csv_path = a.out.with_extension("csv");
+    // Before the reference and the sweep: every output can be written.
+    for ext in ["csv", "md", "png", "svg"] {
+        shutter::image_io::check_output_file(a.out.with_extension(ext))?;
+    }
     let mut points = resume(&csv_path, &key)?;
     let todo: Vec<(usize, u32)> = a
         .series
@@ -222,14 +226,9 @@ pub fn run(renderer: &mut Renderer, scene: &Scene, a: &QualityArgs) -> Result<Ve
     if new_file {
         writeln!(csv, "{CSV_HEADER}")?;
     }
-    let bar = indicatif::ProgressBar::new(todo.len() as u64);
-    bar.set_style(
-        indicatif::ProgressStyle::with_template(
-            "{msg:40} [{bar:30}] {pos}/{len} points, {elapsed} (eta {eta})",
-        )
-        .expect("progress template"),
-    );
+    let bar = shutter::progress::Progress::new("quality", todo.len() as u64, "points");
     for (i, spp) in todo {
+        shutter::progress::check_interrupt()?;
         let s = &a.series[i];
         bar.set_message(format!("{} S={spp}", s.name));
         let settings = RenderSettings { spp, width: a.width, height: a.height, seed: a.seed, ..s.settings };
@@ -262,7 +261,7 @@ pub fn run(renderer: &mut Renderer, scene: &Scene, a: &QualityArgs) -> Result<Ve
         points.push(p);
         bar.inc(1);
     }
-    bar.finish_and_clear();
+    bar.finish();
     // Keep only the requested series, in their order.
     points.retain(|p| a.series.iter().any(|s| s.name == p.series && s.spp.contains(&p.spp)));
     points.sort_by_key(|p| (a.series.iter().position(|s| s.name == p.series), p.spp));

@@ -353,3 +353,98 @@ fn quality_targets_are_checked_and_printed() {
     assert_eq!(c, 0, "{err}");
     assert!(out.contains("nothing to simulate, pinhole"), "{out}");
 }
+
+/// An output that cannot be written fails at once, before any rendering (these renders would take
+/// minutes), with the path and the reason; nothing is left behind.
+#[test]
+fn bad_output_fails_before_any_rendering() {
+    let dir = std::env::temp_dir().join(format!("shutter-cli-{}-outputs", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let folder = dir.join("a-folder.png");
+    std::fs::create_dir_all(&folder).unwrap();
+    let missing = dir.join("no-such-folder").join("x.exr");
+    let readonly = dir.join("readonly.exr");
+    std::fs::write(&readonly, b"old").unwrap();
+    let mut perms = std::fs::metadata(&readonly).unwrap().permissions();
+    perms.set_readonly(true);
+    std::fs::set_permissions(&readonly, perms).unwrap();
+    let long_render =
+        ["render", "default", "--technique", "accumulation", "--spp", "60000", "--size", "1920x1080"];
+    let long_reference = ["reference", "default", "--spp", "60000", "--size", "1920x1080"];
+    let bmp = dir.join("x.bmp");
+    let cases: Vec<(&[&str], &std::path::Path, &str)> = vec![
+        (&long_render, &missing, "does not exist"),
+        (&long_render, &folder, "folder"),
+        (&long_render, &bmp, ".png"),
+        (&long_reference, &readonly, "read-only"),
+        (&long_reference, &missing, "does not exist"),
+    ];
+    for (args, out, needle) in cases {
+        let start = std::time::Instant::now();
+        let mut args = args.to_vec();
+        args.extend(["--out", out.to_str().unwrap()]);
+        let (code, stdout, err) = shutter(&args);
+        let secs = start.elapsed().as_secs_f64();
+        assert_eq!(code, 1, "{args:?}: {err}");
+        assert!(
+            err.starts_with("error: cannot write") || err.contains("unsupported image extension"),
+            "{err}"
+        );
+        assert!(err.contains(needle) && err.contains(out.to_str().unwrap()), "{args:?}: {err}");
+        assert!(stdout.is_empty() && secs < 20.0, "{args:?} rendered ({secs:.1} s): {stdout}");
+    }
+    assert_eq!(std::fs::read(&readonly).unwrap(), b"old");
+    let left: Vec<_> = std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().file_name()).collect();
+    let _ = std::fs::remove_dir_all(&dir);
+    assert_eq!(left.len(), 2, "{left:?}");
+}
+
+/// Ctrl-C during a long GPU render: the render stops between two submissions of passes, the process
+/// exits with 130 and a one-line note — no panic, no validation message, no output file, no temporary
+/// file. The progress lines (forced on: stderr is a pipe here) say the render was under way.
+#[cfg(unix)]
+#[test]
+fn ctrl_c_stops_a_long_render_cleanly() {
+    use std::io::{BufRead, BufReader};
+    use std::process::Stdio;
+    let dir = std::env::temp_dir().join(format!("shutter-cli-{}-sigint", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let out = dir.join("long.exr");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_shutter"))
+        .args(["render", "static", "--technique", "accumulation", "--spp", "60000", "--size", "32x18"])
+        .args(["--out", out.to_str().unwrap()])
+        .env("SHUTTER_VALIDATION", "1")
+        .env("SHUTTER_PROGRESS", "lines")
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("run shutter");
+    let stderr = child.stderr.take().unwrap();
+    let (tx, rx) = std::sync::mpsc::channel();
+    let reader = std::thread::spawn(move || {
+        let mut all = String::new();
+        for line in BufReader::new(stderr).lines() {
+            let line = line.unwrap_or_default();
+            if line.starts_with("render: ") {
+                let _ = tx.send(());
+            }
+            all.push_str(&line);
+            all.push('\n');
+        }
+        all
+    });
+    let started = rx.recv_timeout(std::time::Duration::from_secs(120));
+    let kill = Command::new("kill").args(["-INT", &child.id().to_string()]).status().expect("kill");
+    assert!(kill.success());
+    let status = child.wait().expect("wait");
+    let err = reader.join().unwrap();
+    assert!(started.is_ok(), "no progress line before the signal: {err}");
+    assert_eq!(status.code(), Some(130), "{status:?}: {err}");
+    assert!(err.contains("interrupted: stopped cleanly"), "{err}");
+    for bad in ["panicked", "VUID", "alidation", "error:"] {
+        assert!(!err.contains(bad), "`{bad}` in: {err}");
+    }
+    let left: Vec<_> = std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().file_name()).collect();
+    let _ = std::fs::remove_dir_all(&dir);
+    assert!(left.is_empty(), "left behind: {left:?}");
+}

@@ -523,6 +523,14 @@ impl<'a> FrameGraph<'a> {
 
     /// Records every pass in order, submitting (and waiting) every [`MAX_PASSES_PER_SUBMIT`] passes.
     pub fn execute(self, rec: &mut CommandRecorder) -> Result<GraphResult> {
+        self.execute_reporting(rec, None)
+    }
+
+    /// [`FrameGraph::execute`], showing progress under `label` ([`crate::progress`]) when the graph
+    /// takes more than one submission, and stopping with [`Error::Interrupted`] between submissions
+    /// once an interrupt is requested (nothing is in flight then).
+    pub fn execute_reporting(self, rec: &mut CommandRecorder, label: Option<&str>) -> Result<GraphResult> {
+        crate::progress::check_interrupt()?;
         let FrameGraph { device, resources, mut nodes, readbacks, .. } = self;
         let mut schedule: Vec<(usize, usize, u32)> = Vec::new();
         for (ni, node) in nodes.iter().enumerate() {
@@ -539,8 +547,15 @@ impl<'a> FrameGraph<'a> {
         let timed = schedule.len().min(MAX_PASSES_PER_SUBMIT) as u32;
         let mut timer = GpuTimer::new(&device, timed.max(1))?;
         let mut timings = PassTimings::default();
+        let progress = match label {
+            Some(label) if schedule.len() > MAX_PASSES_PER_SUBMIT => {
+                crate::progress::Progress::new(label, schedule.len() as u64, "GPU passes")
+            }
+            _ => crate::progress::Progress::hidden(),
+        };
         let mut next = 0;
         while next < schedule.len() {
+            crate::progress::check_interrupt()?;
             let end = (next + MAX_PASSES_PER_SUBMIT).min(schedule.len());
             rec.submit(|d, cmd| {
                 timer.reset(cmd);
@@ -558,8 +573,10 @@ impl<'a> FrameGraph<'a> {
                 r.store_state(s);
             }
             timings.add(&timer.results()?);
+            progress.inc((end - next) as u64);
             next = end;
         }
+        progress.finish();
         let images = readbacks
             .iter()
             .map(|(image, buffer)| {

@@ -85,7 +85,6 @@ pub mod vpl;
 use std::time::Instant;
 
 use glam::{DVec3, Vec2, Vec3};
-use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use rayon::prelude::*;
 
 pub use bvh::{Bvh, Hit, SegmentTriangle};
@@ -95,6 +94,7 @@ use crate::error::{Error, Result};
 use crate::geometry::{KeyTimes, MovingTriangle, TriangleHit};
 use crate::image::LinearImage;
 use crate::limits::{MAX_IMAGE_DIMENSION, MAX_SPP};
+use crate::progress::Progress;
 use crate::sampling::{pixel_sample_set, Pcg32, Sample5, SAMPLE_TILE_SIZE};
 use crate::scene::{Camera, CameraSpaceScene, Indirect, Intrinsics, Scene, Texture};
 use crate::shading::{shade, ShadingLight};
@@ -132,7 +132,7 @@ pub struct ReferenceSettings {
     pub spp: u32,
     /// Seed of the sample sets (and of stochastic alpha).
     pub seed: u64,
-    /// Show a progress bar on stderr (not drawn when stderr is not a terminal).
+    /// Show progress on stderr ([`crate::progress`]: a bar on a terminal, sparse lines otherwise).
     pub progress: bool,
     /// How often samples are shaded (visibility is always per sample).
     pub shading: ReferenceShading,
@@ -242,21 +242,16 @@ fn render(
     let tiles_x = w.div_ceil(TILE);
     let tiles_y = h.div_ceil(TILE);
     let tile_count = (tiles_x * tiles_y) as u64;
-    let bar = if settings.progress {
-        let bar = ProgressBar::with_draw_target(Some(tile_count), ProgressDrawTarget::stderr());
-        if let Ok(style) =
-            ProgressStyle::with_template("reference {bar:40} {pos}/{len} tiles, {elapsed} elapsed, eta {eta}")
-        {
-            bar.set_style(style);
-        }
-        bar
-    } else {
-        ProgressBar::hidden()
-    };
+    let bar =
+        if settings.progress { Progress::new("reference", tile_count, "tiles") } else { Progress::hidden() };
 
     let results: Vec<(Vec<[f32; 4]>, Vec<u64>)> = (0..tiles_x * tiles_y)
         .into_par_iter()
         .map_init(Vec::new, |lights, i| {
+            // Interrupted: the remaining tiles are skipped (empty) and the render returns the error.
+            if crate::progress::interrupted() {
+                return (vec![], vec![]);
+            }
             let x0 = (i % tiles_x) * TILE;
             let y0 = (i / tiles_x) * TILE;
             let mut keys = vec![];
@@ -272,7 +267,8 @@ fn render(
     keys.sort_unstable();
     keys.dedup();
     let blocks: Vec<&Vec<[f32; 4]>> = results.iter().map(|r| &r.0).collect();
-    bar.finish_and_clear();
+    bar.finish();
+    crate::progress::check_interrupt()?;
 
     let mut image = LinearImage::new(w, h);
     for (i, block) in blocks.iter().enumerate() {

@@ -396,7 +396,7 @@ fn textures_modulate_albedo() {
     assert!(right[1] < 0.03, "{right:?}");
 }
 
-/// The progress bar draws to stderr only when it is a terminal; under the test harness it is not.
+/// Progress on stderr (a bar on a terminal, sparse lines otherwise) does not change the image.
 #[test]
 fn progress_bar_without_terminal_is_harmless() {
     let cam = camera(0.05, 3.0);

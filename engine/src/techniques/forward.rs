@@ -189,17 +189,7 @@ impl ForwardPipeline {
         samples: u32,
         shadows: Option<&ShadowMaps>,
     ) -> Result<Self> {
-        Self::with_format(device, world, samples, shadows, COLOR_FORMAT)
-    }
-
-    /// [`ForwardPipeline::with_shadows`] into a colour target of `format`.
-    pub fn with_format(
-        device: &Device,
-        world: &GpuWorld,
-        samples: u32,
-        shadows: Option<&ShadowMaps>,
-        format: vk::Format,
-    ) -> Result<Self> {
+        let format = COLOR_FORMAT;
         let lookup = shadows.map(ShadowLookup::of);
         let vert = forward_vert(device, lookup.is_some())?;
         let (shadow_axis, shadow_color) = lookup.map_or((Shadows::None, false), |l| (l.shadows, l.color));

@@ -365,8 +365,8 @@ impl InterleavedTechnique {
 
         let pass_times: Vec<f32> = passes.iter().map(|p| p.time).collect();
         let shadows = ShadowMaps::new(device, world, scene, &s.shadows, &pass_times, s.seed)?;
-        // The direct light in f32 (the forward passes' f16 would round it by 5e-4 of itself).
-        let direct = ForwardPipeline::with_format(device, world, 1, shadows.as_ref(), GBUFFER_FORMAT)?;
+        // The direct light: the forward pipeline into an RGBA32F target (COLOR_FORMAT, GBUFFER_FORMAT).
+        let direct = ForwardPipeline::with_shadows(device, world, 1, shadows.as_ref())?;
 
         // The G-buffer pipeline: forward.vert, gbuffer.frag, three targets.
         let vert = super::forward::forward_vert(device, false)?;

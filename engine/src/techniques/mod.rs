@@ -211,6 +211,8 @@ pub struct FrameContext<'f> {
     recorder: &'f mut CommandRecorder,
     pool: Rc<TransientPool>,
     timings: PassTimings,
+    /// Show the progress of graphs that take several submissions ([`Renderer::show_progress`]).
+    progress: bool,
 }
 
 impl FrameContext<'_> {
@@ -223,7 +225,7 @@ impl FrameContext<'_> {
     }
     /// Executes `graph` (recording, submitting and waiting) and adds its timings to the frame's.
     pub fn run(&mut self, graph: FrameGraph<'_>) -> Result<GraphResult> {
-        let result = graph.execute(self.recorder)?;
+        let result = graph.execute_reporting(self.recorder, self.progress.then_some("render"))?;
         self.timings.add(&result.timings);
         Ok(result)
     }
@@ -233,12 +235,19 @@ impl FrameContext<'_> {
 pub struct Renderer {
     device: Device,
     recorder: CommandRecorder,
+    progress: bool,
 }
 
 impl Renderer {
     pub fn new(device: Device) -> Result<Self> {
         let recorder = CommandRecorder::new(&device, "shutter frame")?;
-        Ok(Renderer { device, recorder })
+        Ok(Renderer { device, recorder, progress: false })
+    }
+
+    /// Show the progress of frames that take more than one submission (many passes) on stderr
+    /// ([`crate::progress`]); off by default, for callers that report progress of their own.
+    pub fn show_progress(&mut self, on: bool) {
+        self.progress = on;
     }
 
     pub fn device(&self) -> &Device {
@@ -350,6 +359,7 @@ impl Renderer {
             recorder: &mut self.recorder,
             pool: prepared.pool.clone(),
             timings: PassTimings::default(),
+            progress: self.progress,
         };
         let inputs = FrameInputs { world: &prepared.world, camera: &prepared.camera };
         let out = f(prepared.technique.as_mut(), &inputs, &mut frame)?;

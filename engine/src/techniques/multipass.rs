@@ -24,7 +24,12 @@ use crate::vk::{
 };
 
 /// Pass colour format (HDR) and depth format. Depth is reversed Z: cleared to 0, nearer is greater.
-pub const COLOR_FORMAT: vk::Format = vk::Format::R16G16B16A16_SFLOAT;
+///
+/// Colour is 32-bit float like the accumulation, not 16-bit: a half-float target saturates at 65504
+/// (an EXR of a bright scene came out clamped), and lavapipe converts to half by rounding toward zero,
+/// which left `accumulation` about 0.05 % darker than the reference. Lavapipe blends and resolves
+/// RGBA32F in MSAA targets; what it costs is measured in docs/RESULTS.md.
+pub const COLOR_FORMAT: vk::Format = vk::Format::R32G32B32A32_SFLOAT;
 pub const DEPTH_FORMAT: vk::Format = vk::Format::D32_SFLOAT;
 pub const ACCUM_FORMAT: vk::Format = vk::Format::R32G32B32A32_SFLOAT;
 
