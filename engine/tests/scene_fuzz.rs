@@ -232,10 +232,8 @@ fn check_scene(s: &Scene) -> Result<(), String> {
         return Err(format!("camera out of range: {c:?}"));
     }
     let k = c.intrinsics(i.width, i.height);
-    // Known gap, left to the parser's owner (issue 16, strict input): `vfov_deg` is checked to be in
-    // (0, 180) only, and below about 1e-36° tan(vfov/2) underflows, so the pixel scale is infinite.
-    let tiny_vfov = c.vfov_deg < 1e-30;
-    if !(k.pixel_scale.is_finite() || tiny_vfov) || k.pixel_scale <= 0.0 {
+    // The parser refuses vfov_deg below 0.001° (this test found `1e-45` giving an infinite scale).
+    if !k.pixel_scale.is_finite() || k.pixel_scale <= 0.0 {
         return Err(format!("pixel scale {}", k.pixel_scale));
     }
     for l in &s.lights {

@@ -17,7 +17,7 @@
 //! position = [0, 1, 6]          # required
 //! look_at = [0, 0.5, 0]         # required, ≠ position
 //! up = [0, 1, 0]                # default +Y; not parallel to the view direction
-//! vfov_deg = 40                 # in (0, 180)
+//! vfov_deg = 40                 # in [0.001, 180)
 //! aperture_radius = 0.0         # lens radius A in scene units (metres), ≥ 0 (0 = pinhole)
 //! focus_distance = 6.0          # F > 0, metres along the view axis; default |look_at − position|
 //! near = 0.05                   # 0 < near < far
@@ -687,6 +687,9 @@ type ShutterInterval = Option<(f32, f32)>;
 /// default sensor width too).
 pub const DEFAULT_SENSOR_WIDTH_MM: f32 = 36.0;
 
+/// The narrowest vertical field of view a scene may have, degrees.
+pub const MIN_VFOV_DEG: f32 = 1e-3;
+
 /// The vertical field of view of a lens of focal length `focal_mm` on a sensor `sensor_height_mm`
 /// high: `2·atan(h / 2f)` (a lens focused at infinity; the model's pinhole, DESIGN.md "Pinhole").
 pub fn vfov_deg_of_lens(focal_mm: f32, sensor_height_mm: f32) -> f32 {
@@ -802,7 +805,14 @@ fn resolve_camera(cx: &Ctx, c: &FileCamera, image: &ImageSettings) -> Result<(Ca
             vfov_deg_of_lens(f, sensor_height)
         }
     };
-    cx.range("camera.vfov_deg", vfov_deg, vfov_deg > 0.0 && vfov_deg < 180.0, "in (0, 180)")?;
+    // At least a thousandth of a degree (a 2,000 mm lens on a full-frame sensor sees 0.69°): below
+    // about 1e-36° tan(vfov/2) underflows and the pixel scale is infinite (found by the fuzz test).
+    cx.range(
+        "camera.vfov_deg",
+        vfov_deg,
+        (MIN_VFOV_DEG..180.0).contains(&vfov_deg),
+        "in [0.001, 180) degrees",
+    )?;
     let aperture_radius = match (c.aperture_radius, c.f_stop, focal) {
         (Some(_), Some(_), _) => return Err(both("aperture_radius", "f_stop")),
         (_, Some(_), None) => {
@@ -1429,6 +1439,8 @@ mod tests {
             ("f_stop = 2", "camera.f_stop: needs focal_length_mm (the aperture's diameter is the focal length ÷ the f-stop)"),
             ("sensor_width_mm = 36", "camera.sensor_width_mm: needs focal_length_mm (the sensor and the focal length give the field of view)"),
             ("focal_length_mm = 0", "camera.focal_length_mm: 0 is out of range: must be > 0"),
+            ("vfov_deg = 1e-45", "camera.vfov_deg: 0.000000000000000000000000000000000000000000001 is out of range: must be in [0.001, 180) degrees"),
+            ("focal_length_mm = 3e6", "camera.vfov_deg: 0.0003867465 is out of range: must be in [0.001, 180) degrees"),
             ("focal_length_mm = nan", "camera.focal_length_mm: NaN is not a finite number"),
             ("focal_length_mm = 50\nf_stop = -2", "camera.f_stop: -2 is out of range: must be > 0"),
             ("focal_length_mm = 50\nsensor_height_mm = 0", "camera.sensor_height_mm: 0 is out of range: must be > 0"),
