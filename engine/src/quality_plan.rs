@@ -167,6 +167,12 @@ impl CostModel {
                 path.display()
             ))
         })?;
+        if !model.is_valid() {
+            return Err(Error::Unsupported(format!(
+                "cost model {}: its ratios must be finite and > 0 (delete it or run `shutter calibrate` on a scene that blurs)",
+                path.display()
+            )));
+        }
         if model.driver_id != caps.driver_id || model.device_name != caps.device_name {
             return Err(Error::Unsupported(format!(
                 "cost model {} is for {} ({}), not this {} ({})",
@@ -180,8 +186,20 @@ impl CostModel {
         Ok(model)
     }
 
-    /// Writes the model where [`CostModel::load`] finds it; returns the path.
+    /// Both ratios finite and positive (a scene with nothing to simulate measures no noise).
+    pub fn is_valid(&self) -> bool {
+        [self.stochastic_ms_ratio, self.stochastic_flip_ratio].iter().all(|r| r.is_finite() && *r > 0.0)
+    }
+
+    /// Writes the model where [`CostModel::load`] finds it; returns the path. Refuses a model that is
+    /// not [`CostModel::is_valid`].
     pub fn save(&self, caps: &Capabilities) -> Result<PathBuf> {
+        if !self.is_valid() {
+            return Err(Error::Unsupported(format!(
+                "cost model not saved: ratios {} (ms) and {} (noise) — measure it on a scene that blurs, e.g. `shutter calibrate default`",
+                self.stochastic_ms_ratio, self.stochastic_flip_ratio
+            )));
+        }
         let path = Self::cache_path(caps)
             .ok_or_else(|| Error::Unsupported("no cache directory: set SHUTTER_CACHE_DIR or HOME".into()))?;
         if let Some(dir) = path.parent() {
@@ -371,5 +389,17 @@ mod tests {
             }
         }
         assert_eq!(samples_for(f64::NAN, 8, 0.03), MAX_PLANNED_SPP);
+        // A calibration on a scene without blur measures no noise: not a model.
+        let model = |ms: f64, flip: f64| CostModel {
+            driver_id: String::new(),
+            device_name: String::new(),
+            stochastic_ms_ratio: ms,
+            stochastic_flip_ratio: flip,
+            source: String::new(),
+        };
+        assert!(model(58.0, 0.9).is_valid());
+        for (ms, flip) in [(1.7, 0.0), (0.0, 1.0), (f64::NAN, 1.0), (1.0, f64::INFINITY)] {
+            assert!(!model(ms, flip).is_valid(), "{ms} {flip}");
+        }
     }
 }

@@ -6,6 +6,11 @@ fn shutter(args: &[&str]) -> (i32, String, String) {
     let out = Command::new(env!("CARGO_BIN_EXE_shutter"))
         .args(args)
         .env("SHUTTER_VALIDATION", "1")
+        // `calibrate` caches the planner's cost model: never in the user's cache.
+        .env(
+            "SHUTTER_CACHE_DIR",
+            std::env::temp_dir().join(format!("shutter-cli-cache-{}", std::process::id())),
+        )
         .output()
         .expect("run shutter");
     (
@@ -59,6 +64,16 @@ fn probe_and_scenes_work() {
         out.contains("| stochastic:bound=bbox |") && out.contains("calibration entry for this device"),
         "{out}"
     );
+    // `static` blurs nowhere: no noise to measure, no cost model saved (the bounds still calibrate).
+    assert!(out.contains("cost model not saved"), "{out}");
+    // On a scene that blurs it is saved (in the tests' own cache) and the quality planner reads it.
+    let (code, out, err) =
+        shutter(&["calibrate", "default", "--size", "32x18", "--spp", "4", "--frames", "1", "--warmup", "0"]);
+    assert_eq!(code, 0, "{err}");
+    assert!(out.contains("cost model for") && out.contains("saved to"), "{out}");
+    let (code, out, err) = shutter(&["plan", "default", "--size", "32x18", "--quality", "draft"]);
+    assert_eq!(code, 0, "{err}");
+    assert!(out.contains("cost model: `shutter calibrate` (default, 32x18, S = 4)"), "{out}");
     // A focus sweep of the bounds table: a section per focus distance and the summary tables.
     let (code, out, err) = shutter(&[
         "bounds",
