@@ -121,6 +121,12 @@ pub struct Sampler {
 }
 
 impl Sampler {
+    fn create(device: &Device, name: &str, info: &vk::SamplerCreateInfo<'_>) -> Result<Sampler> {
+        let raw = unsafe { device.raw.create_sampler(info, None) }.vk("vkCreateSampler")?;
+        device.set_name(raw, name);
+        Ok(Sampler { raw, device: device.clone() })
+    }
+
     /// Trilinear, repeat addressing: how albedo textures are read.
     pub fn trilinear_repeat(device: &Device, name: &str) -> Result<Sampler> {
         let info = vk::SamplerCreateInfo::default()
@@ -131,9 +137,7 @@ impl Sampler {
             .address_mode_v(vk::SamplerAddressMode::REPEAT)
             .address_mode_w(vk::SamplerAddressMode::REPEAT)
             .max_lod(vk::LOD_CLAMP_NONE);
-        let raw = unsafe { device.raw.create_sampler(&info, None) }.vk("vkCreateSampler")?;
-        device.set_name(raw, name);
-        Ok(Sampler { raw, device: device.clone() })
+        Sampler::create(device, name, &info)
     }
 }
 
@@ -147,9 +151,7 @@ impl Sampler {
             .address_mode_u(vk::SamplerAddressMode::CLAMP_TO_EDGE)
             .address_mode_v(vk::SamplerAddressMode::CLAMP_TO_EDGE)
             .address_mode_w(vk::SamplerAddressMode::CLAMP_TO_EDGE);
-        let raw = unsafe { device.raw.create_sampler(&info, None) }.vk("vkCreateSampler")?;
-        device.set_name(raw, name);
-        Ok(Sampler { raw, device: device.clone() })
+        Sampler::create(device, name, &info)
     }
 
     /// Linear filtering at unnormalized texel coordinates (texel t's centre at t + 0.5), clamped to
@@ -165,9 +167,7 @@ impl Sampler {
             .min_lod(0.0)
             .max_lod(0.0)
             .unnormalized_coordinates(true);
-        let raw = unsafe { device.raw.create_sampler(&info, None) }.vk("vkCreateSampler")?;
-        device.set_name(raw, name);
-        Ok(Sampler { raw, device: device.clone() })
+        Sampler::create(device, name, &info)
     }
 }
 
