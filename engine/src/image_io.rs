@@ -138,7 +138,9 @@ pub fn check_image_output(path: impl AsRef<Path>) -> Result<()> {
 
 /// Writes `bytes` to `path` all or nothing: into a temporary file beside it, synced, then renamed over
 /// it. On any failure (a full disk, a lost permission) the temporary file is removed and a previous
-/// file at `path` is left as it was; the error names `path`.
+/// file at `path` is left as it was; the error names `path`. A previous file's permissions are kept,
+/// and a symbolic link at `path` is written through (its target replaced, the link kept), as an
+/// in-place write would.
 pub fn write_file_atomically(path: impl AsRef<Path>, bytes: &[u8]) -> Result<()> {
     write_atomically_with(path.as_ref(), |file| file.write_all(bytes))
 }
@@ -149,13 +151,26 @@ pub(crate) fn write_atomically_with(
     path: &Path,
     write: impl FnOnce(&mut File) -> std::io::Result<()>,
 ) -> Result<()> {
+    // Through a symbolic link to what it names (a dangling one: to where it points).
+    let resolved;
+    let path = match std::fs::symlink_metadata(path) {
+        Ok(m) if m.file_type().is_symlink() => {
+            resolved = std::fs::canonicalize(path)
+                .or_else(|_| std::fs::read_link(path).map(|to| parent_dir(path).join(to)));
+            resolved.as_deref().map_err(|e| output_error(path, format!("cannot follow the link: {e}")))?
+        }
+        _ => path,
+    };
+    let permissions = std::fs::metadata(path).ok().map(|m| m.permissions());
     let temp = temp_sibling(path);
     let mut file = std::fs::OpenOptions::new()
         .write(true)
         .create_new(true)
         .open(&temp)
         .map_err(|e| output_error(path, format!("cannot create `{}`: {e}", temp.display())))?;
-    let written = write(&mut file).and_then(|()| file.sync_all());
+    let written = write(&mut file)
+        .and_then(|()| permissions.map_or(Ok(()), |p| file.set_permissions(p)))
+        .and_then(|()| file.sync_all());
     drop(file);
     let renamed = written.and_then(|()| std::fs::rename(&temp, path));
     if let Err(e) = renamed {
@@ -587,6 +602,30 @@ mod tests {
         std::fs::remove_dir_all(&dir).ok();
         assert_eq!(back, new);
         assert_eq!(left, 1);
+    }
+
+    /// Replacing keeps what an in-place write keeps: the old file's permissions, and a symbolic link
+    /// (written through to its target).
+    #[cfg(unix)]
+    #[test]
+    fn a_replaced_file_keeps_its_permissions_and_links() {
+        use std::os::unix::fs::PermissionsExt;
+        let dir = temp_dir("keep");
+        let target = dir.join("target.png");
+        save_image(&target, &noisy_image(4, 4)).unwrap();
+        std::fs::set_permissions(&target, std::fs::Permissions::from_mode(0o640)).unwrap();
+        let link = dir.join("link.png");
+        std::os::unix::fs::symlink("target.png", &link).unwrap();
+        save_image(&link, &noisy_image(6, 2)).unwrap();
+        let is_link = std::fs::symlink_metadata(&link).unwrap().file_type().is_symlink();
+        let mode = std::fs::metadata(&target).unwrap().permissions().mode() & 0o777;
+        let back = load_image(&target).unwrap();
+        let left = std::fs::read_dir(&dir).unwrap().count();
+        std::fs::remove_dir_all(&dir).ok();
+        assert!(is_link, "the link was replaced by a file");
+        assert_eq!(mode, 0o640);
+        assert_eq!((back.width, back.height), (6, 2));
+        assert_eq!(left, 2, "a temporary file left behind");
     }
 
     #[test]
