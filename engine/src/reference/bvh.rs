@@ -361,6 +361,62 @@ impl Bvh {
         }
     }
 
+    /// The ordered traversal of [`Bvh::intersect_filtered`] and [`Bvh::nearest`]: the leaves whose
+    /// boxes the ray `o + s·d` enters at shutter time `time` within `[s_min, limit]`, nearest entry
+    /// first, `leaf(k, &mut limit)` called for each of their triangles (index into `tris`). `leaf`
+    /// lowers `limit` as it finds nearer hits; a node whose entry lies beyond the current limit is
+    /// skipped.
+    #[inline]
+    fn front_to_back(
+        &self,
+        o: Vec3,
+        d: Vec3,
+        time: f32,
+        s_min: f32,
+        mut limit: f32,
+        mut leaf: impl FnMut(usize, &mut f32),
+    ) {
+        let inv_d = d.recip();
+        // The nodes' time: the fraction of the tree's interval (exactly `time` for the whole shutter).
+        let box_time = ((time - self.t0) * self.inv_len).clamp(0.0, 1.0);
+        let mut stack = [(0u32, 0.0f32); STACK];
+        let root = Self::enter(&self.nodes[0], box_time, o, inv_d, s_min, limit);
+        if root == f32::INFINITY {
+            return;
+        }
+        stack[0] = (0, root);
+        let mut sp = 1;
+        while sp > 0 {
+            sp -= 1;
+            let (mut ni, entry) = stack[sp];
+            if entry > limit {
+                continue;
+            }
+            loop {
+                let node = &self.nodes[ni as usize];
+                if node.count > 0 {
+                    let first = node.first as usize;
+                    for k in first..first + node.count as usize {
+                        leaf(k, &mut limit);
+                    }
+                    break;
+                }
+                let (l, r) = (ni + 1, node.first);
+                let tl = Self::enter(&self.nodes[l as usize], box_time, o, inv_d, s_min, limit);
+                let tr = Self::enter(&self.nodes[r as usize], box_time, o, inv_d, s_min, limit);
+                let (near_child, far_child, tn, tf) = if tl <= tr { (l, r, tl, tr) } else { (r, l, tr, tl) };
+                if tn == f32::INFINITY {
+                    break;
+                }
+                if tf != f32::INFINITY {
+                    stack[sp] = (far_child, tf);
+                    sp += 1;
+                }
+                ni = near_child;
+            }
+        }
+    }
+
     /// The nearest hit at shutter time `time` whose view depth lies in `[near, far]`, among triangles
     /// for which `accept(id)` says yes (`id` = index in the build list). Hits are found by the shared
     /// [`intersect_triangle`] and ordered by its (barycentric) depth; on an exact tie the first found
@@ -403,56 +459,19 @@ impl Bvh {
         let ray_parameter = |depth: f32| (depth + o.z) / -d.z;
         let s_min = ray_parameter(near - DEPTH_SLACK * near.abs());
         let s_bound = |depth: f32| ray_parameter(depth + DEPTH_SLACK * depth.abs());
-        let inv_d = d.recip();
-        // The nodes' time: the fraction of the tree's interval (exactly `time` for the whole shutter).
-        let box_time = ((time - self.t0) * self.inv_len).clamp(0.0, 1.0);
         let mut best = f32::INFINITY;
-        let mut s_max = s_bound(far);
         let mut hit: Option<Hit> = None;
-        let mut stack = [(0u32, 0.0f32); STACK];
-        let root = Self::enter(&self.nodes[0], box_time, o, inv_d, s_min, s_max);
-        if root == f32::INFINITY {
-            return None;
-        }
-        stack[0] = (0, root);
-        let mut sp = 1;
-        while sp > 0 {
-            sp -= 1;
-            let (mut ni, entry) = stack[sp];
-            if entry > s_max {
-                continue;
+        self.front_to_back(o, d, time, s_min, s_bound(far), |k, s_max| {
+            let Some(h) = intersect_triangle(&self.tris[k].at(time), o, d) else { return };
+            if h.depth_z >= near && h.depth_z <= far && h.depth_z < best {
+                let id = self.ids[k];
+                if accept(id, &h) {
+                    best = h.depth_z;
+                    *s_max = s_bound(best);
+                    hit = Some(Hit { id, hit: h });
+                }
             }
-            loop {
-                let node = &self.nodes[ni as usize];
-                if node.count > 0 {
-                    let first = node.first as usize;
-                    for k in first..first + node.count as usize {
-                        let Some(h) = intersect_triangle(&self.tris[k].at(time), o, d) else { continue };
-                        if h.depth_z >= near && h.depth_z <= far && h.depth_z < best {
-                            let id = self.ids[k];
-                            if accept(id, &h) {
-                                best = h.depth_z;
-                                s_max = s_bound(best);
-                                hit = Some(Hit { id, hit: h });
-                            }
-                        }
-                    }
-                    break;
-                }
-                let (l, r) = (ni + 1, node.first);
-                let tl = Self::enter(&self.nodes[l as usize], box_time, o, inv_d, s_min, s_max);
-                let tr = Self::enter(&self.nodes[r as usize], box_time, o, inv_d, s_min, s_max);
-                let (near_child, far_child, tn, tf) = if tl <= tr { (l, r, tl, tr) } else { (r, l, tr, tl) };
-                if tn == f32::INFINITY {
-                    break;
-                }
-                if tf != f32::INFINITY {
-                    stack[sp] = (far_child, tf);
-                    sp += 1;
-                }
-                ni = near_child;
-            }
-        }
+        });
         hit
     }
 
@@ -527,51 +546,16 @@ impl Bvh {
         if self.nodes.is_empty() || !(d2 > 0.0 && d2.is_finite()) || !range {
             return None;
         }
-        let inv_d = d.recip();
-        let box_time = ((time - self.t0) * self.inv_len).clamp(0.0, 1.0);
         let mut best: Option<(Hit, f32)> = None;
-        let mut limit = s_max;
-        let mut stack = [(0u32, 0.0f32); STACK];
-        let root = Self::enter(&self.nodes[0], box_time, o, inv_d, s_min, limit);
-        if root == f32::INFINITY {
-            return None;
-        }
-        stack[0] = (0, root);
-        let mut sp = 1;
-        while sp > 0 {
-            sp -= 1;
-            let (ni, entry) = stack[sp];
-            if entry > limit {
-                continue;
+        self.front_to_back(o, d, time, s_min, s_max, |k, limit| {
+            let p = self.tris[k].at(time);
+            let Some(h) = intersect_triangle(&p, o, d) else { return };
+            let s = (h.point(&p) - o).dot(d) / d2;
+            if s > s_min && s < *limit && accept(self.ids[k], &h) {
+                *limit = s;
+                best = Some((Hit { id: self.ids[k], hit: h }, s));
             }
-            let node = &self.nodes[ni as usize];
-            if node.count > 0 {
-                let first = node.first as usize;
-                for k in first..first + node.count as usize {
-                    let p = self.tris[k].at(time);
-                    let Some(h) = intersect_triangle(&p, o, d) else { continue };
-                    let s = (h.point(&p) - o).dot(d) / d2;
-                    if s > s_min && s < limit && accept(self.ids[k], &h) {
-                        limit = s;
-                        best = Some((Hit { id: self.ids[k], hit: h }, s));
-                    }
-                }
-                continue;
-            }
-            let (l, r) = (ni + 1, node.first);
-            let tl = Self::enter(&self.nodes[l as usize], box_time, o, inv_d, s_min, limit);
-            let tr = Self::enter(&self.nodes[r as usize], box_time, o, inv_d, s_min, limit);
-            // The nearer child on top of the stack.
-            let (near_child, far_child, tn, tf) = if tl <= tr { (l, r, tl, tr) } else { (r, l, tr, tl) };
-            if tf != f32::INFINITY {
-                stack[sp] = (far_child, tf);
-                sp += 1;
-            }
-            if tn != f32::INFINITY {
-                stack[sp] = (near_child, tn);
-                sp += 1;
-            }
-        }
+        });
         best
     }
 
