@@ -286,6 +286,36 @@ fn frame_ms(out: &RenderOutput) -> f64 {
     }
 }
 
+/// The second seed of a noise measurement (mixed into the settings' seed).
+const OTHER_SEED: u64 = 0x9e37_79b9_7f4a_7c15;
+
+/// What one render configuration measures for the planner: its GPU ms and its noise.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct NoiseMeasurement {
+    /// The median GPU ms of the warm frames.
+    pub ms: f64,
+    /// FLIP between the images of two seeds.
+    pub flip_between: f64,
+}
+
+/// Renders `technique` at `settings` for one warm-up and `warm_frames` timed frames, then once with
+/// another seed: the pilot's and `shutter calibrate`'s measurement.
+pub fn measure_noise(
+    renderer: &mut Renderer,
+    scene: &Scene,
+    technique: Technique,
+    settings: &RenderSettings,
+    warm_frames: usize,
+) -> Result<NoiseMeasurement> {
+    let frames = renderer.render_frames(scene, technique, settings, warm_frames.max(1) + 1)?;
+    let mut ms: Vec<f64> = frames[1..].iter().map(frame_ms).collect();
+    ms.sort_by(f64::total_cmp);
+    let other = RenderSettings { seed: settings.seed ^ OTHER_SEED, ..*settings };
+    let other = renderer.render(scene, technique, &other)?;
+    let flip_between = compare(&frames[1].image, &other.image)?.flip;
+    Ok(NoiseMeasurement { ms: ms[ms.len() / 2], flip_between })
+}
+
 /// The predicted FLIP at `spp` samples from a noise of `flip_between` between two pilots of
 /// `pilot_spp` (module docs).
 pub fn predicted_flip(flip_between: f64, pilot_spp: u32, spp: u32) -> f64 {
@@ -321,11 +351,8 @@ pub fn plan_quality(
         return Ok(QualityPlan { target, choice, candidates: vec![], pilot: None, cost: cost.clone() });
     }
     let pilot_settings = RenderSettings { spp: PILOT_SPP, ..*settings };
-    let frames = renderer.render_frames(scene, Technique::ACCUMULATION, &pilot_settings, 2)?;
-    let other_seed = RenderSettings { seed: settings.seed ^ 0x9e37_79b9_7f4a_7c15, ..pilot_settings };
-    let other = renderer.render(scene, Technique::ACCUMULATION, &other_seed)?;
-    let flip_between = compare(&frames[1].image, &other.image)?.flip;
-    let ms = frame_ms(&frames[1]);
+    let NoiseMeasurement { ms, flip_between } =
+        measure_noise(renderer, scene, Technique::ACCUMULATION, &pilot_settings, 1)?;
     let pilot = Pilot { spp: PILOT_SPP, flip_between, ms };
     let per_pass = ms / PILOT_SPP as f64;
     let t = target.flip() as f64;

@@ -370,13 +370,9 @@ fn calibrate_cost(scene: &str, size: (u32, u32), spp: u32, frames: usize) -> Res
     let mut settings = RenderSettings::from_scene(&sc);
     (settings.width, settings.height, settings.spp) = (size.0, size.1, spp);
     let mut renderer = Renderer::new(shutter::vk::create_device()?)?;
-    let mut measure = |technique: Technique| -> Result<(f64, f64)> {
-        let outs = renderer.render_frames(&sc, technique, &settings, frames + 1)?;
-        let mut ms: Vec<f64> = outs[1..].iter().map(|o| o.timings.total_ms()).collect();
-        ms.sort_by(f64::total_cmp);
-        let other = RenderSettings { seed: settings.seed ^ 0x5eed, ..settings };
-        let b = renderer.render(&sc, technique, &other)?;
-        Ok((ms[ms.len() / 2], shutter::metrics::compare(&outs[0].image, &b.image)?.flip))
+    let mut measure = |technique: Technique| {
+        shutter::quality_plan::measure_noise(&mut renderer, &sc, technique, &settings, frames)
+            .map(|m| (m.ms, m.flip_between))
     };
     let (acc_ms, acc_noise) = measure(Technique::ACCUMULATION)?;
     let (st_ms, st_noise) = measure(Technique::AUTO)?;
