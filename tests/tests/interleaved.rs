@@ -8,8 +8,7 @@ use shutter::image::LinearImage;
 use shutter::interleaved::{
     frame_passes, pass_vpls, render_frame, Blur, Edges, InterleavedSettings, Pattern,
 };
-use shutter::reference::gbuffer::render_gbuffer;
-use shutter::reference::{virtual_point_lights, VplSettings};
+use shutter::reference::VplSettings;
 use shutter::scene::builtin::builtin_scene;
 use shutter::scene::Scene;
 use shutter::techniques::interleaved::{InterleavedOptions, Split};
@@ -42,16 +41,9 @@ fn gpu_passes(r: &mut Renderer, scene: &Scene, o: InterleavedOptions, spp: u32) 
     r.render(scene, Technique::INTERLEAVED, &s).expect("interleaved render").image
 }
 
-/// The CPU mirror with `o`'s settings, with exact shadow rays to the VPLs (`visibility`) or none.
-fn cpu(scene: &Scene, o: &InterleavedOptions, visibility: bool) -> LinearImage {
-    let v = VplSettings { count: o.photons, clamp: o.clamp, seed: scene.image.seed };
-    let vpls = virtual_point_lights(scene, &v).unwrap();
-    let gs = render_gbuffer(scene, W, H).unwrap();
-    shutter::interleaved::render(&gs, &vpls, &settings(o, visibility)).unwrap()
-}
-
-/// The mirror of a frame of `spp` passes ([`shutter::interleaved::render_frame`]), VPLs per pass as the
-/// technique traces them.
+/// The CPU mirror with `o`'s settings, with exact shadow rays to the VPLs (`visibility`) or none: a
+/// frame of `spp` passes ([`shutter::interleaved::render_frame`]; one for a still pinhole scene), VPLs
+/// per pass as the technique traces them.
 fn cpu_frame(scene: &Scene, o: &InterleavedOptions, spp: u32, visibility: bool) -> LinearImage {
     let passes = frame_passes(scene, spp, scene.image.seed);
     let v = VplSettings { count: o.photons, clamp: o.clamp, seed: scene.image.seed };
@@ -101,7 +93,7 @@ fn interleaved_matches_its_cpu_mirror() {
     ];
     for (name, o) in configs {
         let g = gpu(&mut r, &scene, o);
-        let c = cpu(&scene, &o, false);
+        let c = cpu_frame(&scene, &o, 1, false);
         assert_matches_mirror(name, &c, &g);
     }
 }
@@ -243,7 +235,7 @@ fn vpl_shadow_maps_approach_exact_visibility() {
     let scene = cornell();
     let mut r = renderer();
     let base = InterleavedOptions { photons: 128, ..Default::default() };
-    let exact = cpu(&scene, &base, true);
+    let exact = cpu_frame(&scene, &base, 1, true);
     let maps = gpu(&mut r, &scene, InterleavedOptions { vpl_maps: Some(32), ..base });
     let none = gpu(&mut r, &scene, base);
     let (m_maps, m_none) = (
