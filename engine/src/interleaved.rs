@@ -262,6 +262,20 @@ pub enum Edges {
     Axis,
 }
 
+impl Edges {
+    /// The filter named on the command line (`--filter`, `filter=`): `none` (no blur, `None`),
+    /// `plain`, `full` (the paper's rule) or `axis`.
+    pub fn of_filter(name: &str) -> Result<Option<Edges>> {
+        match name {
+            "none" => Ok(None),
+            "plain" => Ok(Some(Edges::Ignore)),
+            "full" => Ok(Some(Edges::Texel)),
+            "axis" => Ok(Some(Edges::Axis)),
+            _ => Err(Error::Unsupported(format!("filter `{name}`: none, plain, full or axis"))),
+        }
+    }
+}
+
 impl std::str::FromStr for Edges {
     type Err = Error;
     fn from_str(s: &str) -> Result<Self> {
@@ -663,5 +677,15 @@ mod tests {
         for bad in ["8", "0x4", "4x17", "ax4", "4x4x4"] {
             assert!(bad.parse::<Pattern>().is_err(), "{bad}");
         }
+    }
+
+    #[test]
+    fn filters_parse_and_refuse() {
+        assert_eq!(Edges::of_filter("none").unwrap(), None);
+        assert_eq!(Edges::of_filter("full").unwrap(), Some(Edges::Texel));
+        assert_eq!(Edges::of_filter("plain").unwrap(), Some(Edges::Ignore));
+        assert_eq!(Edges::of_filter("axis").unwrap(), Some(Edges::Axis));
+        let e = Edges::of_filter("gauss").unwrap_err().to_string();
+        assert!(e.contains("none, plain, full or axis"), "{e}");
     }
 }

@@ -68,13 +68,7 @@ pub fn apply_option(s: &mut RenderSettings, key: &str, value: &str) -> Result<()
         "filter" => {
             let radius = s.interleaved.blur.map_or(s.interleaved.pattern.n.max(s.interleaved.pattern.m), |b| b.radius);
             let bilinear = s.interleaved.blur.is_some_and(|b| b.bilinear);
-            let edges = match value {
-                "none" => None,
-                "plain" => Some(shutter::interleaved::Edges::Ignore),
-                "full" => Some(shutter::interleaved::Edges::Texel),
-                "axis" => Some(shutter::interleaved::Edges::Axis),
-                _ => bail!("filter `{value}`: none, plain, full or axis"),
-            };
+            let edges = shutter::interleaved::Edges::of_filter(value)?;
             s.interleaved.blur = edges.map(|edges| shutter::interleaved::Blur { radius, bilinear, edges });
         }
         "radius" => match &mut s.interleaved.blur {

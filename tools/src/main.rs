@@ -775,19 +775,9 @@ fn run() -> Result<()> {
             };
             let pattern: shutter::interleaved::Pattern = pattern.parse()?;
             let block: shutter::interleaved::Pattern = block.parse()?;
-            let blur = match filter.as_str() {
-                "none" => None,
-                "plain" | "full" | "axis" => Some(shutter::interleaved::Blur {
-                    radius: radius.unwrap_or(pattern.n.max(pattern.m)),
-                    bilinear,
-                    edges: match filter.as_str() {
-                        "plain" => shutter::interleaved::Edges::Ignore,
-                        "full" => shutter::interleaved::Edges::Texel,
-                        _ => shutter::interleaved::Edges::Axis,
-                    },
-                }),
-                other => return Err(anyhow::anyhow!("--filter `{other}`: none, plain, full or axis")),
-            };
+            let radius = radius.unwrap_or(pattern.n.max(pattern.m));
+            let blur = shutter::interleaved::Edges::of_filter(&filter)?
+                .map(|edges| shutter::interleaved::Blur { radius, bilinear, edges });
             let seed = seed.unwrap_or(sc.image.seed);
             let out = match out {
                 Some(o) => o,
