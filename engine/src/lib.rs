@@ -2,7 +2,7 @@
 //!
 //! Renders what a real camera sees — depth of field and motion blur — by estimating the pixel integral
 //! over pixel area (x,y), lens (u,v) and shutter time (t) with several techniques on raw Vulkan, and
-//! measures each against a CPU distribution ray tracer of the same scene model (DESIGN.md).
+//! measures each against a CPU distribution ray tracer of the same scene model (docs/MODEL.md).
 //!
 //! Data flows one way: [`scene`] → world and views ([`gpu`]) → plan ([`plan`]) → a frame graph of
 //! passes ([`graph`], built by a technique: [`techniques`]) → image → metrics. `docs/ARCHITECTURE.md`
@@ -15,6 +15,7 @@ pub mod error;
 pub mod geometry;
 pub mod gpu;
 pub mod graph;
+pub mod hard_cases;
 pub mod image;
 pub mod image_io;
 pub mod interleaved;

@@ -3,6 +3,7 @@
 
 mod bench;
 mod bounds_table;
+mod hard_cases;
 mod quality;
 
 use std::path::{Path, PathBuf};
@@ -61,13 +62,15 @@ enum Command {
         /// object from its blur, the thesis §4.7). The image does not depend on it.
         #[arg(long, default_value = "device")]
         bound: String,
-        /// Stochastic shading rate: per-pixel | per-sample | texture-space (adaptive texture-space
+        /// Stochastic shading rate: per-sample (the default: every sample shaded, unbiased) |
+        /// per-pixel (a pixel's samples of one triangle shaded once: ~10 % cheaper, with an error
+        /// floor; docs/HARD_CASES.md) | texture-space (adaptive texture-space
         /// shading: each object shaded once into a mip atlas at a level per triangle, looked up per
         /// sample; docs/ATSS.md) | texture-space-per-pixel | decoupled | aas | aas-isotropic (decoupled
         /// shading on the pixel grid or the AAS grids, memoization cache of --cache entries) |
         /// decoupled-deferred | aas-deferred | aas-isotropic-deferred (the same keys in a hash table
         /// of --cache entries, new points shaded by a dispatch of their own; docs/DECOUPLED.md).
-        #[arg(long, default_value = "per-pixel")]
+        #[arg(long, default_value = "per-sample")]
         shading: String,
         /// Stochastic: count samples tested / hit and shading invocations (atomics; slower).
         #[arg(long)]
@@ -345,6 +348,10 @@ enum Command {
         #[arg(long, default_value_t = 1)]
         warmup: usize,
     },
+    /// Run the hard-case matrix (scenes/hard/*.toml × every technique and shading rate against the
+    /// reference, with the convergence check) and print it, or write it into docs/HARD_CASES.md
+    /// (`--out`); exits 1 when a cell fails.
+    HardCases(hard_cases::HardCasesArgs),
     /// List the built-in scenes.
     Scenes,
     /// List the techniques (the registry, engine/src/techniques/registry.rs) with one line each.
@@ -1202,6 +1209,7 @@ fn run() -> Result<()> {
                 caps.driver_info
             );
         }
+        Command::HardCases(args) => hard_cases::run(args)?,
         Command::Scenes => {
             for s in BUILTIN_SCENES {
                 println!("{s}");
