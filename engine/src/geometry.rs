@@ -3,7 +3,7 @@
 //! consumer uses — the bounds' inside test ([`crate::bounds::sample_hit`], the specification of the
 //! GPU's `sample_hit` in `shaders-glsl/stochastic/inside.glsl`) and the reference's BVH
 //! ([`crate::reference::Bvh`]). A hit is therefore the same hit, with the same barycentrics and the
-//! same depth, whether the reference or a GPU technique finds it (DESIGN.md "The model").
+//! same depth, whether the reference or a GPU technique finds it (docs/MODEL.md "The model").
 //!
 //! Why a module of its own and not `bounds`: the bounds are the CPU mirror of one GPU technique's
 //! culling (stochastic rasterization), while the triangle and the hit are the model itself, which the

@@ -11,7 +11,7 @@
 //! stochastic frame of S samples per pixel, in which the pinhole objects are drawn by the plain
 //! pipeline into the same multisampled targets.
 //!
-//! Why bounds at the vertices suffice: camera-space positions are linear in t (DESIGN.md "Shutter"), a
+//! Why bounds at the vertices suffice: camera-space positions are linear in t (docs/MODEL.md "Shutter"), a
 //! linearly moving point projects to a straight screen path (a projective map keeps lines straight
 //! while z > 0), so its largest displacement is between its end positions; and `|φ(z)|` is monotonic
 //! on each side of the focus plane, so over a triangle (depths between its vertices') and over time

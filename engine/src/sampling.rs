@@ -1,6 +1,6 @@
 //! Sample sets over the five dimensions of the pixel integral: subpixel (x,y), lens (u,v), time t.
 //!
-//! DESIGN.md "Samples": each dimension is stratified on its own, then the dimensions are permuted
+//! docs/MODEL.md "Samples": each dimension is stratified on its own, then the dimensions are permuted
 //! independently so (x,y), (u,v) and t are uncorrelated inside a pixel (Toth & Linder §9.4). A
 //! [`SampleTile`] holds the sets of `tile × tile` pixels and is repeated over the screen; every GPU
 //! technique and the CPU reference can draw from the same tile, which makes paired comparisons possible.
@@ -169,7 +169,7 @@ pub struct SampleTile {
     samples: Vec<Sample5>,
 }
 
-/// DESIGN.md asks for tiles of at least 64×64 pixels so the repetition is not visible.
+/// docs/MODEL.md asks for tiles of at least 64×64 pixels so the repetition is not visible.
 pub const SAMPLE_TILE_SIZE: u32 = 64;
 
 impl SampleTile {
@@ -329,7 +329,7 @@ pub fn concentric_disk(sq: Vec2) -> Vec2 {
 /// Scene files spell it `shutter = "box" | "tent"` (`scene::file`).
 #[derive(Clone, Copy, Debug, PartialEq, Default)]
 pub enum ShutterCurve {
-    /// Constant exposure while open (the default; DESIGN.md).
+    /// Constant exposure while open (the default; docs/MODEL.md).
     #[default]
     Box,
     /// Linear ramp up to mid-shutter and down again (a shutter that opens and closes gradually).

@@ -1,4 +1,4 @@
-//! The one shading model (DESIGN.md "Shading"), CPU side. `shaders-glsl/common/shading.glsl` is its
+//! The one shading model (docs/MODEL.md "Shading"), CPU side. `shaders-glsl/common/shading.glsl` is its
 //! GLSL mirror; `tests/` compares the two through rendered images.
 //!
 //! ```text

@@ -6,7 +6,7 @@
 
 // Clip-space position of camera-space point p seen through lens sample `lens_unit` (unit aperture
 // coordinates), shifted by `jitter_px` pixels (the framebuffer shows true pixel position - jitter).
-// Screen position = pinhole projection + phi(z) * lens, phi(z) = A s (1/F - 1/z) (DESIGN.md).
+// Screen position = pinhole projection + phi(z) * lens, phi(z) = A s (1/F - 1/z) (docs/MODEL.md).
 // Depth is reversed Z between near (1) and far (0); everything stays linear in p, so attributes
 // interpolate perspective-correctly and motion (linear in camera space) stays linear in clip space.
 vec4 thin_lens_clip(vec3 p, vec2 lens_unit, vec2 jitter_px) {

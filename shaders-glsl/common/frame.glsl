@@ -1,7 +1,7 @@
 // Descriptor set 0, the frame: the world (uploaded once per scene) and one view (the camera, or a
 // light's shadow-map view). Mirrors engine/src/gpu/layout.rs (FRAME_SET, WorldUniforms, GpuMaterial,
 // ViewUniforms, GpuObjectView); a SPIR-V reflection test checks bindings, sizes and offsets.
-// View space throughout: +Y up, looking down -Z, view depth z = -p.z (DESIGN.md).
+// View space throughout: +Y up, looking down -Z, view depth z = -p.z (docs/MODEL.md).
 #ifndef SHUTTER_FRAME_GLSL
 #define SHUTTER_FRAME_GLSL
 

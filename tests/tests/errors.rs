@@ -97,7 +97,7 @@ fn probe_names_the_device_and_lavapipe() {
     assert!(text.contains(&caps.device_name) && text.contains("MSAA counts"), "{text}");
     if caps.device_name.contains("llvmpipe") {
         assert!(caps.is_lavapipe() && text.contains("lavapipe"), "{text}");
-        // Lavapipe offers 1x and 4x MSAA, a geometry shader and sample-rate shading (DESIGN.md).
+        // Lavapipe offers 1x and 4x MSAA, a geometry shader and sample-rate shading (docs/MODEL.md).
         assert!(caps.has(shutter::vk::Feature::Msaa(4)) && caps.geometry_shader && caps.sample_rate_shading);
     }
 }

@@ -1,5 +1,5 @@
 //! Adaptive anisotropic shading (Vaidyanathan, Toth, Salvi, Boulos & Lefohn, "Adaptive Image Space
-//! Shading for Motion and Defocus Blur", HPG 2012; `../shared/seeds/002_3da788667dc51ec5.txt`), the CPU
+//! Shading for Motion and Defocus Blur", HPG 2012), the CPU
 //! side, written before any GPU port (issue 14): how much a triangle's shading may be bandlimited given
 //! the blur the camera applies to it, and the anisotropic screen-space grid that samples it.
 //!

@@ -5,7 +5,7 @@
 //!
 //! # Model
 //! A [`MovingTriangle`] ([`crate::geometry`], re-exported here) holds camera-space vertices at shutter
-//! open and close; at time t each vertex is the linear interpolation (DESIGN.md "Shutter"). A point `p`
+//! open and close; at time t each vertex is the linear interpolation (docs/MODEL.md "Shutter"). A point `p`
 //! seen through lens sample `l` (unit disk) lands at pixel
 //! [`Intrinsics::project`]`(p, l) = pinhole(p) + φ(z)·(l.x, −l.y)` with `φ(z) = A·s·(1/F − 1/z)`.
 //!

@@ -1,7 +1,7 @@
 //! The image-space bound shapes, built from the six end-vertex discs.
 //!
 //! These were reconstructed from the thesis' shape names (Toth & Linder 2008, §4) before its text was
-//! at hand. Read against it (`../shared/seeds/`, §4.4–4.6): the **parallel-edge triangle**, **2D
+//! at hand. Read against it (§4.4–4.6): the **parallel-edge triangle**, **2D
 //! hexagon** and **variable-radius triangle** follow the thesis, with one generalisation — every
 //! offset is the support of all the discs, where the thesis takes the discs at the edge's endpoints —
 //! and they extend over the shutter through the six end discs. The thesis' **3D hexagon**, **wedge**

@@ -1,4 +1,4 @@
-//! The scene on the GPU, split by what it depends on (DESIGN.md "A frame, as data"):
+//! The scene on the GPU, split by what it depends on (docs/MODEL.md "A frame, as data"):
 //!
 //! * [`GpuWorld`] — uploaded once per scene and shared by every view: meshes in object space,
 //!   materials, textures, the environment;

@@ -4,7 +4,7 @@
 //!
 //! The object → view matrices are the CPU's products ([`crate::scene::CameraSpaceScene`]), the very
 //! values the CPU reference and the bounds mirror use, so every consumer moves vertices the same way
-//! (DESIGN.md "Shutter"); the GPU never re-multiplies world and view matrices.
+//! (docs/MODEL.md "Shutter"); the GPU never re-multiplies world and view matrices.
 
 use ash::vk;
 use glam::{Mat3, Mat4};

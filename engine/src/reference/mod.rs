@@ -1,4 +1,4 @@
-//! The CPU reference: a distribution ray tracer of the scene model of DESIGN.md — the ground truth every
+//! The CPU reference: a distribution ray tracer of the scene model of docs/MODEL.md — the ground truth every
 //! GPU image is measured against.
 //!
 //! It estimates the pixel integral over pixel area, lens and shutter with exactly the samples the GPU

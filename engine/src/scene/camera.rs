@@ -1,4 +1,4 @@
-//! The camera model of DESIGN.md, written once on the CPU: pinhole + thin lens + shutter.
+//! The camera model of docs/MODEL.md, written once on the CPU: pinhole + thin lens + shutter.
 //!
 //! Camera space: right-handed, +Y up, the camera looks down −Z, a point in front has view depth
 //! `z = −z_view > 0`. Pixel coordinates: x right, y **down**, origin at the top-left corner of the image,
@@ -63,12 +63,12 @@ impl Camera {
     }
 }
 
-/// `s = (H/2) / tan(vfov/2)`: pixels per unit of tan space at depth 1 (DESIGN.md "Pinhole").
+/// `s = (H/2) / tan(vfov/2)`: pixels per unit of tan space at depth 1 (docs/MODEL.md "Pinhole").
 pub fn pixel_scale(height: u32, vfov_deg: f32) -> f32 {
     (height as f32 * 0.5) / (vfov_deg.to_radians() * 0.5).tan()
 }
 
-/// Signed circle of confusion in pixels, `φ(z) = A·s·(1/F − 1/z)` (DESIGN.md "Thin lens"; ATSS Eq. 1).
+/// Signed circle of confusion in pixels, `φ(z) = A·s·(1/F − 1/z)` (docs/MODEL.md "Thin lens"; ATSS Eq. 1).
 /// A point at depth z is displaced on screen by `φ(z)·(u, v)` for lens sample (u, v) (y up).
 pub fn circle_of_confusion_px(z: f32, aperture_radius: f32, pixel_scale: f32, focus_distance: f32) -> f32 {
     aperture_radius * pixel_scale * (1.0 / focus_distance - 1.0 / z)
@@ -107,7 +107,7 @@ impl Intrinsics {
 
     /// The thin-lens primary ray through `pixel` from lens sample `lens` (unit aperture coordinates):
     /// it starts at the lens point and passes through the point where the pinhole ray through the same
-    /// pixel meets the plane of focus `z = F` (DESIGN.md). Returns (origin, unit direction), camera space.
+    /// pixel meets the plane of focus `z = F` (docs/MODEL.md). Returns (origin, unit direction), camera space.
     pub fn primary_ray(&self, pixel: Vec2, lens: Vec2) -> (Vec3, Vec3) {
         let tan = self.pixel_to_tan(pixel);
         let origin = self.lens_point(lens);

@@ -1,7 +1,7 @@
 //! The scene in camera space at its motion keys — the form every technique and the CPU reference
 //! consume, so they all move geometry the same way.
 //!
-//! DESIGN.md "Shutter": between two motion keys, a vertex's camera-space position at time t is the
+//! docs/MODEL.md "Shutter": between two motion keys, a vertex's camera-space position at time t is the
 //! *linear interpolation* of its camera-space positions at the keys (so clip-space positions are
 //! piecewise linear in t, and linear within a key segment as McGuire'10, AAS and ATSS assume). Normals
 //! are interpolated the same way and renormalised. An object's keys are the shutter ends plus its own

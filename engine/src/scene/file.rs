@@ -691,7 +691,7 @@ pub const DEFAULT_SENSOR_WIDTH_MM: f32 = 36.0;
 pub const MIN_VFOV_DEG: f32 = 1e-3;
 
 /// The vertical field of view of a lens of focal length `focal_mm` on a sensor `sensor_height_mm`
-/// high: `2·atan(h / 2f)` (a lens focused at infinity; the model's pinhole, DESIGN.md "Pinhole").
+/// high: `2·atan(h / 2f)` (a lens focused at infinity; the model's pinhole, docs/MODEL.md "Pinhole").
 pub fn vfov_deg_of_lens(focal_mm: f32, sensor_height_mm: f32) -> f32 {
     (2.0 * (sensor_height_mm as f64 / (2.0 * focal_mm as f64)).atan()).to_degrees() as f32
 }

@@ -3,7 +3,7 @@
 //! A [`Scene`] is fully resolved (meshes loaded and cleaned, textures decoded, transforms as matrices);
 //! `file.rs` builds one from TOML, `builtin.rs` holds the embedded scenes and procedural meshes.
 //! `camera_space.rs` turns it into the camera-space, linear-in-time form every technique and the CPU
-//! reference consume (DESIGN.md "Shutter").
+//! reference consume (docs/MODEL.md "Shutter").
 
 pub mod builtin;
 pub mod camera;
@@ -34,7 +34,7 @@ pub struct ImageSettings {
     pub seed: u64,
 }
 
-/// Surface description of the one shading model (DESIGN.md "Shading").
+/// Surface description of the one shading model (docs/MODEL.md "Shading").
 #[derive(Clone, Debug)]
 pub struct Material {
     /// Linear RGB albedo; multiplies the texture when there is one.
@@ -113,7 +113,7 @@ pub struct Object {
     pub mesh: Arc<Mesh>,
     /// Object → world transform keys `(shutter time, transform)`: times strictly increasing from 0;
     /// one key (at 0) for an object that does not move, otherwise the last at 1. Between keys the
-    /// motion is linear in camera space (DESIGN.md "Shutter"), so a rotation takes several keys
+    /// motion is linear in camera space (docs/MODEL.md "Shutter"), so a rotation takes several keys
     /// (`motion_keys` in the scene file) not to collapse through its centre.
     pub transforms: Vec<(f32, Mat4)>,
     pub material: Material,

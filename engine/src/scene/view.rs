@@ -10,7 +10,7 @@ use super::{CameraSpaceScene, Intrinsics, Scene};
 /// How a view maps its space to pixels and depth.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Projection {
-    /// The camera's thin lens (DESIGN.md "Thin lens"); an aperture of 0 is a pinhole perspective.
+    /// The camera's thin lens (docs/MODEL.md "Thin lens"); an aperture of 0 is a pinhole perspective.
     ThinLens(Intrinsics),
     /// Orthographic along −Z, for a directional light: `half_extent` world units each side of the axis
     /// in x and y over `width × height` pixels, view depth in `[near, far]` (reversed Z like the camera).

@@ -3,7 +3,7 @@
 //!
 //! The P samples are one stratified set (`sampling::stratified_samples`): subpixel offsets and lens
 //! points multi-jittered over P, times jittered over P strata, the three permuted independently. Each
-//! pass renders without MSAA so the pixel filter is exactly the box of DESIGN.md: S = P samples/pixel.
+//! pass renders without MSAA so the pixel filter is exactly the box of docs/MODEL.md: S = P samples/pixel.
 //!
 //! Coverage below 1 and tints: stochastic transparency on the forward path (`forward.rs`): in pass p a
 //! transparent fragment is kept iff sample p of its pixel's P is covered, the decision the reference
