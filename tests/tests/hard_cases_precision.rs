@@ -7,7 +7,7 @@ use shutter::image::LinearImage;
 use shutter::metrics::compare;
 use shutter::reference::{render_reference, ReferenceSettings};
 use shutter::scene::builtin::builtin_mesh;
-use shutter::scene::{Material, Mesh, Object, Scene};
+use shutter::scene::{Light, Material, Mesh, Object, Scene};
 use shutter::techniques::{RenderSettings, Renderer, ShadingRate, StochasticOptions, Technique};
 use shutter_tests::{camera, renderer, same_sample_reference, single_object_scene, square};
 
@@ -142,4 +142,107 @@ fn forward_passes_keep_a_surface_on_the_far_plane() {
         let rmse = forward_rmse(&mut r, &name, &scene, technique, 16, &truth);
         assert!(rmse < 0.03, "{name}: RMSE {rmse} (the face clipped?)");
     }
+}
+
+/// Issue 28 item 2: a lit sphere whose z scale goes 0.5 → 0 → −0.5 over three motion keys (turned
+/// so that the squashed axis is seen obliquely). `keys` are the three keys' times.
+fn zero_scale_scene(keys: [f32; 3]) -> Scene {
+    let key = |sz: f32| {
+        Mat4::from_translation(Vec3::new(0.0, 0.0, -3.0))
+            * Mat4::from_rotation_y(0.6)
+            * Mat4::from_scale(Vec3::new(1.0, 1.0, sz))
+    };
+    let mut s = single_object_scene(camera(40.0, 0.0, 3.0), sphere(), key(0.5), None, 48, 32);
+    s.objects[0].transforms = vec![(keys[0], key(0.5)), (keys[1], key(0.0)), (keys[2], key(-0.5))];
+    s.environment.ambient = Vec3::splat(0.05);
+    s.lights = vec![Light::Directional {
+        direction: Vec3::new(-1.0, -0.5, -0.3).normalize(),
+        color: Vec3::ONE,
+        shadows: false,
+    }];
+    s
+}
+
+fn mean(img: &LinearImage) -> f64 {
+    img.pixels.iter().map(|p| (p[0] + p[1] + p[2]) as f64).sum::<f64>() / (3 * img.pixels.len()) as f64
+}
+
+/// Issue 28 item 2: the singular key's inverse-transpose was NaN and poisoned the normals of both
+/// segments around it: accumulation RMSE 0.375, pinhole (at mid-shutter, the singular key itself) 0.426,
+/// texture-space 0.227; the stochastic rates and the reference agreed only because both fell back to
+/// the faceted geometric normal. The cofactor matrix (`camera_space::normal_matrices`) is defined there.
+#[test]
+fn a_motion_key_of_scale_zero_does_not_poison_the_normals() {
+    let mut r = renderer();
+    let scene = zero_scale_scene([0.0, 0.5, 1.0]);
+    let truth = reference(&scene, 256, 1);
+    let rmse = forward_rmse(&mut r, "zero-scale-accumulation", &scene, Technique::ACCUMULATION, 64, &truth);
+    assert!(rmse < 0.02, "accumulation: RMSE {rmse}");
+    // Pinhole sees the mid-shutter key: the sphere squashed flat, against the reference of that instant.
+    let mut frozen = scene.clone();
+    frozen.objects[0].transforms = vec![(0.0, scene.objects[0].transforms[1].1)];
+    let rmse = forward_rmse(
+        &mut r,
+        "zero-scale-pinhole",
+        &scene,
+        Technique::PINHOLE,
+        16,
+        &reference(&frozen, 64, 1),
+    );
+    assert!(rmse < 0.04, "pinhole: RMSE {rmse}");
+    // Smooth shading, not facets: the reference's image is not the geometric normals' any more.
+    let lit = truth.pixels.iter().filter(|p| p[0] > 0.2).count();
+    assert!(lit > 300, "the sphere is not lit in the reference ({lit} px)");
+    let rates = [
+        ("per-sample", ShadingRate::PerSample),
+        ("per-pixel", ShadingRate::PerPixel),
+        ("decoupled", ShadingRate::Decoupled { grid: shutter::decoupled::GridKind::Pixel, deferred: false }),
+    ];
+    for (name, rate) in rates {
+        let rmse = stochastic_rmse(&mut r, &format!("zero-scale-{name}"), &scene, rate, 16);
+        assert!(rmse < 1e-4, "stochastic {name}: RMSE {rmse}");
+    }
+    // Texture-space shading shades at mid-shutter — the flat disc — so it is only close; with the
+    // singular key off mid-shutter (0.25) it shades the segment after it, which NaN used to blacken.
+    for keys in [[0.0, 0.5, 1.0], [0.0, 0.25, 1.0]] {
+        let scene = zero_scale_scene(keys);
+        let truth = reference(&scene, 256, 1);
+        let o = StochasticOptions { shading: ShadingRate::TextureSpace, ..Default::default() };
+        let out = r
+            .render(&scene, Technique::STOCHASTIC, &RenderSettings::new(48, 32, 64, 5).with_stochastic(o))
+            .unwrap();
+        assert_finite("texture-space", &out.image);
+        let m = compare(&truth, &out.image).unwrap();
+        let ratio = mean(&out.image) / mean(&truth);
+        println!(
+            "zero-scale texture-space, keys {keys:?}: RMSE {:.5}, mean {ratio:.4} of the reference's",
+            m.rmse
+        );
+        save_montage(&format!("zero-scale-texture-space-{}", keys[1]), &truth, &out.image);
+        assert!(
+            m.rmse < 0.15 && (0.8..1.25).contains(&ratio),
+            "texture-space, keys {keys:?}: RMSE {}, mean ratio {ratio}",
+            m.rmse
+        );
+    }
+}
+
+/// A mirroring transform (scale −1 along x) of a sphere is the same sphere: it must be lit the same.
+/// The inverse-transpose kept the outward normal while the mirrored winding flips which side a ray
+/// sees, so every technique and the reference turned it inwards and lit the sphere from behind.
+#[test]
+fn a_mirrored_object_is_lit_from_the_front() {
+    let mut r = renderer();
+    let plain = zero_scale_scene([0.0, 0.5, 1.0]);
+    let mut plain = Scene { objects: plain.objects.clone(), ..plain };
+    plain.objects[0].transforms = vec![(0.0, Mat4::from_translation(Vec3::new(0.0, 0.0, -3.0)))];
+    let mut mirrored = plain.clone();
+    mirrored.objects[0].transforms[0].1 *= Mat4::from_scale(Vec3::new(-1.0, 1.0, 1.0));
+    let (a, b) = (reference(&plain, 64, 1), reference(&mirrored, 64, 1));
+    let m = compare(&a, &b).unwrap();
+    save_montage("mirrored-reference", &a, &b);
+    println!("mirrored sphere: reference RMSE {:.5} against the plain one", m.rmse);
+    assert!(m.rmse < 0.01, "the mirrored sphere is lit differently: RMSE {}", m.rmse);
+    let rmse = forward_rmse(&mut r, "mirrored-accumulation", &mirrored, Technique::ACCUMULATION, 16, &b);
+    assert!(rmse < 0.02, "accumulation: RMSE {rmse}");
 }
