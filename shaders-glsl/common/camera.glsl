@@ -20,10 +20,15 @@ vec4 thin_lens_clip(vec3 p, vec2 lens_unit, vec2 jitter_px) {
     clip.y = (-2.0 * s * qz.y - 2.0 * jitter_px.y * z) / H;
     clip.z = near_z * (far_z - z) / (far_z - near_z);
     // Exactly, 0 <= clip.z <= w on [near, far]; rounding could push a vertex lying exactly on the near
-    // (or far) plane out of the clip volume and drop a face the reference keeps. Kept 2^-20 inside:
-    // the rasterizer's interpolated depth of a face at exactly 1 also rounds above 1 here and there.
+    // plane out of the clip volume and drop a face the reference keeps, and a face exactly on the far
+    // plane has depth 0, which fails the GREATER test against the cleared 0. Both are kept a relative
+    // 2^-20 of view depth inside: depth 1 - 2^-20 (the rasterizer's interpolated depth of a face at
+    // exactly 1 also rounds above 1 here and there), and at the far end the depth of
+    // z = far (1 - 2^-20), about near / (far - near) 2^-20, not 2^-20 itself: depth falls like
+    // near / z, so an absolute floor of 2^-20 flattened everything beyond near 2^20 into one depth
+    // (1 km at near = 1 mm). Intrinsics::reversed_z (engine/src/scene/camera.rs) mirrors this.
     if (z >= near_z) clip.z = min(clip.z, z * (1.0 - 1.0 / 1048576.0));
-    if (z <= far_z) clip.z = max(clip.z, z * (1.0 / 1048576.0));
+    if (z <= far_z) clip.z = max(clip.z, z * (near_z / (far_z - near_z) * (1.0 / 1048576.0)));
     clip.w = z;
     return clip;
 }

@@ -313,6 +313,9 @@ fn validate(s: &ReferenceSettings, camera: &Camera) -> Result<()> {
     if camera.far.is_nan() || camera.far <= camera.near {
         return Err(limit("camera.far", camera.far, "> camera.near"));
     }
+    if let Err(e) = crate::scene::camera::check_depth_range(camera.near, camera.far) {
+        return Err(Error::scene("camera", e));
+    }
     if !(camera.focus_distance > 0.0 && camera.focus_distance.is_finite()) {
         return Err(limit("camera.focus_distance", camera.focus_distance, "finite and > 0"));
     }

@@ -41,6 +41,28 @@ pub struct Camera {
     pub far: f32,
 }
 
+/// Whether clip distances `near` and `far` keep the GPU's reversed-Z depth ordered: finite,
+/// `MIN_NEAR ≤ near < far` and `far / near ≤ MAX_FAR_OVER_NEAR` ([`crate::limits`]). `Err` says what
+/// is wrong, for the caller to put in context (the scene file and its key, or the scene's check).
+pub fn check_depth_range(near: f32, far: f32) -> std::result::Result<(), String> {
+    use crate::limits::{MAX_FAR_OVER_NEAR, MIN_NEAR};
+    if !(near.is_finite() && near >= MIN_NEAR) {
+        return Err(format!("near = {near} is out of range: must be finite and ≥ {MIN_NEAR:e} (MIN_NEAR)"));
+    }
+    if !(far.is_finite() && far > near) {
+        return Err(format!("far = {far} is out of range: must be finite and > near ({near})"));
+    }
+    if far / near > MAX_FAR_OVER_NEAR {
+        return Err(format!(
+            "far / near = {:e} is out of range: must be ≤ {MAX_FAR_OVER_NEAR:e} (MAX_FAR_OVER_NEAR; \
+             beyond it the GPU's 32-bit depth cannot keep surfaces near the far plane in order): raise \
+             near or lower far",
+            far / near
+        ));
+    }
+    Ok(())
+}
+
 impl Camera {
     pub fn pose_at_close(&self) -> CameraPose {
         self.close.unwrap_or(self.open)
@@ -116,6 +138,25 @@ impl Intrinsics {
         (origin, (focus_point - origin).normalize())
     }
 
+    /// The reversed-Z depth the rasterizer stores for a point at view depth `z` in `[near, far]`:
+    /// `near·(far − z) / ((far − near)·z)`, 1 at near and 0 at far, kept a relative 2⁻²⁰ of view depth
+    /// inside both ends (a face exactly on either plane stays in the clip volume and passes the
+    /// GREATER test against the cleared 0). The far end's floor is the depth of `far·(1 − 2⁻²⁰)`, about
+    /// `near / (far − near)·2⁻²⁰`: an absolute floor of 2⁻²⁰ merged every depth beyond `near·2²⁰`. The
+    /// mirror of `thin_lens_clip`'s `clip.z / clip.w` (`shaders-glsl/common/camera.glsl`), operation
+    /// for operation.
+    pub fn reversed_z(&self, z: f32) -> f32 {
+        let (near, far) = (self.near, self.far);
+        let mut clip_z = near * (far - z) / (far - near);
+        if z >= near {
+            clip_z = clip_z.min(z * (1.0 - 1.0 / 1048576.0));
+        }
+        if z <= far {
+            clip_z = clip_z.max(z * (near / (far - near) * (1.0 / 1048576.0)));
+        }
+        clip_z / z
+    }
+
     /// Where camera-space point `p` (depth `z = −p.z > 0`) lands in pixel coordinates when seen through
     /// lens sample `lens`: the pinhole projection displaced by `φ(z)·lens` (y up → pixel y down).
     /// This is exactly what the GPU vertex transform does (see `shaders-glsl/common/camera.glsl`).
@@ -146,6 +187,39 @@ mod tests {
             far: 100.0,
         }
         .intrinsics(320, 180)
+    }
+
+    /// The depth the forward passes store falls strictly with view depth over the whole range, at the
+    /// largest far / near allowed (and at near = 1 mm, far = 10 km of issue 28): the old absolute floor
+    /// of 2⁻²⁰ made every depth beyond near·2²⁰ equal.
+    #[test]
+    fn reversed_z_is_strictly_ordered_from_near_to_far() {
+        for (near, far) in [(0.001f32, 10000.0f32), (1e-3, 1e9), (0.05, 1000.0), (1.0, 1.0001)] {
+            assert!(check_depth_range(near, far).is_ok());
+            let mut k = intr(0.0, 1.0);
+            (k.near, k.far) = (near, far);
+            let at_near = k.reversed_z(near);
+            let at_far = k.reversed_z(far);
+            assert!(at_near < 1.0 && at_near > 0.99, "{near}..{far}: depth at near {at_near}");
+            assert!(at_far > 0.0 && at_far.is_normal(), "{near}..{far}: depth at far {at_far}");
+            // View depths a relative 2^-17 apart (away from the guarded 2^-20 at each end) keep their
+            // order; geometric steps cover every octave of the range.
+            let step = 1.0 + 1.0 / 131072.0;
+            let (mut z, mut last) = (near * (1.0 + 1.0 / 65536.0), f32::INFINITY);
+            let mut count = 0u64;
+            while z < far * (1.0 - 1.0 / 65536.0) {
+                let d = k.reversed_z(z);
+                assert!(d < last, "{near}..{far}: depth {d} at z = {z} is not below {last}");
+                last = d;
+                z *= step;
+                count += 1;
+            }
+            assert!(count > 10 || far / near < 2.0, "{near}..{far}: {count} steps");
+        }
+        // The ratio beyond the limit is refused, with the limit named.
+        assert!(check_depth_range(1e-3, 1e10).unwrap_err().contains("MAX_FAR_OVER_NEAR"));
+        assert!(check_depth_range(0.0, 1.0).unwrap_err().contains("MIN_NEAR"));
+        assert!(check_depth_range(1.0, f32::INFINITY).is_err());
     }
 
     #[test]

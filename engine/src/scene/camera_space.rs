@@ -13,7 +13,7 @@
 //! the ends alike (a spot's position like a point light's, its axis like a directional light's
 //! direction, renormalised).
 
-use glam::{Mat3, Mat4, Vec3};
+use glam::{DMat3, Mat3, Mat4, Vec3};
 
 use super::{Light, Scene};
 use crate::geometry::KeyTimes;
@@ -26,7 +26,7 @@ pub struct ObjectMotion {
     pub keys: KeyTimes,
     /// Object → view space at each key.
     pub model_view: Vec<Mat4>,
-    /// Inverse-transpose of the upper 3×3 of `model_view`, for normals.
+    /// Object-space normals → view space at each key: [`normal_matrices`] of `model_view`.
     pub normal_matrix: Vec<Mat3>,
 }
 
@@ -34,7 +34,7 @@ impl ObjectMotion {
     /// The motion through `model_view` at `keys` (one matrix per key).
     pub fn new(keys: KeyTimes, model_view: Vec<Mat4>) -> ObjectMotion {
         assert_eq!(keys.times().len(), model_view.len(), "one model-view per key");
-        let normal_matrix = model_view.iter().map(|m| Mat3::from_mat4(*m).inverse().transpose()).collect();
+        let normal_matrix = normal_matrices(&model_view);
         ObjectMotion { keys, model_view, normal_matrix }
     }
     pub fn is_moving(&self) -> bool {
@@ -52,6 +52,39 @@ impl ObjectMotion {
     pub fn normals(&self, n: Vec3) -> Vec<Vec3> {
         self.normal_matrix.iter().map(|m| *m * n).collect()
     }
+}
+
+/// The matrices that carry an object's normals to view space at each of its keys: the cofactor matrix
+/// of each key's upper 3×3 `M` (columns `c1 × c2, c2 × c0, c0 × c1`), which is `det(M)·M⁻ᵀ`, all
+/// divided by one positive constant per object (its largest entry over the keys) so that huge or
+/// tiny scales neither overflow nor underflow; computed in f64.
+///
+/// Why not the inverse-transpose: a key whose transform is singular (a scale passing through 0,
+/// 0.5 → −0.5 over three keys) has none — it was NaN and poisoned every shaded point of the
+/// neighbouring segments (the forward passes went black; the stochastic rasterizer and the reference
+/// fell back to the faceted geometric normal). The cofactor matrix is defined and continuous there:
+/// for a scale `s` along one axis its entries are linear in `s`, so interpolating it between keys is
+/// exact for such a motion, and through `s = 0` the normal turns to the flattened surface's. It also
+/// keeps the normal on the side of the winding (the geometric normal `(b − a) × (c − a)` is the
+/// cofactor matrix times the object-space one) under a mirroring key (det < 0), as every technique
+/// and the reference assume when they turn the normal to the side a ray or fragment sees; the
+/// inverse-transpose pointed such an object's normals inwards and lit it from behind. The common
+/// positive factor changes no direction and, shared by the keys, no interpolation.
+pub fn normal_matrices(model_view: &[Mat4]) -> Vec<Mat3> {
+    let cofactors: Vec<DMat3> = model_view
+        .iter()
+        .map(|m| {
+            let m = DMat3::from_mat4(m.as_dmat4());
+            DMat3::from_cols(m.y_axis.cross(m.z_axis), m.z_axis.cross(m.x_axis), m.x_axis.cross(m.y_axis))
+        })
+        .collect();
+    let largest = cofactors
+        .iter()
+        .flat_map(|c| c.to_cols_array())
+        .filter(|x| x.is_finite())
+        .fold(0.0f64, |m, x| m.max(x.abs()));
+    let scale = if largest > 0.0 { 1.0 / largest } else { 1.0 };
+    cofactors.iter().map(|c| (*c * scale).as_mat3()).collect()
 }
 
 /// A light in camera space at shutter open `[0]` and close `[1]`.
@@ -179,5 +212,41 @@ impl CameraSpaceScene {
 
     pub fn lights_at(&self, t: f32) -> Vec<ShadingLight> {
         self.lights.iter().map(|l| l.at(t)).collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The normal matrices are finite at a singular key, turn normals to the side of the winding
+    /// (the transformed triangle's geometric normal) under a mirroring key, and are the
+    /// inverse-transpose's directions for an ordinary one.
+    #[test]
+    fn normal_matrices_are_defined_for_singular_and_mirroring_keys() {
+        let (a, b, c) = (Vec3::new(0.2, -0.1, 0.3), Vec3::new(1.0, 0.2, -0.4), Vec3::new(-0.3, 0.9, 0.5));
+        let face = (b - a).cross(c - a);
+        let base = Mat4::from_translation(Vec3::new(0.5, -1.0, -4.0)) * Mat4::from_rotation_y(0.7);
+        let keys: Vec<Mat4> = [0.5f32, 0.0, -0.5, 1e-30]
+            .iter()
+            .map(|&s| base * Mat4::from_scale(Vec3::new(s, 1.0, 2.0)))
+            .collect();
+        let n = normal_matrices(&keys);
+        for (k, m) in keys.iter().enumerate() {
+            assert!(n[k].to_cols_array().iter().all(|x| x.is_finite()), "key {k}: {:?}", n[k]);
+            let geometric = (m.transform_point3(b) - m.transform_point3(a))
+                .cross(m.transform_point3(c) - m.transform_point3(a));
+            let mapped = n[k] * face;
+            assert!(mapped.length() > 0.0, "key {k}: the face's normal vanished");
+            let cos = mapped.dot(geometric) / (mapped.length() * geometric.length());
+            if geometric.length() > 1e-6 {
+                assert!(cos > 0.9999, "key {k}: the normal is off the winding's side (cos {cos})");
+            }
+        }
+        let inverse_transpose = Mat3::from_mat4(keys[0]).inverse().transpose() * face;
+        assert!((n[0] * face).normalize().dot(inverse_transpose.normalize()) > 0.99999);
+        // The singular key's normal is the flattened surface's: along the squashed axis.
+        let axis = base.transform_vector3(Vec3::X);
+        assert!((n[1] * face).normalize().dot(axis).abs() > 0.99999);
     }
 }

@@ -831,6 +831,7 @@ fn resolve_camera(cx: &Ctx, c: &FileCamera, image: &ImageSettings) -> Result<(Ca
     let far = c.far.unwrap_or(1000.0);
     cx.range("camera.near", near, near > 0.0, "> 0")?;
     cx.range("camera.far", far, far > near, "> near")?;
+    crate::scene::camera::check_depth_range(near, far).map_err(|e| cx.err("camera.near/far", e))?;
     let aperture = match c.aperture {
         None | Some(FileAperture::Disk {}) => ApertureShape::Disk,
         Some(FileAperture::SmoothDisk {}) => ApertureShape::SmoothDisk,
@@ -1582,6 +1583,9 @@ mod tests {
         assert!(cam("focus_distance = 0").contains("camera.focus_distance"));
         assert!(cam("near = 0").contains("camera.near"));
         assert!(cam("near = 2\nfar = 1").contains("camera.far"));
+        let e = cam("near = 0.001\nfar = 1e10");
+        assert!(e.contains("camera.near/far") && e.contains("MAX_FAR_OVER_NEAR"), "{e}");
+        assert!(cam("near = 1e-12").contains("MIN_NEAR"));
         assert!(cam("aperture = { shape = \"blades\", blades = 2 }").contains("blades"));
         assert!(cam("up = [0, 2, 10]").contains("parallel"));
         assert!(cam("[camera.close]\nlook_at = [0, 1, 5]").contains("camera.close.look_at"));

@@ -1,0 +1,248 @@
+//! Issue 28, hard cases of numeric extremes: every technique against the CPU reference on tiny images.
+
+use std::sync::Arc;
+
+use glam::{Mat4, Quat, Vec3};
+use shutter::image::LinearImage;
+use shutter::metrics::compare;
+use shutter::reference::{render_reference, ReferenceSettings};
+use shutter::scene::builtin::builtin_mesh;
+use shutter::scene::{Light, Material, Mesh, Object, Scene};
+use shutter::techniques::{RenderSettings, Renderer, ShadingRate, StochasticOptions, Technique};
+use shutter_tests::{camera, renderer, same_sample_reference, single_object_scene, square};
+
+fn reference(scene: &Scene, spp: u32, seed: u64) -> LinearImage {
+    let (width, height) = (scene.image.width, scene.image.height);
+    render_reference(
+        scene,
+        &ReferenceSettings { width, height, spp, seed, progress: false, shading: Default::default() },
+    )
+    .expect("reference")
+}
+
+/// Reference | actual | |difference|×4, each pixel 6×6, for a person to look at.
+fn save_montage(name: &str, truth: &LinearImage, actual: &LinearImage) {
+    const K: u32 = 6;
+    let (w, h) = (truth.width, truth.height);
+    let mut m = LinearImage::new(3 * w * K + 2 * K, h * K);
+    for y in 0..h * K {
+        for x in 0..w * K {
+            let (a, b) = (truth.get(x / K, y / K), actual.get(x / K, y / K));
+            let d = [0, 1, 2].map(|c| 4.0 * (a[c] - b[c]).abs());
+            m.set(x, y, a);
+            m.set(x + w * K + K, y, b);
+            m.set(x + 2 * (w * K + K), y, [d[0], d[1], d[2], 1.0]);
+        }
+    }
+    let _ =
+        shutter::image_io::save_image(shutter_tests::output_dir().join(format!("precision-{name}.png")), &m);
+}
+
+fn assert_finite(name: &str, img: &LinearImage) {
+    let bad = img.pixels.iter().filter(|p| p.iter().any(|c| !c.is_finite())).count();
+    assert_eq!(bad, 0, "{name}: {bad} pixels with NaN/Inf");
+}
+
+fn sphere() -> Arc<Mesh> {
+    Arc::new(builtin_mesh("sphere", Some(24)).expect("known").expect("builds"))
+}
+
+/// A forward technique (`pinhole` or `accumulation`) at S = `spp`: its RMSE against `truth`.
+fn forward_rmse(
+    r: &mut Renderer,
+    name: &str,
+    scene: &Scene,
+    technique: Technique,
+    spp: u32,
+    truth: &LinearImage,
+) -> f64 {
+    let (w, h) = (scene.image.width, scene.image.height);
+    let out = r.render(scene, technique, &RenderSettings::new(w, h, spp, 1)).expect("render");
+    assert_finite(name, &out.image);
+    let m = compare(truth, &out.image).unwrap();
+    println!("{name}: RMSE {:.5} FLIP {:.5}", m.rmse, m.flip);
+    save_montage(name, truth, &out.image);
+    m.rmse
+}
+
+/// `stochastic` at `rate` against the reference with the same samples: its RMSE.
+fn stochastic_rmse(r: &mut Renderer, name: &str, scene: &Scene, rate: ShadingRate, spp: u32) -> f64 {
+    let (w, h) = (scene.image.width, scene.image.height);
+    let o = StochasticOptions { shading: rate, ..Default::default() };
+    let out = r
+        .render(scene, Technique::STOCHASTIC, &RenderSettings::new(w, h, spp, 5).with_stochastic(o))
+        .expect("stochastic render");
+    assert_finite(name, &out.image);
+    let same = same_sample_reference(scene, (w, h), spp, 5, rate, &out);
+    let m = compare(&same, &out.image).unwrap();
+    println!("{name}: RMSE {:.6} FLIP {:.5} vs the same-sample reference", m.rmse, m.flip);
+    save_montage(name, &same, &out.image);
+    m.rmse
+}
+
+/// Issue 28 item 1: near 1 mm, far 10 km, a red sphere at 2 km in front of a blue one at 3 km.
+fn depth_order_scene() -> Scene {
+    let mut cam = camera(40.0, 0.0, 2000.0);
+    cam.near = 0.001;
+    cam.far = 10000.0;
+    let mut s = single_object_scene(cam, sphere(), Mat4::IDENTITY, None, 48, 32);
+    let ball = |name: &str, scale: f32, z: f32, albedo: Vec3| Object {
+        name: name.into(),
+        mesh: sphere(),
+        transforms: vec![(
+            0.0,
+            Mat4::from_scale_rotation_translation(Vec3::splat(scale), Quat::IDENTITY, Vec3::new(0.0, 0.0, z)),
+        )],
+        material: Material { albedo, ..Material::default() },
+    };
+    s.objects = vec![
+        ball("blue", 700.0, -3000.0, Vec3::new(0.1, 0.1, 1.0)),
+        ball("red", 300.0, -2000.0, Vec3::new(1.0, 0.1, 0.1)),
+    ];
+    s
+}
+
+/// Issue 28 item 1: `thin_lens_clip` floored the stored depth at 2⁻²⁰, which near = 1 mm reaches at
+/// 1 km: both spheres got the same depth and the one drawn first (the farther) won — pinhole and
+/// accumulation RMSE 0.199 and 0.201 against the reference. The floor is now relative to view depth.
+#[test]
+fn depth_order_kept_at_extreme_near_far_ratios() {
+    let mut r = renderer();
+    let scene = depth_order_scene();
+    let truth = reference(&scene, 64, 1);
+    for technique in [Technique::PINHOLE, Technique::ACCUMULATION] {
+        let name = format!("depth-order-{}", technique.name());
+        let rmse = forward_rmse(&mut r, &name, &scene, technique, 16, &truth);
+        assert!(rmse < 0.03, "{name}: RMSE {rmse} (the far sphere in front?)");
+    }
+    let rmse = stochastic_rmse(&mut r, "depth-order-stochastic", &scene, ShadingRate::PerSample, 16);
+    assert!(rmse < 1e-4, "stochastic: RMSE {rmse}");
+}
+
+/// The far end of the same guard: a face lying exactly on the far plane (depth 0 before the floor,
+/// which fails the GREATER test against the cleared 0) is still drawn by the forward passes.
+#[test]
+fn forward_passes_keep_a_surface_on_the_far_plane() {
+    let mut r = renderer();
+    let mut cam = camera(40.0, 0.0, 8.0);
+    cam.far = 8.0;
+    let scene = single_object_scene(
+        cam,
+        square(4.0),
+        Mat4::from_translation(Vec3::new(0.3, 0.2, -8.0)),
+        None,
+        48,
+        32,
+    );
+    let truth = reference(&scene, 64, 1);
+    let lit = truth.pixels.iter().filter(|p| p[0] > 0.99).count();
+    assert!(lit > 200, "the face is missing from the reference ({lit} px)");
+    for technique in [Technique::PINHOLE, Technique::ACCUMULATION] {
+        let name = format!("far-plane-{}", technique.name());
+        let rmse = forward_rmse(&mut r, &name, &scene, technique, 16, &truth);
+        assert!(rmse < 0.03, "{name}: RMSE {rmse} (the face clipped?)");
+    }
+}
+
+/// Issue 28 item 2: a lit sphere whose z scale goes 0.5 → 0 → −0.5 over three motion keys (turned
+/// so that the squashed axis is seen obliquely). `keys` are the three keys' times.
+fn zero_scale_scene(keys: [f32; 3]) -> Scene {
+    let key = |sz: f32| {
+        Mat4::from_translation(Vec3::new(0.0, 0.0, -3.0))
+            * Mat4::from_rotation_y(0.6)
+            * Mat4::from_scale(Vec3::new(1.0, 1.0, sz))
+    };
+    let mut s = single_object_scene(camera(40.0, 0.0, 3.0), sphere(), key(0.5), None, 48, 32);
+    s.objects[0].transforms = vec![(keys[0], key(0.5)), (keys[1], key(0.0)), (keys[2], key(-0.5))];
+    s.environment.ambient = Vec3::splat(0.05);
+    s.lights = vec![Light::Directional {
+        direction: Vec3::new(-1.0, -0.5, -0.3).normalize(),
+        color: Vec3::ONE,
+        shadows: false,
+    }];
+    s
+}
+
+fn mean(img: &LinearImage) -> f64 {
+    img.pixels.iter().map(|p| (p[0] + p[1] + p[2]) as f64).sum::<f64>() / (3 * img.pixels.len()) as f64
+}
+
+/// Issue 28 item 2: the singular key's inverse-transpose was NaN and poisoned the normals of both
+/// segments around it: accumulation RMSE 0.375, pinhole (at mid-shutter, the singular key itself) 0.426,
+/// texture-space 0.227; the stochastic rates and the reference agreed only because both fell back to
+/// the faceted geometric normal. The cofactor matrix (`camera_space::normal_matrices`) is defined there.
+#[test]
+fn a_motion_key_of_scale_zero_does_not_poison_the_normals() {
+    let mut r = renderer();
+    let scene = zero_scale_scene([0.0, 0.5, 1.0]);
+    let truth = reference(&scene, 256, 1);
+    let rmse = forward_rmse(&mut r, "zero-scale-accumulation", &scene, Technique::ACCUMULATION, 64, &truth);
+    assert!(rmse < 0.02, "accumulation: RMSE {rmse}");
+    // Pinhole sees the mid-shutter key: the sphere squashed flat, against the reference of that instant.
+    let mut frozen = scene.clone();
+    frozen.objects[0].transforms = vec![(0.0, scene.objects[0].transforms[1].1)];
+    let rmse = forward_rmse(
+        &mut r,
+        "zero-scale-pinhole",
+        &scene,
+        Technique::PINHOLE,
+        16,
+        &reference(&frozen, 64, 1),
+    );
+    assert!(rmse < 0.04, "pinhole: RMSE {rmse}");
+    // Smooth shading, not facets: the reference's image is not the geometric normals' any more.
+    let lit = truth.pixels.iter().filter(|p| p[0] > 0.2).count();
+    assert!(lit > 300, "the sphere is not lit in the reference ({lit} px)");
+    let rates = [
+        ("per-sample", ShadingRate::PerSample),
+        ("per-pixel", ShadingRate::PerPixel),
+        ("decoupled", ShadingRate::Decoupled { grid: shutter::decoupled::GridKind::Pixel, deferred: false }),
+    ];
+    for (name, rate) in rates {
+        let rmse = stochastic_rmse(&mut r, &format!("zero-scale-{name}"), &scene, rate, 16);
+        assert!(rmse < 1e-4, "stochastic {name}: RMSE {rmse}");
+    }
+    // Texture-space shading shades at mid-shutter — the flat disc — so it is only close; with the
+    // singular key off mid-shutter (0.25) it shades the segment after it, which NaN used to blacken.
+    for keys in [[0.0, 0.5, 1.0], [0.0, 0.25, 1.0]] {
+        let scene = zero_scale_scene(keys);
+        let truth = reference(&scene, 256, 1);
+        let o = StochasticOptions { shading: ShadingRate::TextureSpace, ..Default::default() };
+        let out = r
+            .render(&scene, Technique::STOCHASTIC, &RenderSettings::new(48, 32, 64, 5).with_stochastic(o))
+            .unwrap();
+        assert_finite("texture-space", &out.image);
+        let m = compare(&truth, &out.image).unwrap();
+        let ratio = mean(&out.image) / mean(&truth);
+        println!(
+            "zero-scale texture-space, keys {keys:?}: RMSE {:.5}, mean {ratio:.4} of the reference's",
+            m.rmse
+        );
+        save_montage(&format!("zero-scale-texture-space-{}", keys[1]), &truth, &out.image);
+        assert!(
+            m.rmse < 0.15 && (0.8..1.25).contains(&ratio),
+            "texture-space, keys {keys:?}: RMSE {}, mean ratio {ratio}",
+            m.rmse
+        );
+    }
+}
+
+/// A mirroring transform (scale −1 along x) of a sphere is the same sphere: it must be lit the same.
+/// The inverse-transpose kept the outward normal while the mirrored winding flips which side a ray
+/// sees, so every technique and the reference turned it inwards and lit the sphere from behind.
+#[test]
+fn a_mirrored_object_is_lit_from_the_front() {
+    let mut r = renderer();
+    let plain = zero_scale_scene([0.0, 0.5, 1.0]);
+    let mut plain = Scene { objects: plain.objects.clone(), ..plain };
+    plain.objects[0].transforms = vec![(0.0, Mat4::from_translation(Vec3::new(0.0, 0.0, -3.0)))];
+    let mut mirrored = plain.clone();
+    mirrored.objects[0].transforms[0].1 *= Mat4::from_scale(Vec3::new(-1.0, 1.0, 1.0));
+    let (a, b) = (reference(&plain, 64, 1), reference(&mirrored, 64, 1));
+    let m = compare(&a, &b).unwrap();
+    save_montage("mirrored-reference", &a, &b);
+    println!("mirrored sphere: reference RMSE {:.5} against the plain one", m.rmse);
+    assert!(m.rmse < 0.01, "the mirrored sphere is lit differently: RMSE {}", m.rmse);
+    let rmse = forward_rmse(&mut r, "mirrored-accumulation", &mirrored, Technique::ACCUMULATION, 16, &b);
+    assert!(rmse < 0.02, "accumulation: RMSE {rmse}");
+}
