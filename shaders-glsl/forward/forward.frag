@@ -13,21 +13,12 @@ layout(push_constant) uniform Push {
     float segment_time;
 } pc;
 
-// SAMPLE_RATE: every input interpolated at its sample's position, which makes the stage run per sample
-// (GLSL: a `sample` input forces sample-rate evaluation). A pipeline's minSampleShading alone is not
-// honoured by every driver (Mesa 22.3.6 lavapipe shaded pinhole once per pixel with it), and shading
-// once per pixel leaves a floor in the image that no sample count removes (docs/HARD_CASES.md).
-#ifdef SAMPLE_RATE
-#define AT_SAMPLE sample
-#else
-#define AT_SAMPLE
-#endif
-layout(location = 0) AT_SAMPLE in vec3 v_position;
-layout(location = 1) AT_SAMPLE in vec3 v_normal;
-layout(location = 2) AT_SAMPLE in vec2 v_uv;
+layout(location = 0) in vec3 v_position;
+layout(location = 1) in vec3 v_normal;
+layout(location = 2) in vec2 v_uv;
 #ifdef SHADOWS
-layout(location = 3) AT_SAMPLE in vec3 v_object_position;
-layout(location = 4) AT_SAMPLE in vec3 v_object_normal;
+layout(location = 3) in vec3 v_object_position;
+layout(location = 4) in vec3 v_object_normal;
 #endif
 layout(location = 0) out vec4 out_color;
 

@@ -193,15 +193,8 @@ impl ForwardPipeline {
         let lookup = shadows.map(ShadowLookup::of);
         let vert = forward_vert(device, lookup.is_some())?;
         let (shadow_axis, shadow_color) = lookup.map_or((Shadows::None, false), |l| (l.shadows, l.color));
-        // With MSAA (pinhole's 4×), shade every sample at its own position where the device can:
-        // shading once per pixel would give the image a floor — the pixel's shading variation (a hard
-        // spot cone's edge, a grazing light) that no sample count removes (issue 28, the hard-case
-        // matrix's `grazing-light`). Mips still filter textures over the pixel's footprint.
-        let sample_rate = samples > 1 && device.caps.sample_rate_shading;
-        let frag = ShaderModule::new(
-            device,
-            shaders::ForwardFrag { shadows: shadow_axis, shadow_color, sample_rate }.source(),
-        )?;
+        let frag =
+            ShaderModule::new(device, shaders::ForwardFrag { shadows: shadow_axis, shadow_color }.source())?;
         let layout = forward_layout(device, world, shadows, std::mem::size_of::<ForwardPush>())?;
         let (bindings, attributes) = vertex_input();
         let pipeline = Pipeline::graphics(
@@ -215,7 +208,12 @@ impl ForwardPipeline {
                 color_formats: &[format],
                 depth_format: Some(DEPTH_FORMAT),
                 samples,
-                sample_shading: sample_rate.then_some(1.0),
+                // With MSAA (pinhole's 4×), shade every sample at its own position where the device
+                // can: shading once per pixel would give the image a floor — the pixel's shading
+                // variation (a hard spot cone's edge, a grazing light) that no sample count removes
+                // (issue 28, the hard-case matrix's `grazing-light`). Mips still filter textures over
+                // the pixel's footprint.
+                sample_shading: (samples > 1 && device.caps.sample_rate_shading).then_some(1.0),
                 // One-sided materials' back faces culled per draw, as the reference's camera rays skip them.
                 faces: Faces::PerObject,
                 depth_compare: vk::CompareOp::GREATER,
