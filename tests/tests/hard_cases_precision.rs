@@ -246,3 +246,123 @@ fn a_mirrored_object_is_lit_from_the_front() {
     let rmse = forward_rmse(&mut r, "mirrored-accumulation", &mirrored, Technique::ACCUMULATION, 16, &b);
     assert!(rmse < 0.02, "accumulation: RMSE {rmse}");
 }
+
+/// Issue 28 item 6, normals: an OBJ whose normals are 3e38 long. Their f32 length overflowed, so
+/// `normalize` made them 0: accumulation shaded black (normalize(0) is NaN) while the reference fell
+/// back to the face normal. Mesh::new normalises them in f64.
+#[test]
+fn huge_obj_normals_are_directions_in_every_technique() {
+    let obj =
+        "v -1 -1 0\nv 1 -1 0\nv 1 1 0\nv -1 1 0\nvn 0 0 3e38\nvn 0 3e38 3e38\nvn 3e38 0 3e38\nvn 0 0 3e38\n\
+               f 1//1 2//2 3//3\nf 1//1 3//3 4//4\n";
+    let mesh =
+        Arc::new(shutter::scene::mesh::parse_obj(obj.as_bytes(), "huge-normals.obj", false).expect("parses"));
+    assert!(mesh.normals.iter().all(|n| (n.length() - 1.0).abs() < 1e-6), "{:?}", mesh.normals);
+    let mut scene = single_object_scene(
+        camera(40.0, 0.0, 4.0),
+        mesh,
+        Mat4::from_translation(Vec3::new(0.0, 0.0, -4.0)),
+        None,
+        48,
+        32,
+    );
+    scene.environment.ambient = Vec3::splat(0.05);
+    scene.lights = vec![Light::Directional {
+        direction: Vec3::new(-0.3, -0.4, -1.0).normalize(),
+        color: Vec3::ONE,
+        shadows: false,
+    }];
+    let mut r = renderer();
+    let truth = reference(&scene, 64, 1);
+    let lit = truth.pixels.iter().filter(|p| p[0] > 0.3).count();
+    assert!(lit > 200, "the reference does not light the face ({lit} px)");
+    for technique in [Technique::PINHOLE, Technique::ACCUMULATION] {
+        let name = format!("huge-normals-{}", technique.name());
+        let rmse = forward_rmse(&mut r, &name, &scene, technique, 16, &truth);
+        assert!(rmse < 0.03, "{name}: RMSE {rmse}");
+    }
+    let rmse = stochastic_rmse(&mut r, "huge-normals-stochastic", &scene, ShadingRate::PerSample, 16);
+    assert!(rmse < 1e-4, "stochastic: RMSE {rmse}");
+}
+
+/// Issue 28 item 6, the one rule for coordinates and colours (scene::extremes): a triangle at ±1e18
+/// (the reference's inside test overflowed and dropped it, the rasterizers drew it) and two lights of
+/// colour 3e38 (Inf pixels in every technique) are refused with a message naming the part — by the
+/// GPU renderer, the reference and the scene file alike.
+#[test]
+fn coordinates_and_colours_beyond_the_limits_are_refused_everywhere() {
+    let mut r = renderer();
+    let far = Mesh::new(
+        "far",
+        vec![Vec3::new(-1e18, -1e18, -5.0), Vec3::new(1e18, -1e18, -5.0), Vec3::new(0.0, 1e18, -5.0)],
+        vec![],
+        vec![],
+        vec![0, 1, 2],
+    )
+    .expect("mesh");
+    let mut huge = single_object_scene(camera(40.0, 0.0, 4.0), Arc::new(far), Mat4::IDENTITY, None, 32, 18);
+    huge.objects[0].name = "sky-plate".into();
+    let mut bright = single_object_scene(
+        camera(40.0, 0.0, 4.0),
+        square(1.0),
+        Mat4::from_translation(Vec3::new(0.0, 0.0, -3.0)),
+        None,
+        32,
+        18,
+    );
+    bright.lights =
+        vec![
+            Light::Point { position: Vec3::new(0.0, 0.0, -2.0), color: Vec3::splat(3e38), shadows: false };
+            2
+        ];
+    for (scene, part) in [(&huge, "object `sky-plate`"), (&bright, "light 0")] {
+        for technique in [Technique::PINHOLE, Technique::ACCUMULATION, Technique::STOCHASTIC] {
+            let e = match r.render(scene, technique, &RenderSettings::new(32, 18, 4, 1)) {
+                Ok(_) => panic!("{}: {part} rendered", technique.name()),
+                Err(e) => e.to_string(),
+            };
+            assert!(e.contains(part) && e.contains("MAX_"), "{}: {e}", technique.name());
+        }
+        let settings = ReferenceSettings {
+            width: 32,
+            height: 18,
+            spp: 4,
+            seed: 1,
+            progress: false,
+            shading: Default::default(),
+        };
+        let e =
+            render_reference(scene, &settings).map(|_| ()).expect_err("the reference refuses").to_string();
+        assert!(e.contains(part) && e.contains("MAX_"), "reference: {e}");
+    }
+    // The same through the scene file, naming the file.
+    let file = "[camera]\nposition = [0, 0, 0]\nlook_at = [0, 0, -1]\n[[light]]\ntype = \"point\"\n\
+                position = [0, 0, -2]\ncolor = [3e38, 3e38, 3e38]\n";
+    let e = shutter::scene::file::parse_scene(file, std::path::Path::new("."), "bright")
+        .expect_err("refused")
+        .to_string();
+    assert!(e.contains("light 0") && e.contains("MAX_COLOR"), "{e}");
+    let file =
+        "[camera]\nposition = [0, 0, 0]\nlook_at = [0, 0, -1]\n[[object]]\nname = \"big\"\nmesh = \"box\"\n\
+                [object.transform]\nscale = 1e18\n";
+    let e = shutter::scene::file::parse_scene(file, std::path::Path::new("."), "big")
+        .expect_err("refused")
+        .to_string();
+    assert!(e.contains("object `big`") && e.contains("MAX_COORDINATE"), "{e}");
+    // At the limits themselves every technique stays finite: two lights of MAX_COLOR on a surface of
+    // albedo and specular MAX_COLOR, one of them on the surface.
+    let mut edge = bright.clone();
+    let max = shutter::limits::MAX_COLOR;
+    edge.lights = vec![
+        Light::Point { position: Vec3::new(0.0, 0.0, -3.0), color: Vec3::splat(max), shadows: false },
+        Light::Directional { direction: -Vec3::Z, color: Vec3::splat(max), shadows: false },
+    ];
+    edge.objects[0].material.albedo = Vec3::splat(max);
+    edge.objects[0].material.specular = max;
+    edge.environment.ambient = Vec3::splat(max);
+    for technique in [Technique::PINHOLE, Technique::ACCUMULATION, Technique::STOCHASTIC] {
+        let out = r.render(&edge, technique, &RenderSettings::new(32, 18, 4, 1)).expect("renders");
+        assert_finite(technique.name(), &out.image);
+    }
+    assert_finite("reference", &reference(&edge, 4, 1));
+}

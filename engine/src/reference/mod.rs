@@ -228,6 +228,7 @@ fn render(
     vpls: Option<&VplSettings>,
 ) -> Result<(LinearImage, ReferenceStats, usize)> {
     validate(settings, &scene.camera)?;
+    crate::scene::extremes::check_scene(scene)?;
     let start = Instant::now();
     let mut tracer = Tracer::new(scene, settings);
     tracer.shared = shared.map(|s| s.to_vec());

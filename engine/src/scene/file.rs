@@ -654,14 +654,20 @@ fn parse_with_source(text: &str, base_dir: &Path, default_name: &str, source: &s
         }
     }
 
-    Ok(Scene {
+    let scene = Scene {
         name: file.name.clone().unwrap_or_else(|| default_name.to_string()),
         image,
         camera,
         objects,
         lights,
         environment,
-    })
+    };
+    // Coordinates and colours within the limits every technique agrees in (scene::extremes).
+    super::extremes::check_scene(&scene).map_err(|e| match e {
+        Error::Scene { context, message } => cx.err(&context, message),
+        e => e,
+    })?;
+    Ok(scene)
 }
 
 fn resolve_pose(cx: &Ctx, field: &str, position: V3, look_at: V3, up: V3) -> Result<CameraPose> {

@@ -78,12 +78,27 @@ impl Mesh {
             }
             kept.extend_from_slice(tri);
         }
-        let normals =
-            if normals.is_empty() || normals.iter().any(|n| !n.is_finite() || n.length_squared() < 1e-12) {
-                smooth_normals(&positions, &kept)
-            } else {
-                normals.into_iter().map(|n| n.normalize()).collect()
-            };
+        // Given normals are directions of any finite length: normalised in f64, where neither 3e38
+        // (whose f32 length overflows, so `normalize` made it 0 and the GPU shaded it black while the
+        // reference fell back to the face) nor 1e-30 loses them. A zero or non-finite one takes the
+        // vertex's area-weighted face normal, as a mesh without normals has everywhere.
+        let normals = if normals.is_empty() {
+            smooth_normals(&positions, &kept)
+        } else {
+            let unit: Vec<Option<Vec3>> = normals
+                .iter()
+                .map(|n| {
+                    let d = n.as_dvec3();
+                    let len = d.length();
+                    (n.is_finite() && len > 0.0).then(|| (d / len).as_vec3())
+                })
+                .collect();
+            let smooth = unit.iter().any(Option::is_none).then(|| smooth_normals(&positions, &kept));
+            unit.iter()
+                .enumerate()
+                .map(|(i, n)| n.unwrap_or_else(|| smooth.as_ref().expect("computed when one is missing")[i]))
+                .collect()
+        };
         Ok(Mesh { positions, normals, uvs, indices: kept, stats })
     }
 
@@ -292,6 +307,22 @@ mod tests {
         assert_eq!(m.triangle_count(), 1);
         assert_eq!(m.stats.skipped_degenerate, 3);
         assert!((m.normals[0] - Vec3::Z).length() < 1e-6);
+    }
+
+    /// Normals of any finite length are directions (3e38 overflowed f32's length and became 0; tiny
+    /// ones were replaced); a zero or non-finite normal takes its vertex's face normal, the others stay.
+    #[test]
+    fn extreme_normals_are_normalised_and_bad_ones_fall_back_to_the_face() {
+        let p = vec![Vec3::ZERO, Vec3::X, Vec3::Y];
+        let n = vec![Vec3::new(3e38, 0.0, 3e38), Vec3::new(0.0, 1e-30, 0.0), Vec3::ZERO];
+        let m = Mesh::new("t", p.clone(), n, vec![], vec![0, 1, 2]).unwrap();
+        let h = std::f32::consts::FRAC_1_SQRT_2;
+        assert!((m.normals[0] - Vec3::new(h, 0.0, h)).length() < 1e-6, "{}", m.normals[0]);
+        assert!((m.normals[1] - Vec3::Y).length() < 1e-6, "{}", m.normals[1]);
+        assert!((m.normals[2] - Vec3::Z).length() < 1e-6, "{}", m.normals[2]);
+        let n = vec![Vec3::new(f32::NAN, 0.0, 1.0), Vec3::X, Vec3::new(f32::INFINITY, 0.0, 0.0)];
+        let m = Mesh::new("t", p, n, vec![], vec![0, 1, 2]).unwrap();
+        assert_eq!(m.normals, vec![Vec3::Z, Vec3::X, Vec3::Z]);
     }
 
     #[test]

@@ -8,6 +8,7 @@
 pub mod builtin;
 pub mod camera;
 pub mod camera_space;
+pub mod extremes;
 pub mod file;
 pub mod mesh;
 pub mod texture;
