@@ -11,6 +11,7 @@ pub mod camera_space;
 pub mod file;
 pub mod mesh;
 pub mod texture;
+pub mod validate;
 pub mod view;
 
 use std::sync::Arc;
