@@ -104,6 +104,22 @@ pub fn check_output_file(path: impl AsRef<Path>) -> Result<()> {
     if path.is_dir() {
         return Err(output_error(path, "it is a folder; give a file name"));
     }
+    // A device or a pipe (itself or behind a link) is written through, not replaced: it needs no new
+    // file in its folder (`/dev` is not ours to write in), only to be writable.
+    match Target::of(path)? {
+        Target::File => {}
+        Target::Stream(kind) => {
+            if kind == "character device" {
+                // Opening a character device is harmless (no truncation); a pipe is not opened here,
+                // which would wait for a reader.
+                std::fs::OpenOptions::new()
+                    .write(true)
+                    .open(path)
+                    .map_err(|e| output_error(path, format!("cannot open the {kind} for writing: {e}")))?;
+            }
+            return Ok(());
+        }
+    }
     let dir = parent_dir(path);
     match std::fs::metadata(dir) {
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
@@ -136,11 +152,60 @@ pub fn check_image_output(path: impl AsRef<Path>) -> Result<()> {
     check_output_file(path)
 }
 
+/// What an output path names, through any symbolic link.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Target {
+    /// A regular file, or nothing yet: written atomically.
+    File,
+    /// A character device (`/dev/null`, a terminal) or a named pipe: written through, in place, as a
+    /// shell's `>` would — replacing it by a regular file would destroy the node.
+    Stream(&'static str),
+}
+
+impl Target {
+    /// What `path` names; a block device, a socket or anything else that is neither a file nor a
+    /// stream is refused (an image written over a disk is never what was meant).
+    fn of(path: &Path) -> Result<Target> {
+        let Ok(meta) = std::fs::metadata(path) else { return Ok(Target::File) };
+        if meta.is_file() {
+            return Ok(Target::File);
+        }
+        #[cfg(unix)]
+        {
+            use std::os::unix::fs::FileTypeExt;
+            let t = meta.file_type();
+            if t.is_char_device() {
+                return Ok(Target::Stream("character device"));
+            }
+            if t.is_fifo() {
+                return Ok(Target::Stream("named pipe"));
+            }
+            let kind = if t.is_block_device() {
+                "a block device"
+            } else if t.is_socket() {
+                "a socket"
+            } else if t.is_dir() {
+                "a folder"
+            } else {
+                "not a regular file"
+            };
+            return Err(output_error(
+                path,
+                format!("it is {kind}; Shutter writes regular files, character devices and named pipes"),
+            ));
+        }
+        #[allow(unreachable_code)]
+        Err(output_error(path, "it is not a regular file"))
+    }
+}
+
 /// Writes `bytes` to `path` all or nothing: into a temporary file beside it, synced, then renamed over
 /// it. On any failure (a full disk, a lost permission) the temporary file is removed and a previous
 /// file at `path` is left as it was; the error names `path`. A previous file's permissions are kept,
 /// and a symbolic link at `path` is written through (its target replaced, the link kept), as an
-/// in-place write would.
+/// in-place write would. A character device or a named pipe (at `path` or behind its link) is
+/// written into in place — it cannot be replaced without destroying it — and a block device or a
+/// socket is refused.
 pub fn write_file_atomically(path: impl AsRef<Path>, bytes: &[u8]) -> Result<()> {
     write_atomically_with(path.as_ref(), |file| file.write_all(bytes))
 }
@@ -161,6 +226,15 @@ pub(crate) fn write_atomically_with(
         }
         _ => path,
     };
+    if let Target::Stream(kind) = Target::of(path)? {
+        let mut stream = std::fs::OpenOptions::new()
+            .write(true)
+            .open(path)
+            .map_err(|e| output_error(path, format!("cannot open the {kind} for writing: {e}")))?;
+        return write(&mut stream)
+            .and_then(|()| stream.flush())
+            .map_err(|e| output_error(path, format!("writing into the {kind} failed: {e}")));
+    }
     let permissions = std::fs::metadata(path).ok().map(|m| m.permissions());
     let temp = temp_sibling(path);
     let mut file = std::fs::OpenOptions::new()
@@ -291,7 +365,12 @@ pub fn save_image(path: impl AsRef<Path>, image: &LinearImage) -> Result<()> {
 /// The format is recognised from the file's contents. Every error names the path.
 pub fn load_image(path: impl AsRef<Path>) -> Result<LinearImage> {
     let path = path.as_ref();
-    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    let bytes = crate::limits::read_capped(
+        path,
+        crate::limits::MAX_IMAGE_FILE_BYTES,
+        "image file",
+        "MAX_IMAGE_FILE_BYTES",
+    )?;
     if bytes.starts_with(&EXR_MAGIC) {
         decode_exr(path, bytes)
     } else if bytes.starts_with(&PNG_MAGIC) {
@@ -626,6 +705,63 @@ mod tests {
         assert_eq!(mode, 0o640);
         assert_eq!((back.width, back.height), (6, 2));
         assert_eq!(left, 2, "a temporary file left behind");
+    }
+
+    /// Issue 28, item 13: an output that is a named pipe, or a link to a character device, is written
+    /// through — the node stays what it was (before, the atomic rename replaced it by a regular file:
+    /// as root, `--out` through a link to `/dev/null` replaced `/dev/null`) — and a socket is refused,
+    /// before and at writing, and left alone.
+    #[cfg(unix)]
+    #[test]
+    fn devices_and_pipes_are_written_through_not_replaced() {
+        use std::os::unix::fs::FileTypeExt;
+        let dir = temp_dir("nodes");
+        let img = noisy_image(5, 3);
+        let fifo = dir.join("pipe.png");
+        let made = std::process::Command::new("mkfifo").arg(&fifo).status().map(|s| s.success());
+        if made.unwrap_or(false) {
+            // The read end opened first, non-blocking (O_NONBLOCK), so the writer finds a reader and
+            // nothing waits; the small image fits the pipe's buffer.
+            let drain = |fifo: &Path| {
+                use std::os::unix::fs::OpenOptionsExt;
+                std::fs::OpenOptions::new().read(true).custom_flags(0o4000).open(fifo).unwrap()
+            };
+            let read_all = |mut r: File| {
+                use std::io::Read;
+                let mut got = vec![];
+                let _ = r.read_to_end(&mut got);
+                got
+            };
+            let reader = drain(&fifo);
+            check_image_output(&fifo).unwrap();
+            save_image(&fifo, &img).unwrap();
+            assert!(std::fs::symlink_metadata(&fifo).unwrap().file_type().is_fifo(), "the pipe was replaced");
+            let got = read_all(reader);
+            assert!(got.starts_with(&PNG_MAGIC), "the reader got {} bytes, not a PNG", got.len());
+            // Through a link as well.
+            let link = dir.join("to-pipe.png");
+            std::os::unix::fs::symlink(&fifo, &link).unwrap();
+            let reader = drain(&fifo);
+            save_image(&link, &img).unwrap();
+            assert!(std::fs::symlink_metadata(&fifo).unwrap().file_type().is_fifo());
+            assert!(std::fs::symlink_metadata(&link).unwrap().file_type().is_symlink());
+            assert!(read_all(reader).starts_with(&PNG_MAGIC));
+        }
+        let null = dir.join("null.exr");
+        std::os::unix::fs::symlink("/dev/null", &null).unwrap();
+        check_image_output(&null).unwrap();
+        save_image(&null, &img).unwrap();
+        assert!(std::fs::metadata("/dev/null").unwrap().file_type().is_char_device(), "/dev/null replaced");
+        assert!(std::fs::symlink_metadata(&null).unwrap().file_type().is_symlink());
+        let socket = dir.join("socket.png");
+        let _listener = std::os::unix::net::UnixListener::bind(&socket).unwrap();
+        for e in [check_image_output(&socket).unwrap_err(), save_image(&socket, &img).unwrap_err()] {
+            assert!(e.to_string().contains("it is a socket"), "{e}");
+        }
+        assert!(std::fs::symlink_metadata(&socket).unwrap().file_type().is_socket());
+        let left: Vec<_> = std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().file_name()).collect();
+        std::fs::remove_dir_all(&dir).ok();
+        assert!(left.iter().all(|n| !n.to_string_lossy().ends_with(".tmp")), "{left:?}");
     }
 
     #[test]

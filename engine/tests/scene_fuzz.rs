@@ -14,16 +14,30 @@
 //!     SHUTTER_FUZZ_CASES=1000000 SHUTTER_FUZZ_SEED=1000 nice -n 19 cargo test -p shutter --test scene_fuzz -- --nocapture
 //!
 //! `SHUTTER_FUZZ_SEED` picks another sequence of cases (default: a fixed one, so CI is reproducible).
+//!
+//! The scene model's in-code path (issue 28, item 16) is fuzzed too: random [`Scene`] values — every
+//! field from ordinary values and nasty ones (0, −0, NaN, ±inf, tiny, huge, out of range) — through
+//! [`Scene::validate`]; each one it accepts is rendered by the CPU reference at 4 × 4 pixels and 1
+//! sample, which must not panic and must give finite pixels. [`DEFAULT_MODEL_CASES`] cases in CI
+//! (`SHUTTER_FUZZ_MODEL_CASES` for more).
 
 use std::cell::Cell;
 use std::path::{Path, PathBuf};
 use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
+use std::sync::Arc;
+
+use glam::{Mat4, Vec3};
 use proptest::prelude::*;
 use proptest::test_runner::{Config, RngAlgorithm, TestCaseError, TestRng, TestRunner};
+use shutter::reference::{render_reference, ReferenceSettings};
+use shutter::sampling::{ApertureShape, ShutterCurve};
+use shutter::scene::builtin::builtin_mesh;
 use shutter::scene::file::parse_scene;
-use shutter::scene::{Light, Scene};
+use shutter::scene::{
+    Camera, CameraPose, Environment, ImageSettings, Indirect, Light, Material, Mesh, Object, Scene,
+};
 
 /// Cases per CI run.
 const DEFAULT_CASES: u32 = 4000;
@@ -340,4 +354,228 @@ fn mutated_scenes_parse_or_fail_cleanly() {
     if let Err(e) = result {
         panic!("{e}");
     }
+}
+
+/// In-code scenes per CI run.
+const DEFAULT_MODEL_CASES: u32 = 3000;
+
+/// A number: mostly ordinary (in `lo..hi`), sometimes one of the values that break arithmetic.
+fn number(lo: f32, hi: f32) -> impl Strategy<Value = f32> {
+    // Rare enough that about half the scenes hold none (a scene has some 60 numbers), so many pass
+    // `validate` and render.
+    prop_oneof![
+        80 => lo..hi,
+        1 => prop::sample::select(vec![
+            0.0f32, -0.0, 1.0, -1.0, f32::NAN, f32::INFINITY, f32::NEG_INFINITY, 1e-30, -1e-30, 1e-45,
+            1e6, -1e6, 1e-3, 179.999, 180.0, 1e30, f32::MAX, f32::MIN_POSITIVE,
+        ]),
+    ]
+}
+
+fn vec3(lo: f32, hi: f32) -> impl Strategy<Value = Vec3> {
+    (number(lo, hi), number(lo, hi), number(lo, hi)).prop_map(|(x, y, z)| Vec3::new(x, y, z))
+}
+
+/// Colours: ordinary, or invalid (negative, NaN, inf). Finite magnitudes whose sums overflow
+/// (3e38) are left to the light-value checks of issue 28, item 6.
+fn colour() -> impl Strategy<Value = Vec3> {
+    prop_oneof![
+        40 => (0.0f32..4.0, 0.0f32..4.0, 0.0f32..4.0).prop_map(|(r, g, b)| Vec3::new(r, g, b)),
+        1 => prop::sample::select(vec![
+            Vec3::new(-1.0, 0.0, 0.0), Vec3::splat(f32::NAN), Vec3::new(0.0, f32::INFINITY, 0.0), Vec3::ZERO,
+        ]),
+    ]
+}
+
+fn pose() -> impl Strategy<Value = CameraPose> {
+    (vec3(-8.0, 8.0), vec3(-2.0, 2.0), prop_oneof![6 => Just(Vec3::Y), 1 => vec3(-1.0, 1.0)])
+        .prop_map(|(position, look_at, up)| CameraPose { position, look_at, up })
+}
+
+fn camera() -> impl Strategy<Value = Camera> {
+    (
+        pose(),
+        prop::option::of(pose()),
+        number(1.0, 120.0),
+        prop_oneof![2 => Just(0.0f32), 1 => number(0.0, 0.5)],
+        number(0.5, 20.0),
+        number(0.01, 1.0),
+        number(10.0, 2000.0),
+        prop::sample::select(vec![
+            ApertureShape::Disk,
+            ApertureShape::SmoothDisk,
+            ApertureShape::Blades { blades: 6, rotation_deg: 10.0 },
+            ApertureShape::Blades { blades: 2, rotation_deg: 0.0 },
+            ApertureShape::Blades { blades: 5, rotation_deg: f32::NAN },
+        ]),
+        any::<bool>(),
+    )
+        .prop_map(
+            |(open, close, vfov_deg, aperture_radius, focus_distance, near, far, aperture, tent)| Camera {
+                open,
+                close,
+                vfov_deg,
+                aperture_radius,
+                focus_distance,
+                aperture,
+                shutter: if tent { ShutterCurve::Tent } else { ShutterCurve::Box },
+                near,
+                far,
+            },
+        )
+}
+
+/// A transform T · R · S from random parts (scales may be 0 or negative: mirrored, singular).
+fn matrix() -> impl Strategy<Value = Mat4> {
+    (vec3(-4.0, 4.0), vec3(-180.0, 180.0), prop_oneof![4 => vec3(0.2, 2.0), 1 => vec3(-2.0, 2.0)]).prop_map(
+        |(t, r, s)| {
+            Mat4::from_translation(t)
+                * Mat4::from_euler(glam::EulerRot::ZYX, r.z.to_radians(), r.y.to_radians(), r.x.to_radians())
+                * Mat4::from_scale(s)
+        },
+    )
+}
+
+/// Transform keys: mostly valid (0, sorted interior times, 1), sometimes not.
+fn transforms() -> impl Strategy<Value = Vec<(f32, Mat4)>> {
+    (prop::collection::vec(matrix(), 1..=4), prop::collection::vec(number(0.0, 1.0), 0..=2), 0u8..30)
+        .prop_map(|(ms, mut inner, twist)| {
+            if ms.len() == 1 {
+                return vec![(0.0, ms[0])];
+            }
+            inner.sort_by(f32::total_cmp);
+            let mut times = vec![0.0];
+            times.extend(inner.into_iter().take(ms.len() - 2));
+            while times.len() < ms.len() - 1 {
+                let last = *times.last().unwrap();
+                times.push(0.5 * (last + 1.0));
+            }
+            times.push(1.0);
+            match twist {
+                0 => times[0] = 0.25,
+                1 => times.reverse(),
+                _ => {}
+            }
+            times.into_iter().zip(ms).collect()
+        })
+}
+
+fn material() -> impl Strategy<Value = Material> {
+    (colour(), number(0.0, 1.0), number(0.05, 1.0), number(0.0, 1.0), any::<bool>(), colour(), any::<bool>())
+        .prop_map(|(albedo, specular, roughness, alpha, from_texture, tint, one_sided)| Material {
+            albedo,
+            texture: None,
+            specular,
+            roughness,
+            alpha,
+            alpha_from_texture: from_texture && alpha < 0.1,
+            tint: tint.min(Vec3::ONE),
+            one_sided,
+        })
+}
+
+fn light() -> impl Strategy<Value = Light> {
+    prop_oneof![
+        (vec3(-1.0, 1.0), colour(), any::<bool>())
+            .prop_map(|(direction, color, shadows)| Light::Directional { direction, color, shadows }),
+        (vec3(-6.0, 6.0), colour(), any::<bool>()).prop_map(|(position, color, shadows)| Light::Point {
+            position,
+            color,
+            shadows
+        }),
+        (vec3(-6.0, 6.0), vec3(-1.0, 1.0), number(0.0, 1.0), number(1.0, 90.0), colour(), any::<bool>())
+            .prop_map(|(position, direction, inner, outer_deg, color, shadows)| Light::Spot {
+                position,
+                direction,
+                inner_deg: inner * outer_deg,
+                outer_deg,
+                color,
+                shadows,
+            }),
+    ]
+}
+
+fn model_scene(meshes: Vec<Arc<Mesh>>) -> impl Strategy<Value = Scene> {
+    let object = (0..meshes.len(), transforms(), material()).prop_map(move |(m, transforms, material)| {
+        Object { name: format!("mesh{m}"), mesh: meshes[m].clone(), transforms, material }
+    });
+    (
+        (
+            prop::sample::select(vec![1u32, 4, 4, 4, 4, 4, 4, 8193]),
+            prop::sample::select(vec![1u32, 4, 4, 4, 4, 70000]),
+        ),
+        camera(),
+        prop::collection::vec(object, 0..=3),
+        prop::collection::vec(light(), 0..=3),
+        (colour(), colour()),
+    )
+        .prop_map(|((size, spp), camera, objects, lights, (ambient, background))| Scene {
+            name: "fuzz".into(),
+            image: ImageSettings { width: size, height: size, spp, seed: 1 },
+            camera,
+            objects,
+            lights,
+            environment: Environment { ambient: ambient * 0.1, background, indirect: Indirect::None },
+        })
+}
+
+/// Item 16: a scene built in code is validated as a file's is, and whatever `Scene::validate` lets
+/// through renders (CPU reference, 4 × 4, 1 sample) without panicking and with finite pixels.
+#[test]
+fn scenes_built_in_code_validate_or_render_finite() {
+    let meshes: Vec<Arc<Mesh>> = [("box", None), ("sphere", Some(8)), ("plane", Some(2))]
+        .iter()
+        .map(|&(name, detail)| Arc::new(builtin_mesh(name, detail).expect("built-in").expect("builds")))
+        .collect();
+    let cases = std::env::var("SHUTTER_FUZZ_MODEL_CASES")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(DEFAULT_MODEL_CASES);
+    let seed: u64 = std::env::var("SHUTTER_FUZZ_SEED").ok().and_then(|v| v.parse().ok()).unwrap_or(16);
+    let mut key = [0u8; 32];
+    key[..8].copy_from_slice(&seed.to_le_bytes());
+    key[8] = 1;
+    let config = Config { cases, failure_persistence: None, ..Config::default() };
+    let mut runner = TestRunner::new_with_rng(config, TestRng::from_seed(RngAlgorithm::ChaCha, &key));
+    let (accepted, total) = (Cell::new(0u64), Cell::new(0u64));
+    let start = Instant::now();
+    let settings = ReferenceSettings {
+        width: 4,
+        height: 4,
+        spp: 1,
+        seed: 3,
+        progress: false,
+        shading: Default::default(),
+    };
+    let result = runner.run(&model_scene(meshes), |scene| {
+        total.set(total.get() + 1);
+        let valid = std::panic::catch_unwind(|| scene.validate())
+            .map_err(|_| TestCaseError::fail(format!("validate panicked on {scene:?}")))?;
+        let Ok(()) = valid else {
+            // The refusal is a scene error or a limit, and it names a field.
+            let e = valid.unwrap_err();
+            let ok = matches!(e, shutter::Error::Scene { .. } | shutter::Error::Limit { .. });
+            return if ok { Ok(()) } else { Err(TestCaseError::fail(format!("unexpected refusal {e}"))) };
+        };
+        accepted.set(accepted.get() + 1);
+        let image = std::panic::catch_unwind(|| render_reference(&scene, &settings))
+            .map_err(|_| TestCaseError::fail(format!("the reference panicked on {scene:?}")))?
+            .map_err(|e| {
+                TestCaseError::fail(format!("the reference refused a valid scene: {e}\n{scene:?}"))
+            })?;
+        if let Some(p) = image.pixels.iter().find(|p| !p.iter().all(|c| c.is_finite())) {
+            return Err(TestCaseError::fail(format!("non-finite pixel {p:?} of {scene:?}")));
+        }
+        Ok(())
+    });
+    eprintln!(
+        "in-code scene fuzz: {} scenes, {} accepted and rendered, in {:.1} s, seed {seed}",
+        total.get(),
+        accepted.get(),
+        start.elapsed().as_secs_f64()
+    );
+    if let Err(e) = result {
+        panic!("{e}");
+    }
+    assert!(accepted.get() * 10 >= total.get(), "too few valid scenes to test rendering");
 }

@@ -101,3 +101,59 @@ fn probe_names_the_device_and_lavapipe() {
         assert!(caps.has(shutter::vk::Feature::Msaa(4)) && caps.geometry_shader && caps.sample_rate_shading);
     }
 }
+
+/// Issue 28, item 16: a scene built in code is checked before it renders, as a scene file is, with the
+/// file's words. Before, `vfov_deg = 0` hung the GPU path, a negative focus distance rendered a wrong
+/// image and `near = 0` rendered.
+#[test]
+fn scenes_built_in_code_are_validated_like_files() {
+    let scene = single_object_scene(
+        camera(40.0, 0.05, 5.0),
+        square(1.0),
+        Mat4::from_translation(-5.0 * Vec3::Z),
+        None,
+        16,
+        9,
+    );
+    let mut r = renderer();
+    let settings = RenderSettings::new(16, 9, 4, 1);
+    r.render(&scene, Technique::ACCUMULATION, &settings).expect("the valid scene renders");
+    type Edit<'a> = &'a dyn Fn(&mut shutter::scene::Scene);
+    let cases: [(Edit, &str); 4] = [
+        (&|s| s.camera.vfov_deg = 0.0, "camera.vfov_deg: 0 is out of range: must be in [0.001, 180) degrees"),
+        (&|s| s.camera.focus_distance = -1.0, "camera.focus_distance: -1 is out of range: must be > 0"),
+        (&|s| s.camera.near = 0.0, "camera.near: 0 is out of range: must be > 0"),
+        (
+            &|s| s.objects[0].material.roughness = 0.0,
+            "material.roughness: 0 is out of range: must be in (0, 1]",
+        ),
+    ];
+    for (edit, words) in cases {
+        let mut bad = scene.clone();
+        edit(&mut bad);
+        for technique in [Technique::PINHOLE, Technique::ACCUMULATION, Technique::STOCHASTIC, Technique::AUTO]
+        {
+            let start = std::time::Instant::now();
+            let err = r.render(&bad, technique, &settings).expect_err("must be refused");
+            let msg = err.to_string();
+            assert!(matches!(err, Error::Scene { .. }) && msg.ends_with(words), "{technique}: {msg}");
+            assert!(
+                start.elapsed().as_secs_f64() < 5.0,
+                "{technique}: refused only after {:?}",
+                start.elapsed()
+            );
+        }
+        // The same words from the reference and from `Scene::validate` itself.
+        assert!(bad.validate().unwrap_err().to_string().ends_with(words));
+        let reference = shutter::reference::ReferenceSettings {
+            width: 16,
+            height: 9,
+            spp: 1,
+            seed: 1,
+            progress: false,
+            shading: Default::default(),
+        };
+        let e = shutter::reference::render_reference(&bad, &reference).unwrap_err().to_string();
+        assert!(e.ends_with(words), "{e}");
+    }
+}

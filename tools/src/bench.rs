@@ -419,11 +419,11 @@ impl BenchReport {
     pub fn write(&self, json: Option<&PathBuf>, csv: Option<&PathBuf>) -> Result<()> {
         if let Some(p) = json {
             shutter::image_io::write_file_atomically(p, serde_json::to_string_pretty(self)?.as_bytes())?;
-            eprintln!("wrote {}", p.display());
+            errln!("wrote {}", p.display());
         }
         if let Some(p) = csv {
             shutter::image_io::write_file_atomically(p, self.csv().as_bytes())?;
-            eprintln!("wrote {}", p.display());
+            errln!("wrote {}", p.display());
         }
         Ok(())
     }

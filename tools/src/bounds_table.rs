@@ -92,7 +92,7 @@ pub fn sweep(
             .with_context(|| format!("drawing {}", png.display()))?;
         draw_sweep(SVGBackend::new(&svg, (960, 640)).into_drawing_area(), &title, &all, spp)
             .with_context(|| format!("drawing {}", svg.display()))?;
-        eprintln!("wrote {} and {}", png.display(), svg.display());
+        errln!("wrote {} and {}", png.display(), svg.display());
     }
     Ok(md)
 }
@@ -260,11 +260,11 @@ fn run_rows(renderer: &mut Renderer, scene: &Scene, a: &BoundsTableArgs) -> Resu
         let ms = timed(renderer, scene, Technique::PINHOLE, &base, a)?;
         md.push_str(&format!("| {spp} | pinhole (MSAA 4×, no blur) | – | {ms:.1} | | | | | |\n"));
         rows.push(Row { spp, label: "pinhole".into(), ms, ste: None });
-        eprintln!("S={spp} pinhole {ms:.1} ms");
+        errln!("S={spp} pinhole {ms:.1} ms");
         let ms = timed(renderer, scene, Technique::ACCUMULATION, &base, a)?;
         md.push_str(&format!("| {spp} | accumulation ({spp} passes) | – | {ms:.1} | | | | | |\n"));
         rows.push(Row { spp, label: "accumulation".into(), ms, ste: None });
-        eprintln!("S={spp} accumulation {ms:.1} ms");
+        errln!("S={spp} accumulation {ms:.1} ms");
         // At equal quality: accumulation needs about 4× the samples for stochastic rasterization's
         // FLIP (the thesis' §9.1 estimate, measured on the thesis scene: docs/THESIS.md).
         let equal = RenderSettings::new(a.width, a.height, EQUAL_QUALITY_PASSES * spp, a.seed);
@@ -274,7 +274,7 @@ fn run_rows(renderer: &mut Renderer, scene: &Scene, a: &BoundsTableArgs) -> Resu
             "| {spp} | accumulation ({passes} passes, ≈ equal FLIP) | – | {ms:.1} | | | | | |\n"
         ));
         rows.push(Row { spp, label: format!("accumulation ×{EQUAL_QUALITY_PASSES}"), ms, ste: None });
-        eprintln!("S={spp} accumulation {passes} passes {ms:.1} ms");
+        errln!("S={spp} accumulation {passes} passes {ms:.1} ms");
         let mut bbox_ste = None;
         for &bound in &a.bounds {
             // One bound per triangle: cluster bounds would replace the bound under test.
@@ -291,7 +291,7 @@ fn run_rows(renderer: &mut Renderer, scene: &Scene, a: &BoundsTableArgs) -> Resu
                 c.samples_tested,
                 c.samples_hit
             ));
-            eprintln!("S={spp} {} {ms:.1} ms STE {ste:.4}", bound.name());
+            errln!("S={spp} {} {ms:.1} ms STE {ste:.4}", bound.name());
             rows.push(Row { spp, label: bound.name(), ms, ste: Some(ste) });
         }
     }
@@ -386,7 +386,7 @@ pub fn per_object_sweep(
                 if t < 0.0 { "–".to_string() } else { format!("{t:.3}") },
                 c.samples_tested
             ));
-            eprintln!("focus {f} threshold {t:.2}: {n_sharp} sharp, {} tested, {ms:.1} ms", c.samples_tested);
+            errln!("focus {f} threshold {t:.2}: {n_sharp} sharp, {} tested, {ms:.1} ms", c.samples_tested);
             rows.push((t, c.samples_tested, ms));
         }
         per_focus.push((radii, rows));

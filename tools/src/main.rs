@@ -1,6 +1,21 @@
 //! `shutter`: render scenes with each technique, render the CPU ground truth, compare images, probe
 //! the device.
 
+/// `println!` that returns an error (from the enclosing function, with `?`) where `println!` panics:
+/// standard output closed (`shutter compare a b | head -1`) or full (`> /dev/full`).
+macro_rules! outln {
+    ($($arg:tt)*) => {
+        $crate::write_stdout_line(format_args!($($arg)*))?
+    };
+}
+
+/// `eprintln!` that ignores a closed standard error instead of panicking.
+macro_rules! errln {
+    ($($arg:tt)*) => {
+        $crate::note(format_args!($($arg)*))
+    };
+}
+
 mod bench;
 mod bounds_table;
 mod hard_cases;
@@ -461,7 +476,7 @@ fn parse_threshold(s: &str) -> std::result::Result<f32, String> {
 fn load_scene(spec: &str) -> Result<shutter::scene::Scene> {
     let sc = shutter::scene::file::load_scene(spec)?;
     for skipped in sc.skipped_by_mesh() {
-        eprintln!("note: {skipped}");
+        errln!("note: {skipped}");
     }
     Ok(sc)
 }
@@ -483,21 +498,21 @@ fn print_atlas_plan(sc: &shutter::scene::Scene, w: u32, h: u32) -> anyhow::Resul
     let back = |r: &shutter::techniques::texture_space::AtlasPlan| {
         r.back_facing.map_or_else(|| "two-sided".to_string(), |n| n.to_string())
     };
-    println!(
+    outln!(
         "\n## texture-space shading (`--shading texture-space`)\n\nlevel 0 at most {TEXTURE_SPACE_FINEST}², \
          fitted per object; RGBA32F atlas + D32 depth\n"
     );
-    println!(
+    outln!(
         "| object | triangles | culled: frustum | culled: back-facing | shaded texels (estimate) | shading space | level 0 | atlas texels | memory |"
     );
-    println!("|---|---:|---:|---:|---:|---|---:|---:|---:|");
+    outln!("|---|---:|---:|---:|---:|---|---:|---:|---:|");
     let mut total = 0;
     for r in &rows {
         match &r.layout {
             Ok((atlas, space)) => {
                 let (aw, ah) = atlas.size();
                 total += r.bytes();
-                println!(
+                outln!(
                     "| {} | {} | {} | {} | {:.0} | {space} | {}² | {aw}×{ah} | {:.2} MB |",
                     r.object,
                     r.triangles,
@@ -508,7 +523,7 @@ fn print_atlas_plan(sc: &shutter::scene::Scene, w: u32, h: u32) -> anyhow::Resul
                     r.bytes() as f64 / 1e6
                 );
             }
-            Err(why) => println!(
+            Err(why) => outln!(
                 "| {} | {} | {} | {} | - | {why} | - | - | - |",
                 r.object,
                 r.triangles,
@@ -518,7 +533,7 @@ fn print_atlas_plan(sc: &shutter::scene::Scene, w: u32, h: u32) -> anyhow::Resul
         }
     }
     let texels: f64 = rows.iter().map(|r| r.texels).sum();
-    println!(
+    outln!(
         "\natlases: {:.2} MB in all; about {texels:.0} texels shaded (gutters not counted); laid out in {ms:.1} ms on the CPU",
         total as f64 / 1e6
     );
@@ -527,15 +542,53 @@ fn print_atlas_plan(sc: &shutter::scene::Scene, w: u32, h: u32) -> anyhow::Resul
 
 fn main() {
     install_interrupt_handler();
-    if let Err(e) = run() {
+    // Whatever is still buffered is written before the exit code is decided.
+    let result = run().and_then(|()| {
+        use std::io::Write;
+        std::io::stdout().lock().flush().map_err(|e| StdoutError(e).into())
+    });
+    if let Err(e) = result {
         if e.chain().any(|c| matches!(c.downcast_ref::<shutter::Error>(), Some(shutter::Error::Interrupted)))
         {
-            eprintln!("interrupted: stopped cleanly, nothing written");
+            note(format_args!("interrupted: stopped cleanly, nothing written"));
             std::process::exit(EXIT_INTERRUPTED);
         }
-        eprintln!("error: {e:#}");
+        let stdout = e.chain().find_map(|c| c.downcast_ref::<StdoutError>());
+        if stdout.is_some_and(|s| s.0.kind() == std::io::ErrorKind::BrokenPipe) {
+            // The reader went away (`| head -1`): stop quietly, as a Unix tool killed by SIGPIPE does.
+            std::process::exit(EXIT_BROKEN_PIPE);
+        }
+        note(format_args!("error: {e:#}"));
         std::process::exit(1);
     }
+}
+
+/// The shell's code for a process ended by SIGPIPE (128 + 13): what `head` leaves other tools with.
+const EXIT_BROKEN_PIPE: i32 = 141;
+
+/// Standard output could not be written (the `outln!` lines).
+#[derive(Debug)]
+struct StdoutError(std::io::Error);
+
+impl std::fmt::Display for StdoutError {
+    fn fmt(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+        write!(f, "cannot write to standard output: {}", self.0)
+    }
+}
+
+impl std::error::Error for StdoutError {}
+
+/// One line on standard output, or a [`StdoutError`] (what `outln!` calls).
+fn write_stdout_line(args: std::fmt::Arguments) -> Result<()> {
+    use std::io::Write;
+    let mut out = std::io::stdout().lock();
+    out.write_fmt(args).and_then(|()| out.write_all(b"\n")).map_err(|e| StdoutError(e).into())
+}
+
+/// One line on standard error, ignoring a closed one (nothing else could say so).
+fn note(args: std::fmt::Arguments) {
+    use std::io::Write;
+    let _ = writeln!(std::io::stderr().lock(), "{args}");
 }
 
 /// The shell's code for a process ended by SIGINT (128 + 2).
@@ -547,14 +600,14 @@ const EXIT_INTERRUPTED: i32 = 130;
 fn install_interrupt_handler() {
     let installed = ctrlc::set_handler(|| {
         if shutter::progress::interrupted() {
-            eprintln!("\ninterrupted again: quitting at once");
+            errln!("\ninterrupted again: quitting at once");
             std::process::exit(EXIT_INTERRUPTED);
         }
         shutter::progress::request_interrupt();
-        eprintln!("\ninterrupt: stopping after the current step (Ctrl-C again to quit at once)");
+        errln!("\ninterrupt: stopping after the current step (Ctrl-C again to quit at once)");
     });
     if let Err(e) = installed {
-        eprintln!("note: no Ctrl-C handler ({e}); Ctrl-C ends the process at once");
+        errln!("note: no Ctrl-C handler ({e}); Ctrl-C ends the process at once");
     }
 }
 
@@ -601,7 +654,7 @@ fn run() -> Result<()> {
             if sc.environment.indirect != shutter::scene::Indirect::None
                 && technique != Technique::INTERLEAVED
             {
-                eprintln!(
+                errln!(
                     "note: `{}` renders direct light only; the scene's indirect light (`{}`) is rendered by technique `interleaved` and the reference",
                     technique.name(),
                     sc.environment.indirect.name()
@@ -639,7 +692,7 @@ fn run() -> Result<()> {
                 let target = target.unwrap_or(QualityTarget::Good);
                 let cost = CostModel::load(&renderer.device().caps)?;
                 let qp = shutter::quality_plan::plan_quality(&mut renderer, &sc, &settings, target, &cost)?;
-                println!("auto: {}", qp.summary());
+                outln!("auto: {}", qp.summary());
                 if qp.pilot.is_some() {
                     (technique, settings.spp) = (qp.choice.technique, qp.choice.spp);
                 }
@@ -647,7 +700,7 @@ fn run() -> Result<()> {
             let output = renderer.render(&sc, technique, &settings)?;
             shutter::progress::check_interrupt()?;
             save_image(&out, &output.image)?;
-            println!(
+            outln!(
                 "{} {} {}x{} spp {} on {}: {} passes, MSAA {}x, GPU {:.1} ms, CPU frame {:.1} ms, upload {:.1} ms",
                 sc.name,
                 technique.name(),
@@ -662,23 +715,23 @@ fn run() -> Result<()> {
                 output.stats.upload_ms
             );
             for (name, ms) in &output.timings.passes {
-                println!("  {name:<12} {ms:>10.2} ms");
+                outln!("  {name:<12} {ms:>10.2} ms");
             }
             if let Some(plan) = &output.stats.plan {
                 let paths: Vec<String> =
                     plan.objects.iter().map(|o| format!("{} {}", o.name, o.effects.name())).collect();
-                println!("  plan: {}", paths.join(", "));
+                outln!("  plan: {}", paths.join(", "));
             }
             if let Some(method) = output.stats.transparency {
                 // The stochastic frame takes all S samples of a pixel in its pass(es); the forward
                 // path's are MSAA × passes.
                 if output.stats.msaa_samples == 1 && output.stats.passes < settings.spp {
-                    println!(
+                    outln!(
                         "  transparency {method}: S = {} samples per pixel (the stochastic frame's)",
                         settings.spp
                     );
                 } else {
-                    println!(
+                    outln!(
                         "  transparency {method}: S = {} samples per pixel (MSAA {}x × {} passes)",
                         output.stats.msaa_samples * output.stats.passes,
                         output.stats.msaa_samples,
@@ -687,7 +740,7 @@ fn run() -> Result<()> {
                 }
             }
             if let Some(shadows) = &output.stats.shadows {
-                println!("  shadows: {shadows}");
+                outln!("  shadows: {shadows}");
             }
             if technique == Technique::STOCHASTIC
                 || output
@@ -696,7 +749,7 @@ fn run() -> Result<()> {
                     .as_ref()
                     .is_some_and(|p| p.auto_frame().0 == shutter::plan::AutoFrame::Stochastic)
             {
-                println!(
+                outln!(
                     "  bound {}, shading {}, {} hull",
                     stochastic.bound.name(),
                     stochastic.shading.name(),
@@ -711,11 +764,11 @@ fn run() -> Result<()> {
                     .map(|(n, o)| format!("{} ({n} triangles per cluster)", o.name))
                     .collect();
                 if !clustered.is_empty() {
-                    println!("  cluster bounds: {}", clustered.join(", "));
+                    outln!("  cluster bounds: {}", clustered.join(", "));
                 }
             }
             if let Some(c) = output.stats.counters {
-                println!(
+                outln!(
                     "  fragments {}, samples tested {}, hit {}, STE {:.4}, shading invocations {}",
                     c.fragments,
                     c.samples_tested,
@@ -724,13 +777,13 @@ fn run() -> Result<()> {
                     c.shading_invocations
                 );
                 if let Some((shaded, gutter)) = c.atlas_texels {
-                    println!(
+                    outln!(
                         "  atlas texels shaded {shaded} (shade sub-pass) + {gutter} (conservative sub-pass)"
                     );
                 }
                 if let Some(k) = c.cache {
                     match k.memory {
-                        None => println!(
+                        None => outln!(
                             "  decoupled cache: {} lookups, {} hits, {} misses shaded, {} evictions, {} stores lost to a race",
                             k.lookups,
                             k.hits,
@@ -739,14 +792,14 @@ fn run() -> Result<()> {
                             k.busy
                         ),
                         Some(m) => {
-                            println!(
+                            outln!(
                                 "  deferred hash table: {} lookups, {} hits, {} new shading points, {} overflows (shaded on the spot)",
                                 k.lookups,
                                 k.hits,
                                 k.misses() - k.overflows,
                                 k.overflows
                             );
-                            println!(
+                            outln!(
                                 "  deferred memory: {:.2} bytes per sample of a pass (G-buffer {} B + table and queue {} B, {} samples) against {} bytes per sample ({} B) for an MSAA G-buffer",
                                 m.bytes_per_sample(),
                                 m.refs_bytes,
@@ -759,7 +812,7 @@ fn run() -> Result<()> {
                     }
                 }
             }
-            println!("wrote {}", out.display());
+            outln!("wrote {}", out.display());
         }
         Command::Reference {
             scene,
@@ -807,7 +860,7 @@ fn run() -> Result<()> {
             let secs = start.elapsed().as_secs_f64();
             shutter::progress::check_interrupt()?;
             save_image(&out, &image)?;
-            println!(
+            outln!(
                 "{} interleaved (CPU) {}x{}, {} pass(es): {} VPLs from {count} photons{}, pattern {}, filter {filter}{}, {} in {secs:.1} s; wrote {}",
                 sc.name,
                 width,
@@ -854,17 +907,17 @@ fn run() -> Result<()> {
                 Some(count) => {
                     let v = shutter::reference::VplSettings { count, clamp, seed };
                     let (image, stats, n) = shutter::reference::render_reference_vpl(&sc, &settings, &v)?;
-                    println!("instant radiosity: {n} virtual point lights from {count} photons, clamped at {clamp}");
+                    outln!("instant radiosity: {n} virtual point lights from {count} photons, clamped at {clamp}");
                     (image, stats)
                 }
             };
             let secs = start.elapsed().as_secs_f64();
             shutter::progress::check_interrupt()?;
             if let Some(keys) = stats.decoupled_keys {
-                println!("decoupled shading: {keys} distinct keys (shading points) among the samples");
+                outln!("decoupled shading: {keys} distinct keys (shading points) among the samples");
             }
             save_image(&out, &image)?;
-            println!(
+            outln!(
                 "{} reference {}x{} spp {} in {:.1} s on {} CPU threads; wrote {}",
                 sc.name,
                 width,
@@ -879,18 +932,18 @@ fn run() -> Result<()> {
             let ia = load_image(&a)?;
             let ib = load_image(&b)?;
             let m = compare(&ia, &ib)?;
-            println!("RMSE {:.6}", m.rmse);
-            println!("PSNR {:.3}", m.psnr);
-            println!("FLIP {:.6}", m.flip);
+            outln!("RMSE {:.6}", m.rmse);
+            outln!("PSNR {:.3}", m.psnr);
+            outln!("FLIP {:.6}", m.flip);
             if let Some(d) = diff {
                 write_flip_diff_png(&d, &ia, &ib)?;
-                println!("wrote {}", d.display());
+                outln!("wrote {}", d.display());
             }
         }
         Command::Convert { input, output } => {
             check_image_output(&output)?;
             save_image(&output, &load_image(&input)?)?;
-            println!("wrote {}", output.display());
+            outln!("wrote {}", output.display());
         }
         Command::Bounds {
             scene,
@@ -960,10 +1013,10 @@ fn run() -> Result<()> {
             } else {
                 bounds_table::sweep(&mut renderer, &sc, &args, &focus, out.as_deref())?
             };
-            println!("{md}");
+            outln!("{md}");
             if let Some(out) = out {
                 write_file_atomically(&out, md.as_bytes())?;
-                eprintln!("wrote {}", out.display());
+                errln!("wrote {}", out.display());
             }
         }
         Command::Bench {
@@ -994,7 +1047,7 @@ fn run() -> Result<()> {
             let mut renderer = Renderer::new(shutter::vk::create_device()?)?;
             let args = bench::BenchArgs { configs, frames: frames.max(1), warmup, counters: !no_counters };
             let report = bench::run(&mut renderer, &sc, &args)?;
-            println!("{}", report.markdown());
+            outln!("{}", report.markdown());
             report.write(json.as_ref(), csv.as_ref())?;
             if let Some(max) = max_ratio {
                 let over: Vec<String> = report
@@ -1006,7 +1059,7 @@ fn run() -> Result<()> {
                 if !over.is_empty() {
                     anyhow::bail!("over {max}× the first configuration's median GPU ms: {}", over.join(", "));
                 }
-                println!("every configuration within {max}× of `{}`", report.results[0].label);
+                outln!("every configuration within {max}× of `{}`", report.results[0].label);
             }
         }
         Command::BenchCompare { old, new, max_ratio, gate } => {
@@ -1014,7 +1067,7 @@ fn run() -> Result<()> {
                 |paths: &[PathBuf]| paths.iter().map(|p| bench::read_report(p)).collect::<Result<Vec<_>>>();
             let (old, new) = (read(&old)?, read(&new)?);
             let rows = bench::compare(&old, &new)?;
-            println!("{}", bench::comparison_markdown(&old[0].scene, (old.len(), new.len()), &rows));
+            outln!("{}", bench::comparison_markdown(&old[0].scene, (old.len(), new.len()), &rows));
             if let Some(max) = max_ratio {
                 let over: Vec<String> = rows
                     .iter()
@@ -1039,7 +1092,7 @@ fn run() -> Result<()> {
                 if !over.is_empty() {
                     anyhow::bail!("over {max}× the old runs: {}", over.join(", "));
                 }
-                println!("every configuration within {max}× of the old runs ({gate} ratio)");
+                outln!("every configuration within {max}× of the old runs ({gate} ratio)");
             }
         }
         Command::Quality {
@@ -1112,20 +1165,20 @@ fn run() -> Result<()> {
             let device = renderer.device().caps.device_name.clone();
             let points = quality::run(&mut renderer, &sc, &args)?;
             let md = quality::markdown(&sc, &args, &points, &device);
-            println!("{md}");
+            outln!("{md}");
             let md_path = out.with_extension("md");
             write_file_atomically(&md_path, md.as_bytes())?;
             quality::plot(&sc, &args, &points)?;
-            eprintln!("wrote {} and {}", md_path.display(), out.with_extension("csv").display());
+            errln!("wrote {} and {}", md_path.display(), out.with_extension("csv").display());
         }
         Command::Plan { scene, size, threshold, atlases, quality, target_flip } => {
             let sc = load_scene(&scene)?;
             let (w, h) = size.unwrap_or((sc.image.width, sc.image.height));
-            println!("# plan of `{}`\n", sc.name);
+            outln!("# plan of `{}`\n", sc.name);
             let t0 = std::time::Instant::now();
             let plan = shutter::plan::Plan::with_threshold(&sc, w, h, threshold);
             let ms = t0.elapsed().as_secs_f64() * 1e3;
-            println!(
+            outln!(
                 "{plan}\n\nplanned in {ms:.3} ms on the CPU ({} vertices)",
                 sc.objects.iter().map(|o| o.mesh.positions.len()).sum::<usize>()
             );
@@ -1138,20 +1191,23 @@ fn run() -> Result<()> {
                 let mut settings = RenderSettings::from_scene(&sc);
                 (settings.width, settings.height) = (w, h);
                 let qp = shutter::quality_plan::plan_quality(&mut renderer, &sc, &settings, target, &cost)?;
-                println!(
+                outln!(
                     "
 {}",
                     qp.summary()
                 );
                 if !qp.candidates.is_empty() {
-                    println!(
+                    outln!(
                         "
 | candidate | S | predicted GPU ms | predicted FLIP |\n|---|---:|---:|---:|"
                     );
                     for c in &qp.candidates {
-                        println!(
+                        outln!(
                             "| {} | {} | {:.1} | {:.4} |",
-                            c.technique, c.spp, c.predicted_ms, c.predicted_flip
+                            c.technique,
+                            c.spp,
+                            c.predicted_ms,
+                            c.predicted_flip
                         );
                     }
                 }
@@ -1159,18 +1215,18 @@ fn run() -> Result<()> {
         }
         Command::Probe => {
             let device = shutter::vk::create_device()?;
-            println!("{}", device.caps);
-            println!("validation        {}", if device.validation_enabled { "on" } else { "off" });
-            println!("\npaths Shutter takes on this device:");
+            outln!("{}", device.caps);
+            outln!("validation        {}", if device.validation_enabled { "on" } else { "off" });
+            outln!("\npaths Shutter takes on this device:");
             for p in shutter::techniques::feature_paths(&device.caps) {
-                println!("  {:<34} {:<5} {}", p.feature, if p.available { "yes" } else { "no" }, p.path);
+                outln!("  {:<34} {:<5} {}", p.feature, if p.available { "yes" } else { "no" }, p.path);
             }
         }
         Command::Calibrate { scene, size, spp, frames, warmup } => {
             match calibrate_cost(&scene, size, spp, frames.max(1)) {
-                Ok((report, _)) => println!("{report}\n"),
+                Ok((report, _)) => outln!("{report}\n"),
                 // A scene without blur measures no noise: the bound calibration below still runs.
-                Err(e) => println!("{e:#}\n"),
+                Err(e) => outln!("{e:#}\n"),
             }
             let sc = load_scene(&scene)?;
             let mut defaults = RenderSettings::from_scene(&sc);
@@ -1184,19 +1240,19 @@ fn run() -> Result<()> {
             let mut renderer = Renderer::new(shutter::vk::create_device()?)?;
             let args = bench::BenchArgs { configs, frames: frames.max(1), warmup, counters: false };
             let report = bench::run(&mut renderer, &sc, &args)?;
-            println!("{}", report.markdown());
+            outln!("{}", report.markdown());
             let ms: Vec<f64> = report.results.iter().map(|r| r.gpu_ms.median).collect();
             let best = (0..kinds.len()).min_by(|&a, &b| ms[a].total_cmp(&ms[b])).expect("three kinds");
             let adaptive = ms[2];
             let caps = &renderer.device().caps;
             let (shipped, why) = shutter::techniques::stochastic::device_bound(caps);
-            println!(
+            outln!(
                 "fastest: `{}` ({:.2}x adaptive); `--bound device` now draws `{}` ({why})",
                 kinds[best].name(),
                 ms[best] / adaptive,
                 shipped.name()
             );
-            println!(
+            outln!(
                 "calibration entry for this device:\n    BoundCalibration {{ driver_id: \"{}\", bound: BoundKind::{:?}, \
                  measured: \"`shutter calibrate` ({scene}, {}x{}, S = {spp}, {frames} interleaved frames): {} \
                  ({}, {})\" }}",
@@ -1212,12 +1268,12 @@ fn run() -> Result<()> {
         Command::HardCases(args) => hard_cases::run(args)?,
         Command::Scenes => {
             for s in BUILTIN_SCENES {
-                println!("{s}");
+                outln!("{s}");
             }
         }
         Command::Techniques => {
             for t in shutter::techniques::registry::TECHNIQUES {
-                println!("{:<13} {}", t.name(), t.summary());
+                outln!("{:<13} {}", t.name(), t.summary());
             }
         }
     }

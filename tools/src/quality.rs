@@ -103,10 +103,10 @@ fn reference(scene: &Scene, a: &QualityArgs) -> Result<LinearImage> {
         a.seed
     ));
     if path.exists() {
-        eprintln!("reference: cached {}", path.display());
+        errln!("reference: cached {}", path.display());
         return Ok(load_image(&path)?);
     }
-    eprintln!("reference: rendering {}x{} at {} spp on the CPU", a.width, a.height, a.reference_spp);
+    errln!("reference: rendering {}x{} at {} spp on the CPU", a.width, a.height, a.reference_spp);
     let t = std::time::Instant::now();
     let img = render_reference(
         scene,
@@ -120,7 +120,7 @@ fn reference(scene: &Scene, a: &QualityArgs) -> Result<LinearImage> {
         },
     )?;
     save_image(&path, &img)?;
-    eprintln!("reference: {:.1} s, cached as {}", t.elapsed().as_secs_f64(), path.display());
+    errln!("reference: {:.1} s, cached as {}", t.elapsed().as_secs_f64(), path.display());
     Ok(img)
 }
 
@@ -211,7 +211,7 @@ pub fn run(renderer: &mut Renderer, scene: &Scene, a: &QualityArgs) -> Result<Ve
         .filter(|&(i, n)| !points.iter().any(|p| p.series == a.series[i].name && p.spp == n))
         .collect();
     if !points.is_empty() {
-        eprintln!("resuming {}: {} point(s) done, {} to go", csv_path.display(), points.len(), todo.len());
+        errln!("resuming {}: {} point(s) done, {} to go", csv_path.display(), points.len(), todo.len());
     }
     let truth = reference(scene, a)?;
     if a.images {
@@ -396,7 +396,7 @@ pub fn plot(scene: &Scene, a: &QualityArgs, points: &[Point]) -> Result<()> {
         .with_context(|| format!("drawing {}", png.display()))?;
     draw(SVGBackend::new(&svg, (960, 640)).into_drawing_area(), scene, a, points)
         .with_context(|| format!("drawing {}", svg.display()))?;
-    eprintln!("wrote {} and {}", png.display(), svg.display());
+    errln!("wrote {} and {}", png.display(), svg.display());
     Ok(())
 }
 

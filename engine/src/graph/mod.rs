@@ -25,7 +25,8 @@
 //!   pass' recording closure sees the iteration in [`PassContext::iteration`]. Barriers between
 //!   iterations follow from the same tracking.
 //! * **Submission** ([`FrameGraph::execute`]): passes are recorded in order into command buffers of at
-//!   most [`MAX_PASSES_PER_SUBMIT`] passes, each submitted through the one submit path
+//!   most [`MAX_PASSES_PER_SUBMIT`] passes — as many as take about [`TARGET_SUBMIT_SECONDS`], so an
+//!   interrupt is seen within about that long — each submitted through the one submit path
 //!   ([`CommandRecorder::submit`]), which waits for it: nothing is ever in flight when `execute`
 //!   returns, so RAII wrappers may free their handles at any time the CPU holds them.
 //! * No aliasing, no async compute, no reordering: passes run in declaration order.
@@ -51,6 +52,16 @@ use crate::vk::{read_rgba32f, Buffer, CommandRecorder, Device, GpuTimer, Image, 
 
 /// Passes recorded per command buffer (bounds command-buffer size and the timestamp pool).
 pub const MAX_PASSES_PER_SUBMIT: usize = 128;
+
+/// Wall time one submission aims at. An interrupt (Ctrl-C) is seen between submissions, so this is
+/// about how long stopping waits; the passes per submission follow the measured time per pass (at
+/// most [`MAX_PASSES_PER_SUBMIT`]): 128 passes of a stochastic frame at a high S took a minute on
+/// lavapipe, all before an interrupt could be seen.
+pub const TARGET_SUBMIT_SECONDS: f64 = 0.25;
+
+/// Passes in the first submission of a graph, before any pass has been timed; each later one at
+/// most doubles.
+const FIRST_SUBMIT_PASSES: usize = 4;
 
 /// A resource the technique owns, with its synchronization state between graphs and frames.
 pub struct Tracked<T> {
@@ -521,7 +532,9 @@ impl<'a> FrameGraph<'a> {
         Ok(Readback { index: self.readbacks.len() - 1 })
     }
 
-    /// Records every pass in order, submitting (and waiting) every [`MAX_PASSES_PER_SUBMIT`] passes.
+    /// Records every pass in order, submitting (and waiting) every few passes: as many as take about
+    /// [`TARGET_SUBMIT_SECONDS`], at most [`MAX_PASSES_PER_SUBMIT`]; an interrupt is checked before
+    /// each submission.
     pub fn execute(self, rec: &mut CommandRecorder) -> Result<GraphResult> {
         self.execute_reporting(rec, None)
     }
@@ -554,9 +567,11 @@ impl<'a> FrameGraph<'a> {
             _ => crate::progress::Progress::hidden(),
         };
         let mut next = 0;
+        let mut chunk = FIRST_SUBMIT_PASSES;
         while next < schedule.len() {
             crate::progress::check_interrupt()?;
-            let end = (next + MAX_PASSES_PER_SUBMIT).min(schedule.len());
+            let end = (next + chunk).min(schedule.len());
+            let started = std::time::Instant::now();
             rec.submit(|d, cmd| {
                 timer.reset(cmd);
                 for &(ni, pi, iteration) in &schedule[next..end] {
@@ -574,6 +589,10 @@ impl<'a> FrameGraph<'a> {
             }
             timings.add(&timer.results()?);
             progress.inc((end - next) as u64);
+            // The next submission: as many passes as fit the target at this one's pace.
+            let per_pass = started.elapsed().as_secs_f64() / (end - next) as f64;
+            let fit = if per_pass > 0.0 { (TARGET_SUBMIT_SECONDS / per_pass) as usize } else { usize::MAX };
+            chunk = fit.clamp(1, (2 * chunk).min(MAX_PASSES_PER_SUBMIT));
             next = end;
         }
         progress.finish();

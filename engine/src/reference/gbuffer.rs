@@ -58,7 +58,7 @@ pub fn render_gbuffer_at<'a>(
 ) -> Result<GBufferScene<'a>> {
     let settings =
         ReferenceSettings { width, height, spp: 1, seed: 0, progress: false, shading: Default::default() };
-    super::validate(&settings, &scene.camera)?;
+    super::validate(&settings, scene)?;
     let tracer = Tracer::new(scene, &settings);
     let mut texels = Vec::with_capacity((width * height) as usize);
     let mut lights = Vec::new();

@@ -227,8 +227,9 @@ fn render(
     shared: Option<&[Sample5]>,
     vpls: Option<&VplSettings>,
 ) -> Result<(LinearImage, ReferenceStats, usize)> {
-    validate(settings, &scene.camera)?;
-    crate::scene::extremes::check_scene(scene)?;
+    validate(settings, scene)?;
+    let (bytes, detail) = memory_estimate(scene, settings);
+    crate::limits::check_memory("the CPU reference", bytes, &detail)?;
     let start = Instant::now();
     let mut tracer = Tracer::new(scene, settings);
     tracer.shared = shared.map(|s| s.to_vec());
@@ -297,7 +298,41 @@ fn limit(what: &'static str, value: impl ToString, limit: &str) -> Error {
     Error::Limit { what, value: value.to_string(), limit: limit.to_string() }
 }
 
-fn validate(s: &ReferenceSettings, camera: &Camera) -> Result<()> {
+/// Host bytes per triangle, per key of its object: its camera-space corners and normals (`keyed`) and
+/// the per-vertex copies they are gathered from. Measured (peak RSS of `shutter reference`, see
+/// docs/hard-cases/input.md).
+const BYTES_PER_TRIANGLE_KEY: u64 = 120;
+/// Host bytes per triangle and BVH (one BVH per interval between the scene's key times, each holding
+/// every triangle over its segment): triangle, boxes, centre, ids and nodes, with the build's scratch.
+const BYTES_PER_TRIANGLE_BVH: u64 = 200;
+/// Host bytes per pixel: the tiles' results and the image.
+const BYTES_PER_PIXEL: u64 = 48;
+
+/// What [`render_reference`] will allocate for `scene` at `settings`, bytes, and how the figure
+/// arose (triangles, BVHs, pixels) — checked against [`crate::limits::memory_limit`] before any work,
+/// so a scene too big for the machine is refused with the figure instead of aborting part-way.
+pub fn memory_estimate(scene: &Scene, settings: &ReferenceSettings) -> (u64, String) {
+    let triangles = scene.triangle_count() as u64;
+    let triangle_keys: u64 =
+        scene.objects.iter().map(|o| o.mesh.triangle_count() as u64 * o.transforms.len().max(2) as u64).sum();
+    let mut times: Vec<f32> = scene.objects.iter().flat_map(|o| o.transforms.iter().map(|k| k.0)).collect();
+    times.extend([0.0, 1.0]);
+    times.sort_by(f32::total_cmp);
+    times.dedup();
+    let bvhs = (times.len() as u64).saturating_sub(1).max(1);
+    let pixels = settings.width as u64 * settings.height as u64;
+    let meshes: u64 = scene.objects.iter().map(|o| o.mesh.heap_bytes()).sum();
+    let bytes = meshes
+        .saturating_add(triangle_keys.saturating_mul(BYTES_PER_TRIANGLE_KEY))
+        .saturating_add(triangles.saturating_mul(bvhs).saturating_mul(BYTES_PER_TRIANGLE_BVH))
+        .saturating_add(pixels.saturating_mul(BYTES_PER_PIXEL));
+    let detail =
+        format!("{triangles} triangles, {bvhs} BVH(s) over the shutter's key intervals, {pixels} pixels");
+    (bytes, detail)
+}
+
+/// The settings in range and the scene as [`Scene::validate`] wants it.
+fn validate(s: &ReferenceSettings, scene: &Scene) -> Result<()> {
     let size = format!("1..={MAX_IMAGE_DIMENSION} (MAX_IMAGE_DIMENSION)");
     if !(1..=MAX_IMAGE_DIMENSION).contains(&s.width) {
         return Err(limit("width", s.width, &size));
@@ -308,25 +343,7 @@ fn validate(s: &ReferenceSettings, camera: &Camera) -> Result<()> {
     if !(1..=MAX_SPP).contains(&s.spp) {
         return Err(limit("spp", s.spp, &format!("1..={MAX_SPP} (MAX_SPP)")));
     }
-    if !(camera.near > 0.0 && camera.near.is_finite()) {
-        return Err(limit("camera.near", camera.near, "finite and > 0"));
-    }
-    if camera.far.is_nan() || camera.far <= camera.near {
-        return Err(limit("camera.far", camera.far, "> camera.near"));
-    }
-    if let Err(e) = crate::scene::camera::check_depth_range(camera.near, camera.far) {
-        return Err(Error::scene("camera", e));
-    }
-    if !(camera.focus_distance > 0.0 && camera.focus_distance.is_finite()) {
-        return Err(limit("camera.focus_distance", camera.focus_distance, "finite and > 0"));
-    }
-    if !(camera.aperture_radius >= 0.0 && camera.aperture_radius.is_finite()) {
-        return Err(limit("camera.aperture_radius", camera.aperture_radius, "finite and >= 0"));
-    }
-    if !(camera.vfov_deg > 0.0 && camera.vfov_deg < 180.0) {
-        return Err(limit("camera.vfov_deg", camera.vfov_deg, "(0, 180)"));
-    }
-    Ok(())
+    scene.validate()
 }
 
 /// The samples of pixel `(x, y)`: exactly `SampleTile::new(spp, SAMPLE_TILE_SIZE, seed).pixel(x, y)`,

@@ -104,9 +104,12 @@ fn limits_are_errors_naming_the_limit() {
             other => panic!("{what}: expected a limit error, got {other:?}"),
         }
     }
+    // The scene is checked as the scene file's loader checks it (`Scene::validate`), same words.
     let mut bad = sc.clone();
     bad.camera.near = 0.0;
-    assert!(matches!(render_reference(&bad, &settings(4, 4, 1)), Err(Error::Limit { .. })));
+    let e = render_reference(&bad, &settings(4, 4, 1)).unwrap_err();
+    assert!(matches!(e, Error::Scene { .. }), "{e}");
+    assert!(e.to_string().ends_with("camera.near: 0 is out of range: must be > 0"), "{e}");
 }
 
 #[test]

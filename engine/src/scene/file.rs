@@ -126,7 +126,8 @@ use super::{Camera, CameraPose, Environment, ImageSettings, Light, Material, Obj
 use crate::error::{Error, Result};
 use crate::sampling::{ApertureShape, ShutterCurve};
 
-use crate::limits::{MAX_IMAGE_DIMENSION, MAX_MOTION_KEYS, MAX_SPP};
+use super::validate::{num, num64, object_field, printable, vec_text, Check};
+use crate::limits::{quote_safely, MAX_IMAGE_DIMENSION, MAX_MOTION_KEYS, MAX_SPP};
 
 /// A vector or colour `[x, y, z]` as the file wrote it: the first three numbers and how many there
 /// were, so that [`Ctx::vec3`] — the one place every vector passes — refuses any other length naming
@@ -330,7 +331,9 @@ struct FileObject {
     expecting = "a table [[object.transform_key]] (time, translate, rotate_deg, scale)"
 )]
 struct FileTransformKey {
-    time: f32,
+    /// As written (an `f64`): a time that is in range but rounds to a neighbour in the model's `f32`
+    /// is refused saying so, with the value the file wrote.
+    time: f64,
     translate: Option<V3>,
     rotate_deg: Option<V3>,
     scale: Option<FileScale>,
@@ -433,7 +436,18 @@ struct FileEnvironment {
 /// Loads a scene file. Paths inside it are relative to its folder; the scene is named after the file
 /// stem unless the file sets `name`.
 pub fn load_scene_file(path: &Path) -> Result<Scene> {
-    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+    let bytes = crate::limits::read_capped(
+        path,
+        crate::limits::MAX_SCENE_FILE_BYTES,
+        "scene file",
+        "MAX_SCENE_FILE_BYTES",
+    )?;
+    let text = String::from_utf8(bytes).map_err(|e| {
+        Error::scene(
+            path.display().to_string(),
+            format!("not UTF-8 text (a byte that is not UTF-8 at offset {})", e.utf8_error().valid_up_to()),
+        )
+    })?;
     let base_dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
     let stem = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "scene".into());
     parse_with_source(&text, &base_dir, &stem, &path.display().to_string())
@@ -469,43 +483,25 @@ struct Ctx<'a> {
 }
 
 impl Ctx<'_> {
+    /// The model's checks ([`Scene::validate`]), naming this file.
+    fn check(&self) -> Check<'_> {
+        Check { source: self.source }
+    }
     fn err(&self, field: &str, message: impl std::fmt::Display) -> Error {
-        Error::scene(self.source, format!("{field}: {message}"))
+        self.check().err(field, message)
     }
     fn finite(&self, field: &str, x: f32) -> Result<f32> {
-        if x.is_finite() {
-            Ok(x)
-        } else {
-            Err(self.err(field, format!("{x} is not a finite number")))
-        }
+        self.check().finite(field, x)
     }
     /// The one place a file's vector becomes a [`Vec3`]: exactly three finite numbers.
     fn vec3(&self, field: &str, v: V3) -> Result<Vec3> {
         if v.len != 3 {
             return Err(self.err(field, format!("expected 3 numbers [x, y, z], got {}", v.len)));
         }
-        let v = v.xyz;
-        for (i, x) in v.iter().enumerate() {
-            if !x.is_finite() {
-                return Err(self.err(field, format!("component {i} is {x}, not a finite number")));
-            }
-        }
-        Ok(Vec3::from_array(v))
-    }
-    fn non_negative3(&self, field: &str, v: V3) -> Result<Vec3> {
-        let v = self.vec3(field, v)?;
-        if v.min_element() < 0.0 {
-            return Err(self.err(field, format!("{v} has a negative component")));
-        }
-        Ok(v)
+        self.check().vec3(field, Vec3::from_array(v.xyz))
     }
     fn range(&self, field: &str, x: f32, ok: bool, expected: &str) -> Result<f32> {
-        let x = self.finite(field, x)?;
-        if ok {
-            Ok(x)
-        } else {
-            Err(self.err(field, format!("{x} is out of range: must be {expected}")))
-        }
+        self.check().range(field, x, ok, expected)
     }
     fn limit(
         &self,
@@ -528,9 +524,31 @@ impl Ctx<'_> {
     }
 }
 
+/// A TOML error on one line: where, what, and at most a fragment of the line it is on (the parser's
+/// own report quotes the whole line — 100 MB of a hostile file — over several lines).
+fn toml_error(text: &str, e: &toml::de::Error) -> String {
+    // The parser's message can quote a value (a string of the file): at most 400 characters of it.
+    let what = quote_safely(&e.message().trim().replace('\n', "; "), 400);
+    let Some(span) = e.span() else { return format!("invalid scene TOML: {what}") };
+    let start = span.start.min(text.len());
+    let start = (0..=start).rev().find(|&i| text.is_char_boundary(i)).unwrap_or(0);
+    let line_start = text[..start].rfind('\n').map_or(0, |i| i + 1);
+    let line = text[..start].matches('\n').count() + 1;
+    let column = text[line_start..start].chars().count() + 1;
+    let line_end = text[start..].find('\n').map_or(text.len(), |i| start + i);
+    // Up to 40 characters before the error and 60 from it (MAX_QUOTED_LINE_CHARS in all).
+    let before: Vec<char> = text[line_start..start].chars().rev().take(40).collect();
+    let before: String = before.into_iter().rev().collect();
+    let after: String = text[start..line_end].chars().take(60).collect();
+    let cut = |whole: usize, shown: usize| if whole > shown { "…" } else { "" };
+    let fragment =
+        format!("{}{before}{after}{}", cut(column - 1, 40), cut(text[start..line_end].chars().count(), 60));
+    let fragment = quote_safely(fragment.trim_end(), crate::limits::MAX_QUOTED_LINE_CHARS + 2);
+    format!("invalid scene TOML at line {line}, column {column}: {what} (at `{fragment}`)")
+}
+
 fn parse_with_source(text: &str, base_dir: &Path, default_name: &str, source: &str) -> Result<Scene> {
-    let file: FileScene =
-        toml::from_str(text).map_err(|e| Error::scene(source, format!("invalid scene TOML: {e}")))?;
+    let file: FileScene = toml::from_str(text).map_err(|e| Error::scene(source, toml_error(text, &e)))?;
     let cx = Ctx { source };
 
     let image = ImageSettings {
@@ -550,15 +568,19 @@ fn parse_with_source(text: &str, base_dir: &Path, default_name: &str, source: &s
         },
     };
 
+    cx.check().image(&image)?;
     let (camera, shutter) = resolve_camera(&cx, &file.camera, &image)?;
+    cx.check().camera(&camera)?;
 
     // Keyed by everything that shapes the mesh; the simplify fraction by its bits.
     let mut meshes: HashMap<(String, Option<u32>, bool, u32), Arc<Mesh>> = HashMap::new();
     let mut textures: HashMap<String, Arc<Texture>> = HashMap::new();
+    let mut mesh_bytes = 0u64;
     let mut objects = Vec::with_capacity(file.object.len());
     for (i, o) in file.object.iter().enumerate() {
-        let name = o.name.clone().unwrap_or_else(|| format!("object{i}"));
-        let field = format!("object[{i}] (`{name}`)");
+        // Control characters (an ANSI escape) are kept escaped: names reach terminals and tables.
+        let name = o.name.as_deref().map_or_else(|| format!("object{i}"), printable);
+        let field = object_field(i, &name);
         let simplify = o.simplify.unwrap_or(1.0);
         cx.range(&format!("{field}.simplify"), simplify, simplify > 0.0 && simplify <= 1.0, "in (0, 1]")?;
         let key = (o.mesh.clone(), o.detail, o.normalize, simplify.to_bits());
@@ -568,6 +590,13 @@ fn parse_with_source(text: &str, base_dir: &Path, default_name: &str, source: &s
                 let full = resolve_mesh(&cx, &field, base_dir, o)?;
                 let m =
                     Arc::new(full.simplified(simplify).map_err(|e| cx.err(&format!("{field}.simplify"), e))?);
+                // Distinct meshes add up: refuse once they exceed the memory limit, before the next.
+                mesh_bytes += m.heap_bytes();
+                crate::limits::check_memory(
+                    &format!("the meshes of {source} up to {field}"),
+                    mesh_bytes,
+                    &format!("{} distinct mesh(es)", meshes.len() + 1),
+                )?;
                 meshes.insert(key, m.clone());
                 m
             }
@@ -580,14 +609,9 @@ fn parse_with_source(text: &str, base_dir: &Path, default_name: &str, source: &s
             o.material.as_ref().unwrap_or(&FileMaterial::default()),
             &mut textures,
         )?;
-        if material.one_sided && transforms.iter().any(|k| k.1.determinant() < 0.0) {
-            return Err(cx.err(
-                &format!("{field}.material.one_sided"),
-                "the object's transform mirrors it (a negative scale), which turns its faces inside out: \
-                 one-sided culling would hide its outside; remove the mirroring or the one_sided key",
-            ));
-        }
-        objects.push(Object { name, mesh, transforms, material });
+        let object = Object { name, mesh, transforms, material };
+        cx.check().object(i, &object)?;
+        objects.push(object);
     }
 
     let mut lights = Vec::with_capacity(file.light.len());
@@ -597,51 +621,39 @@ fn parse_with_source(text: &str, base_dir: &Path, default_name: &str, source: &s
             let d = cx.vec3(&field, direction)?;
             d.try_normalize().ok_or_else(|| cx.err(&field, "must not be zero"))
         };
-        lights.push(match *l {
-            FileLight::Directional { direction, color, shadows } => Light::Directional {
-                direction: direction_of(direction)?,
-                color: cx.non_negative3(&format!("light[{i}].color"), color)?,
-                shadows,
-            },
-            FileLight::Point { position, color, shadows } => Light::Point {
+        let color = |c: V3| cx.vec3(&format!("light[{i}].color"), c);
+        let light = match *l {
+            FileLight::Directional { direction, color: c, shadows } => {
+                Light::Directional { direction: direction_of(direction)?, color: color(c)?, shadows }
+            }
+            FileLight::Point { position, color: c, shadows } => Light::Point {
                 position: cx.vec3(&format!("light[{i}].position"), position)?,
-                color: cx.non_negative3(&format!("light[{i}].color"), color)?,
+                color: color(c)?,
                 shadows,
             },
-            FileLight::Spot { position, direction, color, inner_angle_deg, outer_angle_deg, shadows } => {
-                let outer = outer_angle_deg;
-                cx.range(
-                    &format!("light[{i}].outer_angle_deg"),
-                    outer,
-                    outer > 0.0 && outer <= 90.0,
-                    "in (0, 90]",
-                )?;
-                let inner = inner_angle_deg;
-                cx.range(
-                    &format!("light[{i}].inner_angle_deg"),
-                    inner,
-                    (0.0..=outer).contains(&inner),
-                    &format!("in [0, outer_angle_deg = {outer}]"),
-                )?;
+            FileLight::Spot { position, direction, color: c, inner_angle_deg, outer_angle_deg, shadows } => {
+                cx.check().spot_cone(i, inner_angle_deg, outer_angle_deg)?;
                 Light::Spot {
                     position: cx.vec3(&format!("light[{i}].position"), position)?,
                     direction: direction_of(direction)?,
-                    inner_deg: inner,
-                    outer_deg: outer,
-                    color: cx.non_negative3(&format!("light[{i}].color"), color)?,
+                    inner_deg: inner_angle_deg,
+                    outer_deg: outer_angle_deg,
+                    color: color(c)?,
                     shadows,
                 }
             }
-        });
+        };
+        cx.check().light(i, &light)?;
+        lights.push(light);
     }
 
     let mut environment = Environment::default();
     if let Some(env) = &file.environment {
         if let Some(a) = env.ambient {
-            environment.ambient = cx.non_negative3("environment.ambient", a)?;
+            environment.ambient = cx.vec3("environment.ambient", a)?;
         }
         if let Some(b) = env.background {
-            environment.background = cx.non_negative3("environment.background", b)?;
+            environment.background = cx.vec3("environment.background", b)?;
         }
         if let Some(i) = &env.indirect {
             environment.indirect = match i.as_str() {
@@ -654,8 +666,10 @@ fn parse_with_source(text: &str, base_dir: &Path, default_name: &str, source: &s
         }
     }
 
+    cx.check().environment(&environment)?;
+
     let scene = Scene {
-        name: file.name.clone().unwrap_or_else(|| default_name.to_string()),
+        name: printable(file.name.as_deref().unwrap_or(default_name)),
         image,
         camera,
         objects,
@@ -693,8 +707,7 @@ type ShutterInterval = Option<(f32, f32)>;
 /// default sensor width too).
 pub const DEFAULT_SENSOR_WIDTH_MM: f32 = 36.0;
 
-/// The narrowest vertical field of view a scene may have, degrees.
-pub const MIN_VFOV_DEG: f32 = 1e-3;
+pub use super::validate::MIN_VFOV_DEG;
 
 /// The vertical field of view of a lens of focal length `focal_mm` on a sensor `sensor_height_mm`
 /// high: `2·atan(h / 2f)` (a lens focused at infinity; the model's pinhole, docs/MODEL.md "Pinhole").
@@ -741,7 +754,11 @@ fn resolve_camera(cx: &Ctx, c: &FileCamera, image: &ImageSettings) -> Result<(Ca
             if !(0.0 <= open && open < close && close <= 1.0) {
                 return Err(cx.err(
                     f,
-                    format!("[{open}, {close}] is out of range: must be 0 ≤ open < close ≤ 1 (fractions of the frame)"),
+                    format!(
+                        "[{}, {}] is out of range: must be 0 ≤ open < close ≤ 1 (fractions of the frame)",
+                        num(open),
+                        num(close)
+                    ),
                 ));
             }
             Some((open, close))
@@ -811,14 +828,7 @@ fn resolve_camera(cx: &Ctx, c: &FileCamera, image: &ImageSettings) -> Result<(Ca
             vfov_deg_of_lens(f, sensor_height)
         }
     };
-    // At least a thousandth of a degree (a 2,000 mm lens on a full-frame sensor sees 0.69°): below
-    // about 1e-36° tan(vfov/2) underflows and the pixel scale is infinite (found by the fuzz test).
-    cx.range(
-        "camera.vfov_deg",
-        vfov_deg,
-        (MIN_VFOV_DEG..180.0).contains(&vfov_deg),
-        "in [0.001, 180) degrees",
-    )?;
+    // Its range, with the other lens values', is checked by `Check::camera` (the model's checks).
     let aperture_radius = match (c.aperture_radius, c.f_stop, focal) {
         (Some(_), Some(_), _) => return Err(both("aperture_radius", "f_stop")),
         (_, Some(_), None) => {
@@ -830,26 +840,13 @@ fn resolve_camera(cx: &Ctx, c: &FileCamera, image: &ImageSettings) -> Result<(Ca
         (_, Some(n), Some(f)) => aperture_radius_of_lens(f, cx.range("camera.f_stop", n, n > 0.0, "> 0")?),
         (a, None, _) => a.unwrap_or(0.0),
     };
-    cx.range("camera.aperture_radius", aperture_radius, aperture_radius >= 0.0, "≥ 0")?;
     let focus_distance = c.focus_distance.unwrap_or_else(|| (open.look_at - open.position).length());
-    cx.range("camera.focus_distance", focus_distance, focus_distance > 0.0, "> 0")?;
     let near = c.near.unwrap_or(0.05);
     let far = c.far.unwrap_or(1000.0);
-    cx.range("camera.near", near, near > 0.0, "> 0")?;
-    cx.range("camera.far", far, far > near, "> near")?;
-    crate::scene::camera::check_depth_range(near, far).map_err(|e| cx.err("camera.near/far", e))?;
     let aperture = match c.aperture {
         None | Some(FileAperture::Disk {}) => ApertureShape::Disk,
         Some(FileAperture::SmoothDisk {}) => ApertureShape::SmoothDisk,
-        Some(FileAperture::Blades { blades, rotation_deg }) => {
-            if blades < 3 {
-                return Err(
-                    cx.err("camera.aperture.blades", format!("{blades} is out of range: must be ≥ 3"))
-                );
-            }
-            cx.finite("camera.aperture.rotation_deg", rotation_deg)?;
-            ApertureShape::Blades { blades, rotation_deg }
-        }
+        Some(FileAperture::Blades { blades, rotation_deg }) => ApertureShape::Blades { blades, rotation_deg },
     };
     let camera = Camera {
         open,
@@ -902,7 +899,10 @@ fn resolve_mesh(cx: &Ctx, field: &str, base_dir: &Path, o: &FileObject) -> Resul
             ),
         ));
     }
-    load_obj(&path, o.normalize)
+    load_obj(&path, o.normalize).map_err(|e| match e {
+        Error::Limit { .. } => e,
+        other => cx.err(&format!("{field}.mesh"), other),
+    })
 }
 
 /// Translation, rotation (degrees about X, Y, Z) and scale of a transform table, validated.
@@ -921,7 +921,7 @@ fn resolve_trs(
         Some(FileScale::PerAxis(s)) => cx.vec3(&format!("{field}.scale"), *s)?,
     };
     if scale.abs().min_element() == 0.0 {
-        return Err(cx.err(&format!("{field}.scale"), format!("{scale} has a zero component")));
+        return Err(cx.err(&format!("{field}.scale"), format!("{} has a zero component", vec_text(scale))));
     }
     Ok([translate, rot, scale])
 }
@@ -980,14 +980,35 @@ fn resolve_motion(
     for (i, key) in o.transform_key.iter().enumerate() {
         let f = format!("{field}.transform_key[{i}]");
         let last = keys.last().expect("one").0;
-        cx.range(
-            &format!("{f}.time"),
-            key.time,
-            key.time > last && key.time < 1.0,
-            &format!("in ({last}, 1): after the previous key, before shutter close"),
-        )?;
+        let written = key.time;
+        let expected = format!("in ({}, 1): after the previous key, before shutter close", num(last));
+        if !written.is_finite() {
+            return Err(cx.err(&format!("{f}.time"), format!("{} is not a finite number", num64(written))));
+        }
+        if !(written > last as f64 && written < 1.0) {
+            return Err(cx.err(
+                &format!("{f}.time"),
+                format!("{} is out of range: must be {expected}", num64(written)),
+            ));
+        }
+        // Times are `f32` in the model: one strictly between the neighbours in decimal may round onto
+        // one of them (0.99999999 is 1 as an f32).
+        let time = written as f32;
+        if !(time > last && time < 1.0) {
+            let largest = 1.0f32 - f32::EPSILON / 2.0;
+            return Err(cx.err(
+                &format!("{f}.time"),
+                format!(
+                    "{} rounds to {} in single precision (the model's time), which is not {expected} \
+                     (the largest time before close is {})",
+                    num64(written),
+                    num(time),
+                    num(largest)
+                ),
+            ));
+        }
         let trs = resolve_trs(cx, &f, key.translate, key.rotate_deg, key.scale.as_ref())?;
-        keys.push((key.time, trs_matrix(trs)));
+        keys.push((time, trs_matrix(trs)));
     }
     if keys.len() + 1 > MAX_MOTION_KEYS {
         return Err(cx.err(
@@ -1021,7 +1042,11 @@ fn resolve_material(
             None => {
                 let tex = match builtin_texture(t) {
                     Some(texture) => texture?,
-                    None => Arc::new(load_texture(&base_dir.join(t))?),
+                    // The error says which object's key named the file, not only the file.
+                    None => Arc::new(
+                        load_texture(&base_dir.join(t))
+                            .map_err(|e| cx.err(&format!("{field}.texture"), e))?,
+                    ),
                 };
                 textures.insert(t.clone(), tex.clone());
                 tex
@@ -1029,25 +1054,17 @@ fn resolve_material(
         }),
     };
     let default_albedo = V3::from(if texture.is_some() { [1.0; 3] } else { [0.8; 3] });
-    let albedo = cx.non_negative3(&format!("{field}.albedo"), m.albedo.unwrap_or(default_albedo))?;
-    let specular = m.specular.unwrap_or(0.0);
-    cx.range(&format!("{field}.specular"), specular, specular >= 0.0, "≥ 0")?;
-    let roughness = m.roughness.unwrap_or(0.5);
-    cx.range(&format!("{field}.roughness"), roughness, roughness > 0.0 && roughness <= 1.0, "in (0, 1]")?;
-    let alpha = m.alpha.unwrap_or(1.0);
-    cx.range(&format!("{field}.alpha"), alpha, (0.0..=1.0).contains(&alpha), "in [0, 1]")?;
-    let alpha_from_texture = m.alpha_from_texture.unwrap_or(false);
-    if alpha_from_texture && texture.is_none() {
-        return Err(cx.err(&format!("{field}.alpha_from_texture"), "needs a texture"));
-    }
-    let tint = cx.vec3(&format!("{field}.tint"), m.tint.unwrap_or(V3::from([1.0; 3])))?;
-    if tint.min_element() < 0.0 || tint.max_element() > 1.0 {
-        return Err(
-            cx.err(&format!("{field}.tint"), format!("{tint} is out of range: each component in [0, 1]"))
-        );
-    }
-    let one_sided = m.one_sided.unwrap_or(false);
-    Ok(Material { albedo, texture, specular, roughness, alpha, alpha_from_texture, tint, one_sided })
+    // Ranges are the model's checks (`Check::material`), run on the whole object.
+    Ok(Material {
+        albedo: cx.vec3(&format!("{field}.albedo"), m.albedo.unwrap_or(default_albedo))?,
+        texture,
+        specular: m.specular.unwrap_or(0.0),
+        roughness: m.roughness.unwrap_or(0.5),
+        alpha: m.alpha.unwrap_or(1.0),
+        alpha_from_texture: m.alpha_from_texture.unwrap_or(false),
+        tint: cx.vec3(&format!("{field}.tint"), m.tint.unwrap_or(V3::from([1.0; 3])))?,
+        one_sided: m.one_sided.unwrap_or(false),
+    })
 }
 
 #[cfg(test)]
@@ -1446,7 +1463,7 @@ mod tests {
             ("f_stop = 2", "camera.f_stop: needs focal_length_mm (the aperture's diameter is the focal length ÷ the f-stop)"),
             ("sensor_width_mm = 36", "camera.sensor_width_mm: needs focal_length_mm (the sensor and the focal length give the field of view)"),
             ("focal_length_mm = 0", "camera.focal_length_mm: 0 is out of range: must be > 0"),
-            ("vfov_deg = 1e-45", "camera.vfov_deg: 0.000000000000000000000000000000000000000000001 is out of range: must be in [0.001, 180) degrees"),
+            ("vfov_deg = 1e-45", "camera.vfov_deg: 1e-45 is out of range: must be in [0.001, 180) degrees"),
             ("focal_length_mm = 3e6", "camera.vfov_deg: 0.0003867465 is out of range: must be in [0.001, 180) degrees"),
             ("focal_length_mm = nan", "camera.focal_length_mm: NaN is not a finite number"),
             ("focal_length_mm = 50\nf_stop = -2", "camera.f_stop: -2 is out of range: must be > 0"),

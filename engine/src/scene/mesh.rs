@@ -102,6 +102,11 @@ impl Mesh {
         Ok(Mesh { positions, normals, uvs, indices: kept, stats })
     }
 
+    /// Bytes its arrays hold (what a scene's load adds up against [`crate::limits::memory_limit`]).
+    pub fn heap_bytes(&self) -> u64 {
+        (self.positions.len() * 12 + self.normals.len() * 12 + self.uvs.len() * 8 + self.indices.len() * 4)
+            as u64
+    }
     pub fn triangle_count(&self) -> usize {
         self.indices.len() / 3
     }
@@ -212,7 +217,12 @@ impl Mesh {
 
 /// Loads a Wavefront OBJ file as one mesh (all its groups merged). See [`parse_obj`].
 pub fn load_obj(path: &Path, normalize: bool) -> Result<Mesh> {
-    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    let bytes = crate::limits::read_capped(
+        path,
+        crate::limits::MAX_OBJ_FILE_BYTES,
+        "OBJ file",
+        "MAX_OBJ_FILE_BYTES",
+    )?;
     parse_obj(&bytes, &path.display().to_string(), normalize)
 }
 
@@ -269,13 +279,18 @@ pub fn parse_obj(bytes: &[u8], context: &str, normalize: bool) -> Result<Mesh> {
         let (lo, hi) = positions
             .iter()
             .fold((Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)), |(lo, hi), p| (lo.min(*p), hi.max(*p)));
+        // In f64: an extent from −3e38 to 3e38 overflows f32 (it was reported as "zero extent").
+        let (lo, hi) = (lo.as_dvec3(), hi.as_dvec3());
         let centre = 0.5 * (lo + hi);
         let half = 0.5 * (hi - lo).max_element();
-        if !(half > 0.0 && half.is_finite()) {
-            return Err(Error::scene(context, "cannot normalize a mesh of zero extent"));
+        if half <= 0.0 {
+            return Err(Error::scene(
+                context,
+                "cannot normalize a mesh of zero extent (all its vertices coincide)",
+            ));
         }
         for p in &mut positions {
-            *p = (*p - centre) / half;
+            *p = ((p.as_dvec3() - centre) / half).as_vec3();
         }
     }
     Mesh::new(context, positions, normals, uvs, indices)

@@ -12,6 +12,7 @@ pub mod extremes;
 pub mod file;
 pub mod mesh;
 pub mod texture;
+pub mod validate;
 pub mod view;
 
 use std::sync::Arc;

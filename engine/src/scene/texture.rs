@@ -100,17 +100,33 @@ impl Texture {
 
 /// Loads a PNG texture (any bit depth/colour type; converted to 8-bit sRGB RGBA). Errors name the path.
 pub fn load_texture(path: &Path) -> Result<Texture> {
-    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    let bytes = crate::limits::read_capped(
+        path,
+        crate::limits::MAX_TEXTURE_FILE_BYTES,
+        "texture",
+        "MAX_TEXTURE_FILE_BYTES",
+    )?;
     texture_from_png_bytes(&path.display().to_string(), path, &bytes)
 }
 
 /// Decodes PNG bytes into a texture called `name`; `path` is what errors name.
 pub fn texture_from_png_bytes(name: &str, path: &Path, bytes: &[u8]) -> Result<Texture> {
     let image_error = |message: String| Error::Image { path: path.to_path_buf(), message };
-    let mut reader = image::ImageReader::with_format(std::io::Cursor::new(bytes), image::ImageFormat::Png);
+    let reader = || image::ImageReader::with_format(std::io::Cursor::new(bytes), image::ImageFormat::Png);
+    // The size first, from the header: the decoder's own refusal says only "Image size exceeds limit".
+    let (w, h) = reader().into_dimensions().map_err(|e| image_error(format!("cannot decode PNG: {e}")))?;
+    if w > MAX_TEXTURE_DIMENSION || h > MAX_TEXTURE_DIMENSION {
+        return Err(image_error(format!(
+            "the texture is {w}×{h} texels; at most {MAX_TEXTURE_DIMENSION}×{MAX_TEXTURE_DIMENSION} \
+             (MAX_TEXTURE_DIMENSION)"
+        )));
+    }
+    let mut reader = reader();
     let mut limits = image::Limits::default();
     limits.max_image_width = Some(MAX_TEXTURE_DIMENSION);
     limits.max_image_height = Some(MAX_TEXTURE_DIMENSION);
+    // Room for the largest texture at 16 bits per channel (the default, 512 MiB, is a quarter of it).
+    limits.max_alloc = Some(MAX_TEXTURE_DIMENSION as u64 * MAX_TEXTURE_DIMENSION as u64 * 8);
     reader.limits(limits);
     let decoded = reader.decode().map_err(|e| image_error(format!("cannot decode PNG: {e}")))?;
     let rgba = decoded.to_rgba8();

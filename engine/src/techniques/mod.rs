@@ -324,7 +324,7 @@ impl Renderer {
         prepare: impl FnOnce(&PrepareContext<'_>) -> Result<Box<dyn FrameTechnique>>,
     ) -> Result<PreparedFrame> {
         self.check_settings(settings)?;
-        crate::scene::extremes::check_scene(scene)?;
+        scene.validate()?;
         let t0 = Instant::now();
         let world = GpuWorld::upload(&self.device, &mut self.recorder, scene)?;
         // The one camera-space build of the frame: the plan, the GPU view and the techniques share it.
