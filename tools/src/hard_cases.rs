@@ -65,7 +65,7 @@ pub fn run(args: HardCasesArgs) -> Result<()> {
     let mut failures = Vec::new();
     for case in cases {
         let row = run_row(&mut renderer, case, COLUMNS, &m)?;
-        eprintln!("{}: {}", case.name, if row.passes() { "pass" } else { "FAIL" });
+        errln!("{}: {}", case.name, if row.passes() { "pass" } else { "FAIL" });
         failures.extend(row.failures());
         rows.push(row);
     }
@@ -79,12 +79,12 @@ pub fn run(args: HardCasesArgs) -> Result<()> {
                 rows.iter().map(|r| format!("- `{}`: {}\n", r.case.name, r.case.what())).collect();
             let new = format!("{head}{BEGIN}\n{table}\nWhat each scene tests (`scenes/hard/NAME.toml`):\n\n{cases_md}{END}{tail}");
             shutter::image_io::write_file_atomically(out, new.as_bytes())?;
-            eprintln!("wrote {}", out.display());
+            errln!("wrote {}", out.display());
         }
-        None => print!("{table}"),
+        None => outln!("{}", table.trim_end()),
     }
     for f in &failures {
-        eprintln!("FAIL {f}");
+        errln!("FAIL {f}");
     }
     if !failures.is_empty() {
         bail!("{} cell(s) of the matrix fail", failures.len());
