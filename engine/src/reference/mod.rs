@@ -298,13 +298,17 @@ fn limit(what: &'static str, value: impl ToString, limit: &str) -> Error {
     Error::Limit { what, value: value.to_string(), limit: limit.to_string() }
 }
 
-/// Host bytes per triangle, per key of its object: its camera-space corners and normals (`keyed`) and
-/// the per-vertex copies they are gathered from. Measured (peak RSS of `shutter reference`, see
-/// docs/hard-cases/input.md).
-const BYTES_PER_TRIANGLE_KEY: u64 = 120;
+/// Host bytes per triangle, whatever its motion: its surface record, per-vertex gathers and the
+/// BVH build's scratch. With the two below, fitted to the peak RSS of `shutter reference` on a
+/// 1,046,528-triangle sphere at 2, 4 and 8 motion keys (456, 829 and 1651 bytes per triangle above
+/// the loaded scene; docs/hard-cases/input.md).
+const BYTES_PER_TRIANGLE: u64 = 160;
+/// Host bytes per triangle and key of its object (at least 2: a still object has both shutter
+/// ends): its camera-space corners and normals.
+const BYTES_PER_TRIANGLE_KEY: u64 = 100;
 /// Host bytes per triangle and BVH (one BVH per interval between the scene's key times, each holding
-/// every triangle over its segment): triangle, boxes, centre, ids and nodes, with the build's scratch.
-const BYTES_PER_TRIANGLE_BVH: u64 = 200;
+/// every triangle over its segment).
+const BYTES_PER_TRIANGLE_BVH: u64 = 100;
 /// Host bytes per pixel: the tiles' results and the image.
 const BYTES_PER_PIXEL: u64 = 48;
 
@@ -323,6 +327,7 @@ pub fn memory_estimate(scene: &Scene, settings: &ReferenceSettings) -> (u64, Str
     let pixels = settings.width as u64 * settings.height as u64;
     let meshes: u64 = scene.objects.iter().map(|o| o.mesh.heap_bytes()).sum();
     let bytes = meshes
+        .saturating_add(triangles.saturating_mul(BYTES_PER_TRIANGLE))
         .saturating_add(triangle_keys.saturating_mul(BYTES_PER_TRIANGLE_KEY))
         .saturating_add(triangles.saturating_mul(bvhs).saturating_mul(BYTES_PER_TRIANGLE_BVH))
         .saturating_add(pixels.saturating_mul(BYTES_PER_PIXEL));
