@@ -110,9 +110,11 @@ fn check(c: &Case, o: &Outcome) -> Vec<String> {
             bad.push(format!("a {}-byte message", o.stderr.len()));
         }
     }
+    // The key words are in the error line, or for a command that succeeds in its output.
+    let (said, stream) = if c.code == 0 { (&o.stdout, "stdout") } else { (&o.stderr, "stderr") };
     for w in &c.words {
-        if !o.stderr.contains(w.as_str()) {
-            bad.push(format!("stderr lacks {w:?}"));
+        if !said.contains(w.as_str()) {
+            bad.push(format!("{stream} lacks {w:?}"));
         }
     }
     bad
@@ -146,6 +148,10 @@ fn hostile_input_is_one_clear_line_and_destroys_nothing() {
     let escape_name = write(
         "escape.toml",
         &with_object("name = \"\\u001b[2J\\u001b[31mred\"\nmesh = \"box\"\n[object.material]\nroughness = 0"),
+    );
+    let escape_scene_name = write(
+        "escape-scene-name.toml",
+        &format!("name = \"\\u001b]0;pwned\\u0007\\u001b[2J\"\n{}", with_object("mesh = \"box\"")),
     );
     let raw_escape = write("raw-escape.toml", "name = \"\u{1b}[31m\"\n[camera\n");
     let key_time = write(
@@ -192,6 +198,12 @@ fn hostile_input_is_one_clear_line_and_destroys_nothing() {
             &["reference", p(&escape_name), "--out", previous_out],
             1,
             &["\\u{1b}[2J\\u{1b}[31mred", "material.roughness: 0 is out of range"],
+        ),
+        case(
+            "an escape sequence in the scene name is printed escaped",
+            &["plan", p(&escape_scene_name), "--size", "8x4"],
+            0,
+            &["# plan of `\\u{1b}]0;pwned\\u{7}\\u{1b}[2J`"],
         ),
         case("a raw escape in a TOML error is escaped", &["plan", p(&raw_escape)], 1, &["\\u{1b}[31m"]),
         case(
@@ -240,7 +252,8 @@ fn hostile_input_is_one_clear_line_and_destroys_nothing() {
             &["no-such.exr", "No such file"],
         ),
     ];
-    cases[10].env.push(("SHUTTER_MEMORY_LIMIT", "16M"));
+    let memory = cases.iter().position(|c| c.name.contains("memory limit")).unwrap();
+    cases[memory].env.push(("SHUTTER_MEMORY_LIMIT", "16M"));
 
     let mut failures = vec![];
     for c in &cases {
