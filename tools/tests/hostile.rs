@@ -240,6 +240,23 @@ fn hostile_input_is_one_clear_line_and_destroys_nothing() {
             &["memory", "MiB", "SHUTTER_MEMORY_LIMIT"],
         ),
         case(
+            "a GPU render over the memory limit is refused with the figure before any upload",
+            &[
+                "render",
+                p(&big_sphere),
+                "--technique",
+                "stochastic",
+                "--spp",
+                "4",
+                "--size",
+                "8x8",
+                "--out",
+                previous_out,
+            ],
+            1,
+            &["memory", "`stochastic`", "MiB", "SHUTTER_MEMORY_LIMIT"],
+        ),
+        case(
             "an output that is a socket is refused before any work",
             &["reference", "static", "--size", "4x4", "--spp", "1", "--out", p(&socket)],
             1,
@@ -252,8 +269,9 @@ fn hostile_input_is_one_clear_line_and_destroys_nothing() {
             &["no-such.exr", "No such file"],
         ),
     ];
-    let memory = cases.iter().position(|c| c.name.contains("memory limit")).unwrap();
-    cases[memory].env.push(("SHUTTER_MEMORY_LIMIT", "16M"));
+    for c in cases.iter_mut().filter(|c| c.name.contains("memory limit")) {
+        c.env.push(("SHUTTER_MEMORY_LIMIT", "16M"));
+    }
 
     let mut failures = vec![];
     for c in &cases {
