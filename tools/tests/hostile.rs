@@ -182,6 +182,7 @@ fn hostile_input_is_one_clear_line_and_destroys_nothing() {
     );
     let vfov = write("vfov.toml", &format!("{CAMERA}vfov_deg = 0\n"));
     let big_sphere = write("sphere.toml", &with_object("mesh = \"sphere\"\ndetail = 256"));
+    let report = write("report.json", &format!("{{\"results\": \"{}\"}}", "A".repeat(1_000_000)));
     let socket = dir.join("socket.exr");
     let _listener = std::os::unix::net::UnixListener::bind(&socket).unwrap();
 
@@ -261,6 +262,12 @@ fn hostile_input_is_one_clear_line_and_destroys_nothing() {
             &["reference", "static", "--size", "4x4", "--spp", "1", "--out", p(&socket)],
             1,
             &["socket.exr", "it is a socket"],
+        ),
+        case(
+            "a bench report quoting a 1 MB string is quoted as a fragment",
+            &["bench-compare", "--old", p(&report), "--new", p(&report)],
+            1,
+            &["report.json", "as a bench report", "[…]"],
         ),
         case(
             "compare of a missing file",
