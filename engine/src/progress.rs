@@ -152,7 +152,9 @@ impl Progress {
                 };
                 if due && done < self.total {
                     s.0 = Some(now);
-                    eprintln!("{}", self.line(done, elapsed, &s.1));
+                    // Not `eprintln!`, which panics when stderr is closed.
+                    use std::io::Write;
+                    let _ = writeln!(std::io::stderr().lock(), "{}", self.line(done, elapsed, &s.1));
                 }
             }
             ProgressMode::Off => {}

@@ -526,6 +526,15 @@ pub fn comparison_markdown(scene: &str, runs: (usize, usize), rows: &[Comparison
 
 /// Reads a report written by `shutter bench --json`.
 pub fn read_report(path: &std::path::Path) -> Result<BenchReport> {
-    let text = std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
-    serde_json::from_str(&text).with_context(|| format!("parsing {} as a bench report", path.display()))
+    // A report is kilobytes; a 64 MiB cap keeps a wrong path (a disk image) from being read whole.
+    let bytes = shutter::limits::read_capped(path, 64 << 20, "bench report", "64 MiB")?;
+    let text = String::from_utf8_lossy(&bytes);
+    // The parser's message may quote the file (a huge string): a fragment of it, escaped.
+    serde_json::from_str(&text).map_err(|e| {
+        anyhow::anyhow!(
+            "parsing {} as a bench report: {}",
+            path.display(),
+            shutter::limits::quote_safely(&e.to_string(), 300)
+        )
+    })
 }

@@ -110,9 +110,11 @@ fn check(c: &Case, o: &Outcome) -> Vec<String> {
             bad.push(format!("a {}-byte message", o.stderr.len()));
         }
     }
+    // The key words are in the error line, or for a command that succeeds in its output.
+    let (said, stream) = if c.code == 0 { (&o.stdout, "stdout") } else { (&o.stderr, "stderr") };
     for w in &c.words {
-        if !o.stderr.contains(w.as_str()) {
-            bad.push(format!("stderr lacks {w:?}"));
+        if !said.contains(w.as_str()) {
+            bad.push(format!("{stream} lacks {w:?}"));
         }
     }
     bad
@@ -147,6 +149,10 @@ fn hostile_input_is_one_clear_line_and_destroys_nothing() {
         "escape.toml",
         &with_object("name = \"\\u001b[2J\\u001b[31mred\"\nmesh = \"box\"\n[object.material]\nroughness = 0"),
     );
+    let escape_scene_name = write(
+        "escape-scene-name.toml",
+        &format!("name = \"\\u001b]0;pwned\\u0007\\u001b[2J\"\n{}", with_object("mesh = \"box\"")),
+    );
     let raw_escape = write("raw-escape.toml", "name = \"\u{1b}[31m\"\n[camera\n");
     let key_time = write(
         "key-time.toml",
@@ -176,6 +182,7 @@ fn hostile_input_is_one_clear_line_and_destroys_nothing() {
     );
     let vfov = write("vfov.toml", &format!("{CAMERA}vfov_deg = 0\n"));
     let big_sphere = write("sphere.toml", &with_object("mesh = \"sphere\"\ndetail = 256"));
+    let report = write("report.json", &format!("{{\"results\": \"{}\"}}", "A".repeat(1_000_000)));
     let socket = dir.join("socket.exr");
     let _listener = std::os::unix::net::UnixListener::bind(&socket).unwrap();
 
@@ -192,6 +199,12 @@ fn hostile_input_is_one_clear_line_and_destroys_nothing() {
             &["reference", p(&escape_name), "--out", previous_out],
             1,
             &["\\u{1b}[2J\\u{1b}[31mred", "material.roughness: 0 is out of range"],
+        ),
+        case(
+            "an escape sequence in the scene name is printed escaped",
+            &["plan", p(&escape_scene_name), "--size", "8x4"],
+            0,
+            &["# plan of `\\u{1b}]0;pwned\\u{7}\\u{1b}[2J`"],
         ),
         case("a raw escape in a TOML error is escaped", &["plan", p(&raw_escape)], 1, &["\\u{1b}[31m"]),
         case(
@@ -228,10 +241,33 @@ fn hostile_input_is_one_clear_line_and_destroys_nothing() {
             &["memory", "MiB", "SHUTTER_MEMORY_LIMIT"],
         ),
         case(
+            "a GPU render over the memory limit is refused with the figure before any upload",
+            &[
+                "render",
+                p(&big_sphere),
+                "--technique",
+                "stochastic",
+                "--spp",
+                "4",
+                "--size",
+                "8x8",
+                "--out",
+                previous_out,
+            ],
+            1,
+            &["memory", "`stochastic`", "MiB", "SHUTTER_MEMORY_LIMIT"],
+        ),
+        case(
             "an output that is a socket is refused before any work",
             &["reference", "static", "--size", "4x4", "--spp", "1", "--out", p(&socket)],
             1,
             &["socket.exr", "it is a socket"],
+        ),
+        case(
+            "a bench report quoting a 1 MB string is quoted as a fragment",
+            &["bench-compare", "--old", p(&report), "--new", p(&report)],
+            1,
+            &["report.json", "as a bench report", "[…]"],
         ),
         case(
             "compare of a missing file",
@@ -240,7 +276,9 @@ fn hostile_input_is_one_clear_line_and_destroys_nothing() {
             &["no-such.exr", "No such file"],
         ),
     ];
-    cases[10].env.push(("SHUTTER_MEMORY_LIMIT", "16M"));
+    for c in cases.iter_mut().filter(|c| c.name.contains("memory limit")) {
+        c.env.push(("SHUTTER_MEMORY_LIMIT", "16M"));
+    }
 
     let mut failures = vec![];
     for c in &cases {

@@ -48,7 +48,7 @@ use crate::error::{Error, Result};
 use crate::gpu::{GpuView, GpuWorld};
 use crate::graph::{FrameGraph, GraphResult, TransientPool};
 use crate::image::LinearImage;
-use crate::limits::{MAX_IMAGE_DIMENSION, MAX_SPP};
+use crate::limits::{MAX_IMAGE_DIMENSION, MAX_SPP, MAX_STOCHASTIC_SPP};
 use crate::plan::Plan;
 use crate::scene::{Scene, View};
 use crate::shadows::ShadowSettings;
@@ -312,6 +312,9 @@ impl Renderer {
     ) -> Result<PreparedFrame> {
         check_transparency_supported(scene, technique)?;
         check_transparency_method(scene, technique, settings.transparency)?;
+        scene.validate()?;
+        let (bytes, detail) = memory_estimate(scene, technique, settings);
+        crate::limits::check_memory(&format!("`{}`", technique.name()), bytes, &detail)?;
         self.prepare_with(scene, settings, technique.info().prepare)
     }
 
@@ -396,6 +399,44 @@ impl Renderer {
             },
         })
     }
+}
+
+/// Host bytes per triangle of a rasterizing technique (`pinhole`, `accumulation`, `interleaved`):
+/// its upload and camera-space copies. With [`STOCHASTIC_BYTES_PER_TRIANGLE`] from the peak RSS of
+/// `shutter render` on lavapipe (where device memory is host memory) of a 1,046,528-triangle sphere at
+/// 32×18, S = 4: `pinhole` 231 MB above the loaded scene, `stochastic` 896 MB (docs/hard-cases/input.md).
+const RASTER_BYTES_PER_TRIANGLE: u64 = 250;
+/// Host bytes per triangle of the stochastic frame (`stochastic`, `auto`): bounds, clusters and
+/// camera-space copies per motion key.
+const STOCHASTIC_BYTES_PER_TRIANGLE: u64 = 900;
+/// Bytes per pixel of targets and readbacks (RGBA32F accumulation, resolve, readback, MSAA depth).
+const BYTES_PER_PIXEL: u64 = 64;
+
+/// What rendering `scene` with `technique` will allocate (host memory, and device memory where the
+/// device is the CPU), bytes, and how the figure arose — checked before any upload
+/// ([`crate::limits::check_memory`]), so a scene too big is refused with the figure. The stochastic
+/// frame adds its sample tile (64 × 64 × S × 20 bytes).
+pub fn memory_estimate(scene: &Scene, technique: Technique, settings: &RenderSettings) -> (u64, String) {
+    let triangles = scene.triangle_count() as u64;
+    let stochastic = technique != Technique::PINHOLE
+        && technique != Technique::ACCUMULATION
+        && technique != Technique::INTERLEAVED;
+    let per_triangle = if stochastic { STOCHASTIC_BYTES_PER_TRIANGLE } else { RASTER_BYTES_PER_TRIANGLE };
+    let pixels = settings.width as u64 * settings.height as u64;
+    let tile = if stochastic { 64 * 64 * settings.spp.min(MAX_STOCHASTIC_SPP) as u64 * 20 } else { 0 };
+    let textures: u64 = scene
+        .objects
+        .iter()
+        .filter_map(|o| o.material.texture.as_ref())
+        .map(|t| t.width as u64 * t.height as u64 * 32)
+        .sum();
+    let meshes: u64 = scene.objects.iter().map(|o| o.mesh.heap_bytes()).sum();
+    let bytes = meshes
+        .saturating_add(triangles.saturating_mul(per_triangle))
+        .saturating_add(pixels.saturating_mul(BYTES_PER_PIXEL))
+        .saturating_add(tile)
+        .saturating_add(textures);
+    (bytes, format!("{triangles} triangles, {pixels} pixels, S = {}", settings.spp))
 }
 
 /// A scene on the device with one technique's pipelines and targets ([`Renderer::prepare`]).
