@@ -10,9 +10,10 @@
 //! each sub-frame with its own seed. Each sub-frame's FLIP map against the mean of the others is its
 //! noise (the bias, the same in every sub-frame, cancels; the others' mean adds 1/(n − 1) of a
 //! sub-frame's variance: the safe side). The mean of those maps is the noise map at the pilot's S;
-//! the spread of the sub-frames' means gives its standard error. One pair of seeds, as before issue
+//! the spread of the sub-frames' means gives the range (below). One pair of seeds, as before issue
 //! 28, varied by 3× between seeds on a scene whose one moving object dominates the noise (where its
-//! few ghost copies fall); six sub-frames pin the mean to a standard error of ~10–20 %. At `S`
+//! few ghost copies fall); on the planner test's scenes the six sub-frames' spread was 4–27 % of
+//! their mean (a standard error of 2–11 %). At `S`
 //! samples the noise map is scaled by `(PILOT_SPP / S)^α`, for `S ≥ PILOT_SPP` only. Independent
 //! samples would give α = 1/2; the samples are stratified (multi-jittered), so the error falls
 //! faster: `default` measured α between 0.54 (S = 11 to 50) and 0.65 (3 to 35) before its floor
@@ -25,16 +26,18 @@
 //! the forward path's bias image, exactly, whatever its cause. Its FLIP map is taken on the pilot's
 //! estimate of the truth (the sub-frames' mean less the bias). Where the scene has shadow maps, the
 //! first sub-frame is rendered again with maps of 2× and 4× the side (up to 8192²): more candidates,
-//! each with its own measured bias and cost. The stochastic frame reads the same maps and mip chains (accumulation's
-//! bias), and where its shading rate is not per sample, that rate against per sample with the same
+//! each with its own measured bias and cost. The stochastic frame reads the same maps and mip chains
+//! (accumulation's bias), and where its shading rate is not per sample, that rate against per sample with the same
 //! sample tiles is its own bias — measured only when the frame could win on time without it (a bias
 //! only adds samples), so never on lavapipe, where it costs ~60× accumulation's passes.
 //!
 //! *Together.* Noise and bias are independent, so per pixel their colour errors add in quadrature;
 //! FLIP grows more slowly than the colour error, so the quadrature of the two FLIP maps per pixel,
 //! averaged, is the safe side of the combination (it lies between the larger part and their sum).
-//! The prediction has a range: the noise at its estimate minus and plus a one-sided 95 % Student t
-//! times its standard error; the planner takes the fewest S whose **high end** meets the target.
+//! The prediction has a range for the one render to come: the noise's 95 % prediction interval
+//! (one-sided Student t times the sub-frames' standard deviation, widened by the mean's standard
+//! error) and the bias within [`BIAS_MARGIN`]; the planner takes the fewest S whose **high end**
+//! meets the target.
 //! Where the bias alone exceeds the target, the target is out of reach (said so), and S is the
 //! fewest whose high end is within 5 % of the bias floor. The pilot costs
 //! `PILOT_SUBFRAMES × PILOT_SPP` passes plus a warm-up sub-frame, the reference at `PILOT_SPP` rays
