@@ -1,21 +1,48 @@
 //! The quality planner behind `shutter render` with technique `auto` (issue 16): which technique and
 //! how many samples per pixel reach a requested error in the least time on this device.
 //!
-//! **Error.** The GPU techniques are unbiased estimators of the pixel integral (but for what the
-//! reference models differently: shadow maps, the f16/f32 targets), so their error against the ground
-//! truth is, up to that floor, their noise, which falls with the samples. The planner measures the noise
-//! of the scene itself instead of guessing it from the scene's description: a **pilot** renders
-//! `accumulation` at [`PILOT_SPP`] passes with two seeds, and the FLIP between the two images estimates
-//! either one's FLIP against the truth. (Not 1/√2 of it, as for RMSE: FLIP is not linear in the error,
-//! and on `default` and `one-mover` the FLIP against the reference came out 0.9–1.3× the FLIP between
-//! the seeds.) At `S` samples the prediction is that value times `(PILOT_SPP / S)^α`, for
-//! `S ≥ PILOT_SPP` only. Independent samples would give α = 1/2; the samples are stratified
-//! (multi-jittered), so the error falls faster: `default` measured α between 0.54 (S = 11 to 50) and
-//! 0.65 (3 to 35) before its floor (`scripts/quality-targets.sh`), and α = 0.6 planned S = 33 for
-//! FLIP 0.018 where 0.0197 came out. [`NOISE_EXPONENT`] is the lower end, 0.55: the safe side.
-//! Below the pilot the error grows faster still (one jittered sample per pixel aliases every edge), so
-//! the planner never extrapolates down. No reference
-//! is needed, and the pilot costs `2 × PILOT_SPP` passes (3 frames with the warm-up).
+//! **Error.** A candidate's error against the ground truth is its noise, which falls with the
+//! samples, and its bias, which does not: what the GPU path models differently from the reference
+//! (shadow maps, mip filtering, a stochastic shading rate other than per sample). The planner
+//! measures both on the scene itself instead of guessing them from its description.
+//!
+//! *Noise.* The **pilot** renders `accumulation` [`PILOT_SUBFRAMES`] times at [`PILOT_SPP`] passes,
+//! each sub-frame with its own seed. Each sub-frame's FLIP map against the mean of the others is its
+//! noise (the bias, the same in every sub-frame, cancels; the others' mean adds 1/(n − 1) of a
+//! sub-frame's variance: the safe side). The mean of those maps is the noise map at the pilot's S;
+//! the spread of the sub-frames' means gives the range (below). One pair of seeds, as before issue
+//! 28, varied by 3× between seeds on a scene whose one moving object dominates the noise (where its
+//! few ghost copies fall); on the planner test's scenes the six sub-frames' spread was 4–27 % of
+//! their mean (a standard error of 2–11 %). At `S`
+//! samples the noise map is scaled by `(PILOT_SPP / S)^α`, for `S ≥ PILOT_SPP` only. Independent
+//! samples would give α = 1/2; the samples are stratified (multi-jittered), so the error falls
+//! faster: `default` measured α between 0.54 (S = 11 to 50) and 0.65 (3 to 35) before its floor
+//! (`scripts/quality-targets.sh`). [`NOISE_EXPONENT`] is the lower end, 0.55: the safe side. Below
+//! the pilot the error grows faster still (one jittered sample per pixel aliases every edge), so the
+//! planner never extrapolates down.
+//!
+//! *Bias.* The first sub-frame's very samples go through the CPU reference
+//! ([`render_reference_shared_samples`]): the two images share their noise, so their difference is
+//! the forward path's bias image, exactly, whatever its cause. Its FLIP map is taken on the pilot's
+//! estimate of the truth (the sub-frames' mean less the bias). Where the scene has shadow maps, the
+//! first sub-frame is rendered again with maps of 2× and 4× the side (up to 8192²): more candidates,
+//! each with its own measured bias and cost. The stochastic frame reads the same maps and mip chains
+//! (accumulation's bias), and where its shading rate is not per sample, that rate against per sample with the same
+//! sample tiles is its own bias — measured only when the frame could win on time without it (a bias
+//! only adds samples), so never on lavapipe, where it costs ~60× accumulation's passes.
+//!
+//! *Together.* Noise and bias are independent, so per pixel their colour errors add in quadrature;
+//! FLIP grows more slowly than the colour error, so the quadrature of the two FLIP maps per pixel,
+//! averaged, is the safe side of the combination (it lies between the larger part and their sum).
+//! The prediction has a range for the one render to come: the noise's 95 % prediction interval
+//! (one-sided Student t times the sub-frames' standard deviation, widened by the mean's standard
+//! error) and the bias within [`BIAS_MARGIN`]; the planner takes the fewest S whose **high end**
+//! meets the target.
+//! Where the bias alone exceeds the target, the target is out of reach (said so), and S is the
+//! fewest whose high end is within 5 % of the bias floor. The pilot costs
+//! `PILOT_SUBFRAMES × PILOT_SPP` passes plus a warm-up sub-frame, the reference at `PILOT_SPP` rays
+//! per pixel, and with shadow maps a warm-up and a sub-frame per bigger map. No full reference is
+//! needed.
 //!
 //! **Time.** `accumulation`'s passes cost the same whatever their sample, so its time is the pilot's
 //! per pass times `S`. The per-object stochastic frame (`auto` at a fixed `S`) is predicted through a
@@ -34,14 +61,23 @@ use std::path::PathBuf;
 use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
-use crate::metrics::compare;
+use crate::image::LinearImage;
+use crate::metrics::{compare, flip_error_map};
 use crate::plan::{AutoFrame, Plan};
+use crate::reference::{render_reference_shared_samples, ReferenceSettings};
 use crate::scene::Scene;
-use crate::techniques::{RenderOutput, RenderSettings, Renderer, Technique};
+use crate::techniques::accumulation::accumulation_samples;
+use crate::techniques::{RenderOutput, RenderSettings, Renderer, ShadingRate, StochasticOptions, Technique};
 use crate::vk::Capabilities;
 
-/// Passes of each pilot render, and the fewest samples the planner asks for.
+/// Passes of each pilot sub-frame, and the fewest samples the planner asks for.
 pub const PILOT_SPP: u32 = 4;
+/// Sub-frames of the pilot, each with its own seed (module docs, "Error").
+pub const PILOT_SUBFRAMES: usize = 6;
+/// The bias' relative uncertainty in the prediction's range (module docs, "Together"): the pilot
+/// estimates it from one sub-frame's samples, and on the sun-shadow test scene (96×54, seeds 1–5)
+/// the floor measured against a 2,048-spp reference came out up to 1.11× the estimate.
+pub const BIAS_MARGIN: f64 = 0.15;
 /// How FLIP falls with the samples per pixel: `S^-α` (module docs).
 pub const NOISE_EXPONENT: f64 = 0.55;
 /// The most samples per pixel the planner asks for.
@@ -216,18 +252,48 @@ impl CostModel {
 pub struct Candidate {
     pub technique: Technique,
     pub spp: u32,
+    /// The shadow maps' side this candidate renders with, where it is not the settings' own.
+    pub shadow_map: Option<u32>,
     pub predicted_ms: f64,
+    /// The predicted mean FLIP against the ground truth, at the central noise estimate.
     pub predicted_flip: f64,
+    /// The prediction's range for one render: the noise's 95 % prediction interval from the
+    /// sub-frames' spread ([`Pilot::noise_sd`]) and the bias within [`BIAS_MARGIN`]; the planner
+    /// picks S so that the high end meets the target.
+    pub flip_low: f64,
+    pub flip_high: f64,
+    /// The noise part alone at S (central) and the bias part alone (the FLIP its bias image costs on
+    /// this scene): the floor the prediction tends to as S grows.
+    pub noise_flip: f64,
+    pub bias_flip: f64,
+    /// What the bias is and where its number comes from.
+    pub bias: String,
 }
 
 /// What the pilot measured.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Pilot {
+    /// Passes of each sub-frame.
     pub spp: u32,
-    /// FLIP between the two seeds' images.
-    pub flip_between: f64,
-    /// GPU ms of one warm pilot frame.
+    /// Sub-frames (each `accumulation` at `spp` with its own seed).
+    pub subframes: usize,
+    /// The noise of one sub-frame: the mean over the sub-frames of its FLIP against the mean of the
+    /// others.
+    pub noise_flip: f64,
+    /// The standard deviation of the sub-frames' values: how far one render's noise strays.
+    pub noise_sd: f64,
+    /// The standard error of `noise_flip` (`noise_sd` over √n).
+    pub noise_se: f64,
+    /// The sub-frames' FLIPs, in seed order.
+    pub noise_flips: Vec<f64>,
+
+    /// GPU ms of one warm sub-frame.
     pub ms: f64,
+    /// `accumulation`'s bias at the settings' shadow maps: FLIP of its bias image, measured against
+    /// the CPU reference with the first sub-frame's samples (None: not measured, see `notes`).
+    pub bias_flip: Option<f64>,
+    /// What could not be measured, and why.
+    pub notes: Vec<String>,
 }
 
 /// The planner's answer.
@@ -244,13 +310,13 @@ pub struct QualityPlan {
 }
 
 impl QualityPlan {
-    /// Whether the choice's predicted FLIP reaches the target (false when even
-    /// [`MAX_PLANNED_SPP`] samples do not).
+    /// Whether the choice's prediction reaches the target at the high end of its noise estimate
+    /// (false when even [`MAX_PLANNED_SPP`] samples do not, or a bias alone exceeds it).
     pub fn reaches_target(&self) -> bool {
-        self.choice.predicted_flip <= self.target.flip() as f64 * 1.0001
+        self.choice.flip_high <= self.target.flip() as f64 * 1.0001
     }
 
-    /// One line: the choice, its prediction and where it comes from.
+    /// One line: the choice, its prediction with its range and parts, and where they come from.
     pub fn summary(&self) -> String {
         let c = &self.choice;
         match &self.pilot {
@@ -259,18 +325,44 @@ impl QualityPlan {
                 self.target.name()
             ),
             Some(p) => format!(
-                "quality {} (FLIP ≤ {}): {} at S = {}, predicted {:.1} GPU ms, FLIP {:.4}{} (pilot: accumulation S = {} twice, FLIP {:.4} between seeds, {:.1} ms; cost model: {})",
+                "quality {} (FLIP ≤ {}): {} at S = {}{}, predicted {:.1} GPU ms, FLIP {:.4} (95 %: {:.4}–{:.4}; noise {:.4} and bias {:.4}: {}){} (pilot: accumulation S = {} × {} seeds, noise FLIP {:.4} per sub-frame, sd {:.4}, {:.1} ms each; cost model: {}){}",
                 self.target.name(),
                 self.target.flip(),
                 c.technique,
                 c.spp,
+                c.shadow_map.map(|s| format!(", shadow maps {s}²")).unwrap_or_default(),
                 c.predicted_ms,
                 c.predicted_flip,
-                if self.reaches_target() { "" } else { " — the target is out of reach within the sample limit" },
+                c.flip_low,
+                c.flip_high,
+                c.noise_flip,
+                c.bias_flip,
+                c.bias,
+                if self.reaches_target() { "" } else { " — the target is out of reach: see the bias, or the sample limit" },
                 p.spp,
-                p.flip_between,
+                p.subframes,
+                p.noise_flip,
+                p.noise_sd,
                 p.ms,
-                self.cost.source
+                self.cost.source,
+                if p.notes.is_empty() { String::new() } else { format!("; {}", p.notes.join("; ")) }
+            ),
+        }
+    }
+
+    /// What a render with the choice promises: its high end, and the central prediction.
+    pub fn promise(&self) -> String {
+        let c = &self.choice;
+        match &self.pilot {
+            None => "pinhole: nothing to simulate, no error predicted".into(),
+            Some(_) => format!(
+                "promised FLIP ≤ {:.4} against the ground truth (predicted {:.4}, range {:.4}–{:.4}; target {}{})",
+                c.flip_high,
+                c.predicted_flip,
+                c.flip_low,
+                c.flip_high,
+                self.target.flip(),
+                if self.reaches_target() { "" } else { ", out of reach" }
             ),
         }
     }
@@ -289,6 +381,16 @@ fn frame_ms(out: &RenderOutput) -> f64 {
 /// The second seed of a noise measurement (mixed into the settings' seed).
 const OTHER_SEED: u64 = 0x9e37_79b9_7f4a_7c15;
 
+/// The seed of the pilot's sub-frame `k`: the settings' own for the first, then the measurement's
+/// second seed (as [`measure_noise`]) and its multiples mixed in.
+fn subframe_seed(seed: u64, k: usize) -> u64 {
+    if k == 0 {
+        seed
+    } else {
+        seed ^ OTHER_SEED.wrapping_mul(k as u64)
+    }
+}
+
 /// What one render configuration measures for the planner: its GPU ms and its noise.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct NoiseMeasurement {
@@ -299,7 +401,8 @@ pub struct NoiseMeasurement {
 }
 
 /// Renders `technique` at `settings` for one warm-up and `warm_frames` timed frames, then once with
-/// another seed: the pilot's and `shutter calibrate`'s measurement.
+/// another seed: `shutter calibrate`'s measurement (a ratio of two techniques' noise on one scene;
+/// the planner's own noise estimate is the pilot's, [`plan_quality`]).
 pub fn measure_noise(
     renderer: &mut Renderer,
     scene: &Scene,
@@ -310,33 +413,304 @@ pub fn measure_noise(
     let frames = renderer.render_frames(scene, technique, settings, warm_frames.max(1) + 1)?;
     let mut ms: Vec<f64> = frames[1..].iter().map(frame_ms).collect();
     ms.sort_by(f64::total_cmp);
-    let other = RenderSettings { seed: settings.seed ^ OTHER_SEED, ..*settings };
+    let other = RenderSettings { seed: subframe_seed(settings.seed, 1), ..*settings };
     let other = renderer.render(scene, technique, &other)?;
     let flip_between = compare(&frames[1].image, &other.image)?.flip;
     Ok(NoiseMeasurement { ms: ms[ms.len() / 2], flip_between })
 }
 
-/// The predicted FLIP at `spp` samples from a noise of `flip_between` between two pilots of
-/// `pilot_spp` (module docs).
-pub fn predicted_flip(flip_between: f64, pilot_spp: u32, spp: u32) -> f64 {
-    flip_between * (pilot_spp as f64 / spp as f64).powf(NOISE_EXPONENT)
+/// How the noise part of FLIP scales from `pilot_spp` samples to `spp` (module docs).
+pub fn noise_scale(pilot_spp: u32, spp: u32) -> f64 {
+    noise_scale_with(pilot_spp, spp, NOISE_EXPONENT)
 }
 
-/// The fewest samples whose [`predicted_flip`] is at most `target`, within
-/// `pilot_spp ..= MAX_PLANNED_SPP` (module docs: no extrapolation below the pilot).
-pub fn samples_for(flip_between: f64, pilot_spp: u32, target: f64) -> u32 {
-    let s = (pilot_spp as f64 * (flip_between / target).powf(1.0 / NOISE_EXPONENT)).ceil();
-    let lo = pilot_spp.clamp(1, MAX_PLANNED_SPP) as f64;
-    let mut spp = if s.is_finite() { s.clamp(lo, MAX_PLANNED_SPP as f64) as u32 } else { MAX_PLANNED_SPP };
-    // The ceiling may land one short by rounding.
-    while spp < MAX_PLANNED_SPP && predicted_flip(flip_between, pilot_spp, spp) > target {
-        spp += 1;
+/// [`noise_scale`] with the exponent `alpha`.
+pub fn noise_scale_with(pilot_spp: u32, spp: u32, alpha: f64) -> f64 {
+    (pilot_spp as f64 / spp as f64).powf(alpha)
+}
+
+/// The predicted FLIP at `spp` samples from a noise of `noise` at `pilot_spp`, without bias (module
+/// docs).
+pub fn predicted_flip(noise: f64, pilot_spp: u32, spp: u32) -> f64 {
+    noise * noise_scale(pilot_spp, spp)
+}
+
+/// A candidate's error model: per pixel, the FLIP of the pilot's noise at `pilot_spp` samples and
+/// the FLIP of the candidate's bias image (module docs, "Error").
+#[derive(Clone, Debug, PartialEq)]
+pub struct ErrorModel {
+    pub pilot_spp: u32,
+    /// Per pixel: the noise's FLIP at `pilot_spp`.
+    pub noise: Vec<f32>,
+    /// Per pixel: the bias' FLIP (empty: none).
+    pub bias: Vec<f32>,
+    /// How the noise falls with S: `S^-exponent` ([`Pilot::exponent`]).
+    pub exponent: f64,
+    /// The relative half-width of the noise's range per t (one render's spread and the mean's, over
+    /// the mean) and the t factor (0: exact).
+    pub noise_rel_spread: f64,
+    pub t: f64,
+}
+
+impl ErrorModel {
+    /// The mean over the pixels of the noise, scaled to `spp` and by `factor`, combined with the
+    /// bias scaled by `bias_factor` in quadrature per pixel (module docs: noise and bias are
+    /// independent; per pixel their colour errors add in quadrature, and FLIP grows more slowly than
+    /// the colour error, so quadrature of the FLIPs is the safe side).
+    fn flip_at(&self, spp: u32, factor: f64, bias_factor: f64) -> f64 {
+        let k = noise_scale_with(self.pilot_spp, spp, self.exponent) * factor;
+        let n = self.noise.len().max(1) as f64;
+        if self.bias.is_empty() {
+            return self.noise.iter().map(|&v| v as f64 * k).sum::<f64>() / n;
+        }
+        self.noise
+            .iter()
+            .zip(&self.bias)
+            .map(|(&v, &b)| ((v as f64 * k).powi(2) + (b as f64 * bias_factor).powi(2)).sqrt())
+            .sum::<f64>()
+            / n
     }
-    spp
+    /// The central prediction at `spp`.
+    pub fn central(&self, spp: u32) -> f64 {
+        self.flip_at(spp, 1.0, 1.0)
+    }
+    /// The high end at `spp`: the noise at its estimate plus `t` spreads, the bias with
+    /// [`BIAS_MARGIN`].
+    pub fn high(&self, spp: u32) -> f64 {
+        self.flip_at(spp, 1.0 + self.t * self.noise_rel_spread, 1.0 + BIAS_MARGIN)
+    }
+    /// The low end at `spp`.
+    pub fn low(&self, spp: u32) -> f64 {
+        self.flip_at(spp, (1.0 - self.t * self.noise_rel_spread).max(0.0), 1.0 - BIAS_MARGIN)
+    }
+    /// The noise alone at `spp` (central).
+    pub fn noise_flip(&self, spp: u32) -> f64 {
+        let n = self.noise.len().max(1) as f64;
+        self.noise.iter().map(|&v| v as f64).sum::<f64>() / n
+            * noise_scale_with(self.pilot_spp, spp, self.exponent)
+    }
+    /// The bias alone: the floor the prediction tends to.
+    pub fn bias_flip(&self) -> f64 {
+        self.bias.iter().map(|&v| v as f64).sum::<f64>() / self.bias.len().max(1) as f64
+    }
+
+    /// The fewest samples in `pilot_spp ..= MAX_PLANNED_SPP` whose high end is at most `target`.
+    /// Where none is (the bias alone, or the sample limit), the fewest whose high end is within 5 %
+    /// of the floor's: more samples would buy nothing the bias leaves.
+    pub fn samples_for(&self, target: f64) -> u32 {
+        let lo = self.pilot_spp.clamp(1, MAX_PLANNED_SPP);
+        let goal = if self.high(MAX_PLANNED_SPP) <= target {
+            target
+        } else {
+            let floor = self.bias_flip() * (1.0 + BIAS_MARGIN);
+            if floor > 0.0 && floor * 1.05 >= self.high(MAX_PLANNED_SPP) {
+                floor * 1.05
+            } else {
+                return MAX_PLANNED_SPP;
+            }
+        };
+        if self.high(lo) <= goal {
+            return lo;
+        }
+        // The high end falls with S: bisect for the fewest samples reaching the goal.
+        let (mut bad, mut good) = (lo, MAX_PLANNED_SPP);
+        while good - bad > 1 {
+            let mid = bad + (good - bad) / 2;
+            if self.high(mid) <= goal {
+                good = mid;
+            } else {
+                bad = mid;
+            }
+        }
+        good
+    }
+}
+
+/// Per-pixel FLIP of `test` against `reference`.
+fn flip_values(reference: &LinearImage, test: &LinearImage) -> Result<Vec<f32>> {
+    Ok(flip_error_map(reference, test)?.0.pixels.iter().map(|p| p[0]).collect())
+}
+
+/// `Σ weights[i] · images[i]`, per colour channel (alpha 1).
+fn combine(images: &[(&LinearImage, f32)]) -> LinearImage {
+    let (w, h) = (images[0].0.width, images[0].0.height);
+    let mut out = LinearImage::new(w, h);
+    for (i, px) in out.pixels.iter_mut().enumerate() {
+        for (img, wt) in images {
+            let p = img.pixels[i];
+            for c in 0..3 {
+                px[c] += wt * p[c];
+            }
+        }
+        px[3] = 1.0;
+    }
+    out
+}
+
+/// The one-sided 95 % Student t for `n - 1` degrees of freedom (n ≥ 2), the range's factor.
+fn t95(n: usize) -> f64 {
+    const T: [f64; 10] = [6.314, 2.920, 2.353, 2.132, 2.015, 1.943, 1.895, 1.860, 1.833, 1.812];
+    T.get(n.saturating_sub(2)).copied().unwrap_or(1.645)
+}
+
+/// What the pilot measures: the sub-frames' noise map and spread, the warm ms, and the bias images.
+struct PilotData {
+    pilot: Pilot,
+    noise_map: Vec<f32>,
+    /// The pooled mean of the sub-frames minus accumulation's bias image: the truth as far as the
+    /// pilot knows it.
+    truth: LinearImage,
+    /// accumulation's bias image at the settings' shadow maps (GPU minus same-sample reference),
+    /// and its FLIP map on `truth`.
+    bias: Option<LinearImage>,
+    bias_map: Option<Vec<f32>>,
+    /// Bigger shadow maps ([`BIGGER_SHADOW_MAPS`]): their side, the bias image and the ms of one
+    /// sub-frame.
+    bigger_shadows: Vec<(u32, LinearImage, f64)>,
+}
+
+/// The pilot (module docs, "Error"): [`PILOT_SUBFRAMES`] `accumulation` sub-frames of [`PILOT_SPP`]
+/// passes, each with its own seed; the first sub-frame's samples through the CPU reference; where
+/// the scene has shadow maps, the first sub-frame again with maps of 2× and 4× the side.
+fn run_pilot(renderer: &mut Renderer, scene: &Scene, settings: &RenderSettings) -> Result<PilotData> {
+    let k = PILOT_SUBFRAMES;
+    let base = RenderSettings { spp: PILOT_SPP, ..*settings };
+    let mut images = Vec::with_capacity(k);
+    let mut ms = 0.0;
+    for i in 0..k {
+        let s = RenderSettings { seed: subframe_seed(settings.seed, i), ..base };
+        // The first is timed after a warm-up frame; the others are each the first frame of their
+        // preparation, which pays for first uses (3× a warm frame on lavapipe at 96×54): untimed.
+        let mut frames =
+            renderer.render_frames(scene, Technique::ACCUMULATION, &s, if i == 0 { 2 } else { 1 })?;
+        let out = frames.pop().expect("a frame");
+        if i == 0 {
+            ms = frame_ms(&out);
+        }
+        images.push(out.image);
+    }
+    let inv = 1.0 / k as f32;
+    let pooled = combine(&images.iter().map(|i| (i, inv)).collect::<Vec<_>>());
+    // Each sub-frame against the mean of the others: the bias (the same in all) cancels, the noise
+    // of the others' mean adds 1/(k - 1) of a sub-frame's variance (the safe side).
+    let others_w = 1.0 / (k - 1) as f32;
+    let mut noise_map = vec![0f32; pooled.pixels.len()];
+    let mut noise_flips = Vec::with_capacity(k);
+    for img in &images {
+        let others = combine(&[(&pooled, k as f32 * others_w), (img, -others_w)]);
+        let map = flip_values(&others, img)?;
+        noise_flips.push(map.iter().map(|&v| v as f64).sum::<f64>() / map.len() as f64);
+        for (m, v) in noise_map.iter_mut().zip(&map) {
+            *m += v / k as f32;
+        }
+    }
+    let noise_flip = noise_flips.iter().sum::<f64>() / k as f64;
+    let var = noise_flips.iter().map(|f| (f - noise_flip).powi(2)).sum::<f64>() / (k - 1) as f64;
+    let noise_sd = var.sqrt();
+    let noise_se = noise_sd / (k as f64).sqrt();
+
+    // The bias: the first sub-frame against the reference with its very samples, which differ only
+    // where the forward path models the scene differently (shadow maps, mip filtering, ...).
+    let mut notes = Vec::new();
+    let reference_settings = ReferenceSettings {
+        width: settings.width,
+        height: settings.height,
+        spp: PILOT_SPP,
+        seed: settings.seed,
+        progress: false,
+        shading: Default::default(),
+    };
+    let reference = render_reference_shared_samples(
+        scene,
+        &reference_settings,
+        &accumulation_samples(PILOT_SPP, settings.seed),
+    );
+    let (bias, truth) = match reference {
+        Ok(r) => {
+            let d = combine(&[(&images[0], 1.0), (&r, -1.0)]);
+            let truth = combine(&[(&pooled, 1.0), (&d, -1.0)]);
+            (Some((d, r)), truth)
+        }
+        Err(e) => {
+            notes.push(format!("bias not measured: the reference refused the scene ({e})"));
+            (None, pooled.clone())
+        }
+    };
+    // Bigger shadow maps: their own bias with the same samples, and their cost.
+    let mut bigger_shadows = Vec::new();
+    if let Some((_, r)) = &bias {
+        if settings.shadows.enabled && scene.lights.iter().any(|l| l.shadows()) {
+            for factor in BIGGER_SHADOW_MAPS {
+                let size = settings.shadows.size.saturating_mul(factor);
+                if size > MAX_SHADOW_MAP {
+                    notes.push(format!("shadow maps of {size}² not tried (at most {MAX_SHADOW_MAP}²)"));
+                    break;
+                }
+                let mut s = base;
+                s.shadows.size = size;
+                let mut frames = renderer.render_frames(scene, Technique::ACCUMULATION, &s, 2)?;
+                let out = frames.pop().expect("a frame");
+                let d = combine(&[(&out.image, 1.0), (r, -1.0)]);
+                bigger_shadows.push((size, d, frame_ms(&out)));
+            }
+        }
+    }
+    let bias_image = bias.map(|(d, _)| d);
+    let acc_bias_map = bias_image.as_ref().map(|d| bias_map(&truth, d)).transpose()?;
+    let bias_flip = acc_bias_map.as_ref().map(|m| m.iter().map(|&v| v as f64).sum::<f64>() / m.len() as f64);
+    let pilot = Pilot {
+        spp: PILOT_SPP,
+        subframes: k,
+        noise_flip,
+        noise_se,
+        noise_sd,
+        noise_flips,
+        ms,
+        bias_flip,
+        notes,
+    };
+    Ok(PilotData { pilot, noise_map, truth, bias: bias_image, bias_map: acc_bias_map, bigger_shadows })
+}
+
+/// The largest shadow map the planner tries (the settings' limit).
+const MAX_SHADOW_MAP: u32 = 8192;
+/// The shadow maps the planner tries besides the settings' own, as multiples of their side.
+const BIGGER_SHADOW_MAPS: [u32; 2] = [2, 4];
+
+/// A candidate to be priced: its model, its ms per sample, and how to describe it.
+struct Priced {
+    technique: Technique,
+    shadow_map: Option<u32>,
+    model: ErrorModel,
+    ms_per_sample: f64,
+    bias: String,
+}
+
+impl Priced {
+    fn candidate(&self, target: f64) -> Candidate {
+        let spp = self.model.samples_for(target);
+        Candidate {
+            technique: self.technique,
+            spp,
+            shadow_map: self.shadow_map,
+            predicted_ms: self.ms_per_sample * spp as f64,
+            predicted_flip: self.model.central(spp),
+            flip_low: self.model.low(spp),
+            flip_high: self.model.high(spp),
+            noise_flip: self.model.noise_flip(spp),
+            bias_flip: self.model.bias_flip(),
+            bias: self.bias.clone(),
+        }
+    }
+}
+
+/// The FLIP map of `bias` on the pilot's truth: what the bias alone costs on this image.
+fn bias_map(truth: &LinearImage, bias: &LinearImage) -> Result<Vec<f32>> {
+    flip_values(truth, &combine(&[(truth, 1.0), (bias, 1.0)]))
 }
 
 /// Plans `scene` at `settings`' size and seed for `target` on `renderer`'s device with `cost`
-/// (module docs): the pilot renders, then the cheapest candidate.
+/// (module docs): the pilot renders, then the cheapest candidate whose high end meets the target.
 pub fn plan_quality(
     renderer: &mut Renderer,
     scene: &Scene,
@@ -346,47 +720,125 @@ pub fn plan_quality(
 ) -> Result<QualityPlan> {
     let plan = Plan::new(scene, settings.width, settings.height);
     if plan.auto_frame().0 == AutoFrame::Pinhole {
-        let choice =
-            Candidate { technique: Technique::PINHOLE, spp: 1, predicted_ms: 0.0, predicted_flip: 0.0 };
+        let choice = Candidate {
+            technique: Technique::PINHOLE,
+            spp: 1,
+            shadow_map: None,
+            predicted_ms: 0.0,
+            predicted_flip: 0.0,
+            flip_low: 0.0,
+            flip_high: 0.0,
+            noise_flip: 0.0,
+            bias_flip: 0.0,
+            bias: "none predicted".into(),
+        };
         return Ok(QualityPlan { target, choice, candidates: vec![], pilot: None, cost: cost.clone() });
     }
-    let pilot_settings = RenderSettings { spp: PILOT_SPP, ..*settings };
-    let NoiseMeasurement { ms, flip_between } =
-        measure_noise(renderer, scene, Technique::ACCUMULATION, &pilot_settings, 1)?;
-    let pilot = Pilot { spp: PILOT_SPP, flip_between, ms };
-    let per_pass = ms / PILOT_SPP as f64;
+    let data = run_pilot(renderer, scene, settings)?;
+    let p = &data.pilot;
     let t = target.flip() as f64;
-    let acc_spp = samples_for(flip_between, PILOT_SPP, t);
-    let accumulation = Candidate {
+    // The range is for the render to come, not for the mean of renders: a prediction interval,
+    // one render's spread (the sub-frames' standard deviation) and the mean's together.
+    let rel_spread = if p.noise_flip > 0.0 {
+        p.noise_sd * (1.0 + 1.0 / p.subframes as f64).sqrt() / p.noise_flip
+    } else {
+        0.0
+    };
+    let noise_model = |scale: f32, bias: Vec<f32>| ErrorModel {
+        pilot_spp: PILOT_SPP,
+        noise: data.noise_map.iter().map(|v| v * scale).collect(),
+        bias,
+        exponent: NOISE_EXPONENT,
+        noise_rel_spread: rel_spread,
+        t: t95(p.subframes),
+    };
+    let shadows = settings.shadows.enabled && scene.lights.iter().any(|l| l.shadows());
+    let what = if shadows {
+        format!("shadow maps {}², texture filtering and shading against the reference", settings.shadows.size)
+    } else {
+        "texture filtering and shading against the reference".to_string()
+    };
+    let (acc_bias, acc_bias_text) = match &data.bias_map {
+        Some(m) => (m.clone(), format!("{what}, measured with the pilot's samples")),
+        None => (vec![], "not measured".to_string()),
+    };
+    let per_pass = p.ms / PILOT_SPP as f64;
+    let mut priced = vec![Priced {
         technique: Technique::ACCUMULATION,
-        spp: acc_spp,
-        predicted_ms: per_pass * acc_spp as f64,
-        predicted_flip: predicted_flip(flip_between, PILOT_SPP, acc_spp),
-    };
-    // The stochastic frame's noise at S is the ratio times accumulation's.
-    let st_noise = flip_between * cost.stochastic_flip_ratio;
-    let st_spp = samples_for(st_noise, PILOT_SPP, t);
-    let stochastic = Candidate {
-        technique: Technique::AUTO,
-        spp: st_spp,
-        predicted_ms: per_pass * st_spp as f64 * cost.stochastic_ms_ratio,
-        predicted_flip: predicted_flip(st_noise, PILOT_SPP, st_spp),
-    };
-    let mut candidates = vec![accumulation, stochastic];
-    // Cheapest first among those reaching the target; if none does, the lowest error.
+        shadow_map: None,
+        model: noise_model(1.0, acc_bias.clone()),
+        ms_per_sample: per_pass,
+        bias: acc_bias_text.clone(),
+    }];
+    for (size, d2, ms2) in &data.bigger_shadows {
+        // The truth is the pooled mean less the bias at the settings' maps; the bigger maps' image
+        // is that truth plus their own bias image.
+        priced.push(Priced {
+            technique: Technique::ACCUMULATION,
+            shadow_map: Some(*size),
+            model: noise_model(1.0, bias_map(&data.truth, d2)?),
+            ms_per_sample: ms2 / PILOT_SPP as f64,
+            bias: format!(
+                "shadow maps {size}², texture filtering and shading against the reference, measured with the pilot's samples"
+            ),
+        });
+    }
+    // The per-object stochastic frame, where `auto` renders one (not when it falls back to
+    // accumulation itself): its noise is the cost model's ratio times accumulation's; it reads the
+    // same shadow maps and mip chains, so it carries accumulation's bias, plus its shading rate's
+    // where that is not exact — measured only if the frame could win on time without it.
+    if plan.auto_frame().0 == AutoFrame::Stochastic {
+        let mut st = Priced {
+            technique: Technique::AUTO,
+            shadow_map: None,
+            model: noise_model(cost.stochastic_flip_ratio as f32, acc_bias.clone()),
+            ms_per_sample: per_pass * cost.stochastic_ms_ratio,
+            bias: acc_bias_text.clone(),
+        };
+        let rate = settings.stochastic.shading;
+        if rate != ShadingRate::PerSample {
+            let cheapest_other =
+                priced.iter().map(|c| c.candidate(t)).map(|c| c.predicted_ms).fold(f64::INFINITY, f64::min);
+            let unbiased = st.candidate(t);
+            if unbiased.predicted_ms < cheapest_other {
+                // Same seed, same sample tiles: the two rates differ by the rate's bias alone.
+                let s = RenderSettings { spp: PILOT_SPP, ..*settings };
+                let exact = RenderSettings {
+                    stochastic: StochasticOptions { shading: ShadingRate::PerSample, ..s.stochastic },
+                    ..s
+                };
+                let a = renderer.render(scene, Technique::AUTO, &s)?.image;
+                let b = renderer.render(scene, Technique::AUTO, &exact)?.image;
+                let mut total = combine(&[(&a, 1.0), (&b, -1.0)]);
+                if let Some(d) = &data.bias {
+                    total = combine(&[(&total, 1.0), (d, 1.0)]);
+                }
+                st.model.bias = bias_map(&data.truth, &total)?;
+                st.bias = format!("{acc_bias_text}; shading {} against per-sample, measured", rate.name());
+            } else {
+                st.bias = format!(
+                    "{acc_bias_text}; shading {}'s own bias not measured (slower than the others even without it)",
+                    rate.name()
+                );
+            }
+        }
+        priced.push(st);
+    }
+    let mut candidates: Vec<Candidate> = priced.iter().map(|c| c.candidate(t)).collect();
+    // Cheapest first among those whose high end reaches the target; if none does, the lowest error.
     candidates.sort_by(|a, b| {
-        let (ra, rb) = (a.predicted_flip <= t * 1.0001, b.predicted_flip <= t * 1.0001);
+        let (ra, rb) = (a.flip_high <= t * 1.0001, b.flip_high <= t * 1.0001);
         rb.cmp(&ra).then(if ra {
             a.predicted_ms.total_cmp(&b.predicted_ms)
         } else {
-            a.predicted_flip.total_cmp(&b.predicted_flip)
+            a.flip_high.total_cmp(&b.flip_high).then(a.predicted_ms.total_cmp(&b.predicted_ms))
         })
     });
     Ok(QualityPlan {
         target,
         choice: candidates[0].clone(),
         candidates,
-        pilot: Some(pilot),
+        pilot: Some(data.pilot),
         cost: cost.clone(),
     })
 }
@@ -405,17 +857,26 @@ mod tests {
         // Four times the samples: 4^-α of the noise.
         let f = predicted_flip(0.08, 8, 8);
         assert!((predicted_flip(0.08, 8, 32) - 4f64.powf(-NOISE_EXPONENT) * f).abs() < 1e-12);
+        let model = |noise: f32, bias: Vec<f32>, rel_se: f64| ErrorModel {
+            pilot_spp: 8,
+            noise: vec![noise; 4],
+            bias,
+            exponent: NOISE_EXPONENT,
+            noise_rel_spread: rel_se,
+            t: 2.0,
+        };
         for (between, target) in [(0.08, 0.03), (0.2, 0.015), (0.01, 0.06), (0.5, 0.001)] {
-            let s = samples_for(between, 8, target);
+            let m = model(between, vec![], 0.0);
+            let s = m.samples_for(target);
             assert!((8..=MAX_PLANNED_SPP).contains(&s));
             if s < MAX_PLANNED_SPP {
-                assert!(predicted_flip(between, 8, s) <= target, "{between} {target} {s}");
+                assert!(m.high(s) <= target, "{between} {target} {s}");
             }
             if s > 8 && s < MAX_PLANNED_SPP {
-                assert!(predicted_flip(between, 8, s - 1) > target, "{between} {target} {s}: not the fewest");
+                assert!(m.high(s - 1) > target, "{between} {target} {s}: not the fewest");
             }
         }
-        assert_eq!(samples_for(f64::NAN, 8, 0.03), MAX_PLANNED_SPP);
+        assert_eq!(model(f32::NAN, vec![], 0.0).samples_for(0.03), MAX_PLANNED_SPP);
         // A calibration on a scene without blur measures no noise: not a model.
         let model = |ms: f64, flip: f64| CostModel {
             driver_id: String::new(),
@@ -428,5 +889,38 @@ mod tests {
         for (ms, flip) in [(1.7, 0.0), (0.0, 1.0), (f64::NAN, 1.0), (1.0, f64::INFINITY)] {
             assert!(!model(ms, flip).is_valid(), "{ms} {flip}");
         }
+    }
+
+    /// The high end takes the noise's uncertainty; a bias raises the prediction and sets a floor
+    /// the samples cannot go below; a bias above the target is out of reach, and the planner then
+    /// stops where more samples buy nothing.
+    #[test]
+    fn the_prediction_takes_its_uncertainty_and_the_bias() {
+        let m = |bias: Vec<f32>, rel_se: f64| ErrorModel {
+            pilot_spp: 4,
+            noise: vec![0.04, 0.08, 0.0, 0.04],
+            bias,
+            exponent: NOISE_EXPONENT,
+            noise_rel_spread: rel_se,
+            t: 2.0,
+        };
+        let exact = m(vec![], 0.0);
+        let unsure = m(vec![], 0.1);
+        assert!((exact.central(4) - 0.04).abs() < 1e-7);
+        assert!((unsure.high(4) - 0.048).abs() < 1e-7 && (unsure.low(4) - 0.032).abs() < 1e-7);
+        // The upper end meets the target: more samples than the central estimate needs.
+        assert!(unsure.samples_for(0.02) > exact.samples_for(0.02));
+        // Per pixel in quadrature: never below either part, never above their sum.
+        let biased = m(vec![0.0, 0.0, 0.03, 0.03], 0.0);
+        for s in [4, 16, 64] {
+            let (n, b, c) = (biased.noise_flip(s), biased.bias_flip(), biased.central(s));
+            assert!(c >= n.max(b) - 1e-9 && c <= n + b + 1e-9, "S {s}: {c} from {n} and {b}");
+        }
+        assert!(biased.samples_for(0.02) > exact.samples_for(0.02));
+        assert!(biased.central(MAX_PLANNED_SPP) > biased.bias_flip());
+        // A bias above the target: out of reach; S where the noise adds at most 5 % to the floor.
+        let hopeless = m(vec![0.05; 4], 0.0);
+        let (s, floor) = (hopeless.samples_for(0.02), 1.05 * 0.05 * (1.0 + BIAS_MARGIN));
+        assert!(s < MAX_PLANNED_SPP && hopeless.high(s) <= floor && hopeless.high(s - 1) > floor);
     }
 }

@@ -1,14 +1,17 @@
 //! The quality planner (`engine/src/quality_plan.rs`, `shutter render --quality`) against measurements
 //! on built-in scenes: the chosen render's FLIP against the ground truth and its GPU time come within
 //! a stated factor of the predictions; a scene with nothing to simulate stays `pinhole`, without a
-//! pilot.
+//! pilot; over several seeds and two scenes (one object moving; shadow maps) the planned render meets
+//! its target in at least 9 cases of 10, and the plan does not swing with the seed (issue 28 item 9).
 
+use shutter::image::LinearImage;
 use shutter::metrics::compare;
 use shutter::quality_plan::{plan_quality, CostModel, QualityTarget};
 use shutter::reference::{render_reference, ReferenceSettings};
 use shutter::scene::builtin::builtin_scene;
+use shutter::scene::{Light, Scene};
 use shutter::techniques::{RenderSettings, Technique};
-use shutter_tests::renderer;
+use shutter_tests::{renderer, save_comparison};
 
 /// Predicted FLIP against the reference: within this factor either way.
 const FLIP_FACTOR: f64 = 2.0;
@@ -45,8 +48,8 @@ fn predictions_hold_against_the_reference() {
         .unwrap();
         let flip = compare(&reference, &frames[1].image).unwrap().flip;
         println!(
-            "{name}: {} at S = {}: FLIP {flip:.4} (predicted {:.4}), GPU {ms:.1} ms (predicted {:.1}); pilot FLIP {:.4} between seeds",
-            c.technique, c.spp, c.predicted_flip, c.predicted_ms, pilot.flip_between
+            "{name}: {} at S = {}: FLIP {flip:.4} (predicted {:.4}), GPU {ms:.1} ms (predicted {:.1}); pilot noise FLIP {:.4} per sub-frame",
+            c.technique, c.spp, c.predicted_flip, c.predicted_ms, pilot.noise_flip
         );
         assert!(plan.reaches_target());
         assert!(
@@ -80,4 +83,94 @@ fn predictions_hold_against_the_reference() {
         plan_quality(&mut r, &still, &RenderSettings::new(w, h, 16, 1), QualityTarget::Final, &cost).unwrap();
     assert_eq!(plan.choice.technique, Technique::PINHOLE);
     assert!(plan.pilot.is_none() && plan.candidates.is_empty());
+}
+
+/// The CPU reference of `scene` at `w × h` and `spp` rays per pixel (its own seed).
+fn reference(scene: &Scene, (w, h): (u32, u32), spp: u32) -> LinearImage {
+    let rs = ReferenceSettings {
+        width: w,
+        height: h,
+        spp,
+        seed: 77,
+        progress: false,
+        shading: Default::default(),
+    };
+    render_reference(scene, &rs).unwrap()
+}
+
+/// `static` with the sun casting shadows and a slight depth of field (every object ~0.3–0.5 px of
+/// blur at 96×54, so the planner plans): the shadow maps' bias, not the noise, is most of the error.
+fn shadow_scene() -> Scene {
+    let mut scene = builtin_scene("static").unwrap().unwrap();
+    scene.name = "static-sun-shadows".into();
+    scene.camera.aperture_radius = 0.05;
+    for light in &mut scene.lights {
+        if let Light::Directional { shadows, .. } = light {
+            *shadows = true;
+        }
+    }
+    scene
+}
+
+/// Issue 28 item 9: `--quality good` on a scene with one object moving picked S = 9 with one seed and
+/// S = 72 with another (one pair of seeds measured the noise) and missed by 2.2×; with shadow maps it
+/// promised the target while their bias was 10× the noise. Over five seeds on `one-mover` and on a
+/// scene with sun shadows, the planned render (the choice's technique, S and shadow maps) meets the
+/// target against a high-spp reference in at least 9 cases of 10; between seeds, the predictions
+/// agree within 1.25× and, where the noise dominates, S within 2×.
+#[test]
+fn planned_renders_meet_the_target_over_seeds() {
+    let mut r = renderer();
+    let cost = CostModel::built_in(&r.device().caps);
+    let (w, h) = (96, 54);
+    let target = QualityTarget::Good;
+    let mut met = 0;
+    let mut cases = Vec::new();
+    for scene in [builtin_scene("one-mover").unwrap().unwrap(), shadow_scene()] {
+        let truth = reference(&scene, (w, h), 2048);
+        let (mut spps, mut predicted) = (Vec::new(), Vec::new());
+        for seed in [1u64, 2, 3, 4, 5] {
+            let settings = RenderSettings::new(w, h, 16, seed);
+            let plan = plan_quality(&mut r, &scene, &settings, target, &cost).unwrap();
+            let c = plan.choice.clone();
+            let mut chosen = RenderSettings { spp: c.spp, ..settings };
+            if let Some(size) = c.shadow_map {
+                chosen.shadows.size = size;
+            }
+            let image = r.render(&scene, c.technique, &chosen).unwrap().image;
+            let flip = compare(&truth, &image).unwrap().flip;
+            let ok = flip <= target.flip() as f64;
+            met += ok as usize;
+            let line = format!(
+                "{} seed {seed}: {} S = {} shadow maps {:?}: FLIP {flip:.4} ({}), promised ≤ {:.4} (predicted {:.4}, noise {:.4}, bias {:.4}, noise sd {:.4} of {:.4} at S = 4)",
+                scene.name,
+                c.technique,
+                c.spp,
+                c.shadow_map,
+                if ok { "met" } else { "MISSED" },
+                c.flip_high,
+                c.predicted_flip,
+                c.noise_flip,
+                c.bias_flip,
+                plan.pilot.as_ref().unwrap().noise_sd,
+                plan.pilot.as_ref().unwrap().noise_flip
+            );
+            println!("{line}");
+            if !ok {
+                save_comparison(&format!("quality-plan-{}-seed{seed}", scene.name), &truth, &image);
+            }
+            cases.push(line);
+            spps.push(c.spp);
+            predicted.push(c.predicted_flip);
+        }
+        // Where the noise dominates, S is steady (one pair of seeds swung it 8×); near a bias floor
+        // S is sensitive to the floor's estimate, but the predictions agree.
+        let (lo, hi) = (*spps.iter().min().unwrap(), *spps.iter().max().unwrap());
+        let (plo, phi) = predicted.iter().fold((f64::MAX, 0f64), |(a, b), &p| (a.min(p), b.max(p)));
+        if scene.name == "one-mover" {
+            assert!(hi as f64 <= 2.0 * lo as f64, "{}: S from {lo} to {hi} between seeds", scene.name);
+        }
+        assert!(phi <= 1.25 * plo, "{}: predicted FLIP from {plo} to {phi} between seeds", scene.name);
+    }
+    assert!(met >= 9, "the target was met in {met} of 10 cases:\n{}", cases.join("\n"));
 }

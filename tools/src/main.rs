@@ -688,6 +688,7 @@ fn run() -> Result<()> {
             let mut renderer = Renderer::new(device)?;
             renderer.show_progress(true);
             // `auto` without --spp: the quality planner picks the technique and S.
+            let mut promise = None;
             if technique == Technique::AUTO && spp.is_none() {
                 let target = target.unwrap_or(QualityTarget::Good);
                 let cost = CostModel::load(&renderer.device().caps)?;
@@ -695,7 +696,11 @@ fn run() -> Result<()> {
                 outln!("auto: {}", qp.summary());
                 if qp.pilot.is_some() {
                     (technique, settings.spp) = (qp.choice.technique, qp.choice.spp);
+                    if let Some(size) = qp.choice.shadow_map {
+                        settings.shadows.size = size;
+                    }
                 }
+                promise = Some(qp.promise());
             }
             let output = renderer.render(&sc, technique, &settings)?;
             shutter::progress::check_interrupt()?;
@@ -716,6 +721,9 @@ fn run() -> Result<()> {
             );
             for (name, ms) in &output.timings.passes {
                 outln!("  {name:<12} {ms:>10.2} ms");
+            }
+            if let Some(p) = &promise {
+                outln!("  quality: {p}");
             }
             if let Some(plan) = &output.stats.plan {
                 let paths: Vec<String> =
@@ -1199,15 +1207,21 @@ fn run() -> Result<()> {
                 if !qp.candidates.is_empty() {
                     outln!(
                         "
-| candidate | S | predicted GPU ms | predicted FLIP |\n|---|---:|---:|---:|"
+| candidate | S | shadow maps | predicted GPU ms | predicted FLIP (range) | noise | bias | bias from |\n|---|---:|---:|---:|---|---:|---:|---|"
                     );
                     for c in &qp.candidates {
                         outln!(
-                            "| {} | {} | {:.1} | {:.4} |",
+                            "| {} | {} | {} | {:.1} | {:.4} ({:.4}–{:.4}) | {:.4} | {:.4} | {} |",
                             c.technique,
                             c.spp,
+                            c.shadow_map.map_or("-".to_string(), |s| format!("{s}²")),
                             c.predicted_ms,
-                            c.predicted_flip
+                            c.predicted_flip,
+                            c.flip_low,
+                            c.flip_high,
+                            c.noise_flip,
+                            c.bias_flip,
+                            c.bias
                         );
                     }
                 }
