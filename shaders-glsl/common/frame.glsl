@@ -54,4 +54,17 @@ layout(set = 0, binding = 2, std140) uniform ViewUniforms {
 
 layout(set = 0, binding = 3, std430) readonly buffer ObjectViews { ObjectView object_views[]; };
 
+// Object-space point p through m: glam's Mat4::transform_point3 (ObjectMotion::positions, the
+// reference's vertices), operation for operation and without fused multiply-adds (precise), so that
+// the stochastic rasterizer's camera-space vertices are the reference's bit for bit. `m * vec4(p, 1)`
+// rounds differently, and far from the camera one ulp of a vertex is a sizeable part of a pixel
+// (20 km away through a 0.001 degree lens, a fifth of one).
+vec3 transform_point_exact(mat4 m, vec3 p) {
+    precise vec3 r = m[0].xyz * p.x;
+    r = m[1].xyz * p.y + r;
+    r = m[2].xyz * p.z + r;
+    r = m[3].xyz + r;
+    return r;
+}
+
 #endif

@@ -12,7 +12,7 @@ layout(location = 1) out vec3 v_close;
 
 void main() {
     ObjectView o = object_views[pc.segment_first + pc.segment];
-    v_open = (o.model_view[0] * vec4(in_position, 1.0)).xyz;
-    v_close = (o.model_view[1] * vec4(in_position, 1.0)).xyz;
+    v_open = transform_point_exact(o.model_view[0], in_position);  // as triangles.comp
+    v_close = transform_point_exact(o.model_view[1], in_position);
     gl_Position = vec4(v_open, 1.0);  // unused: the geometry stage writes the hull's positions
 }

@@ -25,7 +25,7 @@ void main() {
         mat4 mv = object_views[pc.segment_first + seg].model_view[key - seg];
         for (uint k = 0u; k < 3u; k++) {
             Vertex v = vertices[indices[3u * t + k]];
-            vec3 p = (mv * vec4(v.position[0], v.position[1], v.position[2], 1.0)).xyz;
+            vec3 p = transform_point_exact(mv, vec3(v.position[0], v.position[1], v.position[2]));
             for (uint c = 0u; c < 3u; c++) triangles[9u * (t * pc.keys + key) + 3u * k + c] = p[c];
         }
     }

@@ -20,8 +20,8 @@
 //! vfov_deg = 40                 # in [0.001, 180)
 //! aperture_radius = 0.0         # lens radius A in scene units (metres), ≥ 0 (0 = pinhole)
 //! focus_distance = 6.0          # F > 0, metres along the view axis; default |look_at − position|
-//! near = 0.05                   # 0 < near < far
-//! far = 1000
+//! near = 0.05                   # 1e-9 ≤ near < far (MIN_NEAR)
+//! far = 1000                    # far ≤ 1e12 · near (MAX_FAR_OVER_NEAR: the GPU's depth stays ordered)
 //! aperture = { shape = "disk" } # or { shape = "blades", blades = 6, rotation_deg = 0 } (blades ≥ 3),
 //!                               # or { shape = "smooth-disk" }: transmission falling off smoothly to 0
 //!                               # at aperture_radius from 9/11 of it (the AAS paper's smooth lens)
@@ -79,7 +79,7 @@
 //! time = 0.5                    # in (0, 1), increasing from key to key
 //! translate = [0, 0, 0]         # rotate_deg, scale as in [object.transform]
 //! [object.material]             # optional
-//! albedo = [0.8, 0.8, 0.8]      # linear RGB ≥ 0; default 0.8, or 1 when there is a texture
+//! albedo = [0.8, 0.8, 0.8]      # linear RGB in [0, 1e6]; default 0.8, or 1 when there is a texture
 //! texture = "spot.png"          # PNG path, or a built-in: "spot" (Spot's), "leaves" (generated
 //!                               # foliage), "checker" (generated 8×8 chess board squares)
 //! specular = 0.0                # ≥ 0
@@ -108,6 +108,12 @@
 //!                               # more (scene::Indirect; the CPU reference; GPU techniques ignore it
 //!                               # for now and say so)
 //! ```
+//!
+//! Numeric extremes follow one rule (`scene::extremes`): every vertex placed by every transform key,
+//! and the camera's and lights' positions, within ±1e9 scene units (MAX_COORDINATE); light colours,
+//! albedo, specular, ambient and background in [0, 1e6] (MAX_COLOR); beyond them the techniques stop
+//! agreeing, so the file is refused naming the object or light. OBJ normals of any finite length are
+//! directions (normalised in f64); a zero or non-finite one takes its vertex's face normal.
 //!
 //! Meshes and textures referenced by several objects are loaded once and shared (a mesh per distinct
 //! `mesh`, `detail`, `normalize` and `simplify`).
