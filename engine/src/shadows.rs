@@ -242,6 +242,11 @@ impl ShadowPlan {
         if !settings.enabled || !scene.lights.iter().any(|l| l.shadows()) {
             return Ok(None);
         }
+        // No triangle anywhere: nothing casts a shadow and nothing receives one (the image is the
+        // background, as the reference's); no map is needed, and none could frame the scene.
+        if scene.objects.iter().all(|o| o.mesh.indices.is_empty()) {
+            return Ok(None);
+        }
         let kind = ShadowKind::for_scene(scene);
         let samples = if kind == ShadowKind::Plain { 1 } else { settings.samples };
         let msaa =

@@ -157,3 +157,79 @@ fn scenes_built_in_code_are_validated_like_files() {
         assert!(e.ends_with(words), "{e}");
     }
 }
+
+/// Issue 28, items 10 and 11: a scene with no object, and one whose only object has no triangle (an
+/// OBJ of zero-area faces loads as an empty mesh), under a shadow-casting light: every technique and
+/// every stochastic shading rate (texture-space included), both hull expansions and the instrumented
+/// frame `bench` and `bounds` count with, render the background — equal to the reference's — without
+/// a panic or a validation message; the planner plans them.
+#[test]
+fn empty_scenes_render_the_background_in_every_technique() {
+    use shutter::reference::{render_reference, ReferenceSettings};
+    use shutter::techniques::compute_hull::HullExpansion;
+    use shutter::techniques::registry::TECHNIQUES;
+    use shutter::techniques::stochastic::{ShadingRate, StochasticOptions};
+    let (w, h) = (16, 9);
+    let mut empty = single_object_scene(camera(40.0, 0.1, 5.0), square(1.0), Mat4::IDENTITY, None, w, h);
+    empty.environment.background = Vec3::new(0.2, 0.3, 0.4);
+    empty.lights =
+        vec![shutter::scene::Light::Directional { direction: -Vec3::Y, color: Vec3::ONE, shadows: true }];
+    let mut no_triangles = empty.clone();
+    no_triangles.objects[0].mesh = std::sync::Arc::new(
+        shutter::scene::Mesh::new(
+            "zero-area",
+            vec![Vec3::ZERO, Vec3::X, 2.0 * Vec3::X],
+            vec![],
+            vec![],
+            vec![],
+        )
+        .unwrap(),
+    );
+    empty.objects.clear();
+    let mut r = renderer();
+    for scene in [&empty, &no_triangles] {
+        let settings = ReferenceSettings {
+            width: w,
+            height: h,
+            spp: 4,
+            seed: 1,
+            progress: false,
+            shading: Default::default(),
+        };
+        let reference = render_reference(scene, &settings).expect("reference");
+        let _ = shutter::plan::Plan::for_view(scene, &shutter::scene::View::camera(scene, w, h), 0.0);
+        let mut runs: Vec<(String, Technique, RenderSettings)> =
+            TECHNIQUES.iter().map(|&t| (t.name().to_string(), t, RenderSettings::new(w, h, 4, 1))).collect();
+        for shading in ShadingRate::NAMED {
+            // Both hull expansions for one rate (the other rates take the default's).
+            let expansions =
+                if shading == ShadingRate::PerSample { &[HullExpansion::Compute][..] } else { &[] };
+            for &expansion in std::iter::once(&HullExpansion::default()).chain(expansions) {
+                let options =
+                    StochasticOptions { shading, expansion, instrumented: true, ..Default::default() };
+                let name = format!("stochastic {} {}", shading.name(), expansion.name());
+                runs.push((
+                    name,
+                    Technique::STOCHASTIC,
+                    RenderSettings::new(w, h, 4, 1).with_stochastic(options),
+                ));
+            }
+        }
+        for (name, t, s) in runs {
+            // `interleaved` estimates one-bounce light, which the scene must ask for (nothing
+            // bounces here: the reference's image is the same).
+            let mut scene = scene.clone();
+            if t == Technique::INTERLEAVED {
+                scene.environment.indirect = shutter::scene::Indirect::OneBounce;
+            }
+            let scene = &scene;
+            let out =
+                r.render(scene, t, &s).unwrap_or_else(|e| panic!("{} {name}: {e}", scene.objects.len()));
+            let diff = shutter_tests::max_abs_diff(&out.image, &reference);
+            assert!(diff < 1e-6, "{} object(s), {name}: off the background by {diff}", scene.objects.len());
+            if let Some(c) = out.stats.counters {
+                assert_eq!(c.samples_hit, 0, "{name}");
+            }
+        }
+    }
+}

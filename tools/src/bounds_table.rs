@@ -283,7 +283,12 @@ fn run_rows(renderer: &mut Renderer, scene: &Scene, a: &BoundsTableArgs) -> Resu
             if bound == BoundChoice::Kind(BoundKind::BoundingBox) {
                 bbox_ste = Some(ste);
             }
-            let rel = bbox_ste.map(|b| format!("{:.2}", ste / b)).unwrap_or_default();
+            // No sample tested by the box (an empty scene): no ratio, rather than NaN.
+            let rel = match bbox_ste {
+                Some(b) if b > 0.0 => format!("{:.2}", ste / b),
+                Some(_) => "–".into(),
+                None => String::new(),
+            };
             md.push_str(&format!(
                 "| {spp} | stochastic ({passes} × {msaa} MSAA) | {} | {ms:.1} | {} | {} | {} | {ste:.4} | {rel} |\n",
                 bound.name(),

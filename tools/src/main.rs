@@ -532,7 +532,8 @@ fn print_atlas_plan(sc: &shutter::scene::Scene, w: u32, h: u32) -> anyhow::Resul
             ),
         }
     }
-    let texels: f64 = rows.iter().map(|r| r.texels).sum();
+    // Folded from +0: an empty sum of f64 is −0, printed "-0".
+    let texels: f64 = rows.iter().fold(0.0, |a, r| a + r.texels);
     outln!(
         "\natlases: {:.2} MB in all; about {texels:.0} texels shaded (gutters not counted); laid out in {ms:.1} ms on the CPU",
         total as f64 / 1e6

@@ -410,16 +410,19 @@ where
     DB::ErrorType: 'static,
 {
     root.fill(&WHITE)?;
+    // On log axes a FLIP (or a time) of 0 — an image equal to the reference, e.g. a scene with
+    // nothing in it — sits at the floor: its log is −∞, and a range to −∞ never finishes its ticks.
+    let (ms, flip) = (|p: &Point| p.ms.max(1e-6), |p: &Point| p.flip.max(1e-6));
     let (mut x0, mut x1, mut y0, mut y1) = (f64::INFINITY, 0.0f64, f64::INFINITY, 0.0f64);
     for p in points {
-        x0 = x0.min(p.ms);
-        x1 = x1.max(p.ms);
-        y0 = y0.min(p.flip);
-        y1 = y1.max(p.flip);
+        x0 = x0.min(ms(p));
+        x1 = x1.max(ms(p));
+        y0 = y0.min(flip(p));
+        y1 = y1.max(flip(p));
     }
     // Log-log through log10 coordinates on linear axes (tick labels at any range, not only decades).
     let (x0, x1, y0, y1) = ((x0 / 1.5).log10(), (x1 * 1.5).log10(), (y0 / 1.3).log10(), (y1 * 1.3).log10());
-    let l = |p: &Point| (p.ms.log10(), p.flip.log10());
+    let l = |p: &Point| (ms(p).log10(), flip(p).log10());
     let mut chart = ChartBuilder::on(&root)
         .caption(
             format!(

@@ -500,3 +500,93 @@ fn ctrl_c_stops_a_long_stochastic_frame_within_seconds() {
     println!("stopped {latency:.2} s after the interrupt");
     assert!(latency < 5.0, "took {latency:.1} s to stop");
 }
+
+/// Issue 28, items 10 and 11: a scene file without objects, and one whose only mesh is an OBJ of
+/// zero-area faces, under a shadow-casting light: `render` (stochastic with texture-space shading,
+/// and the default), `bench`, `bounds`, `quality` and `plan --atlases` finish without a panic or a
+/// validation message, and the render is the reference's background.
+#[test]
+fn empty_scenes_render_plan_bench_and_measure() {
+    let obj = temp("zero-area.obj", b"v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\n");
+    let obj_name = std::path::Path::new(&obj).file_name().unwrap().to_string_lossy().into_owned();
+    let head = "[camera]\nposition = [0, 0, 4]\nlook_at = [0, 0, 0]\n[environment]\nbackground = [0.2, 0.3, 0.4]\n\
+                [[light]]\ntype = \"directional\"\ndirection = [0, -1, 0]\ncolor = [1, 1, 1]\nshadows = true\n";
+    let empty = temp("empty.toml", head.as_bytes());
+    let flat =
+        temp("flat.toml", format!("{head}[[object]]\nname = \"flat\"\nmesh = \"{obj_name}\"\n").as_bytes());
+    let dir = std::env::temp_dir().join(format!("shutter-cli-{}-empty", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let reference = dir.join("reference.exr").display().to_string();
+    let image = dir.join("render.exr").display().to_string();
+    let size = ["--size", "16x9"];
+    for scene in [&empty, &flat] {
+        let run = |args: &[&str]| {
+            let (code, out, err) = shutter(args);
+            assert!(code == 0 && !err.contains("panicked"), "{args:?}: {err}");
+            out
+        };
+        run(&["reference", scene, "--spp", "4", "--out", &reference, size[0], size[1]]);
+        for shading in ["texture-space", "per-pixel"] {
+            let args = ["render", scene, "--technique", "stochastic", "--shading", shading, "--spp", "4"];
+            run(&[&args[..], &["--out", &image], &size[..]].concat());
+            let out = run(&["compare", &image, &reference]);
+            assert!(out.contains("RMSE 0.000000"), "{shading}: {out}");
+        }
+        let out = run(&[
+            "bench",
+            scene,
+            "-c",
+            "stochastic:shading=texture-space",
+            "-c",
+            "auto",
+            "--frames",
+            "1",
+            "--warmup",
+            "0",
+            size[0],
+            size[1],
+        ]);
+        assert!(out.contains("| stochastic:shading=texture-space |"), "{out}");
+        let out = run(&[
+            "bounds",
+            scene,
+            "--spp",
+            "4",
+            "--bounds",
+            "bbox,adaptive",
+            "--frames",
+            "1",
+            "--warmup",
+            "0",
+            size[0],
+            size[1],
+        ]);
+        assert!(out.contains("| adaptive |") && !out.contains("NaN"), "{out}");
+        let stem = dir.join("q").display().to_string();
+        let cache = dir.join("cache").display().to_string();
+        run(&[
+            "quality",
+            scene,
+            "--reference-spp",
+            "4",
+            "-s",
+            "stochastic@1",
+            "--frames",
+            "1",
+            "--warmup",
+            "0",
+            "--cache",
+            &cache,
+            "--out",
+            &stem,
+            size[0],
+            size[1],
+        ]);
+        let out = run(&["plan", scene, "--atlases", size[0], size[1]]);
+        assert!(out.contains("about 0 texels shaded"), "{out}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+    for p in [obj, empty, flat] {
+        let _ = std::fs::remove_file(p);
+    }
+}

@@ -2045,6 +2045,17 @@ impl StochasticDraws {
     /// no attachments) → `stochastic shading` (compute) } → readback.
     fn render<'a>(&'a self, frame: &mut FrameContext<'_>, inputs: &FrameInputs<'a>) -> Result<LinearImage> {
         let mut g = frame.graph();
+        if !(0..inputs.world.objects.len()).any(|i| self.is_drawn(i, inputs.world)) {
+            // Nothing to draw (no object, or none with a triangle): every sample sees the background.
+            // The shading pass cannot add it here: its background dispatch binds a drawn object's
+            // sets (the pipeline's layout needs some), and there is none — and no permutation exists
+            // without objects. The image is the background, as the reference's.
+            let accum = g.import_image("stochastic accumulation", &self.accum);
+            g.clear_color("background (nothing drawn)", accum, inputs.world.background);
+            let readback = g.read_back(accum)?;
+            let mut result = frame.run(g)?;
+            return Ok(result.take_image(readback));
+        }
         if self.hull.is_none() {
             self.add_triangles_pass(&mut g, inputs);
         }
