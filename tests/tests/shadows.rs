@@ -21,7 +21,6 @@ use shutter::scene::builtin::builtin_mesh;
 use shutter::scene::{Environment, ImageSettings, Light, Material, Mesh, Object, Scene};
 use shutter::shadows::ShadowSettings;
 use shutter::techniques::accumulation::accumulation_samples;
-use shutter::techniques::ShadingRate;
 use shutter::techniques::{RenderSettings, Renderer, Technique};
 use shutter::transparency::TransparencyMethod;
 use shutter_tests::{camera, renderer, same_sample_reference, save_comparison, square};
@@ -250,7 +249,7 @@ fn the_stochastic_rasterizer_reads_the_maps_of_still_casters() {
             let mut settings = RenderSettings::new(W, H, 4, SEED);
             settings.shadows = ShadowSettings { size, ..ShadowSettings::default() };
             let out = r.render(&s, Technique::STOCHASTIC, &settings).expect("stochastic with shadows");
-            let want = same_sample_reference(&s, (W, H), 4, SEED, ShadingRate::PerPixel, &out);
+            let want = same_sample_reference(&s, (W, H), 4, SEED, settings.stochastic.shading, &out);
             let (e, _) = errors(&out.image, &want);
             errs.push(e);
             if size == 512 {
