@@ -37,6 +37,20 @@ fn at_pixel(k: &Intrinsics, pixel: Vec2, z: f32) -> Vec3 {
 
 /// No failure persistence: regressions found by the search become named tests below instead of files
 /// outside this module.
+/// The property tests' runner over `cases` cases. A fixed seed: the same cases every run, so CI's
+/// verdict is the code's, not the draw's. A random draw on 2026-12-03 found a one-sided receding
+/// sliver cluster (aperture 0, 1920×1080) culled while a sample hit it — the open bug of
+/// `cluster_of_a_receding_sliver_regression`'s kind, noted in docs/hard-cases/precision.md;
+/// SHUTTER_PROPTEST_RANDOM=1 draws afresh.
+fn runner(cases: u32) -> proptest::test_runner::TestRunner {
+    use proptest::test_runner::{RngAlgorithm, TestRng, TestRunner};
+    if std::env::var_os("SHUTTER_PROPTEST_RANDOM").is_some() {
+        TestRunner::new(config(cases))
+    } else {
+        TestRunner::new_with_rng(config(cases), TestRng::deterministic_rng(RngAlgorithm::ChaCha))
+    }
+}
+
 fn config(cases: u32) -> ProptestConfig {
     ProptestConfig { failure_persistence: None, ..ProptestConfig::with_cases(cases) }
 }
@@ -595,18 +609,7 @@ fn run_counted(
     cases: u32,
     check: impl Fn(&Case, u64) -> Result<u64, TestCaseError>,
 ) -> u64 {
-    // A fixed seed: the same 2000 cases every run, so CI's verdict is the code's, not the draw's. A
-    // random draw on 2026-12-03 found a one-sided receding sliver cluster (aperture 0, 1920×1080)
-    // culled while a sample hit it — the open bug of `cluster_of_a_receding_sliver_regression`'s
-    // kind, noted in docs/hard-cases/precision.md; SHUTTER_PROPTEST_RANDOM=1 draws afresh.
-    let mut runner = if std::env::var_os("SHUTTER_PROPTEST_RANDOM").is_some() {
-        proptest::test_runner::TestRunner::new(config(cases))
-    } else {
-        proptest::test_runner::TestRunner::new_with_rng(
-            config(cases),
-            proptest::test_runner::TestRng::deterministic_rng(proptest::test_runner::RngAlgorithm::ChaCha),
-        )
-    };
+    let mut runner = runner(cases);
     let checked = std::cell::Cell::new(0u64);
     runner
         .run(&(strategy, any::<u64>()), |(case, seed)| {
@@ -872,18 +875,7 @@ fn heavy_100k_triangles() {
 /// exercised.
 fn run_random_cases(strategy: impl Strategy<Value = Case>, cases: u32, samples: usize) -> Stats {
     let stats = std::cell::RefCell::new(Stats::default());
-    // A fixed seed: the same 2000 cases every run, so CI's verdict is the code's, not the draw's. A
-    // random draw on 2026-12-03 found a one-sided receding sliver cluster (aperture 0, 1920×1080)
-    // culled while a sample hit it — the open bug of `cluster_of_a_receding_sliver_regression`'s
-    // kind, noted in docs/hard-cases/precision.md; SHUTTER_PROPTEST_RANDOM=1 draws afresh.
-    let mut runner = if std::env::var_os("SHUTTER_PROPTEST_RANDOM").is_some() {
-        proptest::test_runner::TestRunner::new(config(cases))
-    } else {
-        proptest::test_runner::TestRunner::new_with_rng(
-            config(cases),
-            proptest::test_runner::TestRng::deterministic_rng(proptest::test_runner::RngAlgorithm::ChaCha),
-        )
-    };
+    let mut runner = runner(cases);
     runner
         .run(&(strategy, any::<u64>()), |(case, seed)| {
             let st = &mut stats.borrow_mut();
