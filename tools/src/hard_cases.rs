@@ -59,7 +59,7 @@ pub fn run(args: HardCasesArgs) -> Result<()> {
             bail!("{} has no `{BEGIN}` … `{END}` markers to write the matrix between", out.display());
         }
     }
-    let mut renderer = Renderer::new(shutter::vk::create_device()?)?;
+    let mut renderer = Renderer::new(crate::create_device()?)?;
     let device = format!("{} ({})", renderer.device().caps.device_name, renderer.device().caps.driver_info);
     let mut rows = Vec::new();
     let mut failures = Vec::new();

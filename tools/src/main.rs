@@ -19,6 +19,7 @@ macro_rules! errln {
 mod bench;
 mod bounds_table;
 mod hard_cases;
+mod provenance;
 mod quality;
 
 use std::path::{Path, PathBuf};
@@ -43,8 +44,25 @@ use shutter::techniques::{RenderSettings, Renderer, ShadingRate, StochasticOptio
     about = "Depth of field and motion blur by stochastic rasterization on Vulkan"
 )]
 struct Cli {
+    /// The driver to run on, by Shutter's name for it (`lavapipe-25.0`, `lavapipe-22.3`, `lavapipe`
+    /// for the newest lavapipe, or a GPU's name); `shutter probe --all` lists them. Default:
+    /// `$SHUTTER_DRIVER`, else the best device by type and, among equals, the newest driver.
+    #[arg(long, global = true, value_name = "NAME")]
+    driver: Option<String>,
     #[command(subcommand)]
     command: Command,
+}
+
+/// `--driver`, set once before any command runs.
+static DRIVER: std::sync::OnceLock<Option<String>> = std::sync::OnceLock::new();
+
+/// The device as the environment says, with `--driver` (if given) in place of `$SHUTTER_DRIVER`.
+fn create_device() -> shutter::Result<shutter::vk::Device> {
+    let mut desc = shutter::vk::DeviceDesc::from_env()?;
+    if let Some(Some(d)) = DRIVER.get() {
+        desc.driver = Some(d.clone());
+    }
+    shutter::vk::DeviceShared::new(&desc)
 }
 
 #[derive(Subcommand)]
@@ -346,8 +364,16 @@ enum Command {
         #[arg(long)]
         target_flip: Option<f32>,
     },
-    /// Print the device, driver and capabilities.
-    Probe,
+    /// Print the device, driver and capabilities, and the paths Shutter takes on it.
+    Probe {
+        /// Every driver found (the system's ICDs and the project's `.drivers/`), each with its
+        /// version, capabilities and paths; the first listed is the default.
+        #[arg(long)]
+        all: bool,
+        /// JSON (an array with one object per driver) instead of text.
+        #[arg(long)]
+        json: bool,
+    },
     /// Measure which stochastic bound is cheapest on this device (the images do not depend on it):
     /// bbox, convex-hull and adaptive benched interleaved; prints the table and the calibration entry
     /// (engine/src/techniques/stochastic.rs, BOUND_CALIBRATIONS) that `--bound device` would use.
@@ -391,7 +417,7 @@ fn calibrate_cost(scene: &str, size: (u32, u32), spp: u32, frames: usize) -> Res
     let sc = load_scene(scene)?;
     let mut settings = RenderSettings::from_scene(&sc);
     (settings.width, settings.height, settings.spp) = (size.0, size.1, spp);
-    let mut renderer = Renderer::new(shutter::vk::create_device()?)?;
+    let mut renderer = Renderer::new(create_device()?)?;
     let mut measure = |technique: Technique| {
         shutter::quality_plan::measure_noise(&mut renderer, &sc, technique, &settings, frames)
             .map(|m| (m.ms, m.flip_between))
@@ -614,6 +640,7 @@ fn install_interrupt_handler() {
 
 fn run() -> Result<()> {
     let cli = Cli::parse();
+    DRIVER.set(cli.driver.clone()).expect("run() is called once");
     match cli.command {
         Command::Render {
             scene,
@@ -684,7 +711,7 @@ fn run() -> Result<()> {
                 None => default_out(&scene, technique.name(), "png")?,
             };
             check_image_output(&out)?;
-            let device = shutter::vk::create_device()?;
+            let device = create_device()?;
             let device_name = device.caps.device_name.clone();
             let mut renderer = Renderer::new(device)?;
             renderer.show_progress(true);
@@ -1004,7 +1031,7 @@ fn run() -> Result<()> {
             if let Some(out) = &out {
                 check_output_file(out)?;
             }
-            let mut renderer = Renderer::new(shutter::vk::create_device()?)?;
+            let mut renderer = Renderer::new(create_device()?)?;
             let md = if let Some(pair) = per_object {
                 anyhow::ensure!(!focus.is_empty(), "--per-object needs --focus");
                 let (sharp, blurred) = pair
@@ -1053,7 +1080,7 @@ fn run() -> Result<()> {
             for path in json.iter().chain(&csv) {
                 check_output_file(path)?;
             }
-            let mut renderer = Renderer::new(shutter::vk::create_device()?)?;
+            let mut renderer = Renderer::new(create_device()?)?;
             let args = bench::BenchArgs { configs, frames: frames.max(1), warmup, counters: !no_counters };
             let report = bench::run(&mut renderer, &sc, &args)?;
             outln!("{}", report.markdown());
@@ -1170,7 +1197,7 @@ fn run() -> Result<()> {
                 images,
                 compare,
             };
-            let mut renderer = Renderer::new(shutter::vk::create_device()?)?;
+            let mut renderer = Renderer::new(create_device()?)?;
             let device = renderer.device().caps.device_name.clone();
             let points = quality::run(&mut renderer, &sc, &args)?;
             let md = quality::markdown(&sc, &args, &points, &device);
@@ -1195,7 +1222,7 @@ fn run() -> Result<()> {
                 print_atlas_plan(&sc, w, h)?;
             }
             if let Some(target) = quality_target(quality.as_deref(), target_flip)? {
-                let mut renderer = Renderer::new(shutter::vk::create_device()?)?;
+                let mut renderer = Renderer::new(create_device()?)?;
                 let cost = CostModel::load(&renderer.device().caps)?;
                 let mut settings = RenderSettings::from_scene(&sc);
                 (settings.width, settings.height) = (w, h);
@@ -1228,15 +1255,7 @@ fn run() -> Result<()> {
                 }
             }
         }
-        Command::Probe => {
-            let device = shutter::vk::create_device()?;
-            outln!("{}", device.caps);
-            outln!("validation        {}", if device.validation_enabled { "on" } else { "off" });
-            outln!("\npaths Shutter takes on this device:");
-            for p in shutter::techniques::feature_paths(&device.caps) {
-                outln!("  {:<34} {:<5} {}", p.feature, if p.available { "yes" } else { "no" }, p.path);
-            }
-        }
+        Command::Probe { all, json } => probe(all, json)?,
         Command::Calibrate { scene, size, spp, frames, warmup } => {
             match calibrate_cost(&scene, size, spp, frames.max(1)) {
                 Ok((report, _)) => outln!("{report}\n"),
@@ -1252,7 +1271,7 @@ fn run() -> Result<()> {
                 .iter()
                 .map(|k| bench::Config::parse(&format!("stochastic:bound={}", k.name()), &defaults))
                 .collect::<Result<Vec<_>>>()?;
-            let mut renderer = Renderer::new(shutter::vk::create_device()?)?;
+            let mut renderer = Renderer::new(create_device()?)?;
             let args = bench::BenchArgs { configs, frames: frames.max(1), warmup, counters: false };
             let report = bench::run(&mut renderer, &sc, &args)?;
             outln!("{}", report.markdown());
@@ -1290,6 +1309,81 @@ fn run() -> Result<()> {
             for t in shutter::techniques::registry::TECHNIQUES {
                 outln!("{:<13} {}", t.name(), t.summary());
             }
+        }
+    }
+    Ok(())
+}
+
+/// `shutter probe [--all] [--json]`: the chosen device (or every driver's), its capabilities and the
+/// paths Shutter takes on it.
+fn probe(all: bool, json: bool) -> Result<()> {
+    let devices = if all {
+        let list = shutter::vk::available_drivers()?;
+        if list.is_empty() {
+            bail!("no Vulkan driver found (run scripts/setup.sh)");
+        }
+        let mut devices = vec![];
+        for d in &list {
+            // Name the driver by its full version and the device by name: exactly this one.
+            let mut desc = shutter::vk::DeviceDesc::from_env()?;
+            desc.driver = Some(format!(
+                "{}-{}",
+                shutter::vk::drivers::driver_family(&d.driver_id, &d.device_name),
+                d.driver_version
+            ));
+            desc.device_name = Some(d.device_name.clone());
+            devices.push(shutter::vk::DeviceShared::new(&desc).with_context(|| format!("driver {}", d.key))?);
+        }
+        devices
+    } else {
+        vec![create_device()?]
+    };
+    if json {
+        let rows: Vec<serde_json::Value> = devices
+            .iter()
+            .enumerate()
+            .map(|(i, d)| {
+                serde_json::json!({
+                    "default": i == 0 && all,
+                    "capabilities": d.caps,
+                    "validation": d.validation_enabled,
+                    "paths": shutter::techniques::feature_paths(&d.caps),
+                    "provenance": provenance::Provenance::of(&d.caps),
+                })
+            })
+            .collect();
+        outln!("{}", serde_json::to_string_pretty(&rows)?);
+        return Ok(());
+    }
+    if all {
+        outln!(
+            "{} driver(s); the first is the default when none is named (--driver, SHUTTER_DRIVER):\n",
+            devices.len()
+        );
+        outln!("| name | version | device | type | from | API |");
+        outln!("|---|---|---|---|---|---|");
+        for d in &devices {
+            let c = &d.caps;
+            outln!(
+                "| {} | {} | {} | {} | {} | {} |",
+                c.driver_key,
+                c.driver_info,
+                c.device_name,
+                c.device_type,
+                c.project_driver.as_deref().map_or("system ICD".to_string(), |p| format!(".drivers/{p}")),
+                c.api_version
+            );
+        }
+    }
+    for d in &devices {
+        if all {
+            outln!("\n## {}\n", d.caps.driver_key);
+        }
+        outln!("{}", d.caps);
+        outln!("validation        {}", if d.validation_enabled { "on" } else { "off" });
+        outln!("\npaths Shutter takes on this device:");
+        for p in shutter::techniques::feature_paths(&d.caps) {
+            outln!("  {:<34} {:<5} {}", p.feature, if p.available { "yes" } else { "no" }, p.path);
         }
     }
     Ok(())

@@ -464,7 +464,7 @@ impl PreparedFrame {
 }
 
 /// Which path Shutter takes on a device for one hardware feature (`shutter probe`).
-#[derive(Clone, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug, PartialEq, Eq, serde::Serialize)]
 pub struct FeaturePath {
     pub feature: String,
     pub available: bool,

@@ -18,10 +18,17 @@ use crate::error::{Error, Result, VkContext};
 
 const VALIDATION_LAYER: &CStr = c"VK_LAYER_KHRONOS_validation";
 
-/// How to create the device. [`DeviceDesc::from_env`] reads `SHUTTER_DEVICE`, `SHUTTER_VALIDATION`
-/// and `SHUTTER_SYNC_VALIDATION`.
+/// How to create the device. [`DeviceDesc::from_env`] reads `SHUTTER_DRIVER`, `SHUTTER_DEVICE`,
+/// `SHUTTER_VALIDATION` and `SHUTTER_SYNC_VALIDATION`.
+///
+/// Without a driver or device named, the device is the best by type (a discrete GPU before an
+/// integrated one before the CPU) and, among equals, the newest driver: on a machine with both
+/// lavapipes, the current one (it is what users' CI machines run, and it is faster).
 #[derive(Clone, Debug, Default)]
 pub struct DeviceDesc {
+    /// Only drivers this names ([`super::drivers::driver_matches`]: `lavapipe-25.0`, `lavapipe`,
+    /// `nvidia-h200`); None: any.
+    pub driver: Option<String>,
     /// Pick the first device whose name contains this (case-insensitive); None: best by type.
     pub device_name: Option<String>,
     /// Enable the Khronos validation layer and the counting messenger.
@@ -47,6 +54,7 @@ impl DeviceDesc {
             }
         };
         Ok(DeviceDesc {
+            driver: std::env::var("SHUTTER_DRIVER").ok().filter(|s| !s.is_empty()),
             device_name: std::env::var("SHUTTER_DEVICE").ok().filter(|s| !s.is_empty()),
             validation: flag("SHUTTER_VALIDATION")?.unwrap_or(cfg!(debug_assertions)),
             sync_validation: flag("SHUTTER_SYNC_VALIDATION")?.unwrap_or(false),
@@ -68,7 +76,7 @@ pub fn parse_env_flag(name: &'static str, value: &str) -> Result<Option<bool>> {
 }
 
 /// What the chosen device can do, queried once.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, serde::Serialize)]
 pub struct Capabilities {
     pub device_name: String,
     pub device_type: String,
@@ -76,6 +84,15 @@ pub struct Capabilities {
     pub driver_info: String,
     /// `VkDriverId`, e.g. `MESA_LLVMPIPE` (lavapipe).
     pub driver_id: String,
+    /// The driver's version from its `driverInfo`, e.g. `25.0.7` ([`super::drivers::driver_version`]).
+    pub driver_version: String,
+    /// Shutter's name for the driver, e.g. `lavapipe-25.0` ([`super::drivers::driver_key`]): what
+    /// `--driver` takes and every report records.
+    pub driver_key: String,
+    /// The project's driver folder this device came from (`lavapipe-25.0.7`), or None for a system one.
+    pub project_driver: Option<String>,
+    /// `VK_EXT_mesh_shader` is offered (not used yet: the bound passes are geometry/vertex shaders).
+    pub mesh_shader: bool,
     pub api_version: String,
     /// MSAA sample counts usable for colour *and* depth attachments.
     pub framebuffer_sample_counts: Vec<u32>,
@@ -197,6 +214,14 @@ impl std::fmt::Display for Capabilities {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         writeln!(f, "device            {} ({})", self.device_name, self.device_type)?;
         writeln!(f, "driver            {} — {} ({})", self.driver_name, self.driver_info, self.driver_id)?;
+        writeln!(
+            f,
+            "driver name       {} ({})",
+            self.driver_key,
+            self.project_driver
+                .as_deref()
+                .map_or("system ICD".to_string(), |p| format!("project driver .drivers/{p}"))
+        )?;
         if self.is_lavapipe() {
             writeln!(f, "                  Mesa lavapipe: software Vulkan on the CPU (Shutter's CI target)")?;
         }
@@ -213,6 +238,7 @@ impl std::fmt::Display for Capabilities {
         writeln!(f, "fragment stores/atomics {}", self.fragment_stores_and_atomics)?;
         writeln!(f, "vertex-pipeline stores/atomics {}", self.vertex_pipeline_stores_and_atomics)?;
         writeln!(f, "VK_EXT_conservative_rasterization {}", self.conservative_rasterization)?;
+        writeln!(f, "VK_EXT_mesh_shader {}", self.mesh_shader)?;
         writeln!(f, "64-bit buffer atomics {}", self.buffer_int64_atomics)?;
         writeln!(f, "push constants    {} bytes", self.max_push_constants_size)?;
         writeln!(f, "storage buffer range {} bytes", self.max_storage_buffer_range)?;
@@ -322,6 +348,7 @@ fn cstr_field(chars: &[std::ffi::c_char]) -> String {
 impl DeviceShared {
     /// Creates a headless instance and device as `desc` says.
     pub fn new(desc: &DeviceDesc) -> Result<Device> {
+        let direct = DirectDrivers::load()?;
         // SAFETY: loading the system Vulkan loader; failure is reported, not assumed.
         let entry = unsafe { ash::Entry::load() }.map_err(|e| Error::Loader(e.to_string()))?;
         let layers = unsafe { entry.enumerate_instance_layer_properties() }
@@ -402,25 +429,30 @@ impl DeviceShared {
         };
         let messenger_guard = MessengerGuard { du: debug_utils_instance.clone(), messenger };
 
-        let physicals = unsafe { instance.enumerate_physical_devices() }.vk("vkEnumeratePhysicalDevices")?;
-        let mut candidates: Vec<(vk::PhysicalDevice, vk::PhysicalDeviceProperties)> =
-            physicals.iter().map(|&p| (p, unsafe { instance.get_physical_device_properties(p) })).collect();
-        let names: Vec<String> = candidates
-            .iter()
-            .map(|(_, p)| format!("{} ({:?})", cstr_field(&p.device_name), p.device_type))
-            .collect();
+        let mut candidates = summaries(&instance, &direct)?;
+        let names: Vec<String> =
+            candidates.iter().map(|c| format!("{} = {} ({})", c.key, c.device_name, c.device_type)).collect();
+        if let Some(wanted) = &desc.driver {
+            candidates.retain(|c| {
+                super::drivers::driver_matches(wanted, &c.driver_id, &c.device_name, &c.driver_info)
+            });
+            if candidates.is_empty() {
+                return Err(Error::NoDevice { wanted: format!("driver {wanted}"), available: names });
+            }
+        }
         if let Some(wanted) = &desc.device_name {
             let w = wanted.to_lowercase();
-            candidates.retain(|(_, p)| cstr_field(&p.device_name).to_lowercase().contains(&w));
+            candidates.retain(|c| c.device_name.to_lowercase().contains(&w));
             if candidates.is_empty() {
                 return Err(Error::NoDevice { wanted: wanted.clone(), available: names });
             }
         }
-        candidates.sort_by_key(|(_, p)| device_type_rank(p.device_type));
-        let (physical, props) = *candidates.first().ok_or_else(|| Error::NoDevice {
+        let chosen = candidates.first().cloned().ok_or_else(|| Error::NoDevice {
             wanted: "any Vulkan 1.3 device".into(),
             available: names.clone(),
         })?;
+        let physical = chosen.physical;
+        let props = unsafe { instance.get_physical_device_properties(physical) };
         if props.api_version < vk::API_VERSION_1_3 {
             return Err(Error::MissingFeature {
                 device: cstr_field(&props.device_name),
@@ -443,6 +475,7 @@ impl DeviceShared {
             .vk("vkEnumerateDeviceExtensionProperties")?;
         let has_dev_ext = |n: &CStr| dev_exts.iter().any(|e| e.extension_name_as_c_str().ok() == Some(n));
         let conservative = has_dev_ext(ash::ext::conservative_rasterization::NAME);
+        let mesh_shader = has_dev_ext(ash::ext::mesh_shader::NAME);
 
         let mut driver_props = vk::PhysicalDeviceDriverProperties::default();
         let mut props2 = vk::PhysicalDeviceProperties2::default().push_next(&mut driver_props);
@@ -469,6 +502,10 @@ impl DeviceShared {
             driver_name: cstr_field(&driver_props.driver_name),
             driver_info: cstr_field(&driver_props.driver_info),
             driver_id: format!("{:?}", driver_props.driver_id),
+            driver_version: chosen.driver_version.clone(),
+            driver_key: chosen.key.clone(),
+            project_driver: chosen.project_driver.clone(),
+            mesh_shader,
             api_version: format!(
                 "{}.{}.{}",
                 vk::api_version_major(props.api_version),
@@ -623,6 +660,101 @@ impl DeviceShared {
             unsafe { du.cmd_end_debug_utils_label(cmd) };
         }
     }
+}
+
+/// The project's drivers ([`super::drivers`]), offered to the Vulkan loader beside the system's ICDs.
+struct DirectDrivers {
+    project: Vec<super::drivers::ProjectDriver>,
+}
+
+impl DirectDrivers {
+    /// Makes sure the loader will offer the project's drivers ([`super::drivers::offer_project_drivers`])
+    /// and remembers which they are, to tell their devices from the system's.
+    fn load() -> Result<Self> {
+        Ok(DirectDrivers { project: super::drivers::offer_project_drivers()? })
+    }
+
+    /// The project driver folder whose version a device reports, if any (the folder is named
+    /// `FAMILY-VERSION`, e.g. `lavapipe-25.0.7`).
+    fn folder_of(&self, family: &str, version: &str) -> Option<String> {
+        let name = format!("{family}-{version}");
+        self.project.iter().find(|d| d.folder == name).map(|d| d.folder.clone())
+    }
+}
+
+/// One device a driver offers, as listed before choosing ([`available_drivers`]).
+#[derive(Clone, Debug)]
+pub struct DriverSummary {
+    /// Shutter's name for the driver ([`super::drivers::driver_key`]).
+    pub key: String,
+    pub device_name: String,
+    pub device_type: String,
+    pub driver_id: String,
+    pub driver_info: String,
+    pub driver_version: String,
+    pub api_version: String,
+    /// The project's driver folder it came from, None for a system ICD.
+    pub project_driver: Option<String>,
+    physical: vk::PhysicalDevice,
+    rank: u32,
+}
+
+/// Every device of every driver the instance offers, best first: by type (discrete GPU first, CPU
+/// last), then newest driver version.
+fn summaries(instance: &ash::Instance, direct: &DirectDrivers) -> Result<Vec<DriverSummary>> {
+    let physicals = unsafe { instance.enumerate_physical_devices() }.vk("vkEnumeratePhysicalDevices")?;
+    let mut out: Vec<DriverSummary> = physicals
+        .iter()
+        .map(|&physical| {
+            let mut driver_props = vk::PhysicalDeviceDriverProperties::default();
+            let mut props2 = vk::PhysicalDeviceProperties2::default().push_next(&mut driver_props);
+            // SAFETY: `physical` comes from this instance; the chain holds one valid struct.
+            unsafe { instance.get_physical_device_properties2(physical, &mut props2) };
+            let props = props2.properties;
+            let device_name = cstr_field(&props.device_name);
+            let driver_id = format!("{:?}", driver_props.driver_id);
+            let driver_info = cstr_field(&driver_props.driver_info);
+            let driver_version = super::drivers::driver_version(&driver_info);
+            let family = super::drivers::driver_family(&driver_id, &device_name);
+            DriverSummary {
+                key: super::drivers::driver_key(&driver_id, &device_name, &driver_info),
+                project_driver: direct.folder_of(&family, &driver_version),
+                device_type: format!("{:?}", props.device_type),
+                api_version: format!(
+                    "{}.{}.{}",
+                    vk::api_version_major(props.api_version),
+                    vk::api_version_minor(props.api_version),
+                    vk::api_version_patch(props.api_version)
+                ),
+                rank: device_type_rank(props.device_type),
+                device_name,
+                driver_id,
+                driver_info,
+                driver_version,
+                physical,
+            }
+        })
+        .collect();
+    out.sort_by(|a, b| {
+        a.rank.cmp(&b.rank).then_with(|| super::drivers::version_cmp(&b.driver_version, &a.driver_version))
+    });
+    Ok(out)
+}
+
+/// Every driver this machine offers Shutter (the system's ICDs and the project's `.drivers/`), best
+/// first: the order [`DeviceShared::new`] chooses in. Creates a bare instance (no layers) to ask.
+pub fn available_drivers() -> Result<Vec<DriverSummary>> {
+    let direct = DirectDrivers::load()?;
+    // SAFETY: loading the system Vulkan loader; failure is reported, not assumed.
+    let entry = unsafe { ash::Entry::load() }.map_err(|e| Error::Loader(e.to_string()))?;
+    let app = vk::ApplicationInfo::default().application_name(c"shutter").api_version(vk::API_VERSION_1_3);
+    let info = vk::InstanceCreateInfo::default().application_info(&app);
+    // SAFETY: `info` and everything it points to outlive the call.
+    let instance = unsafe { entry.create_instance(&info, None) }.vk("vkCreateInstance")?;
+    let guard = InstanceGuard { instance: Some(instance.clone()) };
+    let list = summaries(&instance, &direct);
+    drop(guard);
+    list
 }
 
 /// Destroys the instance if device creation fails half-way.

@@ -2,12 +2,14 @@
 //! only through these.
 //!
 //! - `context`: instance, device choice, validation messenger, [`Capabilities`]
+//! - `drivers`: the drivers Shutter can run on (the system's and the project's), their names
 //! - `memory`: buffers (gpu-allocator); `image`: images, views, samplers, barriers
 //! - `pipeline`: shader modules, descriptor layouts/pools/writes, pipeline layouts and pipelines
 //! - `commands`: record-submit-wait; `queries`: named GPU timestamps; `transfer`: uploads and readback
 
 mod commands;
 mod context;
+pub mod drivers;
 mod image;
 mod memory;
 mod pipeline;
@@ -16,7 +18,8 @@ mod transfer;
 
 pub use commands::{atlas_square, compute_write_barrier, image_barriers, set_viewport, CommandRecorder};
 pub use context::{
-    parse_env_flag, Capabilities, Device, DeviceDesc, DeviceShared, Feature, ValidationReport,
+    available_drivers, parse_env_flag, Capabilities, Device, DeviceDesc, DeviceShared, DriverSummary,
+    Feature, ValidationReport,
 };
 pub use image::{aspect_of, barrier, Image, ImageDesc, Sampler};
 pub use memory::Buffer;
@@ -27,7 +30,7 @@ pub use pipeline::{
 pub use queries::{GpuTimer, PassTimings};
 pub use transfer::{read_rgba32f, srgb_mip_chain, upload_texture};
 
-/// Creates the device as the environment says (`SHUTTER_DEVICE`, `SHUTTER_VALIDATION`,
+/// Creates the device as the environment says (`SHUTTER_DRIVER`, `SHUTTER_DEVICE`, `SHUTTER_VALIDATION`,
 /// `SHUTTER_SYNC_VALIDATION`).
 pub fn create_device() -> crate::Result<Device> {
     DeviceShared::new(&DeviceDesc::from_env()?)
