@@ -10,6 +10,7 @@
 
 pub mod aas;
 pub mod bounds;
+pub mod calibration;
 pub mod decoupled;
 pub mod error;
 pub mod geometry;

@@ -26,10 +26,12 @@
 //! the forward path's bias image, exactly, whatever its cause. Its FLIP map is taken on the pilot's
 //! estimate of the truth (the sub-frames' mean less the bias). Where the scene has shadow maps, the
 //! first sub-frame is rendered again with maps of 2× and 4× the side (up to 8192²): more candidates,
-//! each with its own measured bias and cost. The stochastic frame reads the same maps and mip chains
-//! (accumulation's bias), and where its shading rate is not per sample, that rate against per sample with the same
-//! sample tiles is its own bias — measured only when the frame could win on time without it (a bias
-//! only adds samples), so never on lavapipe, where it costs ~60× accumulation's passes.
+//! each with its own measured bias and cost. The stochastic frame's bias is its own: it reads the
+//! same shadow maps but shades textures at level 0, as the reference does (accumulation filters them
+//! through mips), so the frame at the pilot's S is compared with the reference at the very same
+//! samples, shaded per sample (the difference holds the shadow maps' bias and, where the rate is not
+//! per sample, the rate's) — measured only when the frame could win on time without it (a bias only
+//! adds samples); otherwise it is assumed to be accumulation's.
 //!
 //! *Together.* Noise and bias are independent, so per pixel their colour errors add in quadrature;
 //! FLIP grows more slowly than the colour error, so the quadrature of the two FLIP maps per pixel,
@@ -47,16 +49,15 @@
 //! **Time.** `accumulation`'s passes cost the same whatever their sample, so its time is the pilot's
 //! per pass times `S`. The per-object stochastic frame (`auto` at a fixed `S`) is predicted through a
 //! [`CostModel`]: its ms and its noise, each as a ratio to `accumulation`'s at equal `S`, measured on
-//! the device by `shutter calibrate` and cached per device and driver ([`CostModel::load`]), or the
-//! built-in values for lavapipe (measured on `default`, docs/quality/default.md).
+//! the device by `shutter calibrate` and kept per driver and version ([`crate::calibration`]: the
+//! user's file first, then the built-in `engine/data/calibrations.toml`, with entries for both
+//! lavapipe versions).
 //!
 //! **Choice.** Each candidate takes the fewest samples its predicted FLIP allows (at most
 //! [`MAX_PLANNED_SPP`]); the cheaper in predicted ms wins. A scene with nothing to simulate is
 //! `pinhole`, as `auto` renders it: no pilot, no samples to choose. The choice is per frame: the
 //! stochastic candidate is itself `auto`'s per-object plan, but accumulation and stochastic are not
 //! mixed within a frame.
-
-use std::path::PathBuf;
 
 use serde::{Deserialize, Serialize};
 
@@ -67,7 +68,7 @@ use crate::plan::{AutoFrame, Plan};
 use crate::reference::{render_reference_shared_samples, ReferenceSettings};
 use crate::scene::Scene;
 use crate::techniques::accumulation::accumulation_samples;
-use crate::techniques::{RenderOutput, RenderSettings, Renderer, ShadingRate, StochasticOptions, Technique};
+use crate::techniques::{RenderOutput, RenderSettings, Renderer, Technique};
 use crate::vk::Capabilities;
 
 /// Passes of each pilot sub-frame, and the fewest samples the planner asks for.
@@ -155,95 +156,30 @@ pub struct CostModel {
 }
 
 impl CostModel {
-    /// The built-in model for `caps`' device: lavapipe's measured one, or for another device equal
-    /// costs (an uncalibrated guess, said in `source`).
-    pub fn built_in(caps: &Capabilities) -> CostModel {
-        let (ms, flip, source) = if caps.is_lavapipe() {
-            // docs/quality/default.md (160×90, llvmpipe): auto ÷ accumulation at S = 4, 16, 64 is
-            // 59.5, 61.8, 54.6 in ms and 0.85, 0.92 in FLIP (S = 64 is the reference's floor).
-            (58.0, 0.9, "built-in, measured on lavapipe (docs/quality/default.md)")
-        } else {
-            (1.0, 1.0, "built-in guess for an uncalibrated device: run `shutter calibrate`")
-        };
-        CostModel {
-            driver_id: caps.driver_id.clone(),
-            device_name: caps.device_name.clone(),
-            stochastic_ms_ratio: ms,
-            stochastic_flip_ratio: flip,
-            source: source.into(),
-        }
+    /// The project's built-in model for `caps`' device at `size` (`engine/data/calibrations.toml`),
+    /// ignoring the user's calibrations: equal costs where the file has no entry for the driver.
+    pub fn built_in(caps: &Capabilities, size: (u32, u32)) -> CostModel {
+        crate::calibration::cost_model_from(
+            caps,
+            crate::calibration::CalibrationFile::built_in()
+                .calibration
+                .into_iter()
+                .map(|c| ("built-in".to_string(), c))
+                .filter(|(_, c)| c.applies_to(caps)),
+            size,
+        )
     }
 
-    /// Where `shutter calibrate` caches the model of `caps`' device: `$SHUTTER_CACHE_DIR`, else
-    /// `$XDG_CACHE_HOME/shutter`, else `$HOME/.cache/shutter`; one file per driver and device.
-    pub fn cache_path(caps: &Capabilities) -> Option<PathBuf> {
-        let dir = std::env::var_os("SHUTTER_CACHE_DIR")
-            .map(PathBuf::from)
-            .or_else(|| std::env::var_os("XDG_CACHE_HOME").map(|d| PathBuf::from(d).join("shutter")))
-            .or_else(|| std::env::var_os("HOME").map(|d| PathBuf::from(d).join(".cache/shutter")))?;
-        let name: String = format!("{}-{}", caps.driver_id, caps.device_name)
-            .chars()
-            .map(|c| if c.is_ascii_alphanumeric() || c == '-' || c == '_' { c } else { '_' })
-            .collect();
-        Some(dir.join(format!("cost-{name}.toml")))
-    }
-
-    /// The cached calibration of `caps`' device, or the built-in model. A cache file that does not
-    /// parse, or names another device, is an error (rather than silently ignored).
-    pub fn load(caps: &Capabilities) -> Result<CostModel> {
-        let Some(path) = Self::cache_path(caps) else { return Ok(Self::built_in(caps)) };
-        let text = match std::fs::read_to_string(&path) {
-            Ok(t) => t,
-            Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(Self::built_in(caps)),
-            Err(e) => return Err(Error::io(&path, e)),
-        };
-        let model: CostModel = toml::from_str(&text).map_err(|e| {
-            Error::Unsupported(format!(
-                "cost model {}: {e} (delete it or run `shutter calibrate`)",
-                path.display()
-            ))
-        })?;
-        if !model.is_valid() {
-            return Err(Error::Unsupported(format!(
-                "cost model {}: its ratios must be finite and > 0 (delete it or run `shutter calibrate` on a scene that blurs)",
-                path.display()
-            )));
-        }
-        if model.driver_id != caps.driver_id || model.device_name != caps.device_name {
-            return Err(Error::Unsupported(format!(
-                "cost model {} is for {} ({}), not this {} ({})",
-                path.display(),
-                model.device_name,
-                model.driver_id,
-                caps.device_name,
-                caps.driver_id
-            )));
-        }
-        Ok(model)
+    /// The model the planner uses on `caps`' device for a `size` image: the user's calibration
+    /// (`shutter calibrate`), else the built-in one ([`crate::calibration`]). A user file that does
+    /// not parse is an error.
+    pub fn load(caps: &Capabilities, size: (u32, u32)) -> Result<CostModel> {
+        crate::calibration::cost_model(caps, size)
     }
 
     /// Both ratios finite and positive (a scene with nothing to simulate measures no noise).
     pub fn is_valid(&self) -> bool {
         [self.stochastic_ms_ratio, self.stochastic_flip_ratio].iter().all(|r| r.is_finite() && *r > 0.0)
-    }
-
-    /// Writes the model where [`CostModel::load`] finds it; returns the path. Refuses a model that is
-    /// not [`CostModel::is_valid`].
-    pub fn save(&self, caps: &Capabilities) -> Result<PathBuf> {
-        if !self.is_valid() {
-            return Err(Error::Unsupported(format!(
-                "cost model not saved: ratios {} (ms) and {} (noise) — measure it on a scene that blurs, e.g. `shutter calibrate default`",
-                self.stochastic_ms_ratio, self.stochastic_flip_ratio
-            )));
-        }
-        let path = Self::cache_path(caps)
-            .ok_or_else(|| Error::Unsupported("no cache directory: set SHUTTER_CACHE_DIR or HOME".into()))?;
-        if let Some(dir) = path.parent() {
-            std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
-        }
-        let text = toml::to_string(self).map_err(|e| Error::Unsupported(format!("cost model: {e}")))?;
-        std::fs::write(&path, text).map_err(|e| Error::io(&path, e))?;
-        Ok(path)
     }
 }
 
@@ -560,9 +496,8 @@ struct PilotData {
     /// The pooled mean of the sub-frames minus accumulation's bias image: the truth as far as the
     /// pilot knows it.
     truth: LinearImage,
-    /// accumulation's bias image at the settings' shadow maps (GPU minus same-sample reference),
-    /// and its FLIP map on `truth`.
-    bias: Option<LinearImage>,
+    /// accumulation's bias as a FLIP map on `truth` (its image is GPU minus same-sample
+    /// reference, at the settings' shadow maps).
     bias_map: Option<Vec<f32>>,
     /// Bigger shadow maps ([`BIGGER_SHADOW_MAPS`]): their side, the bias image and the ms of one
     /// sub-frame.
@@ -669,7 +604,7 @@ fn run_pilot(renderer: &mut Renderer, scene: &Scene, settings: &RenderSettings) 
         bias_flip,
         notes,
     };
-    Ok(PilotData { pilot, noise_map, truth, bias: bias_image, bias_map: acc_bias_map, bigger_shadows })
+    Ok(PilotData { pilot, noise_map, truth, bias_map: acc_bias_map, bigger_shadows })
 }
 
 /// The largest shadow map the planner tries (the settings' limit).
@@ -678,6 +613,7 @@ const MAX_SHADOW_MAP: u32 = 8192;
 const BIGGER_SHADOW_MAPS: [u32; 2] = [2, 4];
 
 /// A candidate to be priced: its model, its ms per sample, and how to describe it.
+#[derive(Clone)]
 struct Priced {
     technique: Technique,
     shadow_map: Option<u32>,
@@ -795,32 +731,42 @@ pub fn plan_quality(
             ms_per_sample: per_pass * cost.stochastic_ms_ratio,
             bias: acc_bias_text.clone(),
         };
+        // Its own bias, where it could win on time without one (a bias only adds samples): the
+        // frame at the pilot's S against the reference with the very same samples, shaded per
+        // sample — the difference is what the frame models differently from the reference (shadow
+        // maps; its shading rate where that is not per sample), exactly. Accumulation's bias is no
+        // estimate of it: the stochastic frame shades textures at level 0 as the reference does,
+        // where accumulation's forward passes filter them through mips.
         let rate = settings.stochastic.shading;
-        if rate != ShadingRate::PerSample {
-            let cheapest_other =
-                priced.iter().map(|c| c.candidate(t)).map(|c| c.predicted_ms).fold(f64::INFINITY, f64::min);
-            let unbiased = st.candidate(t);
-            if unbiased.predicted_ms < cheapest_other {
-                // Same seed, same sample tiles: the two rates differ by the rate's bias alone.
-                let s = RenderSettings { spp: PILOT_SPP, ..*settings };
-                let exact = RenderSettings {
-                    stochastic: StochasticOptions { shading: ShadingRate::PerSample, ..s.stochastic },
-                    ..s
-                };
-                let a = renderer.render(scene, Technique::AUTO, &s)?.image;
-                let b = renderer.render(scene, Technique::AUTO, &exact)?.image;
-                let mut total = combine(&[(&a, 1.0), (&b, -1.0)]);
-                if let Some(d) = &data.bias {
-                    total = combine(&[(&total, 1.0), (d, 1.0)]);
+        let cheapest_other =
+            priced.iter().map(|c| c.candidate(t)).map(|c| c.predicted_ms).fold(f64::INFINITY, f64::min);
+        let unbiased = Priced { model: noise_model(cost.stochastic_flip_ratio as f32, vec![]), ..st.clone() };
+        if unbiased.candidate(t).predicted_ms < cheapest_other {
+            let s = RenderSettings { spp: PILOT_SPP, ..*settings };
+            let frame = renderer.render(scene, Technique::AUTO, &s)?.image;
+            let same_samples = ReferenceSettings {
+                width: s.width,
+                height: s.height,
+                spp: PILOT_SPP,
+                seed: s.seed,
+                progress: false,
+                shading: crate::reference::ReferenceShading::PerSample,
+            };
+            match crate::reference::render_reference(scene, &same_samples) {
+                Ok(r) => {
+                    st.model.bias = bias_map(&data.truth, &combine(&[(&frame, 1.0), (&r, -1.0)]))?;
+                    st.bias = format!(
+                        "shadow maps and shading {} against the reference, measured with the frame's own samples",
+                        rate.name()
+                    );
                 }
-                st.model.bias = bias_map(&data.truth, &total)?;
-                st.bias = format!("{acc_bias_text}; shading {} against per-sample, measured", rate.name());
-            } else {
-                st.bias = format!(
-                    "{acc_bias_text}; shading {}'s own bias not measured (slower than the others even without it)",
-                    rate.name()
-                );
+                Err(e) => {
+                    st.bias = format!("{acc_bias_text} (its own not measured: the reference refused it: {e})")
+                }
             }
+        } else {
+            st.bias =
+                format!("{acc_bias_text} (its own not measured: slower than the others even without a bias)");
         }
         priced.push(st);
     }

@@ -23,8 +23,8 @@ const MS_FACTOR: f64 = 3.0;
 fn predictions_hold_against_the_reference() {
     let mut r = renderer();
     // The built-in model, not a calibration cached on this machine: the test must not depend on it.
-    let cost = CostModel::built_in(&r.device().caps);
     let (w, h) = (96, 54);
+    let cost = CostModel::built_in(&r.device().caps, (w, h));
     for name in ["default", "one-mover"] {
         let scene = builtin_scene(name).unwrap().unwrap();
         let settings = RenderSettings::new(w, h, 16, scene.image.seed);
@@ -121,8 +121,8 @@ fn shadow_scene() -> Scene {
 #[test]
 fn planned_renders_meet_the_target_over_seeds() {
     let mut r = renderer();
-    let cost = CostModel::built_in(&r.device().caps);
     let (w, h) = (96, 54);
+    let cost = CostModel::built_in(&r.device().caps, (w, h));
     let target = QualityTarget::Good;
     let mut met = 0;
     let mut cases = Vec::new();

@@ -193,6 +193,9 @@ pub struct BenchReport {
     pub frames: usize,
     pub warmup: usize,
     pub results: Vec<ConfigResult>,
+    /// Commit, driver, CPU, command and environment (absent in reports written before it existed).
+    #[serde(default)]
+    pub provenance: Option<crate::provenance::Provenance>,
 }
 
 pub struct BenchArgs {
@@ -308,6 +311,7 @@ pub fn run(renderer: &mut Renderer, scene: &Scene, a: &BenchArgs) -> Result<Benc
         frames: a.frames,
         warmup: a.warmup,
         results,
+        provenance: Some(crate::provenance::Provenance::of(caps)),
     })
 }
 
@@ -325,6 +329,10 @@ impl BenchReport {
             self.frames,
             self.warmup
         );
+        if let Some(p) = &self.provenance {
+            md.push_str(&p.markdown());
+            md.push('\n');
+        }
         md.push_str("| configuration | passes × MSAA | GPU ms median (min–max) | × first | CPU frame ms | per pass (median ms) | fragments | samples tested | hits | STE | shading inv. | atlas texels (shade + gutter) | cache lookups / hits / evictions / lost / overflows |\n");
         md.push_str("|---|---:|---:|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|\n");
         for r in &self.results {
@@ -372,7 +380,8 @@ impl BenchReport {
     }
 
     pub fn csv(&self) -> String {
-        let mut s = String::from(
+        let mut s = self.provenance.as_ref().map(|p| p.csv_comment()).unwrap_or_default();
+        s.push_str(
             "scene,width,height,device,driver,label,technique,spp,bound,shading,passes,msaa,gpu_ms_median,gpu_ms_min,\
              gpu_ms_max,ratio_to_first,cpu_frame_ms_median,fragments,samples_tested,samples_hit,ste,shading_invocations,\
              atlas_texels_shaded,atlas_texels_gutter,cache_lookups,cache_hits,cache_evictions,cache_lost,cache_overflows\n",

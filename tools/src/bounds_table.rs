@@ -253,6 +253,8 @@ fn run_rows(renderer: &mut Renderer, scene: &Scene, a: &BoundsTableArgs) -> Resu
         a.frames,
         a.warmup
     );
+    md.push_str(&crate::provenance::Provenance::of(caps).markdown());
+    md.push('\n');
     md.push_str("| S | technique | bound | GPU ms/frame | fragments | samples tested | samples hit | STE | STE ÷ bbox STE |\n");
     md.push_str("|---:|---|---|---:|---:|---:|---:|---:|---:|\n");
     for &spp in &a.spp {

@@ -60,7 +60,8 @@ pub fn run(args: HardCasesArgs) -> Result<()> {
         }
     }
     let mut renderer = Renderer::new(crate::create_device()?)?;
-    let device = format!("{} ({})", renderer.device().caps.device_name, renderer.device().caps.driver_info);
+    let prov = crate::provenance::Provenance::of(&renderer.device().caps);
+    let device = format!("`{}` ({}, {})", prov.driver, prov.device, prov.driver_info);
     let mut rows = Vec::new();
     let mut failures = Vec::new();
     for case in cases {
@@ -69,7 +70,7 @@ pub fn run(args: HardCasesArgs) -> Result<()> {
         failures.extend(row.failures());
         rows.push(row);
     }
-    let table = markdown(&rows, &m, COLUMNS, &device);
+    let table = format!("{}\nMade under:\n\n{}", markdown(&rows, &m, COLUMNS, &device), prov.markdown());
     match &args.out {
         Some(out) => {
             let text = std::fs::read_to_string(out)?;

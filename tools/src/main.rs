@@ -374,14 +374,18 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
-    /// Measure which stochastic bound is cheapest on this device (the images do not depend on it):
-    /// bbox, convex-hull and adaptive benched interleaved; prints the table and the calibration entry
-    /// (engine/src/techniques/stochastic.rs, BOUND_CALIBRATIONS) that `--bound device` would use.
+    /// Measure this driver: the quality planner's cost model (accumulation against the per-object
+    /// stochastic frame at equal S) and which stochastic bound is cheapest (the images do not depend
+    /// on it: bbox, convex-hull and adaptive benched interleaved). Both are saved to the user's
+    /// calibration file, which `render`/`auto` read from then on (engine/src/calibration.rs).
     Calibrate {
         #[arg(default_value = "default")]
         scene: String,
-        #[arg(long, value_parser = parse_size, default_value = "320x180")]
-        size: (u32, u32),
+        /// Image sizes to measure the cost model at (repeat the flag or separate by commas): the two
+        /// techniques scale differently with the pixel count, so the planner interpolates between
+        /// sizes. The bound is measured at the last.
+        #[arg(long, value_parser = parse_size, value_delimiter = ',', default_values = ["160x90", "640x360"])]
+        size: Vec<(u32, u32)>,
         #[arg(long, default_value_t = 16)]
         spp: u32,
         #[arg(long, default_value_t = 3)]
@@ -431,20 +435,62 @@ fn calibrate_cost(scene: &str, size: (u32, u32), spp: u32, frames: usize) -> Res
         stochastic_ms_ratio: st_ms / acc_ms,
         stochastic_flip_ratio: st_noise / acc_noise,
         source: format!(
-            "`shutter calibrate` ({}, {}x{}, S = {spp}): accumulation {acc_ms:.1} ms, noise FLIP {acc_noise:.4}; stochastic {st_ms:.1} ms, {st_noise:.4}",
-            sc.name, size.0, size.1
+            "`shutter calibrate` ({}, {}x{}, S = {spp}): accumulation {acc_ms:.1} ms, noise FLIP {acc_noise:.4}; stochastic {st_ms:.1} ms, {st_noise:.4}; {}",
+            sc.name,
+            size.0,
+            size.1,
+            measured_on(&caps)
         ),
     };
-    let path = model.save(&caps)?;
+    if !model.is_valid() {
+        bail!(
+            "cost model not saved: ratios {} (ms) and {} (noise) — measure it on a scene that blurs, e.g. `shutter calibrate default`",
+            model.stochastic_ms_ratio,
+            model.stochastic_flip_ratio
+        );
+    }
+    let path = save_calibration(shutter::calibration::Calibration {
+        driver: caps.driver_key.clone(),
+        cost: vec![shutter::calibration::CostPoint {
+            width: size.0,
+            height: size.1,
+            spp,
+            stochastic_ms_ratio: model.stochastic_ms_ratio,
+            stochastic_flip_ratio: model.stochastic_flip_ratio,
+            measured: model.source.clone(),
+        }],
+        ..Default::default()
+    })?;
     let report = format!(
         "cost model for {} ({}): the per-object stochastic frame takes {:.2}x accumulation's GPU ms and has {:.2}x its noise at equal S; saved to {} (the quality planner's, `render --quality`)",
+        caps.driver_key,
         caps.device_name,
-        caps.driver_id,
         model.stochastic_ms_ratio,
         model.stochastic_flip_ratio,
         path.display()
     );
     Ok((report, model))
+}
+
+/// "llvmpipe, Mesa 25.0.7-2~bpo12+1 (LLVM 15.0.6), <CPU>, <date>": where a calibration was measured.
+fn measured_on(caps: &shutter::vk::Capabilities) -> String {
+    let p = provenance::Provenance::of(caps);
+    let date = std::process::Command::new("date")
+        .arg("+%Y-%m-%d")
+        .output()
+        .ok()
+        .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_string())
+        .unwrap_or_default();
+    format!("{}, {}, {}, commit {:.10}, {date}", p.device, p.driver_info, p.cpu, p.commit)
+}
+
+/// Adds `entry` to the user's calibration file (replacing the same driver's fields); returns the path.
+fn save_calibration(entry: shutter::calibration::Calibration) -> Result<PathBuf> {
+    let (path, mut file) = shutter::calibration::CalibrationFile::user()?;
+    let path = path.context("no cache directory for the calibration: set SHUTTER_CACHE_DIR or HOME")?;
+    file.upsert(entry);
+    file.save(&path)?;
+    Ok(path)
 }
 
 /// The registered techniques' names, with their summaries for `--help`.
@@ -719,7 +765,7 @@ fn run() -> Result<()> {
             let mut promise = None;
             if technique == Technique::AUTO && spp.is_none() {
                 let target = target.unwrap_or(QualityTarget::Good);
-                let cost = CostModel::load(&renderer.device().caps)?;
+                let cost = CostModel::load(&renderer.device().caps, (settings.width, settings.height))?;
                 let qp = shutter::quality_plan::plan_quality(&mut renderer, &sc, &settings, target, &cost)?;
                 outln!("auto: {}", qp.summary());
                 if qp.pilot.is_some() {
@@ -1198,9 +1244,9 @@ fn run() -> Result<()> {
                 compare,
             };
             let mut renderer = Renderer::new(create_device()?)?;
-            let device = renderer.device().caps.device_name.clone();
+            let prov = provenance::Provenance::of(&renderer.device().caps);
             let points = quality::run(&mut renderer, &sc, &args)?;
-            let md = quality::markdown(&sc, &args, &points, &device);
+            let md = quality::markdown(&sc, &args, &points, &prov);
             outln!("{md}");
             let md_path = out.with_extension("md");
             write_file_atomically(&md_path, md.as_bytes())?;
@@ -1223,7 +1269,7 @@ fn run() -> Result<()> {
             }
             if let Some(target) = quality_target(quality.as_deref(), target_flip)? {
                 let mut renderer = Renderer::new(create_device()?)?;
-                let cost = CostModel::load(&renderer.device().caps)?;
+                let cost = CostModel::load(&renderer.device().caps, (w, h))?;
                 let mut settings = RenderSettings::from_scene(&sc);
                 (settings.width, settings.height) = (w, h);
                 let qp = shutter::quality_plan::plan_quality(&mut renderer, &sc, &settings, target, &cost)?;
@@ -1256,12 +1302,15 @@ fn run() -> Result<()> {
             }
         }
         Command::Probe { all, json } => probe(all, json)?,
-        Command::Calibrate { scene, size, spp, frames, warmup } => {
-            match calibrate_cost(&scene, size, spp, frames.max(1)) {
-                Ok((report, _)) => outln!("{report}\n"),
-                // A scene without blur measures no noise: the bound calibration below still runs.
-                Err(e) => outln!("{e:#}\n"),
+        Command::Calibrate { scene, size: sizes, spp, frames, warmup } => {
+            for &size in &sizes {
+                match calibrate_cost(&scene, size, spp, frames.max(1)) {
+                    Ok((report, _)) => outln!("{report}\n"),
+                    // A scene without blur measures no noise: the bound calibration below still runs.
+                    Err(e) => outln!("{e:#}\n"),
+                }
             }
+            let size = *sizes.last().context("no --size")?;
             let sc = load_scene(&scene)?;
             let mut defaults = RenderSettings::from_scene(&sc);
             (defaults.width, defaults.height) = size;
@@ -1279,24 +1328,34 @@ fn run() -> Result<()> {
             let best = (0..kinds.len()).min_by(|&a, &b| ms[a].total_cmp(&ms[b])).expect("three kinds");
             let adaptive = ms[2];
             let caps = &renderer.device().caps;
-            let (shipped, why) = shutter::techniques::stochastic::device_bound(caps);
+            outln!("fastest: `{}` ({:.2}x adaptive)", kinds[best].name(), ms[best] / adaptive);
+            let entry = shutter::calibration::Calibration {
+                driver: caps.driver_key.clone(),
+                bound: Some(kinds[best].name().to_string()),
+                bound_measured: Some(format!(
+                    "`shutter calibrate` ({scene}, {}x{}, S = {spp}, {frames} interleaved frames): {}; {}",
+                    size.0,
+                    size.1,
+                    kinds
+                        .iter()
+                        .zip(&ms)
+                        .map(|(k, m)| format!("{} {:.2}x", k.name(), m / adaptive))
+                        .collect::<Vec<_>>()
+                        .join(", "),
+                    measured_on(caps)
+                )),
+                ..Default::default()
+            };
+            let path = save_calibration(entry.clone())?;
+            let (now, why) = shutter::techniques::stochastic::device_bound(caps);
             outln!(
-                "fastest: `{}` ({:.2}x adaptive); `--bound device` now draws `{}` ({why})",
-                kinds[best].name(),
-                ms[best] / adaptive,
-                shipped.name()
+                "saved to {}; `--bound device` draws `{}` from now on ({why})",
+                path.display(),
+                now.name()
             );
             outln!(
-                "calibration entry for this device:\n    BoundCalibration {{ driver_id: \"{}\", bound: BoundKind::{:?}, \
-                 measured: \"`shutter calibrate` ({scene}, {}x{}, S = {spp}, {frames} interleaved frames): {} \
-                 ({}, {})\" }}",
-                caps.driver_id,
-                kinds[best],
-                size.0,
-                size.1,
-                kinds.iter().zip(&ms).map(|(k, m)| format!("{} {:.2}x", k.name(), m / adaptive)).collect::<Vec<_>>().join(", "),
-                caps.device_name,
-                caps.driver_info
+                "calibration entry for this driver (the project ships its own in engine/data/calibrations.toml):\n\n{}",
+                toml::to_string(&shutter::calibration::CalibrationFile { calibration: vec![entry] })?
             );
         }
         Command::HardCases(args) => hard_cases::run(args)?,

@@ -128,7 +128,7 @@ fn reference(scene: &Scene, a: &QualityArgs) -> Result<LinearImage> {
 fn resume(csv: &Path, key: &str) -> Result<Vec<Point>> {
     let Ok(text) = std::fs::read_to_string(csv) else { return Ok(vec![]) };
     let mut pts = vec![];
-    for line in text.lines().skip(1) {
+    for line in text.lines().skip(1).filter(|l| !l.starts_with('#')) {
         let f: Vec<&str> = split_csv(line);
         if f.len() < 14 || f[..6].join(",") != key {
             continue;
@@ -225,6 +225,10 @@ pub fn run(renderer: &mut Renderer, scene: &Scene, a: &QualityArgs) -> Result<Ve
         .with_context(|| format!("opening {}", csv_path.display()))?;
     if new_file {
         writeln!(csv, "{CSV_HEADER}")?;
+    }
+    if !todo.is_empty() {
+        // The rows this run appends were measured under these conditions.
+        write!(csv, "{}", crate::provenance::Provenance::of(&renderer.device().caps).csv_comment())?;
     }
     let bar = shutter::progress::Progress::new("quality", todo.len() as u64, "points");
     for (i, spp) in todo {
@@ -324,11 +328,17 @@ pub fn ratios_at_equal_flip(points: &[Point], slow: &str, fast: &str) -> Vec<(f6
     out
 }
 
-pub fn markdown(scene: &Scene, a: &QualityArgs, points: &[Point], device: &str) -> String {
+pub fn markdown(
+    scene: &Scene,
+    a: &QualityArgs,
+    points: &[Point],
+    prov: &crate::provenance::Provenance,
+) -> String {
     let front = pareto(points);
     let mut md = format!(
         "Scene `{}` (content hash {:016x}), {}×{}, reference: CPU distribution ray tracer at {} spp, seed {}; \
-         GPU ms = median of {} frame(s) after {} warm-up frame(s) on {device}; error of the last frame.\n\n",
+         GPU ms = median of {} frame(s) after {} warm-up frame(s) on `{}` ({}, {}); error of the last frame. \
+         Points resumed from the CSV keep the conditions of the run that measured them (its `#` lines).\n\n{}\n",
         scene.name,
         scene.content_hash(),
         a.width,
@@ -336,7 +346,11 @@ pub fn markdown(scene: &Scene, a: &QualityArgs, points: &[Point], device: &str) 
         a.reference_spp,
         a.seed,
         a.frames,
-        a.warmup
+        a.warmup,
+        prov.driver,
+        prov.device,
+        prov.driver_info,
+        prov.markdown()
     );
     md.push_str("| series | S | passes × MSAA | GPU ms | RMSE | FLIP | Pareto |\n|---|---:|---:|---:|---:|---:|:---:|\n");
     for (i, p) in points.iter().enumerate() {

@@ -642,28 +642,6 @@ impl BoundChoice {
     }
 }
 
-/// A bound measured fastest on one kind of device (`shutter calibrate` measures and prints one).
-pub struct BoundCalibration {
-    /// `VkDriverId` as `Capabilities::driver_id` spells it.
-    pub driver_id: &'static str,
-    pub bound: BoundKind,
-    /// What was measured, where and with which command.
-    pub measured: &'static str,
-}
-
-/// The calibrations Shutter ships. The bounds all give the same image (only their cost differs), and
-/// which is cheapest depends on the rasterizer: llvmpipe pays per strip triangle and per 4×4 block a
-/// bound touches, so the two-triangle box beats the tighter many-triangle hull; a GPU rasterizer's
-/// per-triangle cost is small and the hull's fewer sample tests should win (not measured: no GPU was
-/// available), hence `adaptive` for devices not listed.
-pub const BOUND_CALIBRATIONS: &[BoundCalibration] = &[BoundCalibration {
-    driver_id: "MESA_LLVMPIPE",
-    bound: BoundKind::BoundingBox,
-    measured: "`shutter calibrate` (default, 320x180, S = 16, 3 interleaved frames): bbox 0.88x, \
-               convex-hull 1.02x, adaptive 1.00x (an earlier bench: 0.77x, 0.93x); llvmpipe, Mesa 22.3.6, \
-               LLVM 15, 2-core VM, 2026-12-01",
-}];
-
 /// [`ObjectBoundPolicy::THESIS`]'s threshold: the largest circle of confusion, in pixels, up to which
 /// an object draws the reduced wedge rather than the 3D hexagon. Measured, not the thesis' (which gives
 /// none): over the thesis scene's focus sweep every object drawn as the reduced wedge tests more samples
@@ -674,15 +652,14 @@ pub const BOUND_CALIBRATIONS: &[BoundCalibration] = &[BoundCalibration {
 /// switching").
 pub const PER_OBJECT_THRESHOLD_PX: f32 = 0.0;
 
-/// Bound used without a chosen one on this device, and why.
+/// Bound used without a chosen one on this device, and why: the driver's calibration
+/// ([`crate::calibration::device_bound`]). The bounds all give the same image (only their cost
+/// differs), and which is cheapest depends on the rasterizer: llvmpipe pays per strip triangle and per
+/// 4×4 block a bound touches, so the two-triangle box beats the tighter many-triangle hull; a GPU
+/// rasterizer's per-triangle cost is small and the hull's fewer sample tests should win (not measured:
+/// no GPU was available), hence `adaptive` for devices not calibrated.
 pub fn device_bound(caps: &crate::vk::Capabilities) -> (BoundKind, String) {
-    match BOUND_CALIBRATIONS.iter().find(|c| c.driver_id == caps.driver_id) {
-        Some(c) => (c.bound, format!("calibrated for {}: {}", c.driver_id, c.measured)),
-        None => (
-            BoundKind::Adaptive,
-            format!("no calibration for {} (run `shutter calibrate`): adaptive", caps.driver_id),
-        ),
-    }
+    crate::calibration::device_bound(caps)
 }
 
 /// Counters of an instrumented render, summed over all passes.
@@ -2658,7 +2635,7 @@ mod tests {
     }
 
     #[test]
-    fn bound_choice_parses_and_the_calibrations_name_real_drivers() {
+    fn bound_choices_parse() {
         assert_eq!("device".parse::<BoundChoice>().unwrap(), BoundChoice::Device);
         assert_eq!("bbox".parse::<BoundChoice>().unwrap(), BoundChoice::Kind(BoundKind::BoundingBox));
         assert!("hull".parse::<BoundChoice>().is_err());
@@ -2693,12 +2670,6 @@ mod tests {
         assert_eq!(want.kind(2.50001), BoundKind::ConvexHull);
         assert_eq!(want.kind(0.0), BoundKind::BoundingBox);
         assert_eq!(want.kind(f32::NAN), BoundKind::ConvexHull);
-        for c in BOUND_CALIBRATIONS {
-            let known =
-                [vk::DriverId::MESA_LLVMPIPE, vk::DriverId::NVIDIA_PROPRIETARY, vk::DriverId::MESA_RADV];
-            assert!(known.iter().any(|d| format!("{d:?}") == c.driver_id), "{}", c.driver_id);
-            assert!(c.measured.contains("shutter calibrate"), "{}", c.measured);
-        }
     }
 
     #[test]
