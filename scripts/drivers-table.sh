@@ -8,8 +8,8 @@
 # About 25 minutes on the 2-core VM; sweeps resume from their CSV (delete it to measure afresh).
 set -euo pipefail
 cd "$(dirname "$0")/.."
-cargo build --locked --bin shutter
-S=target/debug/shutter
+# SHUTTER_BIN: a shutter binary to use instead of building one (e.g. a copy, while the tree changes).
+if [ -n "${SHUTTER_BIN:-}" ]; then S="$SHUTTER_BIN"; else cargo build --locked --bin shutter; S=target/debug/shutter; fi
 export SHUTTER_DEVICE="${SHUTTER_DEVICE:-llvmpipe}"
 drivers=("$@")
 ((${#drivers[@]})) || drivers=(lavapipe-25.0 lavapipe-22.3)

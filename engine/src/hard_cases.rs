@@ -29,7 +29,7 @@ use crate::error::{Error, Result};
 use crate::image::LinearImage;
 use crate::metrics::compare;
 use crate::plan::Plan;
-use crate::reference::{render_reference, ReferenceSettings};
+use crate::reference::{render_reference, ReferenceSettings, REFERENCE_VERSION};
 use crate::scene::file::parse_scene;
 use crate::scene::Scene;
 use crate::techniques::{RenderSettings, Renderer, ShadingRate, StochasticOptions, Technique};
@@ -237,11 +237,23 @@ pub struct MatrixSettings {
     /// Where to write each failing cell's picture (`<case>-<column>-S₂.png` beside `<case>-truth.png`
     /// and the FLIP map `<case>-<column>-diff.png`), if anywhere.
     pub pictures: Option<&'static str>,
+    /// Where to keep the CPU references (the truth and the reference's own runs at S₁, S₂), if
+    /// anywhere: they depend on the scene, size, samples and seed, never on the GPU driver, so a
+    /// second driver's matrix (CI runs two) takes them from here instead of tracing them again.
+    pub reference_cache: Option<&'static str>,
 }
 
 impl Default for MatrixSettings {
     fn default() -> Self {
-        MatrixSettings { width: 96, height: 54, spp: [4, 16], truth_spp: 1024, seed: 1, pictures: None }
+        MatrixSettings {
+            width: 96,
+            height: 54,
+            spp: [4, 16],
+            truth_spp: 1024,
+            seed: 1,
+            pictures: None,
+            reference_cache: None,
+        }
     }
 }
 
@@ -333,18 +345,34 @@ fn non_finite(image: &LinearImage) -> usize {
     image.pixels.iter().map(|p| p[..3].iter().filter(|v| !v.is_finite()).count()).sum()
 }
 
+/// The CPU reference at `spp` and `seed`, from [`MatrixSettings::reference_cache`] where it is there.
+/// The key holds everything its pixels depend on, [`REFERENCE_VERSION`] included (a reference traced by
+/// an older reference is never reused); an entry that does not read back is traced again.
 fn reference(scene: &Scene, m: &MatrixSettings, spp: u32, seed: u64) -> Result<LinearImage> {
-    render_reference(
-        scene,
-        &ReferenceSettings {
-            width: m.width,
-            height: m.height,
-            spp,
-            seed,
-            progress: false,
-            shading: Default::default(),
-        },
-    )
+    let settings = ReferenceSettings {
+        width: m.width,
+        height: m.height,
+        spp,
+        seed,
+        progress: false,
+        shading: Default::default(),
+    };
+    let Some(dir) = m.reference_cache else { return render_reference(scene, &settings) };
+    let path = Path::new(dir).join(format!(
+        "reference-v{REFERENCE_VERSION}-{:016x}-{}x{}-{spp}spp-seed{seed}.exr",
+        scene.content_hash(),
+        m.width,
+        m.height
+    ));
+    if let Ok(image) = crate::image_io::load_image(&path) {
+        if (image.width, image.height) == (m.width, m.height) {
+            return Ok(image);
+        }
+    }
+    let image = render_reference(scene, &settings)?;
+    std::fs::create_dir_all(dir).map_err(|e| Error::io(Path::new(dir), e))?;
+    crate::image_io::save_image(&path, &image)?;
+    Ok(image)
 }
 
 /// Whether a scene has anything to blur at this size (else `pinhole` applies, and `auto` renders it).

@@ -16,6 +16,11 @@ const MATRIX: MatrixSettings = MatrixSettings {
     truth_spp: 512,
     seed: 1,
     pictures: Some(concat!(env!("CARGO_MANIFEST_DIR"), "/../target/test-output/hard-cases")),
+    // CI runs the matrix on two drivers; the second takes the CPU references from the first.
+    reference_cache: Some(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../target/test-output/hard-cases/references"
+    )),
 };
 
 fn check(name: &str) {

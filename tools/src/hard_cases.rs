@@ -45,6 +45,7 @@ pub fn run(args: HardCasesArgs) -> Result<()> {
         spp: [s1, s2],
         truth_spp: args.truth_spp,
         pictures: Some("out/hard-cases"),
+        reference_cache: Some("out/cache/hard-cases"),
         ..Default::default()
     };
     let cases: Vec<&'static HardCase> = if args.cases.is_empty() {
