@@ -364,6 +364,8 @@ pub fn per_object_sweep(
         a.frames,
         a.warmup
     );
+    md.push_str(&crate::provenance::Provenance::of(&renderer.device().caps).markdown());
+    md.push('\n');
     md.push_str(
         "| focus | objects' largest CoC, px | threshold px | sharp objects | samples tested | GPU ms |\n",
     );

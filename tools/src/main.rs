@@ -1445,6 +1445,7 @@ fn probe(all: bool, json: bool) -> Result<()> {
             outln!("  {:<34} {:<5} {}", p.feature, if p.available { "yes" } else { "no" }, p.path);
         }
     }
+    outln!("\n{}", provenance::Provenance::of(&devices[0].caps).markdown().trim_end());
     Ok(())
 }
 
