@@ -36,8 +36,7 @@ pub fn drivers_dir() -> Option<PathBuf> {
     if let Some(d) = std::env::var_os("SHUTTER_DRIVERS_DIR").filter(|d| !d.is_empty()) {
         return Some(PathBuf::from(d));
     }
-    let checkout = Path::new(env!("CARGO_MANIFEST_DIR")).join("../.drivers");
-    checkout.is_dir().then_some(checkout)
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../.drivers").canonicalize().ok().filter(|d| d.is_dir())
 }
 
 /// The project's drivers, sorted by folder name. A folder without `icd.json` is not a driver; a
