@@ -4,7 +4,8 @@
 //!
 //! * [`ShadingRates`]: the per-triangle shading rate (`shaders-glsl/texture_space/rate.glsl`, the
 //!   port of [`crate::texture_space::rate`]) by a compute pass over every triangle of every object at
-//!   mid-shutter, so that tests compare it with the CPU mirror;
+//!   mid-shutter (or its shading times, for an object that turns in camera space), so that tests
+//!   compare it with the CPU mirror;
 //! * [`ShadingAtlas`]: pass 1 — every object shaded into its own mip atlas at each triangle's level
 //!   (`atlas.geom` computes the rate as above and places the triangle), in the "shade" sub-pass, then
 //!   the "conservative" sub-pass adds each triangle's outer hull behind it by the depth trick (the
@@ -464,7 +465,7 @@ pub enum AtlasSize {
     /// Every object's the given layout (the probes: tests compare texels at known sizes).
     Fixed,
     /// Level 0 at most the given layout's, halved once per level that the object's triangles do not
-    /// need at the view's mid-shutter ([`crate::texture_space::rate::fitted_level`] on the CPU at
+    /// need at the view's shading times ([`crate::texture_space::rate::fitted_level`] on the CPU at
     /// prepare time: triangles over at most [`FITTED_COARSER_AREA`] of its pixels may ask for finer;
     /// never below [`MIN_FITTED_FINEST`]): the texels a frame clears and the memory follow the
     /// object's size on screen and its blur. A triangle that asks for a finer level than the atlas
@@ -546,6 +547,9 @@ pub struct AtlasPlan {
     /// coordinates), without the conservative sub-pass' gutters. Where it comes from: shaded texels per
     /// object, which the GPU's counters only give for the whole frame.
     pub texels: f64,
+    /// How many times pass 1 shades each of them ([`crate::texture_space::rate::shading_time_count`]:
+    /// 1, mid-shutter, unless the object turns in camera space within the shutter).
+    pub shading_times: u32,
 }
 
 impl AtlasPlan {
@@ -568,9 +572,9 @@ pub fn plan_atlases(
             let o = &scene.objects[i];
             let fitted = object_atlas_layout(scene, view, i, largest, AtlasSize::Fitted);
             let (mut frustum, mut back, mut texels) = (0, 0, 0.0);
+            let times = crate::texture_space::rate::shading_time_count(&view.space.objects[i]);
             if let Some(intrinsics) = view.intrinsics() {
                 let motion = &view.space.objects[i];
-                let times = crate::texture_space::rate::shading_time_count(motion);
                 for t in 0..o.mesh.indices.len() / 3 {
                     let points = key_points(&o.mesh, motion, t);
                     let (f, b) = culled(&intrinsics, o.material.one_sided, &points);
@@ -601,6 +605,7 @@ pub fn plan_atlases(
                 culled: frustum,
                 back_facing: o.material.one_sided.then_some(back),
                 texels,
+                shading_times: times,
             }
         })
         .collect()
