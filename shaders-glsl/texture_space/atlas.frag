@@ -72,37 +72,52 @@ float ts_sample_density(vec3 tri[3], vec3 pos) {
     return isinf(d) || isnan(d) ? 0.0 : d;
 }
 
-// The texel's surface point shaded at shutter time t (stochastic/shade.comp's shade_at at the lens
-// centre); `density` its ts_sample_density then, `in_front` whether it is in [near, far].
-vec3 shade_at_time(float t, Material m, vec3 albedo, out float density, out bool in_front) {
-    float s;
-    uint seg = ts_locate(t, pc.segment_first, pc.segment_count, s);
-    ObjectView ov = object_views[seg];
+// The texel's surface point at shutter time t: camera-space position, interpolated normal (not
+// normalised), geometric normal, the key segment and time within it, and its ts_sample_density.
+struct TexelAt {
+    vec3 pos, n, geometric;
+    uint seg;
+    float s, density;
+};
+
+TexelAt texel_at(float t) {
+    TexelAt x;
+    x.seg = ts_locate(t, pc.segment_first, pc.segment_count, x.s);
+    ObjectView ov = object_views[x.seg];
     mat3 n0 = mat3(ov.normal_matrix[0]), n1 = mat3(ov.normal_matrix[1]);
     vec3 tri[3];
-    vec3 n = vec3(0.0);
+    x.n = vec3(0.0);
     for (uint k = 0u; k < 3u; k++) {
         Vertex v = vertices[indices[3u * g_prim + k]];
         vec4 p = vec4(v.position[0], v.position[1], v.position[2], 1.0);
         vec3 a = (ov.model_view[0] * p).xyz, b = (ov.model_view[1] * p).xyz;
-        tri[k] = a + (b - a) * s;
+        tri[k] = a + (b - a) * x.s;
         vec3 nk = vec3(v.normal[0], v.normal[1], v.normal[2]);
-        n += g_bary[k] * mix(n0 * nk, n1 * nk, s);
+        x.n += g_bary[k] * mix(n0 * nk, n1 * nk, x.s);
     }
-    vec3 pos = g_bary.x * tri[0] + g_bary.y * tri[1] + g_bary.z * tri[2];
-    density = ts_sample_density(tri, pos);
-    in_front = -pos.z >= view.lens.z && -pos.z <= view.lens.w;
-    vec3 to_eye = dot(pos, pos) > 0.0 ? normalize(-pos) : vec3(0.0, 0.0, 1.0);
-    vec3 geometric = cross(tri[1] - tri[0], tri[2] - tri[0]);
-    if (dot(n, n) > 0.0) n = normalize(n);
-    else if (dot(geometric, geometric) > 0.0) n = normalize(geometric);
+    x.pos = g_bary.x * tri[0] + g_bary.y * tri[1] + g_bary.z * tri[2];
+    x.geometric = cross(tri[1] - tri[0], tri[2] - tri[0]);
+    x.density = ts_sample_density(tri, x.pos);
+    return x;
+}
+
+bool in_front(TexelAt x) {
+    return -x.pos.z >= view.lens.z && -x.pos.z <= view.lens.w;
+}
+
+// The texel's point x shaded at shutter time t (stochastic/shade.comp's shade_at at the lens centre).
+vec3 shade_texel(TexelAt x, float t, Material m, vec3 albedo) {
+    vec3 to_eye = dot(x.pos, x.pos) > 0.0 ? normalize(-x.pos) : vec3(0.0, 0.0, 1.0);
+    vec3 n;
+    if (dot(x.n, x.n) > 0.0) n = normalize(x.n);
+    else if (dot(x.geometric, x.geometric) > 0.0) n = normalize(x.geometric);
     else n = to_eye;
     // Two-sided: the side facing the lens centre at t.
     if (dot(n, to_eye) < 0.0) n = -n;
 #ifdef SHADOWS
-    shadow_receiver = ShadowReceiver(g_object_position, g_object_normal, seg, s);
+    shadow_receiver = ShadowReceiver(g_object_position, g_object_normal, x.seg, x.s);
 #endif
-    return shade(pos, n, to_eye, albedo, m.albedo_specular.w, m.params.x, t);
+    return shade(x.pos, n, to_eye, albedo, m.albedo_specular.w, m.params.x, t);
 }
 
 void main() {
@@ -133,20 +148,36 @@ void main() {
 #endif
         radiance = shade(g_position, n, to_eye, albedo, m.albedo_specular.w, m.params.x, pc.time);
     } else {
-        vec3 seen = vec3(0.0), front = vec3(0.0), every = vec3(0.0);
-        float seen_weight = 0.0, front_count = 0.0;
+        // Only the times at which samples see the point are shaded (the shading is the cost; behind
+        // the camera or off the image it weighs nothing).
+        vec3 seen = vec3(0.0);
+        float seen_weight = 0.0;
         for (uint j = 0u; j < pc.shading_times; j++) {
-            float density;
-            bool in_front;
-            vec3 c = shade_at_time(ts_shading_time(j, pc.shading_times), m, albedo, density, in_front);
-            seen += density * c;
-            seen_weight += density;
-            front += in_front ? c : vec3(0.0);
-            front_count += in_front ? 1.0 : 0.0;
-            every += c;
+            float t = ts_shading_time(j, pc.shading_times);
+            TexelAt x = texel_at(t);
+            if (x.density > 0.0) {
+                seen += x.density * shade_texel(x, t, m, albedo);
+                seen_weight += x.density;
+            }
         }
-        radiance = seen_weight > 0.0 ? seen / seen_weight
-                 : (front_count > 0.0 ? front / front_count : every / float(pc.shading_times));
+        if (seen_weight > 0.0) {
+            radiance = seen / seen_weight;
+        } else {
+            // Seen at none of them (a gutter texel past the image's edge, a point seen only between
+            // them): the plain average over the times it is in front at, else over all.
+            vec3 front = vec3(0.0), every = vec3(0.0);
+            float front_count = 0.0;
+            for (uint j = 0u; j < pc.shading_times; j++) {
+                float t = ts_shading_time(j, pc.shading_times);
+                TexelAt x = texel_at(t);
+                vec3 c = shade_texel(x, t, m, albedo);
+                bool f = in_front(x);
+                front += f ? c : vec3(0.0);
+                front_count += f ? 1.0 : 0.0;
+                every += c;
+            }
+            radiance = front_count > 0.0 ? front / front_count : every / float(pc.shading_times);
+        }
     }
     out_color = vec4(radiance, marker);
 }
