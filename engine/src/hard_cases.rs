@@ -194,21 +194,6 @@ pub const KNOWN_BIASES: &[KnownBias] = &[
               of 1/P of the pixel per pass)",
     },
     KnownBias {
-        case: "camera-turn-180",
-        column: Column::Stochastic(ShadingRate::TextureSpace),
-        max_floor: 0.14,
-        why: "issue 28 item 3, open: a half turn within the shutter collapses every triangle at \
-              mid-shutter (motion is linear in camera space), where texture-space shading takes its rate \
-              and shades; docs/hard-cases/tss.md",
-    },
-    KnownBias {
-        case: "scale-through-zero",
-        column: Column::Stochastic(ShadingRate::TextureSpace),
-        max_floor: 0.11,
-        why: "texture-space shading shades at mid-shutter, here the flattened key, a shape the object \
-              has for an instant (docs/hard-cases/precision.md, item 2)",
-    },
-    KnownBias {
         case: "wide-179",
         column: Column::Accumulation,
         max_floor: 0.045,

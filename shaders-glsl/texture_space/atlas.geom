@@ -12,7 +12,11 @@
 //     near an edge reads, are added.
 //   SHADOW_RECEIVER: also the object-space position and normal, for the shadow-map lookups of
 //     atlas.frag (SHADOWS).
-// A triangle without a footprint (behind the camera or edge-on at every vertex) emits nothing; nor
+// With several shading times (pc.shading_times > 1: the object turns in camera space within the
+// shutter) the level is the finest over them (ts_triangle_level_over_shutter), and the fragment stage
+// shades at each from the triangle's barycentrics (g_bary, g_prim) rather than the mid-shutter
+// varyings. A triangle without a footprint (behind the camera or edge-on at every vertex — at every
+// shading time) emits nothing; nor
 // does one no sample can hit, at any lens point or time (texture_space/cull.glsl: outside the frustum,
 // or a one-sided material's back face): its level record says so (w = 2).
 #include "common/frame.glsl"
@@ -37,6 +41,10 @@ layout(location = 2) out vec2 g_uv;
 layout(location = 3) out vec3 g_object_position;
 layout(location = 4) out vec3 g_object_normal;
 #endif
+// The barycentrics of triangle g_prim (affinely extended past its edges, as every varying), for the
+// shading at several times (atlas.frag).
+layout(location = 5) out vec3 g_bary;
+layout(location = 6) flat out uint g_prim;
 
 #ifdef CONSERVATIVE
 const float DEPTH = 0.75;
@@ -60,6 +68,8 @@ void emit_at(vec2 a) {
     g_position = w.x * tri_p[0] + w.y * tri_p[1] + w.z * tri_p[2];
     g_normal = w.x * tri_n[0] + w.y * tri_n[1] + w.z * tri_n[2];
     g_uv = w.x * tri_uv[0] + w.y * tri_uv[1] + w.z * tri_uv[2];
+    g_bary = w;
+    g_prim = uint(gl_PrimitiveIDIn);
 #ifdef SHADOW_RECEIVER
     g_object_position = w.x * tri_object_p[0] + w.y * tri_object_p[1] + w.z * tri_object_p[2];
     g_object_normal = w.x * tri_object_n[0] + w.y * tri_object_n[1] + w.z * tri_object_n[2];
@@ -109,7 +119,8 @@ void main() {
 #ifndef CONSERVATIVE
     float radius, spacing;
     uint level;
-    bool ok = ts_triangle_level(tri_p, tex, pc.level_count, radius, spacing, level);
+    bool ok = ts_triangle_level_over_shutter(tri_p, object_p, tex, pc.level_count, pc.segment_first,
+                                             pc.segment_count, pc.shading_times, radius, spacing, level);
     bool culled = ts_outside_frustum(object_p, pc.segment_first, pc.segment_count)
                || (pc.one_sided != 0u && ts_back_facing(object_p, pc.segment_first, pc.segment_count));
     levels[prim] = vec4(radius, spacing, float(level), ok ? (culled ? 2.0 : 1.0) : 0.0);

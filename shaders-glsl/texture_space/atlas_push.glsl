@@ -17,6 +17,7 @@ layout(push_constant) uniform Push {
     uint segment_first;  // the object's key segments (object_views), for culling over the shutter
     uint segment_count;
     uint one_sided;      // 1: the material is one-sided, back faces are culled (texture_space/cull.glsl)
+    uint shading_times;  // rate::shading_time_count: 1 shades at mid-shutter (segment, segment_time)
 } pc;
 
 // MipAtlas::level_rect's corner.

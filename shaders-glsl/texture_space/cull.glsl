@@ -39,6 +39,27 @@ bool ts_outside_frustum(vec3 p[3], uint first, uint count) {
     return near_ || far_ || left || right || bottom || top;
 }
 
+// cull::outside_frustum over the camera-space triangle `q` alone (one time: the rate's shading times,
+// rate.glsl).
+bool ts_outside_frustum_points(vec3 q[3]) {
+    float s = view.viewport.z;
+    float tx = (0.5 * view.viewport.x + TS_CULL_MARGIN_PX) / s;
+    float ty = (0.5 * view.viewport.y + TS_CULL_MARGIN_PX) / s;
+    float r = view.lens.x, f = view.lens.y;
+    bool near_ = true, far_ = true, left = true, right = true, bottom = true, top = true;
+    for (int k = 0; k < 3; k++) {
+        float d = -q[k].z;
+        float lens = r * abs(d / f - 1.0);
+        near_ = near_ && d < view.lens.z;
+        far_ = far_ && d > view.lens.w;
+        left = left && q[k].x + tx * d + lens < 0.0;
+        right = right && -q[k].x + tx * d + lens < 0.0;
+        bottom = bottom && q[k].y + ty * d + lens < 0.0;
+        top = top && -q[k].y + ty * d + lens < 0.0;
+    }
+    return near_ || far_ || left || right || bottom || top;
+}
+
 // cull::back_facing over the object-space triangle `p` moved by the object's key segments first ..
 // first + count (object_views): its back faces every lens point (radius view.lens.x) at every time.
 bool ts_back_facing(vec3 p[3], uint first, uint count) {

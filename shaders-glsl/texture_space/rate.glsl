@@ -1,9 +1,10 @@
 // The per-triangle shading rate of adaptive texture-space shading (Andersson et al. 2014, §3.1.1 and
 // Appendix A). GLSL port of engine/src/texture_space/rate.rs, which documents the steps; the view's
 // intrinsics come from common/frame.glsl (viewport.xyz = width, height, pixel scale; lens.xy =
-// aperture radius, focus distance). Camera space, lens centre.
+// aperture radius, focus distance). Camera space, lens centre. Needs common/frame.glsl (object_views).
 #ifndef SHUTTER_TEXTURE_SPACE_RATE_GLSL
 #define SHUTTER_TEXTURE_SPACE_RATE_GLSL
+#include "texture_space/cull.glsl"
 
 // rate::min_coc_px: the smallest |phi(z)| over the vertices' depths, 0 across the focus plane.
 float ts_min_coc_px(vec3 depths) {
@@ -87,6 +88,65 @@ bool ts_triangle_level(vec3 tri[3], vec2 tex[3], uint levels, out float radius, 
     }
     level = ts_level_of(radius, levels);
     return any_vertex;
+}
+
+// rate::shading_time: time j of `count` shading times (the midpoints of count equal parts of the
+// shutter; mid-shutter for one).
+float ts_shading_time(uint j, uint count) {
+    return (float(j) + 0.5) / float(count);
+}
+
+// The object's key segment (object_views index, of first .. first + count) holding shutter time t and
+// the time within it (KeyTimes::locate). Needs common/frame.glsl's object_views.
+uint ts_locate(float t, uint first, uint count, out float s) {
+    uint seg = 0u;
+    for (uint j = 1u; j < count; j++) {
+        if (object_views[first + j].time.x <= t) seg = j;
+    }
+    s = segment_time(object_views[first + seg], t);
+    return first + seg;
+}
+
+// rate::triangle_level_over_shutter: with one shading time, ts_triangle_level on `mid` (the caller's
+// mid-shutter triangle); with more (an object that turns in camera space), the finest over the
+// shading times at which the triangle has a footprint and is not outside the frustum (widened by the
+// lens: cull.glsl), else — seen only between them — the finest over those with a footprint;
+// object-space `object_p` moved by the object's key segments first .. first + count.
+bool ts_triangle_level_over_shutter(vec3 mid[3], vec3 object_p[3], vec2 tex[3], uint levels, uint first,
+                                    uint count, uint times, out float radius, out float spacing,
+                                    out uint level) {
+    if (times <= 1u) return ts_triangle_level(mid, tex, levels, radius, spacing, level);
+    // Index 0: the times it may be seen at; 1: every time with a footprint.
+    bool any_time[2] = bool[2](false, false);
+    float radii[2] = float[2](0.0, 0.0), spacings[2] = float[2](1.0, 1.0);
+    uint levels_at[2] = uint[2](0u, 0u);
+    for (uint j = 0u; j < times; j++) {
+        float s;
+        ObjectView ov = object_views[ts_locate(ts_shading_time(j, times), first, count, s)];
+        vec3 tri[3];
+        for (int k = 0; k < 3; k++) {
+            vec4 p = vec4(object_p[k], 1.0);
+            vec3 a = (ov.model_view[0] * p).xyz, b = (ov.model_view[1] * p).xyz;
+            tri[k] = a + (b - a) * s;
+        }
+        float r, d;
+        uint l;
+        if (!ts_triangle_level(tri, tex, levels, r, d, l)) continue;
+        bool seen = !ts_outside_frustum_points(tri);
+        for (int i = 0; i < 2; i++) {
+            if ((i == 1 || seen) && (!any_time[i] || r < radii[i])) {
+                radii[i] = r;
+                spacings[i] = d;
+                levels_at[i] = l;
+                any_time[i] = true;
+            }
+        }
+    }
+    int i = any_time[0] ? 0 : 1;
+    radius = radii[i];
+    spacing = spacings[i];
+    level = levels_at[i];
+    return any_time[i];
 }
 
 #endif

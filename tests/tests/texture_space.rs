@@ -1,7 +1,8 @@
 //! Adaptive texture-space shading on the GPU (docs/ATSS.md), so far its per-triangle shading rate:
 //! `shaders-glsl/texture_space/rate.glsl` (run by `ShadingRates`) against its CPU mirror
-//! `shutter::texture_space::rate::triangle_level`, triangle by triangle, on built-in scenes with
-//! depth of field, motion, Spot's own uvs and generated charts.
+//! `shutter::texture_space::rate::triangle_level_over_shutter`, triangle by triangle, on built-in
+//! scenes with depth of field, motion, Spot's own uvs and generated charts, and on the hard cases of a
+//! camera rolling and turning half round (several shading times).
 
 use glam::Vec2;
 use shutter::scene::builtin::builtin_scene;
@@ -9,7 +10,7 @@ use shutter::scene::camera_space::CameraSpaceScene;
 use shutter::techniques::texture_space::{AtlasResult, ShadingAtlas, ShadingRates, BILINEAR_HULL_TEXELS};
 use shutter::techniques::{FrameTechnique, RenderSettings};
 use shutter::texture_space::atlas::MipAtlas;
-use shutter::texture_space::rate::{camera_triangle, triangle_level};
+use shutter::texture_space::rate::{shading_time_count, triangle_level_over_shutter};
 use shutter_tests::renderer;
 
 /// Relative difference of the minor radius allowed between the GPU (f32 throughout) and the CPU (f32
@@ -23,8 +24,11 @@ const RADIUS_TOLERANCE: f64 = 1e-2;
 fn gpu_shading_rates_match_the_cpu_mirror() {
     let (w, h, finest) = (320, 180, 4096);
     let mut r = renderer();
-    for name in ["default", "focus-sweep", "glass", "foliage"] {
-        let scene = builtin_scene(name).expect("built-in").expect("parses");
+    for name in ["default", "focus-sweep", "glass", "foliage", "camera-roll-180", "camera-turn-180"] {
+        let scene = match builtin_scene(name) {
+            Some(scene) => scene.expect("parses"),
+            None => shutter::hard_cases::HardCase::named(name).and_then(|c| c.scene()).expect("hard case"),
+        };
         let settings = RenderSettings::new(w, h, 1, 1);
         let mut prepared = r
             .prepare_with(&scene, &settings, |ctx| {
@@ -42,10 +46,15 @@ fn gpu_shading_rates_match_the_cpu_mirror() {
         for (i, o) in scene.objects.iter().enumerate() {
             let (Some(gpu), Some((shading, coords))) = (&rates.results[i], rates.object(i)) else { continue };
             let motion = &space.objects[i];
+            let times = shading_time_count(motion);
+            if name.starts_with("camera-") {
+                assert!(times > 1, "{name}: {times} shading time(s)");
+            }
             for (t, g) in gpu.iter().enumerate() {
-                let tri = camera_triangle(&o.mesh, motion, t, 0.5);
                 let tex: [Vec2; 3] = [0, 1, 2].map(|k| coords[3 * t + k]);
-                let cpu = triangle_level(&intrinsics, tri, tex, rates.levels());
+                let cpu =
+                    triangle_level_over_shutter(&intrinsics, &o.mesh, motion, t, tex, rates.levels(), times)
+                        .map(|(c, _)| c);
                 let what = format!("{name} `{}` ({shading}) triangle {t}", o.name);
                 assert_eq!(g.valid, cpu.is_some(), "{what}: GPU {g:?}, CPU {cpu:?}");
                 let Some(cpu) = cpu else { continue };
@@ -355,3 +364,88 @@ fn texture_space_error_is_close_to_exact_shading() {
 /// exact rate it looks up like (per sample, per pixel) on `glass` at S = 16 (measured 1.035 per
 /// sample: FLIP 0.0196 against 0.0189; 1.096 with a half-float atlas).
 const TS_FLIP_RATIO_MAX: f64 = 1.15;
+
+/// Issue 28, item 3: a camera that rolls (up (0, 1, 0) → (0, −1, 0)) or turns (look_at swinging
+/// behind it) by 180° within the shutter collapses every triangle at mid-shutter — vertices move
+/// linearly in camera space — so, shaded at mid-shutter only, no triangle had a footprint and none
+/// was shaded (black; `plan --atlases`: 0 texels), and a triangle given a rate elsewhere was shaded
+/// with a collapsed normal and light directions. Shaded at several times instead, weighed by how
+/// many samples see it then (`atlas.frag`), texture-space shading's floor over per-sample shading's
+/// error — √(e_ts² − e_ps²) against a converged reference — stays within the matrix's limit for the
+/// rate at every turn and roll (10° is shaded at mid-shutter as before), and the CPU estimate of the
+/// texels shaded is not 0. Numbers printed with `--nocapture`.
+#[test]
+fn texture_space_shades_through_a_half_turn_of_the_camera() {
+    use shutter::hard_cases::Column;
+    use shutter::techniques::{ShadingRate, StochasticOptions, Technique};
+    let (w, h, spp, seed) = (48, 27, 16, 3);
+    let limit = Column::Stochastic(ShadingRate::TextureSpace).floor_limit().expect("an approximation");
+    let mut r = renderer();
+    let scene = |close: &str| {
+        let text = format!(
+            "[camera]\nposition = [0, 0, 4]\nlook_at = [0, 0, 0]\nvfov_deg = 40\n[camera.close]\n{close}\n\
+             [[object]]\nmesh = \"box\"\n[object.transform]\nrotate_deg = [20, 30, 0]\n\
+             [object.material]\nalbedo = [0.8, 0.5, 0.3]\ntexture = \"checker\"\n\
+             [[object]]\nmesh = \"sphere\"\n[object.transform]\ntranslate = [1.3, 0.4, -0.5]\nscale = 0.5\n\
+             [object.material]\nalbedo = [0.3, 0.6, 0.8]\nspecular = 0.3\nroughness = 0.4\n\
+             [[light]]\ntype = \"directional\"\ndirection = [-0.3, -1, -0.5]\ncolor = [2, 2, 2]\n\
+             [environment]\nbackground = [0.2, 0.3, 0.4]\nambient = [0.05, 0.05, 0.05]\n"
+        );
+        shutter::scene::file::parse_scene(&text, std::path::Path::new("."), "half-turn").expect("parses")
+    };
+    let mut cases = vec![];
+    for deg in [10f32, 90.0, 180.0] {
+        let (s, c) = (deg.to_radians().sin(), deg.to_radians().cos());
+        cases.push((format!("roll {deg}°"), format!("up = [{}, {c}, 0]", -s)));
+        cases.push((format!("turn {deg}°"), format!("look_at = [{}, 0, {}]", 4.0 * s, 4.0 - 4.0 * c)));
+    }
+    let mut failures = vec![];
+    for (name, close) in &cases {
+        let scene = scene(close);
+        let reference = shutter::reference::render_reference(
+            &scene,
+            &shutter::reference::ReferenceSettings {
+                width: w,
+                height: h,
+                spp: 256,
+                seed: 11,
+                progress: false,
+                shading: Default::default(),
+            },
+        )
+        .expect("reference");
+        let mut render = |shading| {
+            let o = StochasticOptions { shading, ..Default::default() };
+            let s = RenderSettings::new(w, h, spp, seed).with_stochastic(o);
+            r.render(&scene, Technique::STOCHASTIC, &s).expect("render").image
+        };
+        let ts = render(ShadingRate::TextureSpace);
+        let ps = render(ShadingRate::PerSample);
+        let e_ts = shutter::metrics::compare(&reference, &ts).expect("compare").rmse;
+        let e_ps = shutter::metrics::compare(&reference, &ps).expect("compare").rmse;
+        let floor = (e_ts * e_ts - e_ps * e_ps).max(0.0).sqrt();
+        let file = format!("texture-space-half-turn-{}", name.replace([' ', '°'], ""));
+        shutter_tests::save_comparison(&file, &reference, &ts);
+        let view = shutter::scene::View::camera(&scene, w, h);
+        let largest = MipAtlas::new(
+            shutter::techniques::stochastic::TEXTURE_SPACE_FINEST,
+            shutter::techniques::stochastic::TEXTURE_SPACE_GUTTER,
+        )
+        .unwrap();
+        let plans = shutter::techniques::texture_space::plan_atlases(&scene, &view, largest);
+        let texels: f64 = plans.iter().map(|p| p.texels).sum();
+        println!(
+            "{name}: texture-space RMSE {e_ts:.4}, per-sample {e_ps:.4}, floor {floor:.4} (limit {limit}); \
+             about {texels:.0} texels"
+        );
+        if floor > limit {
+            failures.push(format!(
+                "{name}: floor {floor:.4} over {limit} (RMSE {e_ts:.4}, per-sample {e_ps:.4})"
+            ));
+        }
+        if texels <= 100.0 {
+            failures.push(format!("{name}: about {texels} texels shaded"));
+        }
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}

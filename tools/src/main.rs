@@ -353,7 +353,8 @@ enum Command {
         #[arg(long, default_value_t = shutter::plan::DEFAULT_THRESHOLD_PX, value_parser = parse_threshold)]
         threshold: f32,
         /// Also print what `--shading texture-space` gives each object: its shading space (own uvs or
-        /// generated charts, and why), its fitted atlas and its memory, the triangles pass 1 culls.
+        /// generated charts, and why), its fitted atlas and its memory, the triangles pass 1 culls, the
+        /// texels it shades and how many times each (several where the object turns within the shutter).
         #[arg(long)]
         atlases: bool,
         /// Also run the quality planner for this target (draft, good, final): the pilot renders on
@@ -575,9 +576,9 @@ fn print_atlas_plan(sc: &shutter::scene::Scene, w: u32, h: u32) -> anyhow::Resul
          fitted per object; RGBA32F atlas + D32 depth\n"
     );
     outln!(
-        "| object | triangles | culled: frustum | culled: back-facing | shaded texels (estimate) | shading space | level 0 | atlas texels | memory |"
+        "| object | triangles | culled: frustum | culled: back-facing | shaded texels (estimate) | shading times | shading space | level 0 | atlas texels | memory |"
     );
-    outln!("|---|---:|---:|---:|---:|---|---:|---:|---:|");
+    outln!("|---|---:|---:|---:|---:|---:|---|---:|---:|---:|");
     let mut total = 0;
     for r in &rows {
         match &r.layout {
@@ -585,18 +586,19 @@ fn print_atlas_plan(sc: &shutter::scene::Scene, w: u32, h: u32) -> anyhow::Resul
                 let (aw, ah) = atlas.size();
                 total += r.bytes();
                 outln!(
-                    "| {} | {} | {} | {} | {:.0} | {space} | {}² | {aw}×{ah} | {:.2} MB |",
+                    "| {} | {} | {} | {} | {:.0} | {} | {space} | {}² | {aw}×{ah} | {:.2} MB |",
                     r.object,
                     r.triangles,
                     r.culled,
                     back(r),
                     r.texels,
+                    r.shading_times,
                     atlas.finest(),
                     r.bytes() as f64 / 1e6
                 );
             }
             Err(why) => outln!(
-                "| {} | {} | {} | {} | - | {why} | - | - | - |",
+                "| {} | {} | {} | {} | - | - | {why} | - | - | - |",
                 r.object,
                 r.triangles,
                 r.culled,

@@ -80,8 +80,9 @@ pub enum ShadingRate {
     /// Adaptive texture-space shading (Andersson et al. 2014; docs/ATSS.md): every object shaded once
     /// per frame into its own mip atlas at a level chosen per triangle ([`super::texture_space`],
     /// level 0 at most [`TEXTURE_SPACE_FINEST`]², fitted per object), at the lens centre and
-    /// mid-shutter; every sample looks its
-    /// radiance up there. Not mirrored by the reference (its shading is view-independent).
+    /// mid-shutter — or, for an object that turns in camera space within the shutter, at several
+    /// times, weighed by the samples that see each texel then
+    /// ([`crate::texture_space::rate::shading_time_count`]); every sample looks its radiance up there. Not mirrored by the reference (its shading is view-independent).
     TextureSpace,
     /// [`ShadingRate::TextureSpace`]'s atlases, looked up once per pixel and (triangle, side) group as
     /// [`ShadingRate::PerPixel`] shades — at the group's first hit (the paper's per-pixel, "MSAA",

@@ -4,7 +4,8 @@
 //!
 //! * [`ShadingRates`]: the per-triangle shading rate (`shaders-glsl/texture_space/rate.glsl`, the
 //!   port of [`crate::texture_space::rate`]) by a compute pass over every triangle of every object at
-//!   mid-shutter, so that tests compare it with the CPU mirror;
+//!   mid-shutter (or its shading times, for an object that turns in camera space), so that tests
+//!   compare it with the CPU mirror;
 //! * [`ShadingAtlas`]: pass 1 — every object shaded into its own mip atlas at each triangle's level
 //!   (`atlas.geom` computes the rate as above and places the triangle), in the "shade" sub-pass, then
 //!   the "conservative" sub-pass adds each triangle's outer hull behind it by the depth trick (the
@@ -52,11 +53,20 @@ pub struct LevelsPush {
     pub segment_time: f32,
     /// Levels of the object's atlas.
     pub level_count: u32,
+    /// The object's key segments (`ObjectViews` indices) and its shading times
+    /// ([`crate::texture_space::rate::shading_time_count`]): the rate over several times.
+    pub segment_first: u32,
+    pub segment_count: u32,
+    pub shading_times: u32,
 }
 
 /// For the reflection test.
 pub const TEXTURE_SPACE_STRUCTS: &[SharedStruct] = &[
-    shared_struct!("Push", LevelsPush, [triangle_count, segment, segment_time, level_count]),
+    shared_struct!(
+        "Push",
+        LevelsPush,
+        [triangle_count, segment, segment_time, level_count, segment_first, segment_count, shading_times]
+    ),
     shared_struct!(
         "Push",
         AtlasPush,
@@ -73,7 +83,8 @@ pub const TEXTURE_SPACE_STRUCTS: &[SharedStruct] = &[
             atlas_height,
             segment_first,
             segment_count,
-            one_sided
+            one_sided,
+            shading_times
         ]
     ),
 ];
@@ -99,6 +110,9 @@ pub struct AtlasPush {
     pub segment_count: u32,
     /// 1: the material is one-sided, pass 1 culls back faces too.
     pub one_sided: u32,
+    /// [`crate::texture_space::rate::shading_time_count`]: 1 shades at mid-shutter (`segment`,
+    /// `segment_time`, `time`), more at each of those times over the shutter (`atlas.frag`).
+    pub shading_times: u32,
 }
 
 /// The shading coordinates of every corner of `mesh` (3 per triangle, index order) in texels of a
@@ -172,6 +186,8 @@ struct ObjectShading {
     space: ShadingSpace,
     coords: Vec<Vec2>,
     triangles: u32,
+    /// [`crate::texture_space::rate::shading_time_count`] of the object's motion in the prepared view.
+    shading_times: u32,
     set: vk::DescriptorSet,
     coords_buffer: Buffer,
     levels: Tracked<Buffer>,
@@ -185,6 +201,7 @@ impl ObjectShading {
         pool: &DescriptorPool,
         set_layout: &DescriptorSetLayout,
         o: &crate::scene::Object,
+        motion: &crate::scene::camera_space::ObjectMotion,
         (space, coords): (ShadingSpace, Vec<Vec2>),
         counters: Option<&Buffer>,
     ) -> Result<Self> {
@@ -212,6 +229,7 @@ impl ObjectShading {
             space,
             coords,
             triangles: triangles as u32,
+            shading_times: crate::texture_space::rate::shading_time_count(motion),
             set,
             coords_buffer,
             levels,
@@ -268,11 +286,12 @@ impl ShadingRates {
             .scene
             .objects
             .iter()
-            .map(|o| match o.mesh.indices.is_empty() {
+            .zip(&ctx.camera.space.objects)
+            .map(|(o, motion)| match o.mesh.indices.is_empty() {
                 true => Ok(None),
                 false => {
                     let coords = shading_coords(&o.mesh, finest, CHART_GUTTER)?;
-                    ObjectShading::new(device, &pool, &set_layout, o, coords, None).map(Some)
+                    ObjectShading::new(device, &pool, &set_layout, o, motion, coords, None).map(Some)
                 }
             })
             .collect::<Result<Vec<_>>>()?;
@@ -329,11 +348,15 @@ impl FrameTechnique for ShadingRates {
                     d.raw.cmd_bind_descriptor_sets(cmd, bind, layout, OBJECT_SET_INDEX, &[object.set], &[]);
                     d.raw.cmd_bind_descriptor_sets(cmd, bind, layout, TECHNIQUE_SET_INDEX, &[o.set], &[]);
                     let (segment, segment_time) = view.segment_at(i, 0.5);
+                    let (segment_first, segment_count) = view.segments(i);
                     let push = LevelsPush {
                         triangle_count: object.triangle_count(),
                         segment,
                         segment_time,
                         level_count,
+                        segment_first,
+                        segment_count,
+                        shading_times: o.shading_times,
                     };
                     d.raw.cmd_push_constants(
                         cmd,
@@ -442,7 +465,7 @@ pub enum AtlasSize {
     /// Every object's the given layout (the probes: tests compare texels at known sizes).
     Fixed,
     /// Level 0 at most the given layout's, halved once per level that the object's triangles do not
-    /// need at the view's mid-shutter ([`crate::texture_space::rate::fitted_level`] on the CPU at
+    /// need at the view's shading times ([`crate::texture_space::rate::fitted_level`] on the CPU at
     /// prepare time: triangles over at most [`FITTED_COARSER_AREA`] of its pixels may ask for finer;
     /// never below [`MIN_FITTED_FINEST`]): the texels a frame clears and the memory follow the
     /// object's size on screen and its blur. A triangle that asks for a finer level than the atlas
@@ -520,10 +543,13 @@ pub struct AtlasPlan {
     /// two-sided material, whose back faces are never culled.
     pub back_facing: Option<usize>,
     /// The texels the shade sub-pass covers, estimated on the CPU: the area of every kept triangle in
-    /// its level ([`crate::texture_space::rate::triangle_level`] at mid-shutter, the fitted layout's
+    /// its level ([`crate::texture_space::rate::triangle_level_over_shutter`], the fitted layout's
     /// coordinates), without the conservative sub-pass' gutters. Where it comes from: shaded texels per
     /// object, which the GPU's counters only give for the whole frame.
     pub texels: f64,
+    /// How many times pass 1 shades each of them ([`crate::texture_space::rate::shading_time_count`]:
+    /// 1, mid-shutter, unless the object turns in camera space within the shutter).
+    pub shading_times: u32,
 }
 
 impl AtlasPlan {
@@ -546,6 +572,7 @@ pub fn plan_atlases(
             let o = &scene.objects[i];
             let fitted = object_atlas_layout(scene, view, i, largest, AtlasSize::Fitted);
             let (mut frustum, mut back, mut texels) = (0, 0, 0.0);
+            let times = crate::texture_space::rate::shading_time_count(&view.space.objects[i]);
             if let Some(intrinsics) = view.intrinsics() {
                 let motion = &view.space.objects[i];
                 for t in 0..o.mesh.indices.len() / 3 {
@@ -558,10 +585,8 @@ pub fn plan_atlases(
                         continue;
                     }
                     let tex = [0, 1, 2].map(|k| coords[3 * t + k]);
-                    let tri = crate::texture_space::rate::camera_triangle(&o.mesh, motion, t, 0.5);
-                    let levels = atlas.levels();
-                    if let Some(c) = crate::texture_space::rate::triangle_level(&intrinsics, tri, tex, levels)
-                    {
+                    let rate = crate::texture_space::rate::triangle_level_over_shutter;
+                    if let Some((c, _)) = rate(&intrinsics, &o.mesh, motion, t, tex, atlas.levels(), times) {
                         let scale = 1.0 / (1u64 << c.level) as f64;
                         let (e1, e2) = (tex[1] - tex[0], tex[2] - tex[0]);
                         texels += 0.5 * (e1.perp_dot(e2) as f64).abs() * scale * scale;
@@ -580,6 +605,7 @@ pub fn plan_atlases(
                 culled: frustum,
                 back_facing: o.material.one_sided.then_some(back),
                 texels,
+                shading_times: times,
             }
         })
         .collect()
@@ -689,8 +715,9 @@ impl AtlasPasses {
                 objects.push(None);
                 continue;
             };
+            let motion = &ctx.camera.space.objects[i];
             let shading =
-                ObjectShading::new(device, &pool, &set_layout, o, (space, coords), Some(&counters))?;
+                ObjectShading::new(device, &pool, &set_layout, o, motion, (space, coords), Some(&counters))?;
             let (width, height) = atlas.size();
             let usage = vk::ImageUsageFlags::COLOR_ATTACHMENT
                 | vk::ImageUsageFlags::TRANSFER_SRC
@@ -843,6 +870,7 @@ impl AtlasPasses {
             segment_first,
             segment_count,
             one_sided: world.objects[i].one_sided as u32,
+            shading_times: o.shading.shading_times,
         };
         let stages =
             vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::GEOMETRY | vk::ShaderStageFlags::FRAGMENT;

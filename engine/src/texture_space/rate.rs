@@ -14,7 +14,9 @@
 //!    `conjecture_holds_on_most_random_triangles` measures how often) and the level is `⌊log₂ r⌋`,
 //!    clamped to the atlas' levels ([`triangle_level`]).
 //!
-//! Shading happens at the lens centre and mid-shutter, as in the paper; only defocus sets the rate
+//! Shading happens at the lens centre and mid-shutter, as in the paper — unless the object turns in
+//! camera space within the shutter: then at several times ([`shading_time_count`]), the rate the
+//! finest over them ([`triangle_level_over_shutter`]). Only defocus and those times set the rate
 //! (the paper's choice: motion enters the filter, [`super::filter`], not the level).
 
 use glam::{Vec2, Vec3};
@@ -200,6 +202,96 @@ pub fn triangle_level(
     })
 }
 
+/// Camera-space turn (degrees, summed over an object's key segments) per shading time of pass 1
+/// ([`shading_time_count`]): up to 30° (the "fine" turns) one time, mid-shutter.
+pub const TURN_PER_SHADING_TIME_DEG: f32 = 30.0;
+
+/// At most this many shading times per texel ([`shading_time_count`]).
+pub const MAX_SHADING_TIMES: u32 = 8;
+
+/// How many shutter times pass 1 shades each texel of an object at (texture_space/atlas.frag) and
+/// takes its triangles' rates at ([`triangle_level_over_shutter`]): 1 — mid-shutter, the paper's
+/// time — unless the object turns in camera space within the shutter, then one per
+/// [`TURN_PER_SHADING_TIME_DEG`] of turn, at most [`MAX_SHADING_TIMES`].
+///
+/// Why (a departure from the paper, which shades at mid-shutter only): vertices and normals move
+/// linearly in camera space between keys, so a camera-space turn shrinks everything at mid-shutter —
+/// a half turn (a camera rolling or turning 180°, a scale through zero) collapses every triangle onto
+/// a line, where it has no footprint and its lerped normal and light directions are degenerate. The
+/// samples that look the texel up see it at other times. The turn of a segment is the largest angle
+/// between the images of the object's axes at its two keys (π where an image vanishes: a singular
+/// key); the segments' turns add up.
+pub fn shading_time_count(motion: &ObjectMotion) -> u32 {
+    let mut turn = 0f32;
+    for j in 0..motion.segments() {
+        let (a, b) =
+            (glam::Mat3::from_mat4(motion.model_view[j]), glam::Mat3::from_mat4(motion.model_view[j + 1]));
+        let segment = [Vec3::X, Vec3::Y, Vec3::Z]
+            .iter()
+            .map(|&axis| match ((a * axis).try_normalize(), (b * axis).try_normalize()) {
+                (Some(u), Some(v)) => u.dot(v).clamp(-1.0, 1.0).acos(),
+                _ => std::f32::consts::PI,
+            })
+            .fold(0f32, f32::max);
+        turn += segment;
+    }
+    let count = (turn.to_degrees() / TURN_PER_SHADING_TIME_DEG).ceil();
+    if count.is_nan() || count < 1.0 {
+        1
+    } else {
+        (count as u32).min(MAX_SHADING_TIMES)
+    }
+}
+
+/// Shading time `j` of `count` ([`shading_time_count`]): the midpoints of `count` equal parts of
+/// the shutter — mid-shutter when `count` is 1 (the same f32 arithmetic as atlas.frag's).
+pub fn shading_time(j: u32, count: u32) -> f32 {
+    (j as f32 + 0.5) / count as f32
+}
+
+/// Triangle `t`'s shading rate over the shutter: [`triangle_level`] at mid-shutter when the object
+/// is shaded at that one time ([`shading_time_count`] `times` = 1: the paper's rule), else the finest
+/// over the shading times at which the triangle has a footprint and may be seen (not
+/// [`super::cull::outside_frustum`] then) — the texel holds what the samples see at those times
+/// (atlas.frag), so it is sized for the closest of them; at a time it is off the image its footprint
+/// means nothing (a camera turning 90° sweeps it past the image's edge, where it nears the eye's
+/// plane and its footprint is tiny). A triangle seen at none of them (only between them) takes the
+/// finest over all; `None` when it has a footprint at none. With shading coordinates `tex`; also the
+/// camera-space triangle the rate was taken on. `rate.glsl`'s `ts_triangle_level_over_shutter` is
+/// its GPU port.
+pub fn triangle_level_over_shutter(
+    intrinsics: &Intrinsics,
+    mesh: &Mesh,
+    motion: &ObjectMotion,
+    t: usize,
+    tex: [Vec2; 3],
+    levels: u32,
+    times: u32,
+) -> Option<(LevelChoice, [Vec3; 3])> {
+    let times = times.max(1);
+    if times == 1 {
+        let tri = camera_triangle(mesh, motion, t, 0.5);
+        return triangle_level(intrinsics, tri, tex, levels).map(|c| (c, tri));
+    }
+    // (seen then, the rate, the triangle) per shading time with a footprint.
+    let rated: Vec<(bool, LevelChoice, [Vec3; 3])> = (0..times)
+        .filter_map(|j| {
+            let tri = camera_triangle(mesh, motion, t, shading_time(j, times));
+            let seen = !super::cull::outside_frustum(intrinsics, &tri, super::cull::CULL_MARGIN_PX);
+            triangle_level(intrinsics, tri, tex, levels).map(|c| (seen, c, tri))
+        })
+        .collect();
+    let any_seen = rated.iter().any(|r| r.0);
+    rated
+        .into_iter()
+        .filter(|r| r.0 || !any_seen)
+        // The first of equal radii, as the GPU's strict `<`.
+        .fold(None, |best: Option<(LevelChoice, [Vec3; 3])>, (_, c, tri)| match best {
+            Some(b) if b.0.radius_texels <= c.radius_texels => Some(b),
+            _ => Some((c, tri)),
+        })
+}
+
 /// Triangle `t` of `mesh` in camera space at shutter time `time`, its vertices interpolated linearly
 /// within the key segment of `motion` holding `time` (as the GPU passes do).
 pub fn camera_triangle(mesh: &Mesh, motion: &ObjectMotion, t: usize, time: f32) -> [Vec3; 3] {
@@ -212,8 +304,8 @@ pub fn camera_triangle(mesh: &Mesh, motion: &ObjectMotion, t: usize, time: f32) 
     })
 }
 
-/// The finest level an atlas of `mesh` needs at mid-shutter: the coarsest level `k` such that the
-/// triangles asking for a level finer than `k` ([`triangle_level`] with per-corner shading coordinates
+/// The finest level an atlas of `mesh` needs: the coarsest level `k` such that the triangles asking
+/// for a level finer than `k` ([`triangle_level_over_shutter`] with per-corner shading coordinates
 /// `coords`, texels of level 0 of an atlas of `levels` levels) cover at most `coarser_fraction` of the
 /// object's pixels ([`on_screen_area`]). `None` when no triangle has a footprint. An atlas whose
 /// level 0 is `2^k` times smaller holds every triangle at its level minus `k`; the few finer ones are
@@ -232,10 +324,16 @@ pub fn fitted_level(
 ) -> Option<u32> {
     let mut area = vec![0f64; levels as usize];
     let mut any = false;
+    let times = shading_time_count(motion);
     for t in 0..mesh.indices.len() / 3 {
-        let tri = camera_triangle(mesh, motion, t, 0.5);
         let tex = [0, 1, 2].map(|k| coords[3 * t + k]);
-        let Some(choice) = triangle_level(intrinsics, tri, tex, levels) else { continue };
+        // Weighed by its area where its rate was taken (a triangle collapsed at mid-shutter covers no
+        // pixel there).
+        let Some((choice, tri)) =
+            triangle_level_over_shutter(intrinsics, mesh, motion, t, tex, levels, times)
+        else {
+            continue;
+        };
         let points = || super::cull::key_points(mesh, motion, t);
         if one_sided && super::cull::back_facing(intrinsics.aperture_radius, &points()) {
             continue;
@@ -305,6 +403,34 @@ mod tests {
             near: 0.05,
             far: 100.0,
         }
+    }
+
+    /// One shading time, mid-shutter, unless the object turns in camera space by more than
+    /// [`TURN_PER_SHADING_TIME_DEG`]: a roll of 10° none, of 90° three, a half turn six; a scale through
+    /// zero (a singular key) counts as half a turn per segment; a move without a turn, however far,
+    /// and a scale that keeps its sign none.
+    #[test]
+    fn shading_times_follow_the_camera_space_turn() {
+        use crate::geometry::KeyTimes;
+        use glam::{Mat4, Quat};
+        let keys = |n: usize| KeyTimes::new((0..n).map(|k| k as f32 / (n - 1) as f32).collect()).unwrap();
+        let eye = Mat4::from_translation(Vec3::new(0.0, 0.0, -4.0));
+        let roll = |deg: f32| Mat4::from_quat(Quat::from_rotation_z(deg.to_radians())) * eye;
+        let count = |m: Vec<Mat4>| shading_time_count(&ObjectMotion::new(keys(m.len()), m));
+        assert_eq!(count(vec![eye, eye]), 1);
+        assert_eq!(count(vec![eye, Mat4::from_translation(Vec3::new(30.0, 0.0, -4.0))]), 1);
+        assert_eq!(count(vec![eye, eye * Mat4::from_scale(Vec3::splat(0.1))]), 1);
+        assert_eq!(count(vec![eye, roll(10.0)]), 1);
+        assert_eq!(count(vec![eye, roll(90.0)]), 3);
+        assert_eq!(count(vec![eye, roll(180.0)]), 6);
+        let turn = Mat4::from_quat(Quat::from_rotation_y(std::f32::consts::PI)) * eye;
+        assert_eq!(count(vec![eye, turn]), 6);
+        let flat = eye * Mat4::from_scale(Vec3::new(0.0, 1.0, 1.0));
+        let mirrored = eye * Mat4::from_scale(Vec3::new(-1.0, 1.0, 1.0));
+        assert_eq!(count(vec![eye, flat, mirrored]), MAX_SHADING_TIMES);
+        assert_eq!(count(vec![eye, mirrored]), 6);
+        assert_eq!(shading_time(0, 1), 0.5);
+        assert_eq!((0..6).map(|j| shading_time(j, 6)).collect::<Vec<_>>()[..2], [1.0 / 12.0, 0.25]);
     }
 
     /// The analytic derivatives agree with central differences of the interpolated coordinates.
