@@ -36,6 +36,15 @@ pub fn same_sample_reference(
         .expect("reference")
 }
 
+/// The CPU reference of `scene` at `spp` samples per pixel and `seed`, shaded per sample.
+pub fn reference_image(scene: &Scene, (w, h): (u32, u32), spp: u32, seed: u64) -> LinearImage {
+    render_reference(
+        scene,
+        &ReferenceSettings { width: w, height: h, spp, seed, progress: false, shading: Default::default() },
+    )
+    .expect("reference")
+}
+
 /// Largest absolute difference of two images over the colour channels.
 pub fn max_abs_diff(a: &LinearImage, b: &LinearImage) -> f32 {
     a.pixels

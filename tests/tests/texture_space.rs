@@ -311,18 +311,7 @@ fn texture_space_error_is_close_to_exact_shading() {
     ];
     for (name, pairs) in cases {
         let scene = builtin_scene(name).expect("built-in").expect("parses");
-        let reference = shutter::reference::render_reference(
-            &scene,
-            &shutter::reference::ReferenceSettings {
-                width: w,
-                height: h,
-                spp: 256,
-                seed: 77,
-                progress: false,
-                shading: Default::default(),
-            },
-        )
-        .expect("reference");
+        let reference = shutter_tests::reference_image(&scene, (w, h), 256, 77);
         let mut render = |shading| {
             let o = shutter::techniques::StochasticOptions { shading, ..Default::default() };
             let s = RenderSettings::new(w, h, spp, seed).with_stochastic(o);
@@ -402,18 +391,7 @@ fn texture_space_shades_through_a_half_turn_of_the_camera() {
     let mut failures = vec![];
     for (name, close) in &cases {
         let scene = scene(close);
-        let reference = shutter::reference::render_reference(
-            &scene,
-            &shutter::reference::ReferenceSettings {
-                width: w,
-                height: h,
-                spp: 256,
-                seed: 11,
-                progress: false,
-                shading: Default::default(),
-            },
-        )
-        .expect("reference");
+        let reference = shutter_tests::reference_image(&scene, (w, h), 256, 11);
         let mut render = |shading| {
             let o = StochasticOptions { shading, ..Default::default() };
             let s = RenderSettings::new(w, h, spp, seed).with_stochastic(o);
