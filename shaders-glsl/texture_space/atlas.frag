@@ -42,13 +42,17 @@ layout(set = 3, binding = 2, std430) buffer AtlasCounters {
 #endif
 
 void main() {
+#ifdef SHADOWS
+    // Before any discard: derivatives need the whole quad.
+    vec3 plane_normal = shadow_plane_normal(g_object_position);
+#endif
     Material m = materials[pc.object];
     vec3 n = dot(g_normal, g_normal) > 0.0 ? normalize(g_normal) : vec3(0.0, 0.0, 1.0);
     vec3 to_eye = normalize(-g_position);
     // Two-sided: the side facing the lens centre.
     if (dot(n, to_eye) < 0.0) n = -n;
 #ifdef SHADOWS
-    shadow_receiver = ShadowReceiver(g_object_position, g_object_normal, pc.segment, pc.segment_time);
+    shadow_receiver = ShadowReceiver(g_object_position, g_object_normal, plane_normal, pc.segment, pc.segment_time);
 #endif
     vec3 albedo = m.albedo_specular.rgb;
     if (m.params.y > 0.5) albedo *= texture_prefiltered(g_uv, dFdx(g_uv), dFdy(g_uv), m.params.w > 0.5);
