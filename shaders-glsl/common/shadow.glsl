@@ -177,6 +177,11 @@ vec3 shadow_light(int i) {
             float w = wy * (dx == 0 ? 1.0 - f.x : (dx == n_taps - 1 ? f.x : 1.0));
             if (w <= 0.0) continue;
             ivec2 t = clamp(base + ivec2(dx, dy), ivec2(0), ivec2(last));
+#ifdef SHADOW_COLOR
+            // The hue pass writes the tinted surface's depth of the texel's centre (gl_FragCoord.z
+            // without sample shading), so that is where it is compared with the receiver's plane.
+            float z_tint = shadow_plane_depth(v, q, m, vec2(t) + 0.5) - slack;
+#endif
             for (uint k = 0u; k < msaa; ++k) {
                 // The receiver's plane where this sample was taken, less the slack.
                 float z_lit = shadow_plane_depth(v, q, m, vec2(t) + shadow_sample_position(msaa, k)) - slack;
@@ -197,7 +202,7 @@ vec3 shadow_light(int i) {
                     vec4 c = texelFetch(shadow_color, at, 0);
 #endif
                     // Alpha: the nearest tinted surface's depth (0: none in front of the sample).
-                    bool behind_tint = c.a > 0.0 && shadow_linear_depth(v, c.a) < z_lit;
+                    bool behind_tint = c.a > 0.0 && shadow_linear_depth(v, c.a) < z_tint;
                     sum += w * (behind_tint ? c.rgb : vec3(1.0));
 #else
                     sum += vec3(w);
