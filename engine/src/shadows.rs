@@ -508,7 +508,11 @@ impl FaceProjection {
     /// surface with geometric normal `m` (`shadow_light` in `common/shadow.glsl`, one sub-map of
     /// `msaa` samples per texel): over the PCF taps around its map position ([`pcf_axis`]), the
     /// weighted fraction of depth samples that are not nearer the light than the receiver's plane at
-    /// that sample's position ([`FaceProjection::plane_depth`]) less `depth_bias` texels.
+    /// that sample's position ([`FaceProjection::plane_depth`]) — where the plane recedes beyond the
+    /// receiver, than the receiver itself — less `depth_bias` texels. The plane is what keeps a
+    /// surface from shadowing itself where it comes nearer the light than the receiver; where it
+    /// recedes, the receiver's own depth suffices, and a surface behind the receiver but in front
+    /// of its plane's extension (a wall standing on a grazing-lit ground) does not shadow it.
     /// `depth(texel, k)` is the view depth of sample k of a texel (`None`: nothing drawn there);
     /// taps past the map's edge read its edge texels.
     pub fn lookup(
@@ -535,7 +539,7 @@ impl FaceProjection {
                 let t = [(fx + i as i32).clamp(0, last), (fy + j as i32).clamp(0, last)];
                 for k in 0..msaa {
                     let at = Vec2::new(t[0] as f32, t[1] as f32) + sample_position(msaa, k);
-                    let receiver = self.plane_depth(q, m, at) - slack;
+                    let receiver = self.plane_depth(q, m, at).min(z) - slack;
                     total += w;
                     if !matches!(depth(t, k), Some(d) if d < receiver) {
                         lit += w;
@@ -711,6 +715,24 @@ mod tests {
                         }
                     }
                 }
+            }
+        }
+    }
+
+    /// A concave corner under a grazing light: a receiver on a plane 85° from facing the light, with
+    /// a surface just behind it (a wall it meets) filling the map where the plane recedes, stays lit.
+    #[test]
+    fn a_surface_behind_the_receiver_does_not_shadow_it() {
+        for p in projections() {
+            let (q, m) = tilted_plane(&p, Vec2::new(120.4, 130.7), 5.0, 85f32.to_radians(), 0.3);
+            let (_, z) = p.project(q);
+            let behind = z + 0.3 * p.texel(z);
+            let map = |t: [i32; 2], k: u32| {
+                let at = Vec2::new(t[0] as f32, t[1] as f32) + sample_position(4, k);
+                Some(p.plane_depth(q, m, at).min(behind))
+            };
+            for r in 0..3 {
+                assert_eq!(p.lookup(q, m, r, 4, DEPTH_BIAS, map), 1.0, "ortho {} r {r}", p.orthographic);
             }
         }
     }

@@ -124,8 +124,9 @@ vec2 shadow_sample_position(uint msaa, uint k) {
 // map) (shadows::FaceProjection::lookup): over the taps of a box of 2r + 1 texels a side centred on
 // the receiver's map position (the map read as constant per texel: (2r + 2)^2 taps, the outer ones
 // weighted by their overlap), the weighted fraction of depth samples that lie no nearer the light
-// than the receiver's own plane at that sample's position, less the slack; each such sample weighted
-// by its hue product when the receiver lies behind that sample's nearest tinted surface (SHADOW_COLOR).
+// than the receiver's own plane at that sample's position (than the receiver itself where the plane
+// recedes beyond it: a surface behind the receiver never shadows it), less the slack; each such
+// sample weighted by its hue product when the receiver lies behind that sample's nearest tinted surface (SHADOW_COLOR).
 vec3 shadow_light(int i) {
     uvec4 l = shadow.lights[i];
     if (l.x == 0u) return vec3(1.0);
@@ -180,11 +181,12 @@ vec3 shadow_light(int i) {
 #ifdef SHADOW_COLOR
             // The hue pass writes the tinted surface's depth of the texel's centre (gl_FragCoord.z
             // without sample shading), so that is where it is compared with the receiver's plane.
-            float z_tint = shadow_plane_depth(v, q, m, vec2(t) + 0.5) - slack;
+            float z_tint = min(shadow_plane_depth(v, q, m, vec2(t) + 0.5), z) - slack;
 #endif
             for (uint k = 0u; k < msaa; ++k) {
-                // The receiver's plane where this sample was taken, less the slack.
-                float z_lit = shadow_plane_depth(v, q, m, vec2(t) + shadow_sample_position(msaa, k)) - slack;
+                // The receiver's plane where this sample was taken (the receiver's own depth where the
+                // plane recedes beyond it), less the slack.
+                float z_lit = min(shadow_plane_depth(v, q, m, vec2(t) + shadow_sample_position(msaa, k)), z) - slack;
                 for (uint sm = 0u; sm < sub_maps; ++sm) {
                     ivec2 at = ivec2(v.depth.zw) + ivec2(int(sm) * int(size), 0) + t;
 #ifdef SHADOW_MSAA
