@@ -994,7 +994,7 @@ fn self_hits(multipliers: &[f32], cases: usize) -> Vec<usize> {
         let scale = tris[0].iter().fold(position.abs().max_element(), |m, v| m.max(v.abs().max_element()));
         let g = (tris[0][1] - tris[0][0]).cross(tris[0][2] - tris[0][0]).normalize();
         // A light between 0.001 rad and normal incidence.
-        let elevation = 0.001f32.max(1.5707 * u() * u() * u());
+        let elevation = 0.001f32.max(std::f32::consts::FRAC_PI_2 * u() * u() * u());
         let along = g.any_orthonormal_vector();
         let along = glam::Quat::from_axis_angle(g, 6.3 * u()) * along;
         let l = (side * elevation.sin() * g + elevation.cos() * along).normalize();
