@@ -504,16 +504,53 @@ impl FaceProjection {
         }
     }
 
+    /// The plane through view-space point `q` with normal `m` (as [`FaceProjection::plane_depth`])
+    /// in the depth the rasterizer stores ([`FaceProjection::stored_depth`]), which for a plane is
+    /// an affine function of the map position in both projections (the reversed-Z depth is affine in
+    /// `1/z`, and `1/z` of a plane is affine along the rays): `q`'s map position, its stored depth
+    /// and the gradient per texel. Agrees with `stored_depth(plane_depth(..))` wherever the ray
+    /// meets the plane in front of the light; beyond, it falls below the stored depth of any
+    /// point, as an infinitely far plane would.
+    pub fn stored_plane(&self, q: Vec3, m: Vec3) -> (Vec2, f32, Vec2) {
+        let (pixel, z) = self.project(q);
+        let (n, f) = (self.near, self.far);
+        let gradient = if self.orthographic {
+            let m = m.try_normalize().unwrap_or(Vec3::Z);
+            let m = if m.z < 0.0 { -m } else { m };
+            // z = z_q + (m.x·ΔX + m.y·ΔY)/m.z with ΔX = 2a/size and ΔY = −2b/size per texel.
+            Vec2::new(-m.x * 2.0 * self.a / self.size, m.y * 2.0 * self.b / self.size)
+                / (m.z.max(MIN_PLANE_COS) * (f - n))
+        } else {
+            let m = m.try_normalize().unwrap_or(-q);
+            let m = if m.dot(q) > 0.0 { -m } else { m };
+            // 1/z = m·d(t) / m·q with d(t) = ((t.x − size/2)/a, −(t.y − size/2)/a, −1).
+            let mq = m.dot(q).min(-MIN_PLANE_COS * q.length());
+            Vec2::new(m.x, -m.y) * (n * f / ((f - n) * self.a * mq))
+        };
+        (pixel, self.stored_depth(z), gradient)
+    }
+
+    /// How much the stored depth changes per view unit at view depth `z` (its magnitude).
+    pub fn stored_per_view(&self, z: f32) -> f32 {
+        let (n, f) = (self.near, self.far);
+        if self.orthographic {
+            1.0 / (f - n)
+        } else {
+            n * f / ((f - n) * z * z)
+        }
+    }
+
     /// The fraction of the light the map lets through to a receiver at view-space point `q` of a
     /// surface with geometric normal `m` (`shadow_light` in `common/shadow.glsl`, one sub-map of
     /// `msaa` samples per texel): over the PCF taps around its map position ([`pcf_axis`]), the
     /// weighted fraction of depth samples that are not nearer the light than the receiver's plane at
-    /// that sample's position ([`FaceProjection::plane_depth`]) — where the plane recedes beyond the
+    /// that sample's position ([`FaceProjection::stored_plane`]) — where the plane recedes beyond the
     /// receiver, than the receiver itself — less `depth_bias` texels. The plane is what keeps a
     /// surface from shadowing itself where it comes nearer the light than the receiver; where it
     /// recedes, the receiver's own depth suffices, and a surface behind the receiver but in front
-    /// of its plane's extension (a wall standing on a grazing-lit ground) does not shadow it.
-    /// `depth(texel, k)` is the view depth of sample k of a texel (`None`: nothing drawn there);
+    /// of its plane's extension (a wall standing on a grazing-lit ground) does not shadow it. The
+    /// comparisons are in stored (reversed-Z: nearer is larger) depth, where the plane is affine.
+    /// `depth(texel, k)` is the stored depth of sample k of a texel (`None`: nothing drawn there);
     /// taps past the map's edge read its edge texels.
     pub fn lookup(
         &self,
@@ -524,24 +561,26 @@ impl FaceProjection {
         depth_bias: f32,
         depth: impl Fn([i32; 2], u32) -> Option<f32>,
     ) -> f32 {
-        let (pixel, z) = self.project(q);
-        let slack = depth_bias * self.texel(z);
+        let (pixel, d_q, gradient) = self.stored_plane(q, m);
+        let z = -q.z;
+        let slack = depth_bias * self.texel(z) * self.stored_per_view(z);
         let (fx, wx) = pcf_axis(pixel.x, r);
         let (fy, wy) = pcf_axis(pixel.y, r);
         let last = self.size as i32 - 1;
         let (mut lit, mut total) = (0.0, 0.0);
-        for j in 0..2 * r + 2 {
-            for i in 0..2 * r + 2 {
-                let w = pcf_weight(i, r, wx) * pcf_weight(j, r, wy);
-                if w <= 0.0 {
-                    continue;
-                }
-                let t = [(fx + i as i32).clamp(0, last), (fy + j as i32).clamp(0, last)];
-                for k in 0..msaa {
-                    let at = Vec2::new(t[0] as f32, t[1] as f32) + sample_position(msaa, k);
-                    let receiver = self.plane_depth(q, m, at).min(z) - slack;
+        for k in 0..msaa {
+            let s = sample_position(msaa, k);
+            for j in 0..2 * r + 2 {
+                for i in 0..2 * r + 2 {
+                    let w = pcf_weight(i, r, wx) * pcf_weight(j, r, wy);
+                    if w <= 0.0 {
+                        continue;
+                    }
+                    let t = [(fx + i as i32).clamp(0, last), (fy + j as i32).clamp(0, last)];
+                    let at = Vec2::new(t[0] as f32, t[1] as f32) + s;
+                    let bound = (d_q + gradient.dot(at - pixel)).max(d_q) + slack;
                     total += w;
-                    if !matches!(depth(t, k), Some(d) if d < receiver) {
+                    if !matches!(depth(t, k), Some(d) if d > bound) {
                         lit += w;
                     }
                 }
@@ -700,7 +739,8 @@ mod tests {
                 for msaa in [1u32, 4] {
                     let map = |t: [i32; 2], k: u32| {
                         let at = Vec2::new(t[0] as f32, t[1] as f32) + sample_position(msaa, k);
-                        Some(p.plane_depth(a, stored_normal, at))
+                        let z = p.plane_depth(a, stored_normal, at);
+                        z.is_finite().then(|| p.stored_depth(z))
                     };
                     for r in 0..3 {
                         for step in 0..25 {
@@ -729,7 +769,7 @@ mod tests {
             let behind = z + 0.3 * p.texel(z);
             let map = |t: [i32; 2], k: u32| {
                 let at = Vec2::new(t[0] as f32, t[1] as f32) + sample_position(4, k);
-                Some(p.plane_depth(q, m, at).min(behind))
+                Some(p.stored_depth(p.plane_depth(q, m, at).min(behind)))
             };
             for r in 0..3 {
                 assert_eq!(p.lookup(q, m, r, 4, DEPTH_BIAS, map), 1.0, "ortho {} r {r}", p.orthographic);
@@ -747,7 +787,9 @@ mod tests {
             for edge in [100.2f32, 100.5, 100.9] {
                 let (q0, m) = tilted_plane(&p, Vec2::new(100.0, 120.0), 5.0, 40f32.to_radians(), 0.0);
                 // The occluder, at depth 1, covers the samples left of `edge`.
-                let map = |t: [i32; 2], k: u32| (t[0] as f32 + sample_position(1, k).x < edge).then_some(1.0);
+                let occluder = p.stored_depth(1.0);
+                let map =
+                    |t: [i32; 2], k: u32| (t[0] as f32 + sample_position(1, k).x < edge).then_some(occluder);
                 let map_edge = (edge - 0.5).ceil();
                 for r in 0..4 {
                     // Receivers along the map's x, on the plane.
@@ -795,6 +837,21 @@ mod tests {
             let got = p.plane_depth(q, m, at);
             prop_assert!((got - z).abs() < 1e-3 * z.max(1.0), "{} vs {}", got, z);
             prop_assert!((p.plane_depth(q, -3.0 * m, at) - got).abs() < 1e-3 * z.max(1.0), "either orientation");
+        }
+
+        /// The plane in stored depth is the stored depth of the plane, wherever the ray meets it.
+        #[test]
+        fn stored_plane_is_the_planes(ortho in any::<bool>(), t in prop::array::uniform2(20.0f32..236.0),
+                                      tilt in 0.0f32..80.0, turn in 0.0f32..360.0, at in prop::array::uniform2(-8.0f32..8.0)) {
+            let p = projections()[if ortho { 0 } else { 1 }];
+            let (q, m) = tilted_plane(&p, Vec2::from(t), 5.0, tilt.to_radians(), turn.to_radians());
+            let (pixel, d, gradient) = p.stored_plane(q, m);
+            let at = pixel + Vec2::from(at);
+            let z = p.plane_depth(q, m, at);
+            prop_assume!(z.is_finite() && z > p.near && z < p.far);
+            let want = p.stored_depth(z);
+            let got = d + gradient.dot(at - pixel);
+            prop_assert!((got - want).abs() <= 1e-4 * want.abs().max(1e-3), "{} vs {}", got, want);
         }
 
         /// The PCF filter is a box of 2r + 1 texels centred on the receiver: its weights sum to

@@ -76,32 +76,9 @@ uint cube_face_of(vec3 d) {
     return d.z >= 0.0 ? 4u : 5u;
 }
 
-// View depth (distance along -Z) of a stored reversed-Z depth in view v (shadows::linear_depth).
-float shadow_linear_depth(ShadowView v, float d) {
-    float n = v.depth.x, f = v.depth.y;
-    if (v.projection.x == PROJECTION_ORTHOGRAPHIC) return f - d * (f - n);
-    return n * f / (d * (f - n) + n);
-}
-
 // Below this cosine between a receiver's plane and the light's rays the plane counts as parallel to
 // them (shadows::MIN_PLANE_COS).
 const float SHADOW_MIN_PLANE_COS = 1e-4;
-const float SHADOW_INFINITY = 3.0e38;
-
-// View depth, along the light's ray through map position t (texels, x right, y down), of the plane
-// through view-space point q with unit normal m facing the light (shadows::FaceProjection::plane_depth);
-// "infinite" where that ray does not meet the plane in front of the light.
-float shadow_plane_depth(ShadowView v, vec3 q, vec3 m, vec2 t) {
-    float size = v.projection.w;
-    if (v.projection.x == PROJECTION_ORTHOGRAPHIC) {
-        vec2 xy = vec2((2.0 * t.x / size - 1.0) * v.projection.y, (1.0 - 2.0 * t.y / size) * v.projection.z);
-        return -q.z + dot(m.xy, xy - q.xy) / max(m.z, SHADOW_MIN_PLANE_COS);
-    }
-    float s = v.projection.y;
-    vec3 d = vec3((t.x - 0.5 * size) / s, -(t.y - 0.5 * size) / s, -1.0);
-    float den = dot(m, d);
-    return den < -SHADOW_MIN_PLANE_COS * length(d) ? dot(m, q) / den : SHADOW_INFINITY;
-}
 
 // Where the rasterizer takes sample k of `msaa` within a texel: the standard sample locations for 1,
 // 2, 4 and 8 samples, the centre otherwise (shadows::sample_position).
@@ -126,7 +103,9 @@ vec2 shadow_sample_position(uint msaa, uint k) {
 // weighted by their overlap), the weighted fraction of depth samples that lie no nearer the light
 // than the receiver's own plane at that sample's position (than the receiver itself where the plane
 // recedes beyond it: a surface behind the receiver never shadows it), less the slack; each such
-// sample weighted by its hue product when the receiver lies behind that sample's nearest tinted surface (SHADOW_COLOR).
+// sample weighted by its hue product when the receiver lies behind that sample's nearest tinted
+// surface (SHADOW_COLOR). The comparisons are in stored (reversed-Z) depth, in which a plane is
+// affine in the map position (shadows::FaceProjection::stored_plane).
 vec3 shadow_light(int i) {
     uvec4 l = shadow.lights[i];
     if (l.x == 0u) return vec3(1.0);
@@ -144,6 +123,7 @@ vec3 shadow_light(int i) {
     vec3 m = mat3(v.base_to_face) * n;
     bool ortho = v.projection.x == PROJECTION_ORTHOGRAPHIC;
     float size = v.projection.w;
+    float near = v.depth.x, far = v.depth.y;
     // The plane's normal, facing the light (+Z of an orthographic view, the origin of a perspective
     // one); none known: the plane facing the light.
     vec3 to_light = ortho ? vec3(0.0, 0.0, 1.0) : -q;
@@ -152,15 +132,28 @@ vec3 shadow_light(int i) {
     if (dot(m, to_light) < 0.0) m = -m;
     float z = -q.z;
     vec2 pixel;
+    // The receiver's stored depth, the plane's gradient in stored depth per texel, and one view
+    // unit in stored depth at the receiver.
+    float d_q;
+    vec2 gradient;
+    float per_view;
     if (ortho) {
         pixel = vec2(0.5 * size * (1.0 + q.x / v.projection.y), 0.5 * size * (1.0 - q.y / v.projection.z));
+        d_q = (far - z) / (far - near);
+        gradient = vec2(-m.x * 2.0 * v.projection.y / size, m.y * 2.0 * v.projection.z / size)
+                 / (max(m.z, SHADOW_MIN_PLANE_COS) * (far - near));
+        per_view = 1.0 / (far - near);
     } else {
         float s = v.projection.y;
         pixel = vec2(0.5 * size + s * q.x / z, 0.5 * size - s * q.y / z);
+        d_q = near * (far - z) / ((far - near) * z);
+        float mq = min(dot(m, q), -SHADOW_MIN_PLANE_COS * length(q));
+        gradient = vec2(m.x, -m.y) * (near * far / ((far - near) * s * mq));
+        per_view = near * far / ((far - near) * z * z);
     }
     // One texel's width at the receiver, in view units: the slack's unit.
     float texel = ortho ? 2.0 * v.projection.y / size : z / v.projection.y;
-    float slack = shadow.bias.x * texel;
+    float slack = shadow.bias.x * texel * per_view;
     int radius = int(shadow.counts.w);
     int n_taps = 2 * radius + 2;
     vec2 lo = pixel - vec2(float(radius) + 0.5);
@@ -171,40 +164,42 @@ vec3 shadow_light(int i) {
     uint msaa = shadow.counts.y, sub_maps = shadow.counts.z;
     vec3 sum = vec3(0.0);
     float total = 0.0;
-    for (int dy = 0; dy < n_taps; ++dy) {
-        float wy = dy == 0 ? 1.0 - f.y : (dy == n_taps - 1 ? f.y : 1.0);
-        if (wy <= 0.0) continue;
-        for (int dx = 0; dx < n_taps; ++dx) {
-            float w = wy * (dx == 0 ? 1.0 - f.x : (dx == n_taps - 1 ? f.x : 1.0));
-            if (w <= 0.0) continue;
-            ivec2 t = clamp(base + ivec2(dx, dy), ivec2(0), ivec2(last));
+    for (uint k = 0u; k < msaa; ++k) {
+        // The plane at this sample's location in the first tap, then one texel on per tap.
+        vec2 first_at = first + shadow_sample_position(msaa, k) - pixel;
+        for (int dy = 0; dy < n_taps; ++dy) {
+            float wy = dy == 0 ? 1.0 - f.y : (dy == n_taps - 1 ? f.y : 1.0);
+            if (wy <= 0.0) continue;
+            for (int dx = 0; dx < n_taps; ++dx) {
+                float w = wy * (dx == 0 ? 1.0 - f.x : (dx == n_taps - 1 ? f.x : 1.0));
+                if (w <= 0.0) continue;
+                ivec2 t = clamp(base + ivec2(dx, dy), ivec2(0), ivec2(last));
+                vec2 at = vec2(t - base) + first_at;
+                // Reversed Z: a sample shadows when it is nearer (larger) than the receiver's plane
+                // there (its own depth where the plane recedes beyond it) plus the slack.
+                float bound = max(d_q + dot(gradient, at), d_q) + slack;
 #ifdef SHADOW_COLOR
-            // The hue pass writes the tinted surface's depth of the texel's centre (gl_FragCoord.z
-            // without sample shading), so that is where it is compared with the receiver's plane.
-            float z_tint = min(shadow_plane_depth(v, q, m, vec2(t) + 0.5), z) - slack;
+                // The hue pass writes the tinted surface's depth of the texel's centre
+                // (gl_FragCoord.z without sample shading), so that is where it is compared.
+                float tint_bound = max(d_q + dot(gradient, vec2(t - base) + first + 0.5 - pixel), d_q) + slack;
 #endif
-            for (uint k = 0u; k < msaa; ++k) {
-                // The receiver's plane where this sample was taken (the receiver's own depth where the
-                // plane recedes beyond it), less the slack.
-                float z_lit = min(shadow_plane_depth(v, q, m, vec2(t) + shadow_sample_position(msaa, k)), z) - slack;
                 for (uint sm = 0u; sm < sub_maps; ++sm) {
-                    ivec2 at = ivec2(v.depth.zw) + ivec2(int(sm) * int(size), 0) + t;
+                    ivec2 at_texel = ivec2(v.depth.zw) + ivec2(int(sm) * int(size), 0) + t;
 #ifdef SHADOW_MSAA
-                    float d = texelFetch(shadow_depth, at, int(k)).r;
+                    float d = texelFetch(shadow_depth, at_texel, int(k)).r;
 #else
-                    float d = texelFetch(shadow_depth, at, 0).r;
+                    float d = texelFetch(shadow_depth, at_texel, 0).r;
 #endif
                     total += w;
-                    // Depth 0 (the clear): nothing drawn there.
-                    if (d > 0.0 && shadow_linear_depth(v, d) < z_lit) continue;  // an occluder nearer the light
+                    if (d > bound) continue;  // an occluder nearer the light (0, the clear, never is)
 #ifdef SHADOW_COLOR
 #ifdef SHADOW_MSAA
-                    vec4 c = texelFetch(shadow_color, at, int(k));
+                    vec4 c = texelFetch(shadow_color, at_texel, int(k));
 #else
-                    vec4 c = texelFetch(shadow_color, at, 0);
+                    vec4 c = texelFetch(shadow_color, at_texel, 0);
 #endif
                     // Alpha: the nearest tinted surface's depth (0: none in front of the sample).
-                    bool behind_tint = c.a > 0.0 && shadow_linear_depth(v, c.a) < z_tint;
+                    bool behind_tint = c.a > 0.0 && c.a > tint_bound;
                     sum += w * (behind_tint ? c.rgb : vec3(1.0));
 #else
                     sum += vec3(w);
