@@ -17,10 +17,14 @@
 //!   maps it into each rendered face.
 //! * **Atlas**: every face of every light is `sub_maps` tiles of `size × size` side by side, each
 //!   multisampled `msaa` times, so a texel holds `S = msaa × sub_maps` depth samples.
-//! * **Bias**: the receiver is pushed along its normal (towards the light) by
-//!   `normal_offset × (r + 1)` texels, r the PCF radius — far enough that every filter tap sees the
-//!   receiver's own plane behind it at any slope — and compared with `depth_bias` texels of slack.
-//!   Both scale with the texel's size at the receiver, so they shrink as the resolution grows.
+//! * **Lookup** ([`FaceProjection::lookup`]): nothing moves the receiver across the map. The filter
+//!   is a box of `2r + 1` texels centred on the receiver's exact map position, over the map read as
+//!   piecewise constant texels: (2r + 2)² taps, the outer ones weighted by their overlap (bilinear
+//!   PCF at r = 0), so its centre is the receiver's whatever r. Each depth sample of each tap is
+//!   compared with the **receiver's own plane** (its geometric normal) where the light's ray through
+//!   that sample's position crosses it ([`FaceProjection::plane_depth`]), less `depth_bias` texels
+//!   of slack: a planar receiver never shadows itself at any slope, and an occluder shadows exactly
+//!   the taps it stands in front of.
 //! * **Time**: a map is rendered at each pass' shutter time when anything moves, else once per frame.
 
 use glam::{Mat4, Vec2, Vec3};
@@ -32,6 +36,11 @@ use crate::scene::{Light, Projection, Scene, View};
 /// A spot light whose outer half-angle exceeds this many degrees is mapped through a cube like a
 /// point light (one perspective that wide wastes most of its texels at the edges).
 pub const SPOT_CUBE_DEG: f32 = 60.0;
+
+/// The default depth slack, in texels at the receiver: the comparison is with the receiver's own
+/// plane at each sample, so this only has to cover rounding (and the sample positions of a device
+/// without the standard ones), not the slope.
+pub const DEPTH_BIAS: f32 = 0.1;
 
 /// The largest atlas side (texels), within every device's image limit we target (lavapipe: 16384).
 pub const MAX_ATLAS: u32 = 16384;
@@ -46,24 +55,15 @@ pub struct ShadowSettings {
     pub size: u32,
     /// Depth samples per texel S of a stochastic (or coloured) map; a plain map has one.
     pub samples: u32,
-    /// PCF radius r: the lookup averages the (2r + 1)² texels around the receiver's.
+    /// PCF radius r: the lookup averages a box of 2r + 1 texels a side centred on the receiver.
     pub pcf_radius: u32,
-    /// Normal offset per (r + 1), in texels at the receiver.
-    pub normal_offset: f32,
-    /// Depth slack, in texels at the receiver.
+    /// Depth slack of the comparison with the receiver's plane, in texels at the receiver.
     pub depth_bias: f32,
 }
 
 impl Default for ShadowSettings {
     fn default() -> Self {
-        ShadowSettings {
-            enabled: true,
-            size: 1024,
-            samples: 4,
-            pcf_radius: 1,
-            normal_offset: 1.5,
-            depth_bias: 1.0,
-        }
+        ShadowSettings { enabled: true, size: 1024, samples: 4, pcf_radius: 1, depth_bias: DEPTH_BIAS }
     }
 }
 
@@ -81,9 +81,6 @@ impl ShadowSettings {
         }
         if self.pcf_radius > 8 {
             return bad("PCF radius", self.pcf_radius.to_string(), "0 to 8 texels");
-        }
-        if !(self.normal_offset.is_finite() && self.normal_offset >= 0.0) {
-            return bad("normal offset", self.normal_offset.to_string(), "finite and ≥ 0");
         }
         if !(self.depth_bias.is_finite() && self.depth_bias >= 0.0) {
             return bad("depth bias", self.depth_bias.to_string(), "finite and ≥ 0");
@@ -431,6 +428,168 @@ impl FaceProjection {
     }
 }
 
+/// Below this cosine between a receiver's plane and the light's rays, the plane counts as parallel to
+/// them ([`FaceProjection::plane_depth`]): a bound on its slope, so the depth stays finite.
+pub const MIN_PLANE_COS: f32 = 1e-4;
+
+/// Where the rasterizer takes sample `k` of `msaa` within a texel (x right, y down, in texels): the
+/// standard sample locations for 1, 2, 4 and 8 samples; the centre for other counts (whose
+/// locations the lookup does not know; the depth slack has to cover those).
+pub fn sample_position(msaa: u32, k: u32) -> Vec2 {
+    const TWO: [[f32; 2]; 2] = [[0.75, 0.75], [0.25, 0.25]];
+    const FOUR: [[f32; 2]; 4] = [[0.375, 0.125], [0.875, 0.375], [0.125, 0.625], [0.625, 0.875]];
+    const EIGHT: [[f32; 2]; 8] = [
+        [0.5625, 0.3125],
+        [0.4375, 0.6875],
+        [0.8125, 0.5625],
+        [0.3125, 0.1875],
+        [0.1875, 0.8125],
+        [0.0625, 0.4375],
+        [0.6875, 0.9375],
+        [0.9375, 0.0625],
+    ];
+    let table: &[[f32; 2]] = match msaa {
+        2 => &TWO,
+        4 => &FOUR,
+        8 => &EIGHT,
+        _ => &[[0.5, 0.5]],
+    };
+    Vec2::from(table[k as usize % table.len()])
+}
+
+/// The PCF filter along one axis, at map coordinate `x` (texels) with radius `r`: a box of `2r + 1`
+/// texels centred on `x` over the map read as constant within each texel. Returns its first texel
+/// and the fraction `f` of that texel outside the box: the 2r + 2 taps from there weigh `1 − f`,
+/// 1 (2r times) and `f` ([`pcf_weight`]), in all 2r + 1, and their centres average to `x`.
+pub fn pcf_axis(x: f32, r: u32) -> (i32, f32) {
+    let lo = x - (r as f32 + 0.5);
+    let first = lo.floor();
+    (first as i32, lo - first)
+}
+
+/// The weight of tap `k` (0 to 2r + 1) of the filter [`pcf_axis`] returned `f` for.
+pub fn pcf_weight(k: u32, r: u32, f: f32) -> f32 {
+    if k == 0 {
+        1.0 - f
+    } else if k == 2 * r + 1 {
+        f
+    } else {
+        1.0
+    }
+}
+
+impl FaceProjection {
+    /// View depth, along the light's ray through map position `t` (texels, x right, y down), of the
+    /// plane through view-space point `q` with normal `m` (either orientation, any length; zero: the
+    /// plane facing the light); infinite where that ray does not meet the plane in front of the
+    /// light. A plane within [`MIN_PLANE_COS`] of the rays is tilted to that bound.
+    pub fn plane_depth(&self, q: Vec3, m: Vec3, t: Vec2) -> f32 {
+        if self.orthographic {
+            let m = m.try_normalize().unwrap_or(Vec3::Z);
+            let m = if m.z < 0.0 { -m } else { m };
+            let x = (2.0 * t.x / self.size - 1.0) * self.a;
+            let y = (1.0 - 2.0 * t.y / self.size) * self.b;
+            -q.z + (m.x * (x - q.x) + m.y * (y - q.y)) / m.z.max(MIN_PLANE_COS)
+        } else {
+            let m = m.try_normalize().unwrap_or(-q);
+            // Facing the light (the origin): m·q ≤ 0, so the ray meets the plane where m·d < 0.
+            let m = if m.dot(q) > 0.0 { -m } else { m };
+            let d = Vec3::new((t.x - 0.5 * self.size) / self.a, -(t.y - 0.5 * self.size) / self.a, -1.0);
+            let den = m.dot(d);
+            if den < -MIN_PLANE_COS * d.length() {
+                m.dot(q) / den
+            } else {
+                f32::INFINITY
+            }
+        }
+    }
+
+    /// The plane through view-space point `q` with normal `m` (as [`FaceProjection::plane_depth`])
+    /// in the depth the rasterizer stores ([`FaceProjection::stored_depth`]), which for a plane is
+    /// an affine function of the map position in both projections (the reversed-Z depth is affine in
+    /// `1/z`, and `1/z` of a plane is affine along the rays): `q`'s map position, its stored depth
+    /// and the gradient per texel. Agrees with `stored_depth(plane_depth(..))` wherever the ray
+    /// meets the plane in front of the light; beyond, it falls below the stored depth of any
+    /// point, as an infinitely far plane would.
+    pub fn stored_plane(&self, q: Vec3, m: Vec3) -> (Vec2, f32, Vec2) {
+        let (pixel, z) = self.project(q);
+        let (n, f) = (self.near, self.far);
+        let gradient = if self.orthographic {
+            let m = m.try_normalize().unwrap_or(Vec3::Z);
+            let m = if m.z < 0.0 { -m } else { m };
+            // z = z_q + (m.x·ΔX + m.y·ΔY)/m.z with ΔX = 2a/size and ΔY = −2b/size per texel.
+            Vec2::new(-m.x * 2.0 * self.a / self.size, m.y * 2.0 * self.b / self.size)
+                / (m.z.max(MIN_PLANE_COS) * (f - n))
+        } else {
+            let m = m.try_normalize().unwrap_or(-q);
+            let m = if m.dot(q) > 0.0 { -m } else { m };
+            // 1/z = m·d(t) / m·q with d(t) = ((t.x − size/2)/a, −(t.y − size/2)/a, −1).
+            let mq = m.dot(q).min(-MIN_PLANE_COS * q.length());
+            Vec2::new(m.x, -m.y) * (n * f / ((f - n) * self.a * mq))
+        };
+        (pixel, self.stored_depth(z), gradient)
+    }
+
+    /// How much the stored depth changes per view unit at view depth `z` (its magnitude).
+    pub fn stored_per_view(&self, z: f32) -> f32 {
+        let (n, f) = (self.near, self.far);
+        if self.orthographic {
+            1.0 / (f - n)
+        } else {
+            n * f / ((f - n) * z * z)
+        }
+    }
+
+    /// The fraction of the light the map lets through to a receiver at view-space point `q` of a
+    /// surface with geometric normal `m` (`shadow_light` in `common/shadow.glsl`, one sub-map of
+    /// `msaa` samples per texel): over the PCF taps around its map position ([`pcf_axis`]), the
+    /// weighted fraction of depth samples that are not nearer the light than the receiver's plane at
+    /// that sample's position ([`FaceProjection::stored_plane`]) — where the plane recedes beyond the
+    /// receiver, than the receiver itself — less `depth_bias` texels. The plane is what keeps a
+    /// surface from shadowing itself where it comes nearer the light than the receiver; where it
+    /// recedes, the receiver's own depth suffices, and a surface behind the receiver but in front
+    /// of its plane's extension (a wall standing on a grazing-lit ground) does not shadow it. The
+    /// comparisons are in stored (reversed-Z: nearer is larger) depth, where the plane is affine.
+    /// `depth(texel, k)` is the stored depth of sample k of a texel (`None`: nothing drawn there);
+    /// taps past the map's edge read its edge texels.
+    pub fn lookup(
+        &self,
+        q: Vec3,
+        m: Vec3,
+        r: u32,
+        msaa: u32,
+        depth_bias: f32,
+        depth: impl Fn([i32; 2], u32) -> Option<f32>,
+    ) -> f32 {
+        let (pixel, d_q, gradient) = self.stored_plane(q, m);
+        let z = -q.z;
+        let slack = depth_bias * self.texel(z) * self.stored_per_view(z);
+        let (fx, wx) = pcf_axis(pixel.x, r);
+        let (fy, wy) = pcf_axis(pixel.y, r);
+        let last = self.size as i32 - 1;
+        let (mut lit, mut total) = (0.0, 0.0);
+        for k in 0..msaa {
+            let s = sample_position(msaa, k);
+            for j in 0..2 * r + 2 {
+                for i in 0..2 * r + 2 {
+                    let w = pcf_weight(i, r, wx) * pcf_weight(j, r, wy);
+                    if w <= 0.0 {
+                        continue;
+                    }
+                    let t = [(fx + i as i32).clamp(0, last), (fy + j as i32).clamp(0, last)];
+                    let at = Vec2::new(t[0] as f32, t[1] as f32) + s;
+                    let bound = (d_q + gradient.dot(at - pixel)).max(d_q) + slack;
+                    total += w;
+                    if !matches!(depth(t, k), Some(d) if d > bound) {
+                        lit += w;
+                    }
+                }
+            }
+        }
+        lit / total
+    }
+}
+
 /// The seed of one light face's coverage decisions in pass `pass` (0 when maps are rendered once):
 /// different faces and passes draw independent masks.
 pub fn map_seed(coverage_seed: u32, face: u32, pass: u32) -> u32 {
@@ -531,6 +690,130 @@ mod tests {
         assert!(e.contains("shadow atlas") && e.contains("--shadow-map"), "{e}");
     }
 
+    fn projections() -> [FaceProjection; 2] {
+        [
+            FaceProjection { orthographic: true, a: 3.0, b: 3.0, size: 256.0, near: 0.05, far: 20.0 },
+            FaceProjection { orthographic: false, a: 128.0, b: 0.0, size: 256.0, near: 0.05, far: 20.0 },
+        ]
+    }
+
+    /// The view-space point on the light's ray through map position `t` at view depth `z`.
+    fn unproject(p: &FaceProjection, t: Vec2, z: f32) -> Vec3 {
+        if p.orthographic {
+            Vec3::new((2.0 * t.x / p.size - 1.0) * p.a, (1.0 - 2.0 * t.y / p.size) * p.b, -z)
+        } else {
+            Vec3::new((t.x - 0.5 * p.size) / p.a * z, -(t.y - 0.5 * p.size) / p.a * z, -z)
+        }
+    }
+
+    /// A plane tilted `tilt` radians from facing the light, about an axis across the map at `turn`
+    /// radians, through the point of map position `t` at depth `z`: (point, normal).
+    fn tilted_plane(p: &FaceProjection, t: Vec2, z: f32, tilt: f32, turn: f32) -> (Vec3, Vec3) {
+        let q = unproject(p, t, z);
+        let towards = if p.orthographic { Vec3::Z } else { -q.normalize() };
+        let axis = towards.any_orthonormal_vector();
+        let axis = glam::Quat::from_axis_angle(towards, turn) * axis;
+        (q, glam::Quat::from_axis_angle(axis, tilt) * towards)
+    }
+
+    /// No acne: a plane the map holds, seen as a receiver at any of its points, is lit, at any
+    /// slope up to 85°, for both projections, any PCF radius, one sample or four per texel. The map
+    /// is the plane as the rasterizer stores it: its depth at each sample's position, found from
+    /// three other points of it (another rounding of the same plane).
+    #[test]
+    fn a_plane_never_shadows_itself() {
+        for p in projections() {
+            for (tilt_deg, turn_deg) in
+                [(0.0f32, 0.0f32), (30.0, 10.0), (60.0, 100.0), (80.0, 45.0), (85.0, 200.0)]
+            {
+                let (q0, m) = tilted_plane(
+                    &p,
+                    Vec2::new(131.3, 117.8),
+                    5.0,
+                    tilt_deg.to_radians(),
+                    turn_deg.to_radians(),
+                );
+                let (u, v) = (m.any_orthonormal_vector(), m.cross(m.any_orthonormal_vector()));
+                let (a, b, c) = (q0 + 0.7 * u, q0 - 0.4 * u + 0.5 * v, q0 - 0.3 * v);
+                let stored_normal = (b - a).cross(c - a);
+                for msaa in [1u32, 4] {
+                    let map = |t: [i32; 2], k: u32| {
+                        let at = Vec2::new(t[0] as f32, t[1] as f32) + sample_position(msaa, k);
+                        let z = p.plane_depth(a, stored_normal, at);
+                        z.is_finite().then(|| p.stored_depth(z))
+                    };
+                    for r in 0..3 {
+                        for step in 0..25 {
+                            let s = step as f32 * 0.0371;
+                            let q = q0 + s * u - 0.6 * s * v;
+                            let lit = p.lookup(q, m, r, msaa, DEPTH_BIAS, map);
+                            assert_eq!(
+                                lit, 1.0,
+                                "ortho {} tilt {tilt_deg}° msaa {msaa} r {r} at {q}",
+                                p.orthographic
+                            );
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    /// A concave corner under a grazing light: a receiver on a plane 85° from facing the light, with
+    /// a surface just behind it (a wall it meets) filling the map where the plane recedes, stays lit.
+    #[test]
+    fn a_surface_behind_the_receiver_does_not_shadow_it() {
+        for p in projections() {
+            let (q, m) = tilted_plane(&p, Vec2::new(120.4, 130.7), 5.0, 85f32.to_radians(), 0.3);
+            let (_, z) = p.project(q);
+            let behind = z + 0.3 * p.texel(z);
+            let map = |t: [i32; 2], k: u32| {
+                let at = Vec2::new(t[0] as f32, t[1] as f32) + sample_position(4, k);
+                Some(p.stored_depth(p.plane_depth(q, m, at).min(behind)))
+            };
+            for r in 0..3 {
+                assert_eq!(p.lookup(q, m, r, 4, DEPTH_BIAS, map), 1.0, "ortho {} r {r}", p.orthographic);
+            }
+        }
+    }
+
+    /// The PCF filter does not move a shadow's edge: across the straight edge of an occluder, on a
+    /// receiver tilted 40° from the light, the integral of the light through the lookup equals that
+    /// of a sharp step at the map's own edge (the texel boundary nearest the occluder's edge), for
+    /// PCF radius 0, 1, 2 and 3.
+    #[test]
+    fn the_filter_does_not_move_a_shadow_edge() {
+        for p in projections() {
+            for edge in [100.2f32, 100.5, 100.9] {
+                let (q0, m) = tilted_plane(&p, Vec2::new(100.0, 120.0), 5.0, 40f32.to_radians(), 0.0);
+                // The occluder, at depth 1, covers the samples left of `edge`.
+                let occluder = p.stored_depth(1.0);
+                let map =
+                    |t: [i32; 2], k: u32| (t[0] as f32 + sample_position(1, k).x < edge).then_some(occluder);
+                let map_edge = (edge - 0.5).ceil();
+                for r in 0..4 {
+                    // Receivers along the map's x, on the plane.
+                    let (mut light, mut step_light, n) = (0.0f64, 0.0f64, 4000);
+                    for i in 0..n {
+                        let x = 90.0 + 20.0 * (i as f32 + 0.5) / n as f32;
+                        let t = Vec2::new(x, 120.0);
+                        let z = p.plane_depth(q0, m, t);
+                        let q = unproject(&p, t, z);
+                        assert!((p.project(q).0 - t).length() < 1e-3);
+                        light += p.lookup(q, m, r, 1, DEPTH_BIAS, map) as f64;
+                        step_light += if x >= map_edge { 1.0 } else { 0.0 };
+                    }
+                    let moved = (light - step_light) * 20.0 / n as f64;
+                    assert!(
+                        moved.abs() < 0.01,
+                        "ortho {} edge {edge} r {r}: the edge moved {moved} texels",
+                        p.orthographic
+                    );
+                }
+            }
+        }
+    }
+
     proptest! {
         /// The stored depth of a point linearises back to its view depth, in both projections.
         #[test]
@@ -538,6 +821,53 @@ mod tests {
             let p = FaceProjection { orthographic: ortho, a: 300.0, b: 3.0, size: 512.0, near: 0.05, far: 50.0 };
             let back = p.linear_depth(p.stored_depth(z));
             prop_assert!((back - z).abs() <= 2e-3 * z.max(1.0), "{} vs {}", back, z);
+        }
+
+        /// The plane's depth along the ray through a map position is that of the plane's point
+        /// there, for planes up to 80° from facing the light.
+        #[test]
+        fn plane_depth_is_the_planes(ortho in any::<bool>(), t in prop::array::uniform2(20.0f32..236.0),
+                                     tilt in 0.0f32..80.0, turn in 0.0f32..360.0, s in prop::array::uniform2(-1.0f32..1.0)) {
+            let p = projections()[if ortho { 0 } else { 1 }];
+            let (q, m) = tilted_plane(&p, Vec2::from(t), 5.0, tilt.to_radians(), turn.to_radians());
+            let u = m.any_orthonormal_vector();
+            let point = q + 0.5 * s[0] * u + 0.5 * s[1] * m.cross(u);
+            let (at, z) = p.project(point);
+            prop_assume!(z > 0.5 && at.x.abs() < 1e4 && at.y.abs() < 1e4);
+            let got = p.plane_depth(q, m, at);
+            prop_assert!((got - z).abs() < 1e-3 * z.max(1.0), "{} vs {}", got, z);
+            prop_assert!((p.plane_depth(q, -3.0 * m, at) - got).abs() < 1e-3 * z.max(1.0), "either orientation");
+        }
+
+        /// The plane in stored depth is the stored depth of the plane, wherever the ray meets it.
+        #[test]
+        fn stored_plane_is_the_planes(ortho in any::<bool>(), t in prop::array::uniform2(20.0f32..236.0),
+                                      tilt in 0.0f32..80.0, turn in 0.0f32..360.0, at in prop::array::uniform2(-8.0f32..8.0)) {
+            let p = projections()[if ortho { 0 } else { 1 }];
+            let (q, m) = tilted_plane(&p, Vec2::from(t), 5.0, tilt.to_radians(), turn.to_radians());
+            let (pixel, d, gradient) = p.stored_plane(q, m);
+            let at = pixel + Vec2::from(at);
+            let z = p.plane_depth(q, m, at);
+            prop_assume!(z.is_finite() && z > p.near && z < p.far);
+            let want = p.stored_depth(z);
+            let got = d + gradient.dot(at - pixel);
+            prop_assert!((got - want).abs() <= 1e-4 * want.abs().max(1e-3), "{} vs {}", got, want);
+        }
+
+        /// The PCF filter is a box of 2r + 1 texels centred on the receiver: its weights sum to
+        /// 2r + 1 and the taps' centres average to the receiver's position.
+        #[test]
+        fn the_filter_is_centred(x in -10.0f32..300.0, r in 0u32..5) {
+            let (first, f) = pcf_axis(x, r);
+            let (mut sum, mut moment) = (0.0f64, 0.0f64);
+            for k in 0..2 * r + 2 {
+                let w = pcf_weight(k, r, f) as f64;
+                prop_assert!(w >= 0.0);
+                sum += w;
+                moment += w * (first as f64 + k as f64 + 0.5);
+            }
+            prop_assert!((sum - (2 * r + 1) as f64).abs() < 1e-5);
+            prop_assert!((moment / sum - x as f64).abs() < 1e-4, "{} vs {}", moment / sum, x);
         }
 
         /// The face `cube_face_of` picks sees the point: its projection lands inside the face, in front

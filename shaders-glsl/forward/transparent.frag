@@ -38,6 +38,10 @@ layout(location = 4) in vec3 v_object_normal;
 layout(location = 0) out vec4 out_color;
 
 void main() {
+#ifdef SHADOWS
+    // Before any discard: derivatives need the whole quad.
+    vec3 plane_normal = shadow_plane_normal(v_object_position);
+#endif
     Material m = materials[pc.object];
     float alpha = m.params.z;
     if (pc.alpha_from_texture != 0u) alpha *= texture(albedo_texture, v_uv).a;
@@ -62,7 +66,7 @@ void main() {
     vec3 albedo = m.albedo_specular.rgb;
     if (m.params.y > 0.5) albedo *= texture(albedo_texture, v_uv).rgb;
 #ifdef SHADOWS
-    shadow_receiver = ShadowReceiver(v_object_position, v_object_normal, pc.segment, pc.segment_time);
+    shadow_receiver = ShadowReceiver(v_object_position, v_object_normal, plane_normal, pc.segment, pc.segment_time);
 #endif
     out_color = vec4(shade(v_position, n, to_eye, albedo, m.albedo_specular.w, m.params.x, pc.time), 1.0);
 #endif

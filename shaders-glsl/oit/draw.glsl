@@ -29,6 +29,12 @@ layout(location = 2) in vec2 v_uv;
 #ifdef SHADOWS
 layout(location = 3) in vec3 v_object_position;
 layout(location = 4) in vec3 v_object_normal;
+// The fragment's triangle normal (object space) for the shadow lookup: each main() sets it first,
+// before any discard (derivatives need the whole quad).
+vec3 oit_plane_normal = vec3(0.0);
+#define OIT_SHADOW_PLANE() oit_plane_normal = shadow_plane_normal(v_object_position)
+#else
+#define OIT_SHADOW_PLANE()
 #endif
 
 // Coverage alpha (x the texture's alpha when the material takes it from there), as transparent.frag.
@@ -56,7 +62,7 @@ vec3 oit_shade(Material m) {
     vec3 albedo = m.albedo_specular.rgb;
     if (m.params.y > 0.5) albedo *= texture(albedo_texture, v_uv).rgb;
 #ifdef SHADOWS
-    shadow_receiver = ShadowReceiver(v_object_position, v_object_normal, pc.segment, pc.segment_time);
+    shadow_receiver = ShadowReceiver(v_object_position, v_object_normal, oit_plane_normal, pc.segment, pc.segment_time);
 #endif
     return shade(v_position, n, to_eye, albedo, m.albedo_specular.w, m.params.x, pc.time);
 }

@@ -184,13 +184,12 @@ vec3 shade_at(uint prim, SampleHit h, vec3 w, bool back) {
         object_position += w[k] * vec3(tv[k].position[0], tv[k].position[1], tv[k].position[2]);
         object_normal += w[k] * vec3(tv[k].normal[0], tv[k].normal[1], tv[k].normal[2]);
     }
-    if (dot(object_normal, object_normal) == 0.0) {
-        vec3 a = vec3(tv[0].position[0], tv[0].position[1], tv[0].position[2]);
-        vec3 b = vec3(tv[1].position[0], tv[1].position[1], tv[1].position[2]);
-        vec3 c = vec3(tv[2].position[0], tv[2].position[1], tv[2].position[2]);
-        object_normal = cross(b - a, c - a);
-    }
-    shadow_receiver = ShadowReceiver(object_position, object_normal, h.seg, h.s);
+    vec3 a = vec3(tv[0].position[0], tv[0].position[1], tv[0].position[2]);
+    vec3 b = vec3(tv[1].position[0], tv[1].position[1], tv[1].position[2]);
+    vec3 c = vec3(tv[2].position[0], tv[2].position[1], tv[2].position[2]);
+    vec3 object_plane = cross(b - a, c - a);
+    if (dot(object_normal, object_normal) == 0.0) object_normal = object_plane;
+    shadow_receiver = ShadowReceiver(object_position, object_normal, object_plane, h.seg, h.s);
 #endif
     vec3 albedo = object_material.albedo_specular.rgb;
     if (object_material.params.y > 0.5) {

@@ -72,6 +72,11 @@ float ts_sample_density(vec3 tri[3], vec3 pos) {
     return isinf(d) || isnan(d) ? 0.0 : d;
 }
 
+#ifdef SHADOWS
+// The shadow lookup's receiver plane (common/shadow.glsl), set at the top of main().
+vec3 ts_plane_normal;
+#endif
+
 // The texel's surface point at shutter time t: camera-space position, interpolated normal (not
 // normalised), geometric normal, the key segment and time within it, and its ts_sample_density.
 struct TexelAt {
@@ -115,12 +120,17 @@ vec3 shade_texel(TexelAt x, float t, Material m, vec3 albedo) {
     // Two-sided: the side facing the lens centre at t.
     if (dot(n, to_eye) < 0.0) n = -n;
 #ifdef SHADOWS
-    shadow_receiver = ShadowReceiver(g_object_position, g_object_normal, x.seg, x.s);
+    shadow_receiver = ShadowReceiver(g_object_position, g_object_normal, ts_plane_normal, x.seg, x.s);
 #endif
     return shade(x.pos, n, to_eye, albedo, m.albedo_specular.w, m.params.x, t);
 }
 
 void main() {
+#ifdef SHADOWS
+    // The receiver's plane in object space (it does not change with the shading time); derivatives
+    // first, in uniform control flow.
+    ts_plane_normal = shadow_plane_normal(g_object_position);
+#endif
     Material m = materials[pc.object];
     vec3 albedo = m.albedo_specular.rgb;
     if (m.params.y > 0.5) albedo *= texture_prefiltered(g_uv, dFdx(g_uv), dFdy(g_uv), m.params.w > 0.5);
@@ -144,7 +154,7 @@ void main() {
         // Two-sided: the side facing the lens centre.
         if (dot(n, to_eye) < 0.0) n = -n;
 #ifdef SHADOWS
-        shadow_receiver = ShadowReceiver(g_object_position, g_object_normal, pc.segment, pc.segment_time);
+        shadow_receiver = ShadowReceiver(g_object_position, g_object_normal, ts_plane_normal, pc.segment, pc.segment_time);
 #endif
         radiance = shade(g_position, n, to_eye, albedo, m.albedo_specular.w, m.params.x, pc.time);
     } else {

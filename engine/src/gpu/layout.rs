@@ -128,7 +128,7 @@ pub struct GpuShadowHeader {
     pub counts: [u32; 4],
     /// `ObjectView` records per lookup space, unused ×3.
     pub spaces: [u32; 4],
-    /// Normal offset and depth bias (texels at the receiver), unused ×2.
+    /// Depth slack (texels at the receiver), unused ×3.
     pub bias: [f32; 4],
     /// Per light: has a map (0/1), first view, view count (1 or 6), lookup space.
     pub lights: [[u32; 4]; MAX_LIGHTS],

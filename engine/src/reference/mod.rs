@@ -48,14 +48,15 @@
 //!   opaque scene's samples are unchanged. The closed-form pane test (`tests.rs`) shows the
 //!   convergence: the error falls as 1/√S.
 //! * **Shadows.** For each light with `shadows`, a shadow ray leaves the shaded point — offset along
-//!   the geometric normal, towards the light's side, by [`SHADOW_RAY_OFFSET`] times the largest
-//!   coordinate magnitude of the hit triangle (the scale of its rounding error), so the surface does
-//!   not shadow itself — at the sample's shutter time, towards the light (directional: to infinity;
+//!   the geometric normal, towards the light's side, by [`SHADOW_RAY_LIFT`] times the largest
+//!   coordinate magnitude of the hit triangle (the scale of its rounding error: the least offset that
+//!   keeps the surface from shadowing itself, with a margin, so the shadow's edge moves by no more
+//!   than that) — at the sample's shutter time, towards the light (directional: to infinity;
 //!   point and spot: up to the light's position). Any-hit traversal ([`Bvh::for_each_hit`])
 //!   multiplies the transmittance `(1 − α)·T` of every surface it crosses, at the crossing's coverage
 //!   (texture alpha included), and stops at the first opaque one (0). No randomness: the light's
 //!   colour is multiplied by the exact transmittance before shading. Two hits of one object closer
-//!   than the offset are one crossing (a ray through the edge two triangles share hits both).
+//!   than [`SHADOW_RAY_OFFSET`] times that scale are one crossing (a ray through the edge two triangles share hits both).
 //!   Lights without `shadows` are unoccluded, and no shadow ray is traced for a light that does not
 //!   reach the point anyway (behind the surface, outside a spot's cone).
 //!
@@ -103,6 +104,9 @@ use crate::shading::{shade, ShadingLight};
 /// different pixels (intersection, shading, sampling). `shutter quality` puts it in the key of its
 /// cached references, so a reference rendered by an older version is never reused.
 ///
+/// 5: direct shadow rays leave the surface [`SHADOW_RAY_LIFT`] (2⁻¹⁸) times the triangle's scale
+/// above it instead of 10⁻⁴ (issue 28 item 8: the larger offset moved shadow edges by hundredths of a pixel):
+/// shadow edges move by that, nothing else.
 /// 4: stochastic coverage stratified per pixel and triangle ([`crate::transparency::covered`], shared
 /// with the GPU) instead of an independent hash per sample: scenes with alpha or tints render to
 /// different pixels (opaque scenes do not change).
@@ -111,12 +115,22 @@ use crate::shading::{shade, ShadingLight};
 /// still vertices). (2: hits from the shared [`crate::geometry::intersect_triangle`] (the GPU's inside
 /// test), nearest by barycentric view depth, shaded at the barycentric point. 1: a Möller–Trumbore of
 /// its own, nearest by ray parameter, shaded at `o + t·d`.)
-pub const REFERENCE_VERSION: u32 = 4;
-/// Relative offset of a shadow ray's origin along the geometric normal, times the largest coordinate
-/// magnitude of the shaded triangle (see the module docs, "Shadows"): f32 rounding of the hit point is
-/// about 1e-7 of that scale, so the ray clears its own surface with a wide margin, while contact gaps
-/// below 1e-4 of the scene's coordinates are not resolved.
+pub const REFERENCE_VERSION: u32 = 5;
+/// Relative offset of a secondary ray's origin along the geometric normal (bounce rays, the virtual
+/// point lights' gathers, mirrored by the interleaved technique's G-buffer rays), times the largest
+/// coordinate magnitude of the shaded triangle, and the distance along a shadow ray below which two
+/// hits of one object are one crossing: f32 rounding of the hit point is about 1e-7 of that scale, so
+/// the ray clears its own surface with a wide margin, while contact gaps below 1e-4 of the scene's
+/// coordinates are not resolved.
 pub const SHADOW_RAY_OFFSET: f32 = 1e-4;
+/// Relative offset of a direct shadow ray's origin along the geometric normal, times the same scale
+/// (module docs, "Shadows"): 64 ulps (2⁻¹⁸). Rounding puts the shaded point up to a few ulps of the
+/// scale off its triangle's plane, and the ray's test against its own triangle (and a coplanar or
+/// convex neighbour) rounds as much, however grazing the light: 4 ulps already clear them in every
+/// case of the test `shadow_rays_clear_their_own_surface` (lights down to 0.06°), 1 ulp does not.
+/// Being 26× smaller than [`SHADOW_RAY_OFFSET`], the shadow's edge it moves (the offset over the
+/// light's slope) is too.
+pub const SHADOW_RAY_LIFT: f32 = 1.0 / 262_144.0;
 /// Mixed into the seed of each pixel's bounce directions (one-bounce indirect light), so they are not
 /// correlated with its camera samples.
 const BOUNCE_SEED: u64 = 0x6f6e_652d_626f_756e;
@@ -809,7 +823,14 @@ impl<'a> Tracer<'a> {
         // The barycentric point, as the GPU shades (its depth is exactly `hit.depth_z`).
         let position = hit.point(&p);
         let scale = p.iter().fold(position.abs().max_element(), |m, v| m.max(v.abs().max_element()));
-        SurfacePoint { position, normal: n, geometric, offset: SHADOW_RAY_OFFSET * scale, albedo }
+        SurfacePoint {
+            position,
+            normal: n,
+            geometric,
+            offset: SHADOW_RAY_OFFSET * scale,
+            lift: SHADOW_RAY_LIFT * scale,
+            albedo,
+        }
     }
 
     /// The lights at shutter time `time` as they reach `x` (module docs, "Shadows"), into `lights`.
@@ -822,8 +843,8 @@ impl<'a> Tracer<'a> {
                 continue; // no light arrives to be shadowed
             }
             let g = x.geometric.normalize_or_zero();
-            let offset = x.offset;
-            let origin = x.position + if g.dot(l) >= 0.0 { offset } else { -offset } * g;
+            let (lift, offset) = (x.lift, x.offset);
+            let origin = x.position + if g.dot(l) >= 0.0 { lift } else { -lift } * g;
             let v = match light.position() {
                 Ok(at) => self.transmittance(origin, at - origin, 1.0, time, offset),
                 Err(to_light) => self.transmittance(origin, to_light, f32::INFINITY, time, offset),
@@ -870,7 +891,11 @@ struct SurfacePoint {
     position: Vec3,
     normal: Vec3,
     geometric: Vec3,
+    /// [`SHADOW_RAY_OFFSET`] times the triangle's scale: secondary rays' origin offset and the
+    /// shadow rays' same-crossing distance.
     offset: f32,
+    /// [`SHADOW_RAY_LIFT`] times the triangle's scale: the direct shadow rays' origin offset.
+    lift: f32,
     albedo: Vec3,
 }
 

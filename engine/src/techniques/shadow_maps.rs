@@ -109,7 +109,7 @@ impl ShadowMaps {
         let mut header = GpuShadowHeader {
             counts: [plan.samples(), plan.msaa, plan.sub_maps, settings.pcf_radius],
             spaces: [0; 4],
-            bias: [settings.normal_offset, settings.depth_bias, 0.0, 0.0],
+            bias: [settings.depth_bias, 0.0, 0.0, 0.0],
             lights: [[0; 4]; crate::gpu::layout::MAX_LIGHTS],
         };
         let mut object_views = Vec::new();
