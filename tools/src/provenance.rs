@@ -31,6 +31,8 @@ impl Provenance {
     pub fn of(caps: &Capabilities) -> Provenance {
         let mut environment: Vec<String> = std::env::vars()
             .filter(|(k, _)| ENV_PREFIXES.iter().any(|p| k.starts_with(p)))
+            // Cargo's copy of the build's own commit (set when it runs the tests), not a setting.
+            .filter(|(k, _)| k != "SHUTTER_GIT_COMMIT")
             .map(|(k, v)| format!("{k}={v}"))
             .collect();
         environment.sort();
