@@ -8,11 +8,8 @@
 # About 25 minutes on the 2-core VM; sweeps resume from their CSV (delete it to measure afresh).
 set -euo pipefail
 cd "$(dirname "$0")/.."
-# SHUTTER_BIN: a shutter binary to use instead of building one (e.g. a copy, while the tree changes).
-if [ -n "${SHUTTER_BIN:-}" ]; then S="$SHUTTER_BIN"; else cargo build --locked --bin shutter; S=target/debug/shutter; fi
-export SHUTTER_DEVICE="${SHUTTER_DEVICE:-llvmpipe}"
-drivers=("$@")
-((${#drivers[@]})) || drivers=(lavapipe-25.0 lavapipe-22.3)
+# shellcheck source=scripts/drivers-common.sh
+source scripts/drivers-common.sh
 # scene, size, stochastic's S values (focus-sweep's 327,680-triangle sphere is slow to bound)
 scenes=("default 160x90 4,16,64" "one-mover 160x90 4,16,64" "focus-sweep 96x54 4,16")
 out=docs/quality/drivers

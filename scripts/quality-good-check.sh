@@ -6,10 +6,8 @@
 # Usage: scripts/quality-good-check.sh [DRIVER ...]   (default: lavapipe-25.0 lavapipe-22.3)
 set -euo pipefail
 cd "$(dirname "$0")/.."
-if [ -n "${SHUTTER_BIN:-}" ]; then S="$SHUTTER_BIN"; else cargo build --locked --bin shutter; S=target/debug/shutter; fi
-export SHUTTER_DEVICE="${SHUTTER_DEVICE:-llvmpipe}"
-drivers=("$@")
-((${#drivers[@]})) || drivers=(lavapipe-25.0 lavapipe-22.3)
+# shellcheck source=scripts/drivers-common.sh
+source scripts/drivers-common.sh
 out=out/quality-good
 mkdir -p "$out"
 echo "| driver | scene | planned | measured FLIP | target met |"
