@@ -29,7 +29,7 @@ use crate::error::{Error, Result};
 use crate::image::LinearImage;
 use crate::metrics::compare;
 use crate::plan::Plan;
-use crate::reference::{render_reference, ReferenceSettings, REFERENCE_VERSION};
+use crate::reference::{render_reference, render_reference_cached, ReferenceSettings};
 use crate::scene::file::parse_scene;
 use crate::scene::Scene;
 use crate::techniques::{RenderSettings, Renderer, ShadingRate, StochasticOptions, Technique};
@@ -331,8 +331,6 @@ fn non_finite(image: &LinearImage) -> usize {
 }
 
 /// The CPU reference at `spp` and `seed`, from [`MatrixSettings::reference_cache`] where it is there.
-/// The key holds everything its pixels depend on, [`REFERENCE_VERSION`] included (a reference traced by
-/// an older reference is never reused); an entry that does not read back is traced again.
 fn reference(scene: &Scene, m: &MatrixSettings, spp: u32, seed: u64) -> Result<LinearImage> {
     let settings = ReferenceSettings {
         width: m.width,
@@ -342,22 +340,10 @@ fn reference(scene: &Scene, m: &MatrixSettings, spp: u32, seed: u64) -> Result<L
         progress: false,
         shading: Default::default(),
     };
-    let Some(dir) = m.reference_cache else { return render_reference(scene, &settings) };
-    let path = Path::new(dir).join(format!(
-        "reference-v{REFERENCE_VERSION}-{:016x}-{}x{}-{spp}spp-seed{seed}.exr",
-        scene.content_hash(),
-        m.width,
-        m.height
-    ));
-    if let Ok(image) = crate::image_io::load_image(&path) {
-        if (image.width, image.height) == (m.width, m.height) {
-            return Ok(image);
-        }
+    match m.reference_cache {
+        Some(dir) => render_reference_cached(Path::new(dir), scene, &settings).map(|(image, _)| image),
+        None => render_reference(scene, &settings),
     }
-    let image = render_reference(scene, &settings)?;
-    std::fs::create_dir_all(dir).map_err(|e| Error::io(Path::new(dir), e))?;
-    crate::image_io::save_image(&path, &image)?;
-    Ok(image)
 }
 
 /// Whether a scene has anything to blur at this size (else `pinhole` applies, and `auto` renders it).

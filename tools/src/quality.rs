@@ -16,9 +16,9 @@ use std::path::{Path, PathBuf};
 use anyhow::{bail, Context, Result};
 use plotters::prelude::*;
 use shutter::image::LinearImage;
-use shutter::image_io::{load_image, save_image};
+use shutter::image_io::save_image;
 use shutter::metrics::compare;
-use shutter::reference::{render_reference, ReferenceSettings, REFERENCE_VERSION};
+use shutter::reference::{render_reference_cached, ReferenceSettings};
 use shutter::scene::Scene;
 use shutter::techniques::{RenderSettings, Renderer, Technique};
 
@@ -89,38 +89,30 @@ pub struct Point {
 const CSV_HEADER: &str =
     "scene,scene_hash,width,height,reference_spp,seed,device,series,spp,gpu_ms_median,rmse,flip,passes,msaa";
 
-/// The cached reference, rendering it on a miss.
+/// The cached reference, rendering it on a miss ([`render_reference_cached`]).
 fn reference(scene: &Scene, a: &QualityArgs) -> Result<LinearImage> {
-    std::fs::create_dir_all(&a.cache).with_context(|| format!("creating {}", a.cache.display()))?;
-    // The key: everything the reference's pixels depend on. `REFERENCE_VERSION` changes when the
-    // reference's own computation does, so a reference cached by an older build is never reused.
-    let path = a.cache.join(format!(
-        "reference-v{REFERENCE_VERSION}-{:016x}-{}x{}-{}spp-seed{}.exr",
-        scene.content_hash(),
-        a.width,
-        a.height,
-        a.reference_spp,
-        a.seed
-    ));
-    if path.exists() {
-        errln!("reference: cached {}", path.display());
-        return Ok(load_image(&path)?);
-    }
-    errln!("reference: rendering {}x{} at {} spp on the CPU", a.width, a.height, a.reference_spp);
     let t = std::time::Instant::now();
-    let img = render_reference(
-        scene,
-        &ReferenceSettings {
-            width: a.width,
-            height: a.height,
-            spp: a.reference_spp,
-            seed: a.seed,
-            progress: true,
-            shading: Default::default(),
-        },
-    )?;
-    save_image(&path, &img)?;
-    errln!("reference: {:.1} s, cached as {}", t.elapsed().as_secs_f64(), path.display());
+    let settings = ReferenceSettings {
+        width: a.width,
+        height: a.height,
+        spp: a.reference_spp,
+        seed: a.seed,
+        progress: true,
+        shading: Default::default(),
+    };
+    let (img, cached) = render_reference_cached(&a.cache, scene, &settings)?;
+    if cached {
+        errln!("reference: cached in {}", a.cache.display());
+    } else {
+        errln!(
+            "reference: rendering {}x{} at {} spp on the CPU took {:.1} s, cached in {}",
+            a.width,
+            a.height,
+            a.reference_spp,
+            t.elapsed().as_secs_f64(),
+            a.cache.display()
+        );
+    }
     Ok(img)
 }
 

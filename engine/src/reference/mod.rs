@@ -199,6 +199,38 @@ pub fn render_reference(scene: &Scene, settings: &ReferenceSettings) -> Result<L
     render_reference_with_stats(scene, settings).map(|(image, _)| image)
 }
 
+/// [`render_reference`] through a folder of cached images, with whether it came from there. The file
+/// name holds everything the pixels depend on — [`REFERENCE_VERSION`] (a reference traced by an older
+/// reference is never reused), the scene's content hash, size, samples and seed — so it serves only the
+/// ground truth, [`ReferenceShading::PerSample`]; another shading is traced every time. An entry that
+/// does not read back at the right size is traced again and replaced.
+pub fn render_reference_cached(
+    dir: &std::path::Path,
+    scene: &Scene,
+    settings: &ReferenceSettings,
+) -> Result<(LinearImage, bool)> {
+    if settings.shading != ReferenceShading::PerSample {
+        return Ok((render_reference(scene, settings)?, false));
+    }
+    let path = dir.join(format!(
+        "reference-v{REFERENCE_VERSION}-{:016x}-{}x{}-{}spp-seed{}.exr",
+        scene.content_hash(),
+        settings.width,
+        settings.height,
+        settings.spp,
+        settings.seed
+    ));
+    if let Ok(image) = crate::image_io::load_image(&path) {
+        if (image.width, image.height) == (settings.width, settings.height) {
+            return Ok((image, true));
+        }
+    }
+    let image = render_reference(scene, settings)?;
+    std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
+    crate::image_io::save_image(&path, &image)?;
+    Ok((image, false))
+}
+
 /// Renders `scene` with the CPU reference and reports what it cost.
 pub fn render_reference_with_stats(
     scene: &Scene,
