@@ -141,9 +141,12 @@ impl Calibration {
 impl CalibrationFile {
     /// Parses and checks a calibration file's text; `origin` names it in errors.
     pub fn parse(text: &str, origin: &str) -> Result<CalibrationFile> {
-        let file: CalibrationFile =
+        let mut file: CalibrationFile =
             toml::from_str(text).map_err(|e| Error::Unsupported(format!("{origin}: {e}")))?;
-        for c in &file.calibration {
+        for c in &mut file.calibration {
+            // Interpolation and the duplicate check read the points in order of size, whatever
+            // order a hand-edited file lists them in.
+            c.cost.sort_by(|a, b| a.pixels().total_cmp(&b.pixels()));
             c.check(origin)?;
         }
         Ok(file)
@@ -397,6 +400,23 @@ mod tests {
         );
         let again = CalibrationFile::parse(&toml::to_string(&f).unwrap(), "round trip").unwrap();
         assert_eq!(again, f);
+    }
+
+    #[test]
+    fn a_file_may_list_its_points_in_any_order() {
+        let entry = |w: u32, h: u32, ms: f64| {
+            format!(
+                "[[calibration.cost]]\nwidth = {w}\nheight = {h}\nspp = 16\nstochastic_ms_ratio = {ms}\n\
+                 stochastic_flip_ratio = 1.0\nmeasured = \"\"\n"
+            )
+        };
+        let head = "[[calibration]]\ndriver = \"x\"\n";
+        let text = format!("{head}{}{}", entry(640, 360, 2.0), entry(160, 90, 0.5));
+        let file = CalibrationFile::parse(&text, "unsorted.toml").unwrap();
+        assert!((interpolate(&file.calibration[0].cost, (320, 180)).unwrap().0 - 1.25).abs() < 1e-12);
+        let twice = format!("{head}{}{}{}", entry(160, 90, 0.5), entry(640, 360, 2.0), entry(160, 90, 0.4));
+        let e = CalibrationFile::parse(&twice, "twice.toml").unwrap_err().to_string();
+        assert!(e.contains("two cost points for 160x90"), "{e}");
     }
 
     #[test]
