@@ -348,7 +348,7 @@ fn cstr_field(chars: &[std::ffi::c_char]) -> String {
 impl DeviceShared {
     /// Creates a headless instance and device as `desc` says.
     pub fn new(desc: &DeviceDesc) -> Result<Device> {
-        let direct = DirectDrivers::load()?;
+        let project = ProjectDrivers::load()?;
         // SAFETY: loading the system Vulkan loader; failure is reported, not assumed.
         let entry = unsafe { ash::Entry::load() }.map_err(|e| Error::Loader(e.to_string()))?;
         let layers = unsafe { entry.enumerate_instance_layer_properties() }
@@ -429,7 +429,7 @@ impl DeviceShared {
         };
         let messenger_guard = MessengerGuard { du: debug_utils_instance.clone(), messenger };
 
-        let mut candidates = summaries(&instance, &direct)?;
+        let mut candidates = summaries(&instance, &project)?;
         let names: Vec<String> =
             candidates.iter().map(|c| format!("{} = {} ({})", c.key, c.device_name, c.device_type)).collect();
         if let Some(wanted) = &desc.driver {
@@ -663,15 +663,15 @@ impl DeviceShared {
 }
 
 /// The project's drivers ([`super::drivers`]), offered to the Vulkan loader beside the system's ICDs.
-struct DirectDrivers {
+struct ProjectDrivers {
     project: Vec<super::drivers::ProjectDriver>,
 }
 
-impl DirectDrivers {
+impl ProjectDrivers {
     /// Makes sure the loader will offer the project's drivers ([`super::drivers::offer_project_drivers`])
     /// and remembers which they are, to tell their devices from the system's.
     fn load() -> Result<Self> {
-        Ok(DirectDrivers { project: super::drivers::offer_project_drivers()? })
+        Ok(ProjectDrivers { project: super::drivers::offer_project_drivers()? })
     }
 
     /// The project driver folder whose version a device reports, if any (the folder is named
@@ -701,7 +701,7 @@ pub struct DriverSummary {
 
 /// Every device of every driver the instance offers, best first: by type (discrete GPU first, CPU
 /// last), then newest driver version.
-fn summaries(instance: &ash::Instance, direct: &DirectDrivers) -> Result<Vec<DriverSummary>> {
+fn summaries(instance: &ash::Instance, project: &ProjectDrivers) -> Result<Vec<DriverSummary>> {
     let physicals = unsafe { instance.enumerate_physical_devices() }.vk("vkEnumeratePhysicalDevices")?;
     let mut out: Vec<DriverSummary> = physicals
         .iter()
@@ -718,7 +718,7 @@ fn summaries(instance: &ash::Instance, direct: &DirectDrivers) -> Result<Vec<Dri
             let family = super::drivers::driver_family(&driver_id, &device_name);
             DriverSummary {
                 key: super::drivers::driver_key(&driver_id, &device_name, &driver_info),
-                project_driver: direct.folder_of(&family, &driver_version),
+                project_driver: project.folder_of(&family, &driver_version),
                 device_type: format!("{:?}", props.device_type),
                 api_version: format!(
                     "{}.{}.{}",
@@ -744,7 +744,7 @@ fn summaries(instance: &ash::Instance, direct: &DirectDrivers) -> Result<Vec<Dri
 /// Every driver this machine offers Shutter (the system's ICDs and the project's `.drivers/`), best
 /// first: the order [`DeviceShared::new`] chooses in. Creates a bare instance (no layers) to ask.
 pub fn available_drivers() -> Result<Vec<DriverSummary>> {
-    let direct = DirectDrivers::load()?;
+    let project = ProjectDrivers::load()?;
     // SAFETY: loading the system Vulkan loader; failure is reported, not assumed.
     let entry = unsafe { ash::Entry::load() }.map_err(|e| Error::Loader(e.to_string()))?;
     let app = vk::ApplicationInfo::default().application_name(c"shutter").api_version(vk::API_VERSION_1_3);
@@ -752,7 +752,7 @@ pub fn available_drivers() -> Result<Vec<DriverSummary>> {
     // SAFETY: `info` and everything it points to outlive the call.
     let instance = unsafe { entry.create_instance(&info, None) }.vk("vkCreateInstance")?;
     let guard = InstanceGuard { instance: Some(instance.clone()) };
-    let list = summaries(&instance, &direct);
+    let list = summaries(&instance, &project);
     drop(guard);
     list
 }
