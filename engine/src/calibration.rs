@@ -27,7 +27,7 @@
 //! height = 90
 //! spp = 16                        #   the S both techniques ran at
 //! stochastic_ms_ratio = 0.4       #   the per-object stochastic frame's GPU ms / accumulation's
-//! stochastic_flip_ratio = 0.9     #   its noise (FLIP between two seeds) / accumulation's
+//! stochastic_flip_ratio = 0.9     #   its noise (against other seeds' mean) / accumulation's
 //! measured = "..."                #   the command, driver, CPU, commit and date
 //! ```
 //!
@@ -77,7 +77,8 @@ pub struct CostPoint {
     pub spp: u32,
     /// Its GPU ms over `accumulation`'s.
     pub stochastic_ms_ratio: f64,
-    /// Its noise (FLIP between two seeds) over `accumulation`'s.
+    /// Its noise (each seed against the mean of the others, `quality_plan::measure_noise`) over
+    /// `accumulation`'s.
     pub stochastic_flip_ratio: f64,
     /// The command, driver, CPU, commit and date.
     pub measured: String,

@@ -63,7 +63,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
 use crate::image::LinearImage;
-use crate::metrics::{compare, flip_error_map};
+use crate::metrics::flip_error_map;
 use crate::plan::{AutoFrame, Plan};
 use crate::reference::{render_reference_shared_samples, ReferenceSettings};
 use crate::scene::Scene;
@@ -149,7 +149,8 @@ pub struct CostModel {
     pub device_name: String,
     /// The stochastic frame's GPU ms over `accumulation`'s.
     pub stochastic_ms_ratio: f64,
-    /// The stochastic frame's noise (FLIP between two seeds) over `accumulation`'s.
+    /// The stochastic frame's noise over `accumulation`'s at equal S, each measured against the mean of
+    /// other seeds ([`measure_noise`]).
     pub stochastic_flip_ratio: f64,
     /// Where the numbers come from.
     pub source: String,
@@ -332,27 +333,59 @@ fn subframe_seed(seed: u64, k: usize) -> u64 {
 pub struct NoiseMeasurement {
     /// The median GPU ms of the warm frames.
     pub ms: f64,
-    /// FLIP between the images of two seeds.
-    pub flip_between: f64,
+    /// The noise as the pilot measures it (each seed's image against the mean of the others), less
+    /// what the others' own noise adds (the factor `sqrt(k / (k − 1))` for `k` seeds): one image's
+    /// noise, comparable between measurements of different seed counts.
+    pub noise_flip: f64,
 }
 
 /// Renders `technique` at `settings` for one warm-up and `warm_frames` timed frames, then once with
-/// another seed: `shutter calibrate`'s measurement (a ratio of two techniques' noise on one scene;
-/// the planner's own noise estimate is the pilot's, [`plan_quality`]).
+/// each further seed up to `seeds` (at least 2): `shutter calibrate`'s measurement, a ratio of two
+/// techniques' noise on one scene (the planner's own noise estimate is the pilot's,
+/// [`plan_quality`]). The noise is measured as the pilot measures accumulation's, so that the ratio
+/// scales the pilot's estimate like for like.
 pub fn measure_noise(
     renderer: &mut Renderer,
     scene: &Scene,
     technique: Technique,
     settings: &RenderSettings,
     warm_frames: usize,
+    seeds: usize,
 ) -> Result<NoiseMeasurement> {
-    let frames = renderer.render_frames(scene, technique, settings, warm_frames.max(1) + 1)?;
+    let seeds = seeds.max(2);
+    let mut frames = renderer.render_frames(scene, technique, settings, warm_frames.max(1) + 1)?;
     let mut ms: Vec<f64> = frames[1..].iter().map(frame_ms).collect();
     ms.sort_by(f64::total_cmp);
-    let other = RenderSettings { seed: subframe_seed(settings.seed, 1), ..*settings };
-    let other = renderer.render(scene, technique, &other)?;
-    let flip_between = compare(&frames[1].image, &other.image)?.flip;
-    Ok(NoiseMeasurement { ms: ms[ms.len() / 2], flip_between })
+    let mut images = vec![frames.pop().expect("a frame").image];
+    for k in 1..seeds {
+        let other = RenderSettings { seed: subframe_seed(settings.seed, k), ..*settings };
+        images.push(renderer.render(scene, technique, &other)?.image);
+    }
+    let (_, flips) = noise_against_the_others(&images)?;
+    let mean = flips.iter().sum::<f64>() / flips.len() as f64;
+    let k = seeds as f64;
+    Ok(NoiseMeasurement { ms: ms[ms.len() / 2], noise_flip: mean / (k / (k - 1.0)).sqrt() })
+}
+
+/// Each image of independent seeds against the mean of the others: their mean FLIP map and each
+/// one's mean FLIP. What all share (the bias) cancels; the others' mean adds 1/(k − 1) of one
+/// image's variance (the safe side).
+fn noise_against_the_others(images: &[LinearImage]) -> Result<(Vec<f32>, Vec<f64>)> {
+    let k = images.len();
+    let inv = 1.0 / k as f32;
+    let pooled = combine(&images.iter().map(|i| (i, inv)).collect::<Vec<_>>());
+    let others_w = 1.0 / (k - 1) as f32;
+    let mut noise_map = vec![0f32; pooled.pixels.len()];
+    let mut noise_flips = Vec::with_capacity(k);
+    for img in images {
+        let others = combine(&[(&pooled, k as f32 * others_w), (img, -others_w)]);
+        let map = flip_values(&others, img)?;
+        noise_flips.push(map.iter().map(|&v| v as f64).sum::<f64>() / map.len() as f64);
+        for (m, v) in noise_map.iter_mut().zip(&map) {
+            *m += v / k as f32;
+        }
+    }
+    Ok((noise_map, noise_flips))
 }
 
 /// How the noise part of FLIP scales from `pilot_spp` samples to `spp` (module docs).
@@ -526,19 +559,8 @@ fn run_pilot(renderer: &mut Renderer, scene: &Scene, settings: &RenderSettings) 
     }
     let inv = 1.0 / k as f32;
     let pooled = combine(&images.iter().map(|i| (i, inv)).collect::<Vec<_>>());
-    // Each sub-frame against the mean of the others: the bias (the same in all) cancels, the noise
-    // of the others' mean adds 1/(k - 1) of a sub-frame's variance (the safe side).
-    let others_w = 1.0 / (k - 1) as f32;
-    let mut noise_map = vec![0f32; pooled.pixels.len()];
-    let mut noise_flips = Vec::with_capacity(k);
-    for img in &images {
-        let others = combine(&[(&pooled, k as f32 * others_w), (img, -others_w)]);
-        let map = flip_values(&others, img)?;
-        noise_flips.push(map.iter().map(|&v| v as f64).sum::<f64>() / map.len() as f64);
-        for (m, v) in noise_map.iter_mut().zip(&map) {
-            *m += v / k as f32;
-        }
-    }
+    // Each sub-frame against the mean of the others.
+    let (noise_map, noise_flips) = noise_against_the_others(&images)?;
     let noise_flip = noise_flips.iter().sum::<f64>() / k as f64;
     let var = noise_flips.iter().map(|f| (f - noise_flip).powi(2)).sum::<f64>() / (k - 1) as f64;
     let noise_sd = var.sqrt();
