@@ -30,6 +30,12 @@ fn cornell() -> Scene {
     scene
 }
 
+/// The defaults without VPL visibility (the paper's SNSM), which the CPU mirror reproduces exactly; the
+/// default itself has VPL shadow maps.
+fn no_visibility() -> InterleavedOptions {
+    InterleavedOptions { vpl_maps: None, ..Default::default() }
+}
+
 fn gpu(r: &mut Renderer, scene: &Scene, o: InterleavedOptions) -> LinearImage {
     gpu_passes(r, scene, o, 1)
 }
@@ -72,7 +78,7 @@ fn interleaved_matches_its_cpu_mirror() {
     let scene = cornell();
     let mut r = renderer();
     let full = Blur { radius: 4, bilinear: false, edges: Edges::Texel };
-    let base = InterleavedOptions { photons: 256, ..Default::default() };
+    let base = InterleavedOptions { photons: 256, ..no_visibility() };
     let configs = [
         ("brute force", InterleavedOptions { pattern: Pattern::ONE, blur: None, ..base }),
         ("4x4 full", base),
@@ -126,7 +132,7 @@ fn assert_matches_mirror(name: &str, c: &LinearImage, g: &LinearImage) {
 #[test]
 fn depth_of_field_and_motion_match_the_mirror_pass_for_pass() {
     let mut r = renderer();
-    let base = InterleavedOptions { photons: 128, ..Default::default() };
+    let base = InterleavedOptions { photons: 128, ..no_visibility() };
     let mut lens = cornell();
     lens.camera.aperture_radius = 0.08;
     lens.camera.focus_distance = 3.0;
@@ -160,7 +166,7 @@ fn depth_of_field_and_motion_match_the_mirror_pass_for_pass() {
 fn one_and_two_pass_splits_render_the_same_image() {
     let scene = cornell();
     let mut r = renderer();
-    let base = InterleavedOptions { photons: 128, pattern: Pattern { n: 4, m: 2 }, ..Default::default() };
+    let base = InterleavedOptions { photons: 128, pattern: Pattern { n: 4, m: 2 }, ..no_visibility() };
     let one = gpu(&mut r, &scene, InterleavedOptions { split: Split::OnePass, ..base });
     for block in [(1, 1), (2, 3), (5, 4)] {
         let two = gpu(&mut r, &scene, InterleavedOptions { split: Split::TwoPass, block, ..base });
@@ -203,7 +209,7 @@ fn hardware_filtered_pairs_match_the_shader_lerp() {
         return;
     }
     let blur = Some(Blur { radius: 4, bilinear: true, edges: Edges::Texel });
-    let base = InterleavedOptions { photons: 128, blur, ..Default::default() };
+    let base = InterleavedOptions { photons: 128, blur, ..no_visibility() };
     let pairs = gpu(&mut r, &scene, base);
     let sampled = gpu(&mut r, &scene, InterleavedOptions { bilinear_sampler: true, ..base });
     let largest = pairs.pixels.iter().flat_map(|p| p[..3].iter().copied()).fold(0.0f32, f32::max);
@@ -221,22 +227,23 @@ fn hardware_filtered_pairs_match_the_shader_lerp() {
     assert!(worst <= bound, "{worst} > {bound}");
     // Without pairs there is nothing for the sampler to fetch.
     let mut s = RenderSettings::new(W, H, 1, 1);
-    s.interleaved = InterleavedOptions { bilinear_sampler: true, ..Default::default() };
+    s.interleaved = InterleavedOptions { bilinear_sampler: true, ..no_visibility() };
     let Err(e) = r.render(&scene, Technique::INTERLEAVED, &s) else { panic!("rendered") };
     let e = e.to_string();
     assert!(e.contains("bilinear pairs"), "{e}");
 }
 
-/// VPL shadow maps (the paper's SSM, `vpl_maps`): with them the image comes close to the mirror with
+/// VPL shadow maps (the paper's SSM, `vpl_maps`, the default): with them the image comes close to the mirror with
 /// exact shadow rays to the VPLs, much closer than without visibility (SNSM) — the maps do occlude —
 /// and the rest is the maps' resolution and bias.
 #[test]
 fn vpl_shadow_maps_approach_exact_visibility() {
     let scene = cornell();
     let mut r = renderer();
-    let base = InterleavedOptions { photons: 128, ..Default::default() };
+    let base = InterleavedOptions { photons: 128, ..no_visibility() };
     let exact = cpu_frame(&scene, &base, 1, true);
-    let maps = gpu(&mut r, &scene, InterleavedOptions { vpl_maps: Some(32), ..base });
+    // The default options: VPL shadow maps of 32² a face.
+    let maps = gpu(&mut r, &scene, InterleavedOptions { photons: 128, ..Default::default() });
     let none = gpu(&mut r, &scene, base);
     let (m_maps, m_none) = (
         shutter::metrics::compare(&exact, &maps).unwrap(),

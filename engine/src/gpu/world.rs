@@ -205,6 +205,36 @@ impl GpuWorld {
         push: impl Fn(usize) -> P,
         object_set: impl Fn(usize) -> Option<vk::DescriptorSet>,
     ) {
+        let once = |_| (1, 0);
+        self.record_object_draws_instanced(
+            d,
+            cmd,
+            view,
+            (pipeline, layout),
+            stages,
+            include,
+            push,
+            object_set,
+            once,
+        )
+    }
+
+    /// [`GpuWorld::record_object_draws`] with `instances(i) = (count, first)` instances of object `i`'s
+    /// draw (`gl_InstanceIndex` first..first + count): one draw per object for work that repeats over
+    /// many views, such as the faces of many shadow maps, where llvmpipe's cost per draw would dominate.
+    #[allow(clippy::too_many_arguments)]
+    pub fn record_object_draws_instanced<P: bytemuck::Pod>(
+        &self,
+        d: &Device,
+        cmd: vk::CommandBuffer,
+        view: &GpuView,
+        (pipeline, layout): (&Pipeline, &PipelineLayout),
+        stages: vk::ShaderStageFlags,
+        include: impl Fn(usize) -> bool,
+        push: impl Fn(usize) -> P,
+        object_set: impl Fn(usize) -> Option<vk::DescriptorSet>,
+        instances: impl Fn(usize) -> (u32, u32),
+    ) {
         let bind = vk::PipelineBindPoint::GRAPHICS;
         unsafe {
             d.raw.cmd_bind_descriptor_sets(
@@ -229,7 +259,8 @@ impl GpuWorld {
                 d.raw.cmd_bind_descriptor_sets(cmd, bind, layout.raw, layout::OBJECT_SET_INDEX, &sets, &[]);
                 d.raw.cmd_bind_vertex_buffers(cmd, 0, &[o.vertices.raw], &[0]);
                 d.raw.cmd_bind_index_buffer(cmd, o.indices.raw, 0, vk::IndexType::UINT32);
-                d.raw.cmd_draw_indexed(cmd, o.index_count, 1, 0, 0, 0);
+                let (count, first) = instances(i);
+                d.raw.cmd_draw_indexed(cmd, o.index_count, count, 0, 0, first);
             }
         }
     }

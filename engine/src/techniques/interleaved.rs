@@ -10,8 +10,9 @@
 //!    split in one pass or two (block split, block translation: `permute.comp`; the pattern 1×1
 //!    splits into itself and skips it, and the gather);
 //! 3. `interleaved shade`: each split texel gathers its sub-buffer's VPL subset, scaled by `n·m`,
-//!    without VPL visibility (the paper's SNSM) or, with [`InterleavedOptions::vpl_maps`], through a
-//!    cube shadow map per VPL (its SSM: `interleaved VPL shadow maps` renders them first);
+//!    through a cube shadow map per VPL ([`InterleavedOptions::vpl_maps`], the paper's SSM and the
+//!    default: `interleaved VPL shadow maps` renders them first, one instanced draw per object over
+//!    the faces its bounds reach) or, with `vpl_maps: None`, without VPL visibility (its SNSM);
 //! 4. `interleaved gather`: the inverse permutation(s);
 //! 5. `interleaved discontinuity` and 6. `interleaved blur` (both directions) unless the filter is off;
 //! 7. `interleaved compose`: direct + albedo × filtered indirect, added to the frame with the pass'
@@ -99,8 +100,10 @@ pub struct InterleavedOptions {
     /// over an image, the paper's trick) rather than two loads lerped in the shader.
     pub bilinear_sampler: bool,
     pub discontinuity: Discontinuity,
-    /// The VPLs' visibility: `None`, none (the paper's SNSM); `Some(size)`, a cube shadow map per VPL
-    /// of `size`² texels per face (its SSM).
+    /// The VPLs' visibility: `Some(size)`, a cube shadow map per VPL of `size`² texels per face (the
+    /// paper's SSM; the default, 32²); `None`, none (its SNSM: every VPL lights every surface facing
+    /// it, hidden or not, which leaves FLIP 0.11 on `cornell` whatever the other options, twice the
+    /// maps' error).
     pub vpl_maps: Option<u32>,
 }
 
@@ -119,13 +122,13 @@ impl Default for InterleavedOptions {
             blur: Some(Blur { radius: 4, bilinear: false, edges: Edges::Texel }),
             bilinear_sampler: false,
             discontinuity: Discontinuity::default(),
-            vpl_maps: None,
+            vpl_maps: Some(32),
         }
     }
 }
 
 /// Set 3 of the compute passes (`interleaved/common.glsl`).
-pub const INTERLEAVED_SET: [Binding; 13] = [
+pub const INTERLEAVED_SET: [Binding; 14] = [
     Binding { binding: 0, ty: vk::DescriptorType::STORAGE_BUFFER, block: "Texels" },
     Binding { binding: 1, ty: vk::DescriptorType::STORAGE_BUFFER, block: "Vpls" },
     Binding { binding: 2, ty: vk::DescriptorType::STORAGE_BUFFER, block: "Flags" },
@@ -139,6 +142,7 @@ pub const INTERLEAVED_SET: [Binding; 13] = [
     Binding { binding: 10, ty: vk::DescriptorType::COMBINED_IMAGE_SAMPLER, block: "blur_x_source" },
     Binding { binding: 11, ty: vk::DescriptorType::COMBINED_IMAGE_SAMPLER, block: "blur_y_source" },
     Binding { binding: 12, ty: vk::DescriptorType::STORAGE_IMAGE, block: "blur_mid" },
+    Binding { binding: 13, ty: vk::DescriptorType::STORAGE_BUFFER, block: "VplFaceLists" },
 ];
 
 /// Push constants of the compute passes (`Push` in `interleaved/common.glsl`).
@@ -176,18 +180,23 @@ pub struct InterleavedPush {
     pub weight: f32,
 }
 
-/// Push constants of `vpl_shadow.vert` and `.frag`.
+/// Push constants of `vpl_shadow.vert` and `.frag`: one object's draw of every face of the pass' set.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
 pub struct VplShadowPush {
-    /// Camera space → the face's clip space.
-    pub face: [[f32; 4]; 4],
-    /// The VPL's position; w: the maps' far distance.
-    pub vpl: [f32; 4],
     pub object: u32,
+    /// The object's key segment holding the pass' time, and the time within it.
     pub segment: u32,
     pub segment_time: f32,
+    /// The set's first face in `VplFaces`: 6 × its first VPL.
+    pub first_face: u32,
+    pub atlas_cols: u32,
+    pub face_size: u32,
+    /// The maps' far distance.
+    pub far: f32,
     pub pad: u32,
+    /// The atlas' size in texels.
+    pub atlas_size: [f32; 2],
 }
 
 /// A VPL as `Vpls` holds it.
@@ -236,7 +245,11 @@ pub const INTERLEAVED_STRUCTS: &[SharedStruct] = &[
             weight
         ]
     ),
-    shared_struct!("Push", VplShadowPush, [face, vpl, object, segment, segment_time, pad]),
+    shared_struct!(
+        "Push",
+        VplShadowPush,
+        [object, segment, segment_time, first_face, atlas_cols, face_size, far, pad, atlas_size]
+    ),
     shared_struct!("Vpl", GpuVpl, [position, normal, flux]),
 ];
 
@@ -323,12 +336,13 @@ pub struct InterleavedTechnique {
     _vpls: Buffer,
     /// The VPL shadow maps (a 1×1 placeholder without them), their faces' matrices and pipeline.
     vpl_atlas: Tracked<Image>,
-    vpl_faces: Vec<[[f32; 4]; 4]>,
     _vpl_faces_buffer: Buffer,
+    _face_lists_buffer: Buffer,
+    /// Per set and object (set-major), the `(count, first)` of its faces in `VplFaceLists`: the
+    /// instances of its draw.
+    face_ranges: Vec<(u32, u32)>,
     _vpl_sampler: crate::vk::Sampler,
     vpl_shadow: Option<(Pipeline, PipelineLayout, Vec<ShaderModule>)>,
-    /// Every set's VPLs' positions (w: `far`), in `Vpls` order.
-    vpl_positions: Vec<[f32; 4]>,
     atlas_cols: u32,
     far: f32,
     /// The VPL shadow maps of a still scene are in the atlas (rendered by the first frame).
@@ -456,7 +470,8 @@ impl InterleavedTechnique {
             device,
             "interleaved set layout",
             &INTERLEAVED_SET,
-            vk::ShaderStageFlags::COMPUTE,
+            // The VPL maps' vertex stage reads the VPLs and their faces.
+            vk::ShaderStageFlags::COMPUTE | vk::ShaderStageFlags::VERTEX,
         )?;
         let compute_layout = world.pipeline_layout(
             device,
@@ -496,6 +511,35 @@ impl InterleavedTechnique {
                 }
             }
         }
+        // Per set and object, the set's faces whose frustum the object can reach at the set's time:
+        // a moving scene's maps are drawn for every pass, and drawing each object into all six faces
+        // of every VPL made the maps cost ten times the rest of the frame on `cornell-blur`.
+        let mut face_lists = Vec::new();
+        let mut face_ranges = Vec::new();
+        if face_size > 0 {
+            for (set, &(first, count)) in vpl_sets.iter().enumerate() {
+                let time = passes[set.min(passes.len() - 1)].time;
+                for (motion, object) in ctx.camera.space.objects.iter().zip(&scene.objects) {
+                    let bound = segment_bound(motion, &object.mesh.positions, time);
+                    let start = face_lists.len() as u32;
+                    for v in first..first + count {
+                        let meets = faces_meeting_sphere(vpls[v as usize].position, bound);
+                        let local = 6 * (v - first);
+                        face_lists.extend((0..6).filter(|f| meets[*f as usize]).map(|f| local + f));
+                    }
+                    face_ranges.push((face_lists.len() as u32 - start, start));
+                    if std::env::var("DBG_FACES").is_ok() && set == 0 {
+                        eprintln!(
+                            "object {} tris {} faces {} of {}",
+                            object.name,
+                            object.mesh.indices.len() / 3,
+                            face_lists.len() as u32 - start,
+                            6 * count
+                        );
+                    }
+                }
+            }
+        }
         let atlas_cols = if faces > 0 { faces.min(8192 / face_size).max(1) } else { 1 };
         let atlas_rows = faces.div_ceil(atlas_cols).max(1);
         let (atlas_w, atlas_h) = ((atlas_cols * face_size).max(1), (atlas_rows * face_size).max(1));
@@ -522,12 +566,21 @@ impl InterleavedTechnique {
             storage,
             if vpl_faces.is_empty() { &identity } else { &vpl_faces },
         )?;
+        let face_lists_buffer = Buffer::with_data(
+            device,
+            "interleaved VPL face lists",
+            storage,
+            if face_lists.is_empty() { &[0u32][..] } else { &face_lists },
+        )?;
         let vpl_sampler = crate::vk::Sampler::nearest_clamp(device, "interleaved VPL shadow maps")?;
         let vpl_shadow = if face_size > 0 {
+            // The faces' clip distances (vpl_shadow.vert) stand in for a viewport per face.
+            device.caps.require(crate::vk::Feature::ClipDistance, "interleaved vpl-maps")?;
+            let push_bytes = std::mem::size_of::<VplShadowPush>() as u32;
             let vert = ShaderModule::new(device, shaders::INTERLEAVED_VPL_SHADOW_VERT)?;
             let frag = ShaderModule::new(device, shaders::INTERLEAVED_VPL_SHADOW_FRAG)?;
             let layout =
-                world.pipeline_layout(device, &[], std::mem::size_of::<VplShadowPush>() as u32, stages)?;
+                world.pipeline_layout(device, &[&world.empty_layout, &set_layout], push_bytes, stages)?;
             let pipeline = Pipeline::graphics(
                 device,
                 &layout,
@@ -572,6 +625,7 @@ impl InterleavedTechnique {
                 DescriptorWrite::SampledImage { binding: 10, view: blur_in.view, sampler: blur_sampler.raw },
                 DescriptorWrite::SampledImage { binding: 11, view: blur_mid.view, sampler: blur_sampler.raw },
                 DescriptorWrite::StorageImage { binding: 12, view: blur_mid.view },
+                DescriptorWrite::storage_buffer(13, &face_lists_buffer),
             ],
         );
         let module = |src| ShaderModule::new(device, src);
@@ -635,11 +689,11 @@ impl InterleavedTechnique {
             _blur_sampler: blur_sampler,
             _vpls: vpl_buffer,
             vpl_atlas,
-            vpl_faces,
             _vpl_faces_buffer: vpl_faces_buffer,
+            _face_lists_buffer: face_lists_buffer,
+            face_ranges,
             _vpl_sampler: vpl_sampler,
             vpl_shadow,
-            vpl_positions: vpls.iter().map(|v| [v.position.x, v.position.y, v.position.z, far]).collect(),
             atlas_cols,
             far,
             maps_rendered: false,
@@ -843,34 +897,56 @@ impl InterleavedTechnique {
         let Some((pipeline, layout, _)) = self.vpl_shadow.as_ref() else { return };
         let inputs = *inputs;
         let size = self.options.vpl_maps.unwrap_or(1);
+        let atlas_size = [self.vpl_atlas.desc.width as f32, self.vpl_atlas.desc.height as f32];
         g.pass("interleaved VPL shadow maps").depth(atlas, Load::Clear(1.0), Store::Store).record(
             move |ctx| {
                 let (d, cmd) = (ctx.device, ctx.cmd);
                 let stages = vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT;
-                unsafe { d.raw.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, pipeline.raw) };
-                let (first, count) = self.vpl_set(ctx.iteration);
+                let (first, _) = self.vpl_set(ctx.iteration);
                 let time = self.passes[(ctx.iteration as usize).min(self.passes.len() - 1)].time;
-                let faces = 6 * first as usize..6 * (first + count) as usize;
-                for (face, matrix) in self.vpl_faces[faces.clone()].iter().enumerate() {
-                    let (col, row) = (face as u32 % self.atlas_cols, face as u32 / self.atlas_cols);
-                    crate::vk::set_viewport(d, cmd, crate::vk::atlas_square(col * size, row * size, size));
-                    let vpl = self.vpl_positions[faces.start / 6 + face / 6];
-                    let push = |i: usize| {
-                        let (segment, segment_time) = inputs.camera.segment_at(i, time);
-                        VplShadowPush { face: *matrix, vpl, object: i as u32, segment, segment_time, pad: 0 }
-                    };
-                    inputs.world.record_object_draws(
-                        d,
+                // SAFETY: the pass records inside the graph's rendering scope of `atlas`; the pipeline,
+                // its layout and the set live as long as the technique, which outlives the frame.
+                unsafe {
+                    d.raw.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, pipeline.raw);
+                    d.raw.cmd_bind_descriptor_sets(
                         cmd,
-                        inputs.camera,
-                        pipeline,
-                        layout,
-                        stages,
-                        |_| true,
-                        push,
-                        |_| None,
+                        vk::PipelineBindPoint::GRAPHICS,
+                        layout.raw,
+                        3,
+                        &[self.compute.set],
+                        &[],
                     );
                 }
+                // The graph's viewport spans the whole atlas: the vertex stage places each face in its
+                // square.
+                let push = |i: usize| {
+                    let (segment, segment_time) = inputs.camera.segment_at(i, time);
+                    VplShadowPush {
+                        object: i as u32,
+                        segment,
+                        segment_time,
+                        first_face: 6 * first,
+                        atlas_cols: self.atlas_cols,
+                        face_size: size,
+                        far: self.far,
+                        pad: 0,
+                        atlas_size,
+                    }
+                };
+                let set = (ctx.iteration as usize).min(self.vpl_sets.len() - 1);
+                let objects = inputs.world.objects.len();
+                let ranges = &self.face_ranges[set * objects..(set + 1) * objects];
+                inputs.world.record_object_draws_instanced(
+                    d,
+                    cmd,
+                    inputs.camera,
+                    (pipeline, layout),
+                    stages,
+                    |i| ranges[i].0 > 0,
+                    push,
+                    |_| None,
+                    |i| ranges[i],
+                );
                 Ok(())
             },
         );
@@ -1103,3 +1179,91 @@ pub const SHADER_INTERFACES: &[crate::gpu::layout::ShaderInterface] = &[
         Some(INTERLEAVED_STRUCTS[0]),
     ),
 ];
+
+/// A sphere holding every position of an object's vertices `positions` (object space) within the key
+/// segment of `motion` that holds shutter time `t`: positions move linearly within a segment, so the
+/// sphere around both of its keys' positions holds them at every time between.
+fn segment_bound(motion: &crate::scene::ObjectMotion, positions: &[glam::Vec3], t: f32) -> (glam::Vec3, f32) {
+    let (j, _) = motion.keys.locate(t);
+    let keys = [motion.model_view[j], motion.model_view[(j + 1).min(motion.model_view.len() - 1)]];
+    let points = || positions.iter().flat_map(|&p| keys.iter().map(move |m| m.transform_point3(p)));
+    let (lo, hi) = points()
+        .fold((glam::Vec3::splat(f32::MAX), glam::Vec3::splat(f32::MIN)), |(lo, hi), p| {
+            (lo.min(p), hi.max(p))
+        });
+    if lo.x > hi.x {
+        return (glam::Vec3::ZERO, -1.0);
+    }
+    let centre = 0.5 * (lo + hi);
+    let radius = points().map(|p| p.distance(centre)).fold(0.0f32, f32::max);
+    (centre, radius)
+}
+
+/// Which of a VPL's six 90° cube faces (+x, −x, +y, −y, +z, −z, the order of `VplFaces`) a sphere
+/// can reach: face `a` holds the points `d` (from the VPL) with `d·a ≥ |d·b|` for both other axes `b`,
+/// four half-spaces through the VPL with normals `(a ± b)/√2`. A sphere meets the face only if its
+/// centre lies within its radius of each half-space. Conservative (a sphere near a frustum's edge
+/// outside it is kept), never dropping a face the sphere reaches; the radius is widened by a relative
+/// 1e-4 so that rounding cannot drop one either. A negative radius (an empty object) meets none.
+fn faces_meeting_sphere(vpl: glam::Vec3, (centre, radius): (glam::Vec3, f32)) -> [bool; 6] {
+    if radius < 0.0 {
+        return [false; 6];
+    }
+    let d = centre - vpl;
+    let r = radius * (1.0 + 1e-4) + 1e-6 * d.length();
+    let within = |a: f32, b: f32| (a - b.abs()) * std::f32::consts::FRAC_1_SQRT_2 >= -r;
+    let axis = |f: usize| {
+        let (i, sign) = (f / 2, if f.is_multiple_of(2) { 1.0 } else { -1.0 });
+        let a = sign * d[i];
+        let (b, c) = (d[(i + 1) % 3], d[(i + 2) % 3]);
+        within(a, b) && within(a, c)
+    };
+    std::array::from_fn(axis)
+}
+
+#[cfg(test)]
+mod face_culling_tests {
+    use super::faces_meeting_sphere;
+    use glam::Vec3;
+    use proptest::prelude::*;
+
+    /// The face a direction falls in, as `vpl_shadow.vert`'s clip distances decide (`|x|, |y| ≤ w`
+    /// of the face's projection): the largest component's axis and sign.
+    fn faces_of(d: Vec3) -> Vec<usize> {
+        (0..6)
+            .filter(|&f: &usize| {
+                let (i, sign) = (f / 2, if f.is_multiple_of(2) { 1.0 } else { -1.0 });
+                let a = sign * d[i];
+                a >= d[(i + 1) % 3].abs() && a >= d[(i + 2) % 3].abs()
+            })
+            .collect()
+    }
+
+    proptest! {
+        /// Every point of the sphere lies in a face the test keeps.
+        #[test]
+        fn no_face_a_point_of_the_sphere_reaches_is_dropped(
+            vpl in prop::array::uniform3(-3.0f32..3.0),
+            centre in prop::array::uniform3(-3.0f32..3.0),
+            radius in 0.0f32..2.0,
+            dir in prop::array::uniform3(-1.0f32..1.0),
+            along in 0.0f32..=1.0,
+        ) {
+            let (vpl, centre, dir) = (Vec3::from(vpl), Vec3::from(centre), Vec3::from(dir));
+            prop_assume!(dir.length() > 1e-3);
+            let point = centre + dir.normalize() * radius * along;
+            let kept = faces_meeting_sphere(vpl, (centre, radius));
+            for f in faces_of(point - vpl) {
+                prop_assert!(kept[f], "face {f} of a point of the sphere dropped: {kept:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn a_small_sphere_far_along_an_axis_meets_one_face_and_one_around_the_vpl_all() {
+        let kept = faces_meeting_sphere(Vec3::ZERO, (Vec3::new(0.0, 0.0, -5.0), 0.5));
+        assert_eq!(kept, [false, false, false, false, false, true]);
+        assert_eq!(faces_meeting_sphere(Vec3::ZERO, (Vec3::new(0.1, 0.0, 0.0), 0.5)), [true; 6]);
+        assert_eq!(faces_meeting_sphere(Vec3::ZERO, (Vec3::ZERO, -1.0)), [false; 6]);
+    }
+}

@@ -97,6 +97,8 @@ pub struct Capabilities {
     /// MSAA sample counts usable for colour *and* depth attachments.
     pub framebuffer_sample_counts: Vec<u32>,
     pub geometry_shader: bool,
+    /// `shaderClipDistance`: user clip planes (`gl_ClipDistance`).
+    pub clip_distance: bool,
     pub sample_rate_shading: bool,
     /// `independentBlend`: colour attachments of one pipeline blended (or write-masked) differently.
     pub independent_blend: bool,
@@ -136,6 +138,7 @@ pub struct Capabilities {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Feature {
     GeometryShader,
+    ClipDistance,
     SampleRateShading,
     IndependentBlend,
     FragmentStoresAndAtomics,
@@ -154,6 +157,7 @@ impl Feature {
     pub fn vulkan_name(&self) -> String {
         match self {
             Feature::GeometryShader => "geometryShader".into(),
+            Feature::ClipDistance => "shaderClipDistance".into(),
             Feature::SampleRateShading => "sampleRateShading".into(),
             Feature::IndependentBlend => "independentBlend".into(),
             Feature::FragmentStoresAndAtomics => "fragmentStoresAndAtomics".into(),
@@ -180,6 +184,7 @@ impl Capabilities {
     pub fn has(&self, feature: Feature) -> bool {
         match feature {
             Feature::GeometryShader => self.geometry_shader,
+            Feature::ClipDistance => self.clip_distance,
             Feature::SampleRateShading => self.sample_rate_shading,
             Feature::IndependentBlend => self.independent_blend,
             Feature::FragmentStoresAndAtomics => self.fragment_stores_and_atomics,
@@ -228,6 +233,7 @@ impl std::fmt::Display for Capabilities {
         writeln!(f, "api version       {}", self.api_version)?;
         writeln!(f, "MSAA counts       {:?}", self.framebuffer_sample_counts)?;
         writeln!(f, "geometry shader   {}", self.geometry_shader)?;
+        writeln!(f, "clip distance     {}", self.clip_distance)?;
         writeln!(
             f,
             "  GS output       {} vertices, {} components",
@@ -514,6 +520,7 @@ impl DeviceShared {
             ),
             framebuffer_sample_counts,
             geometry_shader: supported.geometry_shader == vk::TRUE,
+            clip_distance: supported.shader_clip_distance == vk::TRUE,
             sample_rate_shading: supported.sample_rate_shading == vk::TRUE,
             independent_blend: supported.independent_blend == vk::TRUE,
             fragment_stores_and_atomics: supported.fragment_stores_and_atomics == vk::TRUE,
@@ -544,6 +551,7 @@ impl DeviceShared {
         // Enable what later techniques use, where present; techniques check `caps` before relying on it.
         let features = vk::PhysicalDeviceFeatures::default()
             .geometry_shader(caps.geometry_shader)
+            .shader_clip_distance(caps.clip_distance)
             .sample_rate_shading(caps.sample_rate_shading)
             .independent_blend(caps.independent_blend)
             .fragment_stores_and_atomics(caps.fragment_stores_and_atomics)
