@@ -13,19 +13,19 @@ out=docs/quality/interleaved
 mkdir -p "$out"
 v=vpls=558
 configs=(
-  -c "interleaved:$v:pattern=1x1:filter=none"
-  -c "interleaved:$v:pattern=8x6"
-  -c "interleaved:$v:pattern=8x6:filter=none"
-  -c "interleaved:$v:pattern=8x6:filter=plain"
-  -c "interleaved:$v:pattern=8x6:filter=axis"
-  -c "interleaved:$v:pattern=8x6:bilinear=true"
-  -c "interleaved:$v:pattern=8x6:split=one"
-  -c "interleaved:$v:pattern=8x6:block=1x1"
-  -c "interleaved:$v:pattern=8x6:block=2x2"
-  -c "interleaved:$v:pattern=8x6:block=8x8"
-  -c "interleaved:$v:pattern=2x2"
-  -c "interleaved:$v:pattern=4x4"
-  -c "interleaved:$v:pattern=8x8"
+  -c "interleaved:$v:pattern=1x1:filter=none:vpl-maps=off"
+  -c "interleaved:$v:pattern=8x6:vpl-maps=off"
+  -c "interleaved:$v:pattern=8x6:filter=none:vpl-maps=off"
+  -c "interleaved:$v:pattern=8x6:filter=plain:vpl-maps=off"
+  -c "interleaved:$v:pattern=8x6:filter=axis:vpl-maps=off"
+  -c "interleaved:$v:pattern=8x6:bilinear=true:vpl-maps=off"
+  -c "interleaved:$v:pattern=8x6:split=one:vpl-maps=off"
+  -c "interleaved:$v:pattern=8x6:block=1x1:vpl-maps=off"
+  -c "interleaved:$v:pattern=8x6:block=2x2:vpl-maps=off"
+  -c "interleaved:$v:pattern=8x6:block=8x8:vpl-maps=off"
+  -c "interleaved:$v:pattern=2x2:vpl-maps=off"
+  -c "interleaved:$v:pattern=4x4:vpl-maps=off"
+  -c "interleaved:$v:pattern=8x8:vpl-maps=off"
   -c "interleaved:$v:pattern=1x1:filter=none:vpl-maps=32"
   -c "interleaved:$v:pattern=8x6:vpl-maps=32"
   -c "interleaved:$v:pattern=8x6:vpl-maps=16"
@@ -34,14 +34,14 @@ $S bench cornell --size 640x480 --frames 3 --warmup 1 --no-counters "${configs[@
   --csv "$out/bench-cornell-640.csv" > "$out/bench-cornell-640.md"
 cat "$out/bench-cornell-640.md"
 # The textured interior: the brute force against three patterns.
-$S bench interior --size 640x480 --frames 3 --warmup 1 --no-counters -c "interleaved:$v:pattern=1x1:filter=none" \
-  -c "interleaved:$v:pattern=4x4" -c "interleaved:$v:pattern=8x6" -c "interleaved:$v:pattern=8x8" \
+$S bench interior --size 640x480 --frames 3 --warmup 1 --no-counters -c "interleaved:$v:pattern=1x1:filter=none:vpl-maps=off" \
+  -c "interleaved:$v:pattern=4x4:vpl-maps=off" -c "interleaved:$v:pattern=8x6:vpl-maps=off" -c "interleaved:$v:pattern=8x8:vpl-maps=off" \
   --csv "$out/bench-interior-640.csv" > "$out/bench-interior-640.md"
 cat "$out/bench-interior-640.md"
 # The blur's bilinear pairs lerped in the shader (bilinear=true) against fetched by the hardware's
 # linear filter from an image (bilinear=sampler, the paper's trick, with the copy into the image),
 # and the plain kernel, at 8x6.
-$S bench cornell --size 640x480 --frames 3 --warmup 1 --no-counters -c "interleaved:$v:pattern=8x6" \
-  -c "interleaved:$v:pattern=8x6:bilinear=true" -c "interleaved:$v:pattern=8x6:bilinear=sampler" \
+$S bench cornell --size 640x480 --frames 3 --warmup 1 --no-counters -c "interleaved:$v:pattern=8x6:vpl-maps=off" \
+  -c "interleaved:$v:pattern=8x6:bilinear=true:vpl-maps=off" -c "interleaved:$v:pattern=8x6:bilinear=sampler:vpl-maps=off" \
   --csv "$out/bench-blur-640.csv" > "$out/bench-blur-640.md"
 cat "$out/bench-blur-640.md"

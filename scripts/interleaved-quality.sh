@@ -54,15 +54,15 @@ rm -f "$out/quality-cornell.csv"
 $S quality cornell --size 160x120 --reference-spp 1024 --cache out/cache --frames 1 --warmup 1 \
   -s "interleaved:pattern=1x1:filter=none:vpl-maps=32@1" -s "interleaved:pattern=2x2:vpl-maps=32@1" \
   -s "interleaved:pattern=4x4:vpl-maps=32@1" -s "interleaved:pattern=8x6:vpl-maps=32@1" \
-  -s "interleaved:pattern=8x8:vpl-maps=32@1" -s "interleaved:pattern=1x1:filter=none@1" \
-  -s "interleaved:pattern=4x4@1" -s "interleaved:pattern=4x4:vpls=4096:vpl-maps=16@1" \
+  -s "interleaved:pattern=8x8:vpl-maps=32@1" -s "interleaved:pattern=1x1:filter=none:vpl-maps=off@1" \
+  -s "interleaved:pattern=4x4:vpl-maps=off@1" -s "interleaved:pattern=4x4:vpls=4096:vpl-maps=16@1" \
   --out "$out/quality-cornell"
 # Depth of field and motion (scenes/cornell-blur.toml): `spp` accumulated interleaved passes (one
 # G-buffer and, the scene moving, one VPL set per pass) against the bounce-ray reference at 1024 spp —
 # error against GPU ms as the passes grow, the brute force, 4x4 and 8x6, without and with VPL maps.
 rm -f "$out/quality-cornell-blur.csv"
 $S quality scenes/cornell-blur.toml --size 160x120 --reference-spp 1024 --cache out/cache --frames 1 --warmup 1 \
-  -s "interleaved:pattern=1x1:filter=none@1,4,16" -s "interleaved:pattern=4x4@1,4,16,64" \
-  -s "interleaved:pattern=8x6@4,16,64" -s "interleaved:pattern=4x4:vpl-maps=16@4,16" \
+  -s "interleaved:pattern=1x1:filter=none:vpl-maps=off@1,4,16" -s "interleaved:pattern=4x4:vpl-maps=off@1,4,16,64" \
+  -s "interleaved:pattern=8x6:vpl-maps=off@4,16,64" -s "interleaved:pattern=4x4:vpl-maps=16@4,16" \
   -s "interleaved:pattern=1x1:filter=none:vpl-maps=16@4" \
   --out "$out/quality-cornell-blur"

@@ -149,7 +149,8 @@ enum Command {
         /// `interleaved` vpls=N (photons), clamp=D, pattern=NxM, split=one|two, block=BxB (patterns),
         /// filter=none|plain|full|axis, radius=R, bilinear=true|false|sampler (sampler: the pairs
         /// fetched by the hardware's linear filter), vpl-maps=SIZE|off (a cube
-        /// shadow map per VPL, SIZE² texels a face; off: no VPL visibility) (docs/INTERLEAVED.md).
+        /// shadow map per VPL, SIZE² texels a face, 32 by default; off: no VPL visibility)
+        /// (docs/INTERLEAVED.md).
         #[arg(long = "set", value_name = "KEY=VALUE")]
         set: Vec<String>,
         #[command(flatten)]
