@@ -16,7 +16,7 @@ use anyhow::{bail, Context, Result};
 use serde::{Deserialize, Serialize};
 use shutter::progress::{check_interrupt, Progress};
 use shutter::scene::Scene;
-use shutter::techniques::{RenderSettings, Renderer, SampleCounters, StochasticOptions, Technique};
+use shutter::techniques::{RenderSettings, Renderer, SampleCounters, Technique};
 
 /// One configuration: `technique[:key=value...]` with keys spp, shadow-map, transparency, bound, shading, per-pass,
 /// intervals, clusters, hull; unset keys
@@ -33,70 +33,9 @@ impl Config {
         let mut parts = spec.split(':');
         let technique: Technique = parts.next().unwrap_or_default().trim().parse()?;
         let mut settings = *defaults;
-        for kv in parts {
-            let (k, v) =
-                kv.split_once('=').with_context(|| format!("`{kv}` in `{spec}` is not key=value"))?;
-            apply_option(&mut settings, k.trim(), v.trim()).with_context(|| format!("in `{spec}`"))?;
-        }
+        settings.set_all(parts).with_context(|| format!("in `{spec}`"))?;
         Ok(Config { label: spec.to_string(), technique, settings })
     }
-}
-
-/// Sets one `key=value` of a configuration.
-pub fn apply_option(s: &mut RenderSettings, key: &str, value: &str) -> Result<()> {
-    let o: &mut StochasticOptions = &mut s.stochastic;
-    match key {
-        "spp" => s.spp = value.parse().with_context(|| format!("spp `{value}`"))?,
-        "shadow-map" => s.shadows = value.parse()?,
-        "bound" => o.bound = value.parse()?,
-        "shading" => o.shading = value.parse()?,
-        "per-pass" => o.per_pass = Some(value.parse().with_context(|| format!("per-pass `{value}`"))?),
-        "hull" => o.expansion = value.parse()?,
-        "intervals" => o.intervals = value.parse()?,
-        "clusters" => o.clusters = value.parse()?,
-        "cache" => o.cache_entries = value.parse().with_context(|| format!("cache `{value}`"))?,
-        "transparency" => s.transparency = value.parse()?,
-        // Technique `interleaved`.
-        "vpls" => s.interleaved.photons = value.parse().with_context(|| format!("vpls `{value}`"))?,
-        "clamp" => s.interleaved.clamp = value.parse().with_context(|| format!("clamp `{value}`"))?,
-        "pattern" => s.interleaved.pattern = value.parse()?,
-        "split" => s.interleaved.split = value.parse()?,
-        "block" => {
-            let b: shutter::interleaved::Pattern = value.parse()?;
-            s.interleaved.block = (b.n, b.m);
-        }
-        "filter" => {
-            let radius = s.interleaved.blur.map_or(s.interleaved.pattern.n.max(s.interleaved.pattern.m), |b| b.radius);
-            let bilinear = s.interleaved.blur.is_some_and(|b| b.bilinear);
-            let edges = shutter::interleaved::Edges::of_filter(value)?;
-            s.interleaved.blur = edges.map(|edges| shutter::interleaved::Blur { radius, bilinear, edges });
-        }
-        "radius" => match &mut s.interleaved.blur {
-            Some(b) => b.radius = value.parse().with_context(|| format!("radius `{value}`"))?,
-            None => bail!("radius without a filter (filter=none)"),
-        },
-        "vpl-maps" => {
-            s.interleaved.vpl_maps = match value {
-                "off" => None,
-                v => Some(v.parse().with_context(|| format!("vpl-maps `{value}`: texels a face, or off"))?),
-            }
-        }
-        "bilinear" => match &mut s.interleaved.blur {
-            Some(b) => {
-                (b.bilinear, s.interleaved.bilinear_sampler) = match value {
-                    "false" => (false, false),
-                    "true" | "pairs" => (true, false),
-                    "sampler" => (true, true),
-                    _ => bail!("bilinear `{value}`: false, true (pairs lerped in the shader) or sampler (pairs fetched by the hardware's linear filter)"),
-                }
-            }
-            None => bail!("bilinear without a filter (filter=none)"),
-        },
-        _ => bail!(
-            "unknown setting `{key}` (spp, shadow-map, transparency, bound, shading, per-pass, intervals, clusters, hull, cache; interleaved: vpls, clamp, pattern, split, block, filter, radius, bilinear, vpl-maps)"
-        ),
-    }
-    Ok(())
 }
 
 #[derive(Clone, Debug, Serialize, Deserialize)]

@@ -35,7 +35,7 @@ use shutter::metrics::{compare, write_flip_diff_png};
 use shutter::quality_plan::{CostModel, QualityTarget};
 use shutter::reference::ReferenceSettings;
 use shutter::scene::builtin::BUILTIN_SCENES;
-use shutter::techniques::{RenderSettings, Renderer, ShadingRate, StochasticOptions, Technique};
+use shutter::techniques::{RenderSettings, Renderer, ShadingRate, Technique};
 
 #[derive(Parser)]
 #[command(
@@ -145,11 +145,9 @@ enum Command {
         /// and the PCF radius in texels (docs/SHADOWS.md).
         #[arg(long, default_value = "1024/4/1")]
         shadow_map: String,
-        /// Further settings as `bench -c` takes them, KEY=VALUE, repeatable: for technique
-        /// `interleaved` vpls=N (photons), clamp=D, pattern=NxM, split=one|two, block=BxB (patterns),
-        /// filter=none|plain|full|axis, radius=R, bilinear=true|false|sampler (sampler: the pairs
-        /// fetched by the hardware's linear filter), vpl-maps=SIZE|off (a cube
-        /// shadow map per VPL, SIZE² texels a face, 32 by default; off: no VPL visibility)
+        /// Further settings, KEY=VALUE, repeatable, applied after the flags above (which are keys of
+        /// the same grammar): every key `shutter techniques` lists, as `bench -c` and `quality -s`
+        /// take them; e.g. for technique `interleaved` vpls=N, pattern=NxM, vpl-maps=SIZE|off
         /// (docs/INTERLEAVED.md).
         #[arg(long = "set", value_name = "KEY=VALUE")]
         set: Vec<String>,
@@ -401,7 +399,8 @@ enum Command {
     HardCases(hard_cases::HardCasesArgs),
     /// List the built-in scenes.
     Scenes,
-    /// List the techniques (the registry, engine/src/techniques/registry.rs) with one line each.
+    /// List the techniques (the registry, engine/src/techniques/registry.rs) with one line each, and
+    /// the settings keys (engine/src/techniques/settings.rs).
     Techniques,
 }
 
@@ -726,19 +725,23 @@ fn run() -> Result<()> {
             if target.is_some() && technique != Technique::AUTO {
                 bail!("--quality and --target-flip choose the technique and S of `auto`; `{technique}` takes --spp");
             }
-            let transparency: shutter::transparency::TransparencyMethod = transparency.parse()?;
-            let shadows: shutter::shadows::ShadowSettings = shadow_map.parse()?;
-            let stochastic = StochasticOptions {
-                bound: bound.parse()?,
-                shading: shading.parse()?,
-                instrumented,
-                per_pass,
-                expansion: hull.parse()?,
-                intervals: intervals.parse()?,
-                clusters: clusters.parse()?,
-                cache_entries: cache,
-            };
             let sc = load_scene(&scene)?;
+            // The flags are settings keys like --set's (one grammar: RenderSettings::set).
+            let mut settings = RenderSettings::from_scene(&sc);
+            let flags = [
+                ("bound", bound),
+                ("shading", shading),
+                ("hull", hull),
+                ("intervals", intervals),
+                ("clusters", clusters),
+                ("cache", cache.to_string()),
+                ("transparency", transparency),
+                ("shadow-map", shadow_map),
+            ];
+            for (key, value) in flags.iter().chain(&per_pass.map(|p| ("per-pass", p.to_string()))) {
+                settings.set(key, value).with_context(|| format!("--{key}"))?;
+            }
+            settings.stochastic.instrumented = instrumented;
             if sc.environment.indirect != shutter::scene::Indirect::None
                 && technique != Technique::INTERLEAVED
             {
@@ -748,14 +751,7 @@ fn run() -> Result<()> {
                     sc.environment.indirect.name()
                 );
             }
-            let mut settings = RenderSettings::from_scene(&sc).with_stochastic(stochastic);
-            settings.transparency = transparency;
-            settings.shadows = shadows;
-            for kv in &set {
-                let (key, value) =
-                    kv.split_once('=').with_context(|| format!("--set `{kv}` is not KEY=VALUE"))?;
-                bench::apply_option(&mut settings, key.trim(), value.trim())?;
-            }
+            settings.set_all(set.iter().map(String::as_str)).context("--set")?;
             if let Some((w, h)) = size {
                 (settings.width, settings.height) = (w, h);
             }
@@ -847,9 +843,9 @@ fn run() -> Result<()> {
             {
                 outln!(
                     "  bound {}, shading {}, {} hull",
-                    stochastic.bound.name(),
-                    stochastic.shading.name(),
-                    stochastic.expansion.name()
+                    settings.stochastic.bound.name(),
+                    settings.stochastic.shading.name(),
+                    settings.stochastic.expansion.name()
                 );
                 let clustered: Vec<String> = output
                     .stats
@@ -1381,6 +1377,10 @@ fn run() -> Result<()> {
         Command::Techniques => {
             for t in shutter::techniques::registry::TECHNIQUES {
                 outln!("{:<13} {}", t.name(), t.summary());
+            }
+            outln!("\nsettings (render --set KEY=VALUE, bench -c and quality -s TECHNIQUE:KEY=VALUE:…):");
+            for k in shutter::techniques::settings::OPTION_KEYS {
+                outln!("  {:<13} {:<22} {}", k.key, k.owner, k.values);
             }
         }
     }

@@ -22,8 +22,6 @@ use shutter::reference::{render_reference_cached, ReferenceSettings};
 use shutter::scene::Scene;
 use shutter::techniques::{RenderSettings, Renderer, Technique};
 
-use crate::bench::apply_option;
-
 /// A curve: `technique[:key=value...]@S1,S2,...` (keys as in `shutter bench`).
 #[derive(Clone, Debug)]
 pub struct Series {
@@ -45,15 +43,8 @@ impl Series {
                 _ => anyhow::bail!("sample count `{s}` in `{spec}`: give whole numbers ≥ 1"),
             })
             .collect::<Result<Vec<_>>>()?;
-        let mut parts = name.split(':');
-        let technique: Technique = parts.next().unwrap_or_default().trim().parse()?;
-        let mut settings = *defaults;
-        for kv in parts {
-            let (k, v) =
-                kv.split_once('=').with_context(|| format!("`{kv}` in `{spec}` is not key=value"))?;
-            apply_option(&mut settings, k.trim(), v.trim()).with_context(|| format!("in `{spec}`"))?;
-        }
-        Ok(Series { name: name.to_string(), technique, settings, spp })
+        let config = crate::bench::Config::parse(name, defaults)?;
+        Ok(Series { name: name.to_string(), technique: config.technique, settings: config.settings, spp })
     }
 }
 
