@@ -247,6 +247,33 @@ pub struct QualityPlan {
 }
 
 impl QualityPlan {
+    /// Plans `scene` for `target` with the device's own cost model ([`CostModel::load`]: the user's
+    /// `shutter calibrate` file, else the built-in calibration of the driver) and applies the choice
+    /// to `technique` and `settings`: what `shutter render` does for `auto` without `--spp`.
+    pub fn plan_and_apply(
+        renderer: &mut Renderer,
+        scene: &Scene,
+        technique: &mut Technique,
+        settings: &mut RenderSettings,
+        target: QualityTarget,
+    ) -> Result<QualityPlan> {
+        let cost = CostModel::load(&renderer.device().caps, (settings.width, settings.height))?;
+        let plan = plan_quality(renderer, scene, settings, target, &cost)?;
+        plan.apply(technique, settings);
+        Ok(plan)
+    }
+
+    /// Sets `technique`, S and the shadow maps' size to the choice's (nothing when there was nothing
+    /// to simulate: `technique` stays `auto`, which renders the scene as `pinhole`).
+    pub fn apply(&self, technique: &mut Technique, settings: &mut RenderSettings) {
+        if self.pilot.is_some() {
+            (*technique, settings.spp) = (self.choice.technique, self.choice.spp);
+            if let Some(size) = self.choice.shadow_map {
+                settings.shadows.size = size;
+            }
+        }
+    }
+
     /// Whether the choice's prediction reaches the target at the high end of its noise estimate
     /// (false when even [`MAX_PLANNED_SPP`] samples do not, or a bias alone exceeds it).
     pub fn reaches_target(&self) -> bool {

@@ -32,7 +32,7 @@ use shutter::image_io::{
     check_image_output, check_output_file, load_image, save_image, write_file_atomically,
 };
 use shutter::metrics::{compare, write_flip_diff_png};
-use shutter::quality_plan::{CostModel, QualityTarget};
+use shutter::quality_plan::{CostModel, QualityPlan, QualityTarget};
 use shutter::reference::ReferenceSettings;
 use shutter::scene::builtin::BUILTIN_SCENES;
 use shutter::techniques::{RenderSettings, Renderer, ShadingRate, Technique};
@@ -414,77 +414,31 @@ fn quality_target(quality: Option<&str>, target_flip: Option<f32>) -> Result<Opt
     })
 }
 
-/// `shutter calibrate`'s cost model: `accumulation` and the per-object stochastic frame (`auto` at
-/// fixed S) on `scene` at S = `spp`, `frames` warm frames each; the ratio of their median GPU ms, and
-/// of their noise as the planner uses it, saved where the quality planner loads it. Returns a report
-/// and the model.
-///
-/// The planner predicts accumulation's noise at S from its pilot (S = `PILOT_SPP`, `PILOT_SUBFRAMES`
-/// seeds, each against the others' mean) scaled by `(PILOT_SPP / S)^NOISE_EXPONENT`, and the
-/// stochastic frame's as the ratio times that. So the ratio's denominator is that very prediction,
-/// measured here as the pilot measures it, and its numerator the stochastic frame's noise at S (each
-/// seed against the others' mean). Comparing the two techniques' noise at S directly, as before,
-/// gave 0.71–0.75 on `default` at 160×90 where their errors against the ground truth differ by 0.50,
-/// and the stochastic frame at its ratio met `final` at about 0.64 of the pilot's prediction: the
-/// pilot's scaling law, not the stochastic frame, is what the ratio has to carry.
-fn calibrate_cost(scene: &str, size: (u32, u32), spp: u32, frames: usize) -> Result<(String, CostModel)> {
-    use shutter::quality_plan::{measure_noise, noise_scale, PILOT_SPP, PILOT_SUBFRAMES};
+/// `shutter calibrate`'s cost model ([`shutter::calibration::measure_cost_point`]) on `scene` at
+/// `size` and S = `spp`, saved where the quality planner loads it. Returns a report.
+fn calibrate_cost(scene: &str, size: (u32, u32), spp: u32, frames: usize) -> Result<String> {
     let sc = load_scene(scene)?;
     let mut settings = RenderSettings::from_scene(&sc);
     (settings.width, settings.height, settings.spp) = (size.0, size.1, spp);
     let mut renderer = Renderer::new(create_device()?)?;
-    let acc_ms = measure_noise(&mut renderer, &sc, Technique::ACCUMULATION, &settings, frames, 2)?.ms;
-    let pilot = RenderSettings { spp: PILOT_SPP, ..settings };
-    let acc_pilot =
-        measure_noise(&mut renderer, &sc, Technique::ACCUMULATION, &pilot, 1, PILOT_SUBFRAMES)?.noise_flip;
-    let acc_noise = acc_pilot * noise_scale(PILOT_SPP, spp);
-    let stochastic = measure_noise(&mut renderer, &sc, Technique::AUTO, &settings, frames, 4)?;
-    let (st_ms, st_noise) = (stochastic.ms, stochastic.noise_flip);
     let caps = renderer.device().caps.clone();
-    let model = CostModel {
-        driver_id: caps.driver_id.clone(),
-        device_name: caps.device_name.clone(),
-        stochastic_ms_ratio: st_ms / acc_ms,
-        stochastic_flip_ratio: st_noise / acc_noise,
-        source: format!(
-            "`shutter calibrate` ({}, {}x{}, S = {spp}): accumulation {acc_ms:.1} ms, noise FLIP {acc_noise:.4} (the pilot's prediction from {acc_pilot:.4} at S = {PILOT_SPP}); stochastic {st_ms:.1} ms, {st_noise:.4}; {}",
-            sc.name,
-            size.0,
-            size.1,
-            measured_on(&caps)
-        ),
-    };
-    if !model.is_valid() {
-        bail!(
-            "cost model not saved: ratios {} (ms) and {} (noise) — measure it on a scene that blurs, e.g. `shutter calibrate default`",
-            model.stochastic_ms_ratio,
-            model.stochastic_flip_ratio
-        );
-    }
+    let point =
+        shutter::calibration::measure_cost_point(&mut renderer, &sc, &settings, frames, &measured_on(&caps))?;
+    let (ms, noise) = (point.stochastic_ms_ratio, point.stochastic_flip_ratio);
     let path = save_calibration(shutter::calibration::Calibration {
         driver: caps.driver_key.clone(),
-        cost: vec![shutter::calibration::CostPoint {
-            width: size.0,
-            height: size.1,
-            spp,
-            stochastic_ms_ratio: model.stochastic_ms_ratio,
-            stochastic_flip_ratio: model.stochastic_flip_ratio,
-            measured: model.source.clone(),
-        }],
+        cost: vec![point.clone()],
         ..Default::default()
     })?;
-    let report = format!(
-        "cost model for {} ({}): the per-object stochastic frame takes {:.2}x accumulation's GPU ms and has {:.2}x its noise at equal S; saved to {} (the quality planner's, `render --quality`)",
+    Ok(format!(
+        "cost model for {} ({}): the per-object stochastic frame takes {ms:.2}x accumulation's GPU ms and has {noise:.2}x its noise at equal S; saved to {} (the quality planner's, `render --quality`)\n{}",
         caps.driver_key,
         caps.device_name,
-        model.stochastic_ms_ratio,
-        model.stochastic_flip_ratio,
-        path.display()
-    );
-    Ok((report, model))
+        path.display(),
+        point.measured
+    ))
 }
 
-/// "llvmpipe, Mesa 25.0.7-2~bpo12+1 (LLVM 15.0.6), <CPU>, <date>": where a calibration was measured.
 fn measured_on(caps: &shutter::vk::Capabilities) -> String {
     let p = provenance::Provenance::of(caps);
     let date = std::process::Command::new("date")
@@ -775,134 +729,19 @@ fn run() -> Result<()> {
             let mut promise = None;
             if technique == Technique::AUTO && spp.is_none() {
                 let target = target.unwrap_or(QualityTarget::Good);
-                let cost = CostModel::load(&renderer.device().caps, (settings.width, settings.height))?;
-                let qp = shutter::quality_plan::plan_quality(&mut renderer, &sc, &settings, target, &cost)?;
+                let qp =
+                    QualityPlan::plan_and_apply(&mut renderer, &sc, &mut technique, &mut settings, target)?;
                 outln!("auto: {}", qp.summary());
-                if qp.pilot.is_some() {
-                    (technique, settings.spp) = (qp.choice.technique, qp.choice.spp);
-                    if let Some(size) = qp.choice.shadow_map {
-                        settings.shadows.size = size;
-                    }
-                }
                 promise = Some(qp.promise());
             }
             let output = renderer.render(&sc, technique, &settings)?;
             shutter::progress::check_interrupt()?;
             save_image(&out, &output.image)?;
-            outln!(
-                "{} {} {}x{} spp {} on {}: {} passes, MSAA {}x, GPU {:.1} ms, CPU frame {:.1} ms, upload {:.1} ms",
-                sc.name,
-                technique.name(),
-                settings.width,
-                settings.height,
-                settings.spp,
-                device_name,
-                output.stats.passes,
-                output.stats.msaa_samples,
-                output.timings.total_ms(),
-                output.stats.cpu_frame_ms,
-                output.stats.upload_ms
-            );
-            for (name, ms) in &output.timings.passes {
-                outln!("  {name:<12} {ms:>10.2} ms");
+            for line in output.report(&sc, technique, &settings, &device_name) {
+                outln!("{line}");
             }
             if let Some(p) = &promise {
                 outln!("  quality: {p}");
-            }
-            if let Some(plan) = &output.stats.plan {
-                let paths: Vec<String> =
-                    plan.objects.iter().map(|o| format!("{} {}", o.name, o.effects.name())).collect();
-                outln!("  plan: {}", paths.join(", "));
-            }
-            if let Some(method) = output.stats.transparency {
-                // The stochastic frame takes all S samples of a pixel in its pass(es); the forward
-                // path's are MSAA × passes.
-                if output.stats.msaa_samples == 1 && output.stats.passes < settings.spp {
-                    outln!(
-                        "  transparency {method}: S = {} samples per pixel (the stochastic frame's)",
-                        settings.spp
-                    );
-                } else {
-                    outln!(
-                        "  transparency {method}: S = {} samples per pixel (MSAA {}x × {} passes)",
-                        output.stats.msaa_samples * output.stats.passes,
-                        output.stats.msaa_samples,
-                        output.stats.passes
-                    );
-                }
-            }
-            if let Some(shadows) = &output.stats.shadows {
-                outln!("  shadows: {shadows}");
-            }
-            if technique == Technique::STOCHASTIC
-                || output
-                    .stats
-                    .plan
-                    .as_ref()
-                    .is_some_and(|p| p.auto_frame().0 == shutter::plan::AutoFrame::Stochastic)
-            {
-                outln!(
-                    "  bound {}, shading {}, {} hull",
-                    settings.stochastic.bound.name(),
-                    settings.stochastic.shading.name(),
-                    settings.stochastic.expansion.name()
-                );
-                let clustered: Vec<String> = output
-                    .stats
-                    .clusters
-                    .iter()
-                    .zip(&sc.objects)
-                    .filter(|(n, _)| **n > 0)
-                    .map(|(n, o)| format!("{} ({n} triangles per cluster)", o.name))
-                    .collect();
-                if !clustered.is_empty() {
-                    outln!("  cluster bounds: {}", clustered.join(", "));
-                }
-            }
-            if let Some(c) = output.stats.counters {
-                outln!(
-                    "  fragments {}, samples tested {}, hit {}, STE {:.4}, shading invocations {}",
-                    c.fragments,
-                    c.samples_tested,
-                    c.samples_hit,
-                    c.sample_test_efficiency(),
-                    c.shading_invocations
-                );
-                if let Some((shaded, gutter)) = c.atlas_texels {
-                    outln!(
-                        "  atlas texels shaded {shaded} (shade sub-pass) + {gutter} (conservative sub-pass)"
-                    );
-                }
-                if let Some(k) = c.cache {
-                    match k.memory {
-                        None => outln!(
-                            "  decoupled cache: {} lookups, {} hits, {} misses shaded, {} evictions, {} stores lost to a race",
-                            k.lookups,
-                            k.hits,
-                            k.misses(),
-                            k.evictions,
-                            k.busy
-                        ),
-                        Some(m) => {
-                            outln!(
-                                "  deferred hash table: {} lookups, {} hits, {} new shading points, {} overflows (shaded on the spot)",
-                                k.lookups,
-                                k.hits,
-                                k.misses() - k.overflows,
-                                k.overflows
-                            );
-                            outln!(
-                                "  deferred memory: {:.2} bytes per sample of a pass (G-buffer {} B + table and queue {} B, {} samples) against {} bytes per sample ({} B) for an MSAA G-buffer",
-                                m.bytes_per_sample(),
-                                m.refs_bytes,
-                                m.table_bytes,
-                                m.samples,
-                                shutter::techniques::stochastic::MSAA_GBUFFER_BYTES_PER_SAMPLE,
-                                m.msaa_gbuffer_bytes()
-                            );
-                        }
-                    }
-                }
             }
             outln!("wrote {}", out.display());
         }
@@ -1315,7 +1154,7 @@ fn run() -> Result<()> {
         Command::Calibrate { scene, size: sizes, spp, frames, warmup } => {
             for &size in &sizes {
                 match calibrate_cost(&scene, size, spp, frames.max(1)) {
-                    Ok((report, _)) => outln!("{report}\n"),
+                    Ok(report) => outln!("{report}\n"),
                     // A scene without blur measures no noise: the bound calibration below still runs.
                     Err(e) => outln!("{e:#}\n"),
                 }

@@ -28,6 +28,7 @@ pub mod multipass;
 pub mod oit;
 pub mod pinhole;
 pub mod registry;
+pub mod report;
 pub mod settings;
 pub mod shadow_maps;
 pub mod stochastic;
