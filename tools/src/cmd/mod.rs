@@ -1,0 +1,3 @@
+//! One module per subcommand that has grown past a few lines; `main.rs` parses and dispatches.
+
+pub mod render;
