@@ -28,7 +28,6 @@ use std::path::{Path, PathBuf};
 use anyhow::{bail, Context, Result};
 use clap::{Parser, Subcommand};
 
-use shutter::bounds::BoundKind;
 use shutter::image_io::{
     check_image_output, check_output_file, load_image, save_image, write_file_atomically,
 };
@@ -294,21 +293,7 @@ enum Command {
     /// stochastic frame at equal S) and which stochastic bound is cheapest (the images do not depend
     /// on it: bbox, convex-hull and adaptive benched interleaved). Both are saved to the user's
     /// calibration file, which `render`/`auto` read from then on (engine/src/calibration.rs).
-    Calibrate {
-        #[arg(default_value = "default")]
-        scene: String,
-        /// Image sizes to measure the cost model at (repeat the flag or separate by commas): the two
-        /// techniques scale differently with the pixel count, so the planner interpolates between
-        /// sizes. The bound is measured at the last.
-        #[arg(long, value_parser = parse_size, value_delimiter = ',', default_values = ["160x90", "640x360"])]
-        size: Vec<(u32, u32)>,
-        #[arg(long, default_value_t = 16)]
-        spp: u32,
-        #[arg(long, default_value_t = 3)]
-        frames: usize,
-        #[arg(long, default_value_t = 1)]
-        warmup: usize,
-    },
+    Calibrate(cmd::calibrate::CalibrateArgs),
     /// Run the hard-case matrix (scenes/hard/*.toml × every technique and shading rate against the
     /// reference, with the convergence check) and print it, or write it into docs/HARD_CASES.md
     /// (`--out`); exits 1 when a cell fails.
@@ -328,51 +313,6 @@ fn quality_target(quality: Option<&str>, target_flip: Option<f32>) -> Result<Opt
         (None, Some(f)) => Some(QualityTarget::from_flip(f)?),
         (None, None) => None,
     })
-}
-
-/// `shutter calibrate`'s cost model ([`shutter::calibration::measure_cost_point`]) on `scene` at
-/// `size` and S = `spp`, saved where the quality planner loads it. Returns a report.
-fn calibrate_cost(scene: &str, size: (u32, u32), spp: u32, frames: usize) -> Result<String> {
-    let sc = load_scene(scene)?;
-    let mut settings = RenderSettings::from_scene(&sc);
-    (settings.width, settings.height, settings.spp) = (size.0, size.1, spp);
-    let mut renderer = Renderer::new(create_device()?)?;
-    let caps = renderer.device().caps.clone();
-    let point =
-        shutter::calibration::measure_cost_point(&mut renderer, &sc, &settings, frames, &measured_on(&caps))?;
-    let (ms, noise) = (point.stochastic_ms_ratio, point.stochastic_flip_ratio);
-    let path = save_calibration(shutter::calibration::Calibration {
-        driver: caps.driver_key.clone(),
-        cost: vec![point.clone()],
-        ..Default::default()
-    })?;
-    Ok(format!(
-        "cost model for {} ({}): the per-object stochastic frame takes {ms:.2}x accumulation's GPU ms and has {noise:.2}x its noise at equal S; saved to {} (the quality planner's, `render --quality`)\n{}",
-        caps.driver_key,
-        caps.device_name,
-        path.display(),
-        point.measured
-    ))
-}
-
-fn measured_on(caps: &shutter::vk::Capabilities) -> String {
-    let p = provenance::Provenance::of(caps);
-    let date = std::process::Command::new("date")
-        .arg("+%Y-%m-%d")
-        .output()
-        .ok()
-        .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_string())
-        .unwrap_or_default();
-    format!("{}, {}, {}, commit {:.10}, {date}", p.device, p.driver_info, p.cpu, p.commit)
-}
-
-/// Adds `entry` to the user's calibration file (replacing the same driver's fields); returns the path.
-fn save_calibration(entry: shutter::calibration::Calibration) -> Result<PathBuf> {
-    let (path, mut file) = shutter::calibration::CalibrationFile::user()?;
-    let path = path.context("no cache directory for the calibration: set SHUTTER_CACHE_DIR or HOME")?;
-    file.upsert(entry);
-    file.save(&path)?;
-    Ok(path)
 }
 
 /// The registered techniques' names, with their summaries for `--help`.
@@ -978,62 +918,7 @@ fn run() -> Result<()> {
             }
         }
         Command::Probe { all, json } => probe(all, json)?,
-        Command::Calibrate { scene, size: sizes, spp, frames, warmup } => {
-            for &size in &sizes {
-                match calibrate_cost(&scene, size, spp, frames.max(1)) {
-                    Ok(report) => outln!("{report}\n"),
-                    // A scene without blur measures no noise: the bound calibration below still runs.
-                    Err(e) => outln!("{e:#}\n"),
-                }
-            }
-            let size = *sizes.last().context("no --size")?;
-            let sc = load_scene(&scene)?;
-            let mut defaults = RenderSettings::from_scene(&sc);
-            (defaults.width, defaults.height) = size;
-            defaults.spp = spp;
-            let kinds = [BoundKind::BoundingBox, BoundKind::ConvexHull, BoundKind::Adaptive];
-            let configs = kinds
-                .iter()
-                .map(|k| bench::Config::parse(&format!("stochastic:bound={}", k.name()), &defaults))
-                .collect::<Result<Vec<_>>>()?;
-            let mut renderer = Renderer::new(create_device()?)?;
-            let args = bench::BenchArgs { configs, frames: frames.max(1), warmup, counters: false };
-            let report = bench::run(&mut renderer, &sc, &args)?;
-            outln!("{}", report.markdown());
-            let ms: Vec<f64> = report.results.iter().map(|r| r.gpu_ms.median).collect();
-            let best = (0..kinds.len()).min_by(|&a, &b| ms[a].total_cmp(&ms[b])).expect("three kinds");
-            let adaptive = ms[2];
-            let caps = &renderer.device().caps;
-            outln!("fastest: `{}` ({:.2}x adaptive)", kinds[best].name(), ms[best] / adaptive);
-            let entry = shutter::calibration::Calibration {
-                driver: caps.driver_key.clone(),
-                bound: Some(kinds[best].name().to_string()),
-                bound_measured: Some(format!(
-                    "`shutter calibrate` ({scene}, {}x{}, S = {spp}, {frames} interleaved frames): {}; {}",
-                    size.0,
-                    size.1,
-                    kinds
-                        .iter()
-                        .zip(&ms)
-                        .map(|(k, m)| format!("{} {:.2}x", k.name(), m / adaptive))
-                        .collect::<Vec<_>>()
-                        .join(", "),
-                    measured_on(caps)
-                )),
-                ..Default::default()
-            };
-            let path = save_calibration(entry.clone())?;
-            let (now, why) = shutter::techniques::stochastic::device_bound(caps);
-            outln!(
-                "saved to {}; `--bound device` draws `{}` from now on ({why})",
-                path.display(),
-                now.name()
-            );
-            outln!(
-                "calibration entry for this driver (the project ships its own in engine/data/calibrations.toml):\n\n{}",
-                toml::to_string(&shutter::calibration::CalibrationFile { calibration: vec![entry] })?
-            );
-        }
+        Command::Calibrate(args) => cmd::calibrate::run(args)?,
         Command::HardCases(args) => hard_cases::run(args)?,
         Command::Scenes => {
             for s in BUILTIN_SCENES {
