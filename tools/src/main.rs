@@ -130,37 +130,7 @@ enum Command {
     Convert { input: PathBuf, output: PathBuf },
     /// Sample test efficiency and GPU ms of every stochastic bound on a scene, next to pinhole and
     /// accumulation at the same samples per pixel (markdown table on stdout).
-    Bounds {
-        #[arg(default_value = "default")]
-        scene: String,
-        /// Samples per pixel, comma-separated.
-        #[arg(long, value_delimiter = ',', default_value = "4,16")]
-        spp: Vec<u32>,
-        /// Bounds, comma-separated (default: every kind); `per-object[/SHARP/BLURRED/PX]` too.
-        #[arg(long, value_delimiter = ',')]
-        bounds: Vec<String>,
-        /// per-pixel | per-sample
-        #[arg(long, default_value = "per-pixel")]
-        shading: String,
-        /// Timed frames per configuration; the median is reported.
-        #[arg(long, default_value_t = 3)]
-        frames: usize,
-        /// Untimed frames first (lavapipe compiles shaders lazily, on the first frame: about 1 s).
-        #[arg(long, default_value_t = 1)]
-        warmup: usize,
-        /// A focus sweep: the table once per focus distance (comma-separated), the camera refocused,
-        /// with summary tables of ms and STE per focus distance (the thesis' §8 study); with --out
-        /// X.md also the plot of ms against focus distance (first --spp) as X.png and X.svg.
-        #[arg(long, value_delimiter = ',')]
-        focus: Vec<f32>,
-        /// With --focus: measure the per-object threshold of SHARP/BLURRED (e.g.
-        /// reduced-wedge/3d-hexagon) instead of the bounds table — every split of the objects by
-        /// their blur, per focus distance, and the sweep totals per threshold (first --spp only).
-        #[arg(long)]
-        per_object: Option<String>,
-        #[command(flatten)]
-        image: ImageArgs,
-    },
+    Bounds(cmd::bounds::BoundsArgs),
     /// Compare two sets of `bench --json` reports (e.g. an old and a new binary run alternately, see
     /// scripts/bench-ab.sh): per configuration, the median over runs of each run's median GPU ms and
     /// CPU frame ms, and new ÷ old; markdown on stdout.
@@ -218,67 +188,9 @@ enum Command {
     /// What accuracy costs in time: sweep series of techniques × sample counts against the cached CPU
     /// reference; CSV (resumable), log-log plot of FLIP vs GPU ms with the Pareto front (PNG, SVG),
     /// markdown table with the ms ratio at equal FLIP.
-    Quality {
-        #[arg(default_value = "default")]
-        scene: String,
-        /// A series `technique[:key=value...]@S1,S2,...` (keys: shadow-map, transparency, bound, shading, per-pass, intervals, clusters, hull); repeat for more.
-        #[arg(short = 's', long = "series", default_values_t = [
-            "accumulation@4,16,64,256".to_string(),
-            "stochastic@4,16,64".to_string(),
-            "stochastic:shading=per-sample@4,16,64".to_string(),
-            "auto@4,16,64".to_string(),
-        ])]
-        series: Vec<String>,
-        /// Reference rays per pixel.
-        #[arg(long, default_value_t = 1024)]
-        reference_spp: u32,
-        #[arg(long, default_value_t = 3)]
-        frames: usize,
-        #[arg(long, default_value_t = 1)]
-        warmup: usize,
-        /// Image size WxH.
-        #[arg(long, value_parser = parse_size, default_value = "160x90")]
-        size: (u32, u32),
-        #[arg(long)]
-        seed: Option<u64>,
-        /// Where cached references live.
-        #[arg(long, default_value = "out/cache")]
-        cache: PathBuf,
-        /// Output stem: <out>.csv, .png, .svg, .md. Default: out/quality-<scene>.
-        #[arg(long)]
-        out: Option<PathBuf>,
-        /// Also save every point's image as <out>-<series>-S<n>.png with its FLIP error map against the
-        /// reference as <out>-<series>-S<n>-flip.png, and the reference as <out>-reference.png.
-        #[arg(long)]
-        images: bool,
-        /// Two series `A,B` whose ms are compared at equal FLIP (A ÷ B); repeat for more pairs.
-        /// Default: `accumulation` against every other series, when there is an `accumulation` series.
-        #[arg(long)]
-        compare: Vec<String>,
-    },
+    Quality(cmd::quality::QualityArgs),
     /// Print the effect planner's decision per object (technique `auto`) with the numbers behind it.
-    Plan {
-        #[arg(default_value = "default")]
-        scene: String,
-        /// Image size WxH. Default: the scene's [image] size.
-        #[arg(long, value_parser = parse_size)]
-        size: Option<(u32, u32)>,
-        /// Blur (pixels, ≥ 0) below which an effect is not simulated.
-        #[arg(long, default_value_t = shutter::plan::DEFAULT_THRESHOLD_PX, value_parser = parse_threshold)]
-        threshold: f32,
-        /// Also print what `--shading texture-space` gives each object: its shading space (own uvs or
-        /// generated charts, and why), its fitted atlas and its memory, the triangles pass 1 culls, the
-        /// texels it shades and how many times each (several where the object turns within the shutter).
-        #[arg(long)]
-        atlases: bool,
-        /// Also run the quality planner for this target (draft, good, final): the pilot renders on
-        /// the GPU, then every candidate technique with its S, predicted ms and FLIP.
-        #[arg(long, conflicts_with = "target_flip")]
-        quality: Option<String>,
-        /// The quality planner for a mean FLIP target in (0, 1).
-        #[arg(long)]
-        target_flip: Option<f32>,
-    },
+    Plan(cmd::plan::PlanArgs),
     /// Print the device, driver and capabilities, and the paths Shutter takes on it.
     Probe {
         /// Every driver found (the system's ICDs and the project's `.drivers/`), each with its
@@ -643,80 +555,7 @@ fn run() -> Result<()> {
             save_image(&output, &load_image(&input)?)?;
             outln!("wrote {}", output.display());
         }
-        Command::Bounds {
-            scene,
-            spp,
-            bounds,
-            shading,
-            frames,
-            warmup,
-            focus,
-            per_object,
-            image: ImageArgs { size, seed, out },
-        } => {
-            if let Some(out) = &out {
-                // The table is markdown; the focus sweep's plot goes beside it as .png and .svg.
-                if !out.extension().is_some_and(|e| e.eq_ignore_ascii_case("md")) {
-                    anyhow::bail!(
-                        "--out {}: `bounds` writes a markdown table, give a .md path (with --focus the plot \
-                         goes beside it as .png and .svg)",
-                        out.display()
-                    );
-                }
-            }
-            let sc = load_scene(&scene)?;
-            let (width, height) = size.unwrap_or((sc.image.width, sc.image.height));
-            let bounds = if bounds.is_empty() {
-                shutter::bounds::BoundKind::ALL.iter().map(|&k| k.into()).collect()
-            } else {
-                bounds.iter().map(|b| b.parse()).collect::<shutter::Result<Vec<_>>>()?
-            };
-            // Timed configurations: per S pinhole, accumulation twice and every bound, per focus
-            // distance; the per-object sweep times at most one split per object and one more.
-            let steps = if per_object.is_some() {
-                focus.len() * (sc.objects.len() + 1)
-            } else {
-                spp.len() * (3 + bounds.len()) * focus.len().max(1)
-            };
-            let progress = shutter::progress::Progress::new("bounds", steps as u64, "configurations");
-            let args = bounds_table::BoundsTableArgs {
-                progress,
-                spp,
-                bounds,
-                shading: shading.parse()?,
-                frames: frames.max(1),
-                warmup,
-                width,
-                height,
-                seed: seed.unwrap_or(sc.image.seed),
-            };
-            if let Some(out) = &out {
-                check_output_file(out)?;
-            }
-            let mut renderer = Renderer::new(create_device()?)?;
-            let md = if let Some(pair) = per_object {
-                anyhow::ensure!(!focus.is_empty(), "--per-object needs --focus");
-                let (sharp, blurred) = pair
-                    .split_once('/')
-                    .ok_or_else(|| anyhow::anyhow!("--per-object {pair}: want SHARP/BLURRED"))?;
-                bounds_table::per_object_sweep(
-                    &mut renderer,
-                    &sc,
-                    &args,
-                    &focus,
-                    (sharp.parse()?, blurred.parse()?),
-                )?
-            } else if focus.is_empty() {
-                bounds_table::run(&mut renderer, &sc, &args)?
-            } else {
-                bounds_table::sweep(&mut renderer, &sc, &args, &focus, out.as_deref())?
-            };
-            outln!("{md}");
-            if let Some(out) = out {
-                write_file_atomically(&out, md.as_bytes())?;
-                errln!("wrote {}", out.display());
-            }
-        }
+        Command::Bounds(args) => cmd::bounds::run(args)?,
         Command::Bench {
             scene,
             configs,
@@ -793,130 +632,8 @@ fn run() -> Result<()> {
                 outln!("every configuration within {max}× of the old runs ({gate} ratio)");
             }
         }
-        Command::Quality {
-            scene,
-            series,
-            reference_spp,
-            frames,
-            warmup,
-            size,
-            seed,
-            cache,
-            out,
-            images,
-            compare,
-        } => {
-            let sc = load_scene(&scene)?;
-            let mut defaults = RenderSettings::from_scene(&sc);
-            (defaults.width, defaults.height) = size;
-            defaults.seed = seed.unwrap_or(defaults.seed);
-            let series =
-                series.iter().map(|s| quality::Series::parse(s, &defaults)).collect::<Result<Vec<_>>>()?;
-            let out = match out {
-                Some(o) => o,
-                None => {
-                    std::fs::create_dir_all("out").context("creating out/")?;
-                    PathBuf::from(format!("out/quality-{}", sc.name))
-                }
-            };
-            let compare = if compare.is_empty() {
-                let names: Vec<&str> = series.iter().map(|s| s.name.as_str()).collect();
-                match names.iter().find(|n| **n == "accumulation") {
-                    Some(acc) => {
-                        names.iter().filter(|n| *n != acc).map(|n| (acc.to_string(), n.to_string())).collect()
-                    }
-                    None => vec![],
-                }
-            } else {
-                compare
-                    .iter()
-                    .map(|c| {
-                        c.split_once(',')
-                            .map(|(a, b)| (a.trim().to_string(), b.trim().to_string()))
-                            .with_context(|| format!("--compare `{c}` is not A,B"))
-                    })
-                    .collect::<Result<Vec<_>>>()?
-            };
-            for name in compare.iter().flat_map(|(a, b)| [a, b]) {
-                if !series.iter().any(|s| &s.name == name) {
-                    let names: Vec<String> = series.iter().map(|s| format!("`{}`", s.name)).collect();
-                    anyhow::bail!(
-                        "--compare: no series `{name}`; the series are {} (a series' name is its -s without @…)",
-                        names.join(", ")
-                    );
-                }
-            }
-            let args = quality::QualityArgs {
-                series,
-                reference_spp,
-                frames: frames.max(1),
-                warmup,
-                width: size.0,
-                height: size.1,
-                seed: defaults.seed,
-                cache,
-                out: out.clone(),
-                images,
-                compare,
-            };
-            let mut renderer = Renderer::new(create_device()?)?;
-            let prov = provenance::Provenance::of(&renderer.device().caps);
-            let points = quality::run(&mut renderer, &sc, &args)?;
-            let md = quality::markdown(&sc, &args, &points, &prov);
-            outln!("{md}");
-            let md_path = out.with_extension("md");
-            write_file_atomically(&md_path, md.as_bytes())?;
-            quality::plot(&sc, &args, &points)?;
-            errln!("wrote {} and {}", md_path.display(), out.with_extension("csv").display());
-        }
-        Command::Plan { scene, size, threshold, atlases, quality, target_flip } => {
-            let sc = load_scene(&scene)?;
-            let (w, h) = size.unwrap_or((sc.image.width, sc.image.height));
-            outln!("# plan of `{}`\n", sc.name);
-            let t0 = std::time::Instant::now();
-            let plan = shutter::plan::Plan::with_threshold(&sc, w, h, threshold);
-            let ms = t0.elapsed().as_secs_f64() * 1e3;
-            outln!(
-                "{plan}\n\nplanned in {ms:.3} ms on the CPU ({} vertices)",
-                sc.objects.iter().map(|o| o.mesh.positions.len()).sum::<usize>()
-            );
-            if atlases {
-                print_atlas_plan(&sc, w, h)?;
-            }
-            if let Some(target) = quality_target(quality.as_deref(), target_flip)? {
-                let mut renderer = Renderer::new(create_device()?)?;
-                let cost = CostModel::load(&renderer.device().caps, (w, h))?;
-                let mut settings = RenderSettings::from_scene(&sc);
-                (settings.width, settings.height) = (w, h);
-                let qp = shutter::quality_plan::plan_quality(&mut renderer, &sc, &settings, target, &cost)?;
-                outln!(
-                    "
-{}",
-                    qp.summary()
-                );
-                if !qp.candidates.is_empty() {
-                    outln!(
-                        "
-| candidate | S | shadow maps | predicted GPU ms | predicted FLIP (range) | noise | bias | bias from |\n|---|---:|---:|---:|---|---:|---:|---|"
-                    );
-                    for c in &qp.candidates {
-                        outln!(
-                            "| {} | {} | {} | {:.1} | {:.4} ({:.4}–{:.4}) | {:.4} | {:.4} | {} |",
-                            c.technique,
-                            c.spp,
-                            c.shadow_map.map_or("-".to_string(), |s| format!("{s}²")),
-                            c.predicted_ms,
-                            c.predicted_flip,
-                            c.flip_low,
-                            c.flip_high,
-                            c.noise_flip,
-                            c.bias_flip,
-                            c.bias
-                        );
-                    }
-                }
-            }
-        }
+        Command::Quality(args) => cmd::quality::run(args)?,
+        Command::Plan(args) => cmd::plan::run(args)?,
         Command::Probe { all, json } => probe(all, json)?,
         Command::Calibrate(args) => cmd::calibrate::run(args)?,
         Command::HardCases(args) => hard_cases::run(args)?,

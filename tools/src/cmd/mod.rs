@@ -1,4 +1,7 @@
 //! One module per subcommand that has grown past a few lines; `main.rs` parses and dispatches.
 
+pub mod bounds;
 pub mod calibrate;
+pub mod plan;
+pub mod quality;
 pub mod render;
