@@ -1148,7 +1148,8 @@ impl InterleavedTechnique {
 }
 
 /// What `interleaved/` expects: the G-buffer fragment stage with [`ForwardPush`] (sets 0 and 1); the
-/// compute passes with set 3 [`INTERLEAVED_SET`] and [`InterleavedPush`].
+/// VPL maps' vertex stage with set 3 [`INTERLEAVED_SET`] (the VPLs, their faces and face lists) and
+/// [`VplShadowPush`]; the compute passes with set 3 and [`InterleavedPush`].
 pub const SHADER_INTERFACES: &[crate::gpu::layout::ShaderInterface] = &[
     crate::gpu::layout::ShaderInterface::technique(
         &["interleaved/gbuffer.frag"],
@@ -1159,7 +1160,7 @@ pub const SHADER_INTERFACES: &[crate::gpu::layout::ShaderInterface] = &[
     crate::gpu::layout::ShaderInterface::technique(
         &["interleaved/vpl_shadow.vert", "interleaved/vpl_shadow.frag"],
         None,
-        None,
+        Some(&INTERLEAVED_SET),
         Some(INTERLEAVED_STRUCTS[1]),
     ),
     crate::gpu::layout::ShaderInterface::technique(
