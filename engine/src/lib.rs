@@ -12,6 +12,7 @@ pub mod aas;
 pub mod bounds;
 pub mod calibration;
 pub mod decoupled;
+pub mod embed;
 pub mod error;
 pub mod geometry;
 pub mod gpu;
@@ -36,6 +37,29 @@ pub mod transparency;
 pub mod vk;
 
 pub use error::{Error, Result};
+
+/// What an engine embedding Shutter uses, in one import (`use shutter::prelude::*;`): the device
+/// it lends ([`ExternalDevice`](crate::embed::ExternalDevice)), scenes built in code
+/// ([`Scene`](crate::scene::Scene), [`Camera`](crate::scene::Camera), ...), the renderer and the
+/// frames recorded into its command buffers ([`EmbeddedScene`](crate::embed::EmbeddedScene)), and
+/// the `ash` and `glam` types they take.
+pub mod prelude {
+    pub use crate::embed::{EmbeddedScene, ExternalDevice, FrameTarget, FrameToken, Ownership};
+    pub use crate::graph::Access;
+    pub use crate::image::LinearImage;
+    pub use crate::scene::{Camera, Environment, Light, Material, Mesh, Object, Scene};
+    pub use crate::techniques::{RenderSettings, Renderer, Technique};
+    pub use crate::vk::{Device, Feature};
+    pub use crate::{Error, Result};
+    pub use ash::vk;
+    pub use glam::{Mat4, Quat, Vec3};
+}
+
+/// The `ash` Shutter is built on: an embedding engine hands Shutter handles of this very version.
+pub use ash;
+/// The math types of Shutter's scene model (`Vec3`, `Mat4`, ...), re-exported so a dependent crate
+/// builds scenes without pinning `glam` itself.
+pub use glam;
 
 #[cfg(test)]
 mod shaders_tests;
