@@ -34,7 +34,7 @@ impl ImageDesc {
 }
 
 /// A 2D image, its memory and a view of all its mips. Freed on drop — unless it is someone else's
-/// ([`Image::borrowed`]).
+/// (`Image::borrowed`).
 pub struct Image {
     pub raw: vk::Image,
     pub view: vk::ImageView,
