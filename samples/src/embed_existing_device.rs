@@ -15,10 +15,12 @@ use shutter::vk::{drivers, parse_env_flag};
 
 const VALIDATION_LAYER: &CStr = c"VK_LAYER_KHRONOS_validation";
 
-/// What the engine got: its image as it read it back, and the passes Shutter recorded.
+/// What the engine got: its image as it read it back, the passes Shutter recorded, and the driver
+/// as Shutter names it (`lavapipe-25.0`).
 pub struct EmbeddedFrame {
     pub image: LinearImage,
     pub passes: Vec<String>,
+    pub driver: String,
 }
 
 /// Renders `scene` (its `[image]` size, samples and seed) with technique `stochastic` on a device
@@ -98,12 +100,13 @@ pub fn embed_existing_device(scene: &Scene) -> Result<EmbeddedFrame> {
     let image = frame.read(d, width, height)?;
     // Every validation message on the engine's instance since Shutter's messenger exists.
     device.check_validation()?;
+    let driver = device.caps.driver_key.clone();
     drop(prepared);
     drop(renderer);
     drop(device);
     drop(frame);
     drop(engine);
-    Ok(EmbeddedFrame { image, passes })
+    Ok(EmbeddedFrame { image, passes, driver })
 }
 
 /// The engine's instance and device.
@@ -387,5 +390,102 @@ impl Drop for FrameResources {
             d.destroy_image(self.image, None);
             d.free_memory(self.image_memory, None);
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The engine's device as `ExternalDevice` claiming the given features enabled.
+    fn lent(
+        engine: &Engine,
+        features: vk::PhysicalDeviceFeatures,
+        features13: vk::PhysicalDeviceVulkan13Features<'static>,
+    ) -> ExternalDevice {
+        ExternalDevice {
+            entry: engine.entry.clone(),
+            instance: engine.instance.clone(),
+            instance_api_version: vk::API_VERSION_1_3,
+            physical_device: engine.physical,
+            device: engine.device.clone(),
+            queue: engine.queue,
+            queue_family: engine.queue_family,
+            features,
+            features12: engine.features12,
+            features13,
+            device_extensions: Vec::new(),
+            debug_utils: engine.debug_utils,
+            validation_layer: engine.validation,
+            ownership: Ownership::Borrowed,
+        }
+    }
+
+    /// What Shutter needs and the engine did not enable is refused, named; a frame in flight blocks
+    /// the next until retired; a token retires only its own frame.
+    #[test]
+    fn what_is_not_enabled_is_refused_and_frames_wait_for_retirement() {
+        std::env::set_var("SHUTTER_VALIDATION", "1");
+        let engine = Engine::new().expect("the engine's device");
+        // SAFETY (all three): the engine's handles; they claim less than was enabled, never more.
+        let e = unsafe {
+            lent(&engine, engine.features, vk::PhysicalDeviceVulkan13Features::default()).into_device()
+        }
+        .err()
+        .expect("refused")
+        .to_string();
+        assert!(e.contains("dynamicRendering") && e.contains("synchronization2"), "{e}");
+        let no_gs = vk::PhysicalDeviceFeatures { geometry_shader: vk::FALSE, ..engine.features };
+        let device =
+            unsafe { lent(&engine, no_gs, engine.features13).into_device() }.expect("enough for Shutter");
+        let scene = crate::embedding_scene().expect("scene");
+        let mut renderer = Renderer::new(device).expect("renderer");
+        let e = EmbeddedScene::prepare(
+            &mut renderer,
+            &scene,
+            Technique::STOCHASTIC,
+            &RenderSettings::from_scene(&scene),
+        )
+        .err()
+        .expect("refused")
+        .to_string();
+        assert!(e.contains("geometryShader"), "{e}");
+        drop(renderer);
+
+        let device =
+            unsafe { lent(&engine, engine.features, engine.features13).into_device() }.expect("device");
+        let mut renderer = Renderer::new(device.clone()).expect("renderer");
+        let settings = RenderSettings::from_scene(&scene);
+        let e = EmbeddedScene::prepare(&mut renderer, &scene, Technique::ACCUMULATION, &settings)
+            .err()
+            .expect("refused");
+        assert!(e.to_string().contains("embeddable: stochastic"), "{e}");
+        let mut prepared = EmbeddedScene::prepare(&mut renderer, &scene, Technique::STOCHASTIC, &settings)
+            .expect("prepared");
+        let frame = engine.frame_resources(scene.image.width, scene.image.height).expect("resources");
+        let d = &engine.device;
+        let target = FrameTarget {
+            image: frame.image,
+            format: vk::Format::R32G32B32A32_SFLOAT,
+            width: scene.image.width,
+            height: scene.image.height,
+            before: Access::Nothing,
+            after: Access::TransferRead,
+        };
+        unsafe { d.begin_command_buffer(frame.cmd, &vk::CommandBufferBeginInfo::default()).expect("begin") };
+        // SAFETY: recording, never submitted: nothing executes, so retiring at once is sound.
+        let token = unsafe { prepared.record(frame.cmd, &target) }.expect("recorded");
+        assert!(prepared.frame_in_flight());
+        let e = unsafe { prepared.record(frame.cmd, &target) }.expect_err("refused while in flight");
+        assert!(e.to_string().contains("not retired"), "{e}");
+        let wrong = FrameTarget { width: 8, ..target };
+        prepared.retire(token).expect("its own token");
+        let e = unsafe { prepared.record(frame.cmd, &wrong) }.expect_err("another size");
+        assert!(e.to_string().contains("the scene renders"), "{e}");
+        unsafe { d.end_command_buffer(frame.cmd).expect("end") };
+        device.check_validation().expect("no validation message");
+        drop(prepared);
+        drop(renderer);
+        drop(device);
     }
 }

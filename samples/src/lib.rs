@@ -110,6 +110,7 @@ mod tests {
         let own = renderer
             .render(&scene, Technique::STOCHASTIC, &RenderSettings::from_scene(&scene))
             .expect("Shutter's own render");
+        assert_eq!(embedded.driver, renderer.device().caps.driver_key, "both renders on one driver");
         assert_eq!((embedded.image.width, embedded.image.height), (own.image.width, own.image.height));
         // Unclamped RMSE over RGBA, and the largest difference.
         let (mut sum, mut max) = (0f64, 0f32);
@@ -123,7 +124,11 @@ mod tests {
         let rmse = (sum / (own.image.pixels.len() * 4) as f64).sqrt();
         let mean: f32 =
             own.image.pixels.iter().map(|p| p[0] + p[1] + p[2]).sum::<f32>() / own.image.pixels.len() as f32;
-        eprintln!("embed_existing_device vs Shutter's own render: RMSE {rmse:e}, max |difference| {max:e}, mean {mean}");
+        eprintln!(
+            "embed_existing_device vs Shutter's own render on {}: RMSE {rmse:e}, max |difference| {max:e}, \
+             mean {mean}",
+            embedded.driver
+        );
         assert!(mean > 0.05, "image is black (mean {mean})");
         assert!(rmse <= 1e-6, "RMSE {rmse:e} (max |difference| {max:e})");
     }
