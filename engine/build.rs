@@ -14,6 +14,9 @@
 //! * Errors are reported as `file:line: message` (glslang's own format) and fail the build.
 //! * `cargo:rerun-if-changed` is printed for every file read, includes included.
 
+// Linked for its build script's libraries only: what Debian's shaderc archive lacks (its docs).
+extern crate shutter_shaderc_link as _;
+
 use std::cell::RefCell;
 use std::collections::{BTreeMap, BTreeSet};
 use std::fmt::Write as _;

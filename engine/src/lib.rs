@@ -7,11 +7,65 @@
 //! Data flows one way: [`scene`] → world and views ([`gpu`]) → plan ([`plan`]) → a frame graph of
 //! passes ([`graph`], built by a technique: [`techniques`]) → image → metrics. `docs/ARCHITECTURE.md`
 //! draws it.
+//!
+//! # Embedding
+//!
+//! An engine hands Shutter its own Vulkan device, records Shutter's frames into its own command
+//! buffers and gets the result in its own image, to composite without a readback ([`embed`];
+//! `docs/EMBEDDING.md`). Everything it needs is in [`prelude`]; [`glam`] and [`ash`] are
+//! re-exported so it builds scenes and hands over handles of the very versions Shutter uses.
+//!
+//! ```no_run
+//! use shutter::prelude::*;
+//!
+//! /// One frame of the engine: `cmd` is recording, `image` is a 160 × 90 `R8G8B8A8_SRGB` image with
+//! /// `TRANSFER_DST` usage that the engine samples afterwards.
+//! fn engine_frame(engine: ExternalDevice, cmd: vk::CommandBuffer, image: vk::Image) -> shutter::Result<()> {
+//!     // SAFETY: the engine's handles are valid, what it lists as enabled was enabled, and they
+//!     // outlive every Shutter object (borrowed: Shutter destroys nothing).
+//!     let device = unsafe { ExternalDevice { ownership: Ownership::Borrowed, ..engine }.into_device()? };
+//!     let mut renderer = Renderer::new(device)?;
+//!
+//!     // A scene in code: a ball moving across a 50 mm f/2 lens' plane of focus.
+//!     let ball = std::sync::Arc::new(shutter::scene::builtin::builtin_mesh("sphere", None).expect("built-in")?);
+//!     let camera = Camera::looking_at(Vec3::new(0.0, 1.0, 6.0), Vec3::new(0.0, 0.5, 0.0)).with_lens(50.0, 2.0, 24.0);
+//!     let scene = Scene::new("embedded", camera)
+//!         .with_image(160, 90, 16, 1)
+//!         .with_object(
+//!             Object::new("ball", ball, Mat4::from_translation(Vec3::new(-0.5, 0.5, 0.0)))
+//!                 .moving_to(Mat4::from_translation(Vec3::new(0.5, 0.5, 0.0))),
+//!         )
+//!         .with_light(Light::Directional { direction: Vec3::new(-1.0, -1.0, -1.0), color: Vec3::ONE, shadows: false })
+//!         .with_shutter_angle(180.0)?;
+//!
+//!     // Uploaded once (Shutter submits the uploads to the engine's queue and waits for them).
+//!     let settings = RenderSettings::from_scene(&scene);
+//!     let mut prepared = EmbeddedScene::prepare(&mut renderer, &scene, Technique::STOCHASTIC, &settings)?;
+//!
+//!     // Recorded into the engine's command buffer, ending in the engine's image, ready to sample.
+//!     let target = FrameTarget {
+//!         image,
+//!         format: vk::Format::R8G8B8A8_SRGB,
+//!         width: 160,
+//!         height: 90,
+//!         before: Access::Nothing,
+//!         after: Access::FragmentShaderReadSampledImageOrUniformTexelBuffer,
+//!     };
+//!     // SAFETY: `cmd` is recording on the device's queue family; the engine submits it and retires
+//!     // the frame only after its fence signals; `image` lives until then.
+//!     let token = unsafe { prepared.record(cmd, &target)? };
+//!     assert!(!token.passes().iter().any(|p| p == "readback"));
+//!     // ... the engine ends `cmd`, submits it with its own work and a fence, waits for the fence ...
+//!     prepared.retire(token)?;
+//!     Ok(())
+//! }
+//! ```
 
 pub mod aas;
 pub mod bounds;
 pub mod calibration;
 pub mod decoupled;
+pub mod embed;
 pub mod error;
 pub mod geometry;
 pub mod gpu;
@@ -36,6 +90,29 @@ pub mod transparency;
 pub mod vk;
 
 pub use error::{Error, Result};
+
+/// What an engine embedding Shutter uses, in one import (`use shutter::prelude::*;`): the device
+/// it lends ([`ExternalDevice`](crate::embed::ExternalDevice)), scenes built in code
+/// ([`Scene`](crate::scene::Scene), [`Camera`](crate::scene::Camera), ...), the renderer and the
+/// frames recorded into its command buffers ([`EmbeddedScene`](crate::embed::EmbeddedScene)), and
+/// the `ash` and `glam` types they take.
+pub mod prelude {
+    pub use crate::embed::{EmbeddedScene, ExternalDevice, FrameTarget, FrameToken, Ownership};
+    pub use crate::graph::Access;
+    pub use crate::image::LinearImage;
+    pub use crate::scene::{Camera, Environment, Light, Material, Mesh, Object, Scene};
+    pub use crate::techniques::{RenderSettings, Renderer, Technique};
+    pub use crate::vk::{Device, Feature};
+    pub use crate::{Error, Result};
+    pub use ash::vk;
+    pub use glam::{Mat4, Quat, Vec3};
+}
+
+/// The `ash` Shutter is built on: an embedding engine hands Shutter handles of this very version.
+pub use ash;
+/// The math types of Shutter's scene model (`Vec3`, `Mat4`, ...), re-exported so a dependent crate
+/// builds scenes without pinning `glam` itself.
+pub use glam;
 
 #[cfg(test)]
 mod shaders_tests;

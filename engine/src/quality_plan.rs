@@ -440,7 +440,7 @@ pub struct ErrorModel {
     pub noise: Vec<f32>,
     /// Per pixel: the bias' FLIP (empty: none).
     pub bias: Vec<f32>,
-    /// How the noise falls with S: `S^-exponent` ([`Pilot::exponent`]).
+    /// How the noise falls with S: `S^-exponent` (fitted from the pilot renders, [`Pilot`]).
     pub exponent: f64,
     /// The relative half-width of the noise's range per t (one render's spread and the mean's, over
     /// the mean) and the t factor (0: exact).

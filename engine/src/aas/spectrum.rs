@@ -108,7 +108,7 @@ pub fn aperture_energy_within(shape: ApertureShape, omega: f64) -> Option<f64> {
 }
 
 /// The aperture's cutoff (module docs): the smallest frequency radius, cycles per unit lens radius,
-/// holding the share `kept` of its spectral energy, to [`FREQUENCY_STEP`]. `None` for blades (not
+/// holding the share `kept` of its spectral energy, to `FREQUENCY_STEP`. `None` for blades (not
 /// radially symmetric; AAS then treats defocus as unbounded and does not coarsen for it).
 pub fn aperture_cutoff(shape: ApertureShape, kept: f64) -> Option<f64> {
     let t = transmission(shape)?;
@@ -136,7 +136,7 @@ pub fn camera_cutoffs(aperture: ApertureShape, shutter: ShutterCurve) -> super::
 }
 
 /// The shutter's cutoff, cycles per shutter interval: the smallest `Ω` with the share `kept` of the
-/// curve's spectral energy in `[−Ω, Ω]`, to [`FREQUENCY_STEP`] (the box's power spectrum is `sinc²`, the
+/// curve's spectral energy in `[−Ω, Ω]`, to `FREQUENCY_STEP` (the box's power spectrum is `sinc²`, the
 /// unit-area tent's `sinc⁴(ν/2)`; their energies by Parseval, 1 and 4/3).
 pub fn shutter_cutoff(curve: ShutterCurve, kept: f64) -> f64 {
     let sinc =

@@ -29,6 +29,11 @@
 //!   interrupt is seen within about that long — each submitted through the one submit path
 //!   ([`CommandRecorder::submit`]), which waits for it: nothing is ever in flight when `execute`
 //!   returns, so RAII wrappers may free their handles at any time the CPU holds them.
+//! * **Recording for a caller** ([`FrameGraph::record_into`]): an embedding engine's frame is
+//!   recorded whole into the engine's command buffer, neither submitted nor waited on; the transient
+//!   resources it used are handed out, to live until the engine says the frame executed
+//!   (`crate::embed`). A caller's image enters with the state the caller left it in
+//!   (`import_external_image`).
 //! * No aliasing, no async compute, no reordering: passes run in declaration order.
 //!
 //! kajiya's `kajiya-rg` and Granite's render graph were the models (declared accesses with vk-sync
@@ -175,6 +180,16 @@ impl From<BufferHandle> for ResourceHandle {
     }
 }
 
+/// A graph recorded into a caller's command buffer ([`FrameGraph::record_into`]): the transient
+/// resources its commands use, which must outlive their execution, and the passes recorded.
+pub struct RecordedGraph {
+    /// Held until the caller says the commands have executed (the transient pool does not lend a
+    /// resource to another graph while it is held here).
+    pub(crate) retained: Vec<Rc<dyn std::any::Any>>,
+    /// The passes recorded, in order (repeats once per iteration).
+    pub passes: Vec<String>,
+}
+
 /// A CPU copy of an image the graph reads back ([`FrameGraph::read_back`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Readback {
@@ -221,6 +236,13 @@ enum Slot<'a> {
     ImportedBuffer(&'a Tracked<Buffer>),
     TransientImage(Rc<Image>),
     TransientBuffer(Rc<Buffer>),
+    /// A caller's image ([`FrameGraph::import_external_image`]): its state before the graph is
+    /// what the caller says; after it, the caller's to know (the graph ends with the access it asked
+    /// for).
+    External {
+        image: Image,
+        before: ResourceState,
+    },
 }
 
 struct Resource<'a> {
@@ -236,6 +258,7 @@ impl Resource<'_> {
         match &self.slot {
             Slot::ImportedImage(t) => Some(t),
             Slot::TransientImage(i) => Some(i),
+            Slot::External { image, .. } => Some(image),
             _ => None,
         }
     }
@@ -255,6 +278,9 @@ impl Resource<'_> {
         }
     }
     fn initial_state(&self) -> ResourceState {
+        if let Slot::External { before, .. } = &self.slot {
+            return before.clone();
+        }
         self.tracked_state().map(|c| c.borrow().clone()).unwrap_or_default()
     }
     fn store_state(&self, s: &ResourceState) {
@@ -356,6 +382,10 @@ pub struct GraphResult {
 }
 
 impl GraphResult {
+    /// No timings, no images: what a graph recorded for a caller returns.
+    pub(crate) fn empty() -> Self {
+        GraphResult { timings: PassTimings::default(), images: Vec::new() }
+    }
     /// The CPU copy of a read-back image.
     pub fn image(&self, r: Readback) -> &LinearImage {
         &self.images[r.index]
@@ -409,6 +439,20 @@ impl<'a> FrameGraph<'a> {
             index: self.import(name, Slot::ImportedBuffer(buffer), &buffer.state),
             size: buffer.size,
         }
+    }
+
+    /// Lends a caller's image to this graph (embedding: the frame's result is copied into it).
+    /// `before` is its state as the caller left it — the accesses the first pass using it must wait
+    /// for, and its layout. Its state after the graph is not kept: declare the access the caller
+    /// needs next in a last pass ([`PassBuilder::barrier_only`]).
+    pub(crate) fn import_external_image(
+        &mut self,
+        name: &str,
+        image: Image,
+        before: ResourceState,
+    ) -> ImageHandle {
+        let desc = image.desc;
+        ImageHandle { index: self.add(name, Slot::External { image, before }), desc }
     }
 
     /// A transient image for this graph only (from the pool); undefined until a pass writes it.
@@ -480,6 +524,68 @@ impl<'a> FrameGraph<'a> {
             };
             Ok(())
         });
+    }
+
+    /// A pass named `name` that copies all of colour image `src` into `dst`, of the same size, which
+    /// it overwrites: a plain copy between equal formats, else a blit, which converts as
+    /// `vkCmdBlitImage` does (to 8-bit UNORM or sRGB, say; nearest filter at equal sizes, so no
+    /// resampling). `src` needs `TRANSFER_SRC` usage and `dst` `TRANSFER_DST`; a blit also needs the
+    /// formats' blit features.
+    pub fn copy_image(&mut self, name: &str, src: ImageHandle, dst: ImageHandle) -> Result<()> {
+        let (w, h) = (src.desc.width, src.desc.height);
+        if (w, h) != (dst.desc.width, dst.desc.height) {
+            return Err(Error::Graph(format!(
+                "pass `{name}`: copies a {w}×{h} image into a {}×{} one (sizes must match)",
+                dst.desc.width, dst.desc.height
+            )));
+        }
+        let same_format = src.desc.format == dst.desc.format;
+        self.pass(name).access(src, Access::TransferRead).overwrite(dst, Access::TransferWrite).record(
+            move |ctx| {
+                let (from, to) = (ctx.image(src), ctx.image(dst));
+                let layers = vk::ImageSubresourceLayers::default()
+                    .aspect_mask(vk::ImageAspectFlags::COLOR)
+                    .layer_count(1);
+                let (src_layout, dst_layout) =
+                    (vk::ImageLayout::TRANSFER_SRC_OPTIMAL, vk::ImageLayout::TRANSFER_DST_OPTIMAL);
+                if same_format {
+                    let region = vk::ImageCopy::default()
+                        .src_subresource(layers)
+                        .dst_subresource(layers)
+                        .extent(vk::Extent3D { width: w, height: h, depth: 1 });
+                    unsafe {
+                        ctx.device.raw.cmd_copy_image(
+                            ctx.cmd,
+                            from.raw,
+                            src_layout,
+                            to.raw,
+                            dst_layout,
+                            &[region],
+                        )
+                    };
+                } else {
+                    let corner = vk::Offset3D { x: w as i32, y: h as i32, z: 1 };
+                    let region = vk::ImageBlit::default()
+                        .src_subresource(layers)
+                        .dst_subresource(layers)
+                        .src_offsets([vk::Offset3D::default(), corner])
+                        .dst_offsets([vk::Offset3D::default(), corner]);
+                    unsafe {
+                        ctx.device.raw.cmd_blit_image(
+                            ctx.cmd,
+                            from.raw,
+                            src_layout,
+                            to.raw,
+                            dst_layout,
+                            &[region],
+                            vk::Filter::NEAREST,
+                        )
+                    };
+                }
+                Ok(())
+            },
+        );
+        Ok(())
     }
 
     /// Makes the GPU's writes to `buffer` visible to the host once [`FrameGraph::execute`] returns
@@ -604,6 +710,60 @@ impl<'a> FrameGraph<'a> {
             })
             .collect::<Result<Vec<_>>>()?;
         Ok(GraphResult { timings, images })
+    }
+}
+
+impl FrameGraph<'_> {
+    /// Records every pass in order into `cmd` — a caller's command buffer, in the recording state —
+    /// and neither submits nor waits: embedding, where the caller submits the frame with its own
+    /// work. Persistent resources take the state the recorded commands leave them in, so the caller
+    /// must submit `cmd` before any later graph's commands that use them, on a queue of the device's
+    /// queue family. No timestamps are written (Shutter never sees the commands complete) and a
+    /// graph with a read-back is refused (the CPU copy would exist only after the caller's fence).
+    /// On an error `cmd` holds part of the graph: reset it rather than submit it.
+    pub fn record_into(self, cmd: vk::CommandBuffer) -> Result<RecordedGraph> {
+        let FrameGraph { device, resources, mut nodes, readbacks, .. } = self;
+        if !readbacks.is_empty() {
+            return Err(Error::Graph(
+                "a graph recorded into a caller's command buffer cannot read an image back: the copy \
+                 exists only once the caller's submission completes (copy it into the caller's image)"
+                    .into(),
+            ));
+        }
+        let mut states: Vec<ResourceState> = resources.iter().map(|r| r.initial_state()).collect();
+        let mut timer = GpuTimer::disabled(&device);
+        let mut passes = Vec::new();
+        for node in &mut nodes {
+            match node {
+                Node::Pass(pass) => {
+                    record_pass(&device, cmd, pass, 0, &resources, &mut states, &mut timer)?;
+                    passes.push(pass.name.clone());
+                }
+                Node::Repeat { count, passes: body } => {
+                    for iteration in 0..*count {
+                        for pass in body.iter_mut() {
+                            record_pass(&device, cmd, pass, iteration, &resources, &mut states, &mut timer)?;
+                            passes.push(pass.name.clone());
+                        }
+                    }
+                }
+            }
+        }
+        // What was recorded will have happened before anything recorded (and submitted) later.
+        for (r, s) in resources.iter().zip(&states) {
+            r.store_state(s);
+        }
+        let retained = resources
+            .into_iter()
+            .filter_map(|r| -> Option<Rc<dyn std::any::Any>> {
+                match r.slot {
+                    Slot::TransientImage(i) => Some(i),
+                    Slot::TransientBuffer(b) => Some(b),
+                    _ => None,
+                }
+            })
+            .collect();
+        Ok(RecordedGraph { retained, passes })
     }
 }
 

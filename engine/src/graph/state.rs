@@ -79,6 +79,21 @@ impl Transition {
 }
 
 impl ResourceState {
+    /// The state of a resource whose last access was `access` (an image: in the layout `access`
+    /// needs): how a caller hands Shutter an image it used. [`AccessType::Nothing`] is a resource
+    /// nothing used yet (undefined layout).
+    pub fn after_access(access: AccessType, image: bool) -> Self {
+        if access == AccessType::Nothing {
+            return ResourceState::default();
+        }
+        let layout = if image { layout_of(access) } else { vk::ImageLayout::UNDEFINED };
+        if is_write(access) {
+            ResourceState { last_write: Some(access), reads: vec![], ordered_reads: vec![], layout }
+        } else {
+            ResourceState { last_write: None, reads: vec![access], ordered_reads: vec![access], layout }
+        }
+    }
+
     /// Records that a pass accesses the resource with `next` (every kind the pass declared for it) and
     /// returns the barrier needed first, if any. `image`: layouts apply. `discard`: the pass
     /// overwrites the whole resource, so an image may transition from `UNDEFINED`.

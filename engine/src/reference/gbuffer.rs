@@ -2,7 +2,7 @@
 //! camera sees through the pixel's centre at mid-shutter through the lens centre, or through one
 //! pass' sample of (subpixel, lens, time) shared by every pixel ([`render_gbuffer_at`]) — position and shading normal
 //! (camera space), albedo, the direct light (the model's shading, shadowed) — and the one-bounce light
-//! of a set of VPLs gathered there ([`Tracer::gather_irradiance`]), all of them or each sub-buffer's
+//! of a set of VPLs gathered there ([`GBufferScene::gather`]), all of them or each sub-buffer's
 //! subset.
 
 use glam::{Vec2, Vec3};

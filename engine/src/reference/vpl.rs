@@ -19,7 +19,7 @@
 //! is left with the flux the surface reflects diffusely (its albedo times the photon's) and the
 //! surface's normal on the side the photon came from, raised off the surface by the shadow-ray offset.
 //!
-//! **Gathering** ([`Tracer::gather`]): a shaded point `x` adds, per VPL `y` on the same side and with a
+//! **Gathering** (`Tracer::gather`): a shaded point `x` adds, per VPL `y` on the same side and with a
 //! clear (transmittance-weighted) segment to it, `albedo(x)/π · Φ·cos θ_y/π · cos θ_x / max(d², c²)`,
 //! `c` the clamping distance ([`VplSettings::clamp`], 0: off). Unclamped, the estimate is unbiased: its
 //! expectation over the photons is the model's one-bounce light, which the bounce rays of the path-traced

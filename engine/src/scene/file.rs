@@ -728,7 +728,7 @@ pub fn aperture_radius_of_lens(focal_mm: f32, f_stop: f32) -> f32 {
 }
 
 /// `a + (b − a)·s` with the ends exact (s = 0 gives a, s = 1 gives b, bit for bit).
-fn lerp_exact_ends<T: Copy + std::ops::Add<Output = T> + std::ops::Mul<f32, Output = T>>(
+pub(crate) fn lerp_exact_ends<T: Copy + std::ops::Add<Output = T> + std::ops::Mul<f32, Output = T>>(
     a: T,
     b: T,
     s: f32,
@@ -871,7 +871,7 @@ fn resolve_camera(cx: &Ctx, c: &FileCamera, image: &ImageSettings) -> Result<(Ca
 /// Object keys in frame time → the shutter's `[a, b]`: the motion at `a` and `b` (linear between the
 /// keys around them — the matrices' blend, which is the model's camera-space motion seen by a camera
 /// that does not turn), the keys strictly between kept, times rescaled to `[0, 1]`.
-fn retime(keys: Vec<(f32, Mat4)>, (a, b): (f32, f32)) -> Vec<(f32, Mat4)> {
+pub(crate) fn retime(keys: Vec<(f32, Mat4)>, (a, b): (f32, f32)) -> Vec<(f32, Mat4)> {
     if keys.len() < 2 {
         return keys;
     }

@@ -5,6 +5,7 @@
 //! `camera_space.rs` turns it into the camera-space, linear-in-time form every technique and the CPU
 //! reference consume (docs/MODEL.md "Shutter").
 
+pub mod builder;
 pub mod builtin;
 pub mod camera;
 pub mod camera_space;

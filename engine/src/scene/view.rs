@@ -93,7 +93,7 @@ impl View {
     /// A `size × size` perspective view from `position` looking along `direction` (up `up`), with
     /// `half_angle_deg` from the axis to the image's edge, its depth range framing every vertex of the
     /// scene at every motion key in front of it: a spot light's shadow map, or one face of a point
-    /// light's ([`cube_face`]). `None` without geometry or for a degenerate direction.
+    /// light's ([`cube_face_of`]). `None` without geometry or for a degenerate direction.
     pub fn perspective_light(
         scene: &Scene,
         name: &str,

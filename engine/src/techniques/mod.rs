@@ -48,7 +48,7 @@ pub use stochastic::{
 
 use crate::error::{Error, Result};
 use crate::gpu::{GpuView, GpuWorld};
-use crate::graph::{FrameGraph, GraphResult, TransientPool};
+use crate::graph::{FrameGraph, GraphResult, ImageHandle, TransientPool};
 use crate::image::LinearImage;
 use crate::limits::{MAX_IMAGE_DIMENSION, MAX_SPP, MAX_STOCHASTIC_SPP};
 use crate::plan::Plan;
@@ -207,14 +207,47 @@ pub trait FrameTechnique: Any {
 }
 
 /// Runs a technique's graphs: the one place frames are submitted ([`FrameGraph::execute`]), with the
-/// GPU timings of every graph of the frame collected.
+/// GPU timings of every graph of the frame collected — or, for a caller embedding Shutter, recorded
+/// into the caller's command buffer ([`FrameGraph::record_into`], `crate::embed`).
 pub struct FrameContext<'f> {
     device: &'f Device,
-    recorder: &'f mut CommandRecorder,
+    submission: Submission<'f>,
     pool: Rc<TransientPool>,
     timings: PassTimings,
     /// Show the progress of graphs that take several submissions ([`Renderer::show_progress`]).
     progress: bool,
+}
+
+/// Where a frame's graphs go.
+enum Submission<'f> {
+    /// Submitted through Shutter's recorder and waited on (every frame Shutter renders itself).
+    Own(&'f mut CommandRecorder),
+    /// Recorded into a caller's command buffer, which the caller submits.
+    Caller(&'f mut CallerFrame),
+}
+
+/// A frame recorded for a caller (`crate::embed`): its command buffer, the image the result goes
+/// to, and what the recorded commands use that must outlive them.
+pub(crate) struct CallerFrame {
+    pub cmd: ash::vk::CommandBuffer,
+    pub target: CallerTarget,
+    /// Transient resources of the recorded graphs.
+    pub retained: Vec<Rc<dyn Any>>,
+    /// The passes recorded, in order.
+    pub passes: Vec<String>,
+    /// Whether the frame's result went to the target ([`FrameContext::finish`]).
+    pub finished: bool,
+}
+
+/// The caller's image a recorded frame ends in.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct CallerTarget {
+    pub image: ash::vk::Image,
+    pub desc: crate::vk::ImageDesc,
+    /// The caller's last access before the frame (what the copy into it waits for).
+    pub before: crate::graph::Access,
+    /// The access the caller makes next (the frame ends with the barrier and layout it needs).
+    pub after: crate::graph::Access,
 }
 
 impl FrameContext<'_> {
@@ -225,11 +258,53 @@ impl FrameContext<'_> {
     pub fn graph<'a>(&self) -> FrameGraph<'a> {
         FrameGraph::new(self.device, self.pool.clone())
     }
-    /// Executes `graph` (recording, submitting and waiting) and adds its timings to the frame's.
+    /// Executes `graph` (recording, submitting and waiting) and adds its timings to the frame's. In
+    /// a frame recorded for a caller, records it into the caller's command buffer instead (a graph
+    /// that reads back is refused there) and returns no timings or images.
     pub fn run(&mut self, graph: FrameGraph<'_>) -> Result<GraphResult> {
-        let result = graph.execute_reporting(self.recorder, self.progress.then_some("render"))?;
-        self.timings.add(&result.timings);
-        Ok(result)
+        match &mut self.submission {
+            Submission::Own(recorder) => {
+                let result = graph.execute_reporting(recorder, self.progress.then_some("render"))?;
+                self.timings.add(&result.timings);
+                Ok(result)
+            }
+            Submission::Caller(frame) => {
+                let recorded = graph.record_into(frame.cmd)?;
+                frame.retained.extend(recorded.retained);
+                frame.passes.extend(recorded.passes);
+                Ok(GraphResult::empty())
+            }
+        }
+    }
+
+    /// Runs the frame's last graph, `graph`, whose `image` (RGBA32F, `TRANSFER_SRC` usage) holds
+    /// the frame's result: read back into the returned image — or, in a frame recorded for a
+    /// caller, copied into the caller's image, which the frame then hands over with the access the
+    /// caller asked for; the returned image is then empty (0 × 0), the result being on the GPU.
+    /// A technique whose frame ends here can be embedded (`crate::embed`).
+    pub fn finish(&mut self, mut graph: FrameGraph<'_>, image: ImageHandle) -> Result<LinearImage> {
+        let target = match &self.submission {
+            Submission::Own(_) => None,
+            Submission::Caller(frame) => Some(frame.target),
+        };
+        let Some(target) = target else {
+            let readback = graph.read_back(image)?;
+            return Ok(self.run(graph)?.take_image(readback));
+        };
+        // SAFETY: the embedding caller vouched for the image (`embed::FrameTarget`) for as long as
+        // the recorded frame executes; the wrapper destroys nothing.
+        let borrowed = unsafe { crate::vk::Image::borrowed(self.device, target.image, target.desc) };
+        let before = crate::graph::ResourceState::after_access(target.before, true);
+        let h = graph.import_external_image("caller's image", borrowed, before);
+        graph.copy_image("copy to the caller's image", image, h)?;
+        if target.after != crate::graph::Access::Nothing {
+            graph.pass("hand over to the caller").access(h, target.after).barrier_only();
+        }
+        self.run(graph)?;
+        if let Submission::Caller(frame) = &mut self.submission {
+            frame.finished = true;
+        }
+        Ok(LinearImage::new(0, 0))
     }
 }
 
@@ -362,7 +437,7 @@ impl Renderer {
     ) -> Result<R> {
         let mut frame = FrameContext {
             device: &self.device,
-            recorder: &mut self.recorder,
+            submission: Submission::Own(&mut self.recorder),
             pool: prepared.pool.clone(),
             timings: PassTimings::default(),
             progress: self.progress,
@@ -454,6 +529,30 @@ pub struct PreparedFrame {
 }
 
 impl PreparedFrame {
+    /// Records one frame into `frame`'s command buffer, the result into its target (`crate::embed`
+    /// drives it and holds what it returns until the caller retires the frame). Refused for a
+    /// technique whose frame does not end in [`FrameContext::finish`].
+    pub(crate) fn record_for_caller(&mut self, device: &Device, frame: &mut CallerFrame) -> Result<()> {
+        let mut context = FrameContext {
+            device,
+            submission: Submission::Caller(frame),
+            pool: self.pool.clone(),
+            timings: PassTimings::default(),
+            progress: false,
+        };
+        let inputs = FrameInputs { world: &self.world, camera: &self.camera };
+        self.technique.render(&inputs, &mut context)?;
+        drop(context);
+        if !frame.finished {
+            return Err(Error::Unsupported(
+                "this technique's frame does not end in one image Shutter can copy into a caller's image \
+                 (FrameContext::finish); embed technique `stochastic`"
+                    .into(),
+            ));
+        }
+        Ok(())
+    }
+
     /// The prepared technique (downcast with `as &dyn Any` to reach a concrete one's diagnostics).
     pub fn technique(&self) -> &dyn FrameTechnique {
         self.technique.as_ref()

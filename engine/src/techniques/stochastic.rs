@@ -2020,7 +2020,8 @@ impl StochasticDraws {
 
     /// The frame as a graph: `triangles` → `clear accumulation` → repeat P × { `clear visibility` →
     /// `stochastic coverage` (raster, no attachments) → with tinted objects `stochastic tint` (raster,
-    /// no attachments) → `stochastic shading` (compute) } → readback.
+    /// no attachments) → `stochastic shading` (compute) } → readback ([`FrameContext::finish`]: or the
+    /// copy into an embedding caller's image).
     fn render<'a>(&'a self, frame: &mut FrameContext<'_>, inputs: &FrameInputs<'a>) -> Result<LinearImage> {
         let mut g = frame.graph();
         if !(0..inputs.world.objects.len()).any(|i| self.is_drawn(i, inputs.world)) {
@@ -2030,9 +2031,7 @@ impl StochasticDraws {
             // without objects. The image is the background, as the reference's.
             let accum = g.import_image("stochastic accumulation", &self.accum);
             g.clear_color("background (nothing drawn)", accum, inputs.world.background);
-            let readback = g.read_back(accum)?;
-            let mut result = frame.run(g)?;
-            return Ok(result.take_image(readback));
+            return frame.finish(g, accum);
         }
         if self.hull.is_none() {
             self.add_triangles_pass(&mut g, inputs);
@@ -2177,9 +2176,7 @@ impl StochasticDraws {
         for b in host_reads {
             g.host_read(b);
         }
-        let readback = g.read_back(accum)?;
-        let mut result = frame.run(g)?;
-        Ok(result.take_image(readback))
+        frame.finish(g, accum)
     }
 
     /// The coverage draws of pass `pass`, inside the attachment-less rendering.

@@ -315,6 +315,9 @@ pub struct DeviceShared {
     pub validation_enabled: bool,
     /// Serialises queue submission (vkQueueSubmit requires external synchronisation).
     pub(crate) queue_lock: Mutex<()>,
+    /// Whether the device and instance are Shutter's to destroy: false for a device a caller lent
+    /// ([`DeviceShared::from_external`] with [`Ownership::Borrowed`]).
+    owns_handles: bool,
 }
 
 /// The one owner of the Vulkan device; cheap to clone.
@@ -323,15 +326,26 @@ pub type Device = Arc<DeviceShared>;
 impl Drop for DeviceShared {
     fn drop(&mut self) {
         // SAFETY: every wrapper holding resources holds an Arc to us, so none is alive; nothing is in
-        // flight (every submission is waited on). Allocator before device, messenger before instance.
+        // flight (every submission is waited on; a caller's recorded frames are retired before their
+        // scene is dropped, `embed`). Allocator before device, messenger before instance. A lent
+        // device is not waited on (its queues are the caller's to synchronise) nor destroyed: only
+        // what Shutter made on it — its memory blocks and its messenger — goes.
         unsafe {
-            let _ = self.raw.device_wait_idle();
-            ManuallyDrop::drop(&mut self.allocator);
-            self.raw.destroy_device(None);
-            if let Some(du) = &self.debug_utils_instance {
-                du.destroy_debug_utils_messenger(self.messenger, None);
+            if self.owns_handles {
+                let _ = self.raw.device_wait_idle();
             }
-            self.instance.destroy_instance(None);
+            ManuallyDrop::drop(&mut self.allocator);
+            if self.owns_handles {
+                self.raw.destroy_device(None);
+            }
+            if let Some(du) = &self.debug_utils_instance {
+                if self.messenger != vk::DebugUtilsMessengerEXT::null() {
+                    du.destroy_debug_utils_messenger(self.messenger, None);
+                }
+            }
+            if self.owns_handles {
+                self.instance.destroy_instance(None);
+            }
         }
     }
 }
@@ -477,77 +491,27 @@ impl DeviceShared {
                 needed_by: "every technique".into(),
             })? as u32;
 
-        let dev_exts = unsafe { instance.enumerate_device_extension_properties(physical) }
-            .vk("vkEnumerateDeviceExtensionProperties")?;
-        let has_dev_ext = |n: &CStr| dev_exts.iter().any(|e| e.extension_name_as_c_str().ok() == Some(n));
-        let conservative = has_dev_ext(ash::ext::conservative_rasterization::NAME);
-        let mesh_shader = has_dev_ext(ash::ext::mesh_shader::NAME);
-
-        let mut driver_props = vk::PhysicalDeviceDriverProperties::default();
-        let mut props2 = vk::PhysicalDeviceProperties2::default().push_next(&mut driver_props);
-        unsafe { instance.get_physical_device_properties2(physical, &mut props2) };
-        let supported = unsafe { instance.get_physical_device_features(physical) };
-        let mut f13 = vk::PhysicalDeviceVulkan13Features::default();
-        let mut f12 = vk::PhysicalDeviceVulkan12Features::default();
-        let mut feats2 = vk::PhysicalDeviceFeatures2::default().push_next(&mut f13).push_next(&mut f12);
-        unsafe { instance.get_physical_device_features2(physical, &mut feats2) };
-        if f13.dynamic_rendering == vk::FALSE || f13.synchronization2 == vk::FALSE {
+        let identity = DriverIdentity {
+            driver_version: chosen.driver_version.clone(),
+            key: chosen.key.clone(),
+            project_driver: chosen.project_driver.clone(),
+        };
+        let Offered { caps, supported, host_query_reset, dynamic_rendering_and_sync2 } =
+            offered_capabilities(
+                &instance,
+                physical,
+                queue_family,
+                &identity,
+                debug_utils_instance.is_some(),
+            )?;
+        let conservative = caps.conservative_rasterization;
+        if !dynamic_rendering_and_sync2 {
             return Err(Error::MissingFeature {
                 device: cstr_field(&props.device_name),
                 feature: "dynamicRendering and synchronization2".into(),
                 needed_by: "every technique".into(),
             });
         }
-        let limits = props.limits;
-        let counts = limits.framebuffer_color_sample_counts & limits.framebuffer_depth_sample_counts;
-        let framebuffer_sample_counts =
-            [1u32, 2, 4, 8, 16, 32, 64].into_iter().filter(|&c| counts.as_raw() & c != 0).collect();
-        let caps = Capabilities {
-            device_name: cstr_field(&props.device_name),
-            device_type: format!("{:?}", props.device_type),
-            driver_name: cstr_field(&driver_props.driver_name),
-            driver_info: cstr_field(&driver_props.driver_info),
-            driver_id: format!("{:?}", driver_props.driver_id),
-            driver_version: chosen.driver_version.clone(),
-            driver_key: chosen.key.clone(),
-            project_driver: chosen.project_driver.clone(),
-            mesh_shader,
-            api_version: format!(
-                "{}.{}.{}",
-                vk::api_version_major(props.api_version),
-                vk::api_version_minor(props.api_version),
-                vk::api_version_patch(props.api_version)
-            ),
-            framebuffer_sample_counts,
-            geometry_shader: supported.geometry_shader == vk::TRUE,
-            clip_distance: supported.shader_clip_distance == vk::TRUE,
-            sample_rate_shading: supported.sample_rate_shading == vk::TRUE,
-            independent_blend: supported.independent_blend == vk::TRUE,
-            fragment_stores_and_atomics: supported.fragment_stores_and_atomics == vk::TRUE,
-            vertex_pipeline_stores_and_atomics: supported.vertex_pipeline_stores_and_atomics == vk::TRUE,
-            conservative_rasterization: conservative,
-            buffer_int64_atomics: supported.shader_int64 == vk::TRUE
-                && f12.shader_buffer_int64_atomics == vk::TRUE,
-            max_geometry_output_vertices: limits.max_geometry_output_vertices,
-            max_geometry_total_output_components: limits.max_geometry_total_output_components,
-            max_push_constants_size: limits.max_push_constants_size,
-            max_storage_buffer_range: limits.max_storage_buffer_range,
-            max_uniform_buffer_range: limits.max_uniform_buffer_range,
-            standard_sample_locations: limits.standard_sample_locations == vk::TRUE,
-            linear_filter_rgba32f: unsafe {
-                instance.get_physical_device_format_properties(physical, vk::Format::R32G32B32A32_SFLOAT)
-            }
-            .optimal_tiling_features
-            .contains(vk::FormatFeatureFlags::SAMPLED_IMAGE_FILTER_LINEAR),
-            sub_texel_precision_bits: limits.sub_texel_precision_bits,
-            max_image_dimension_2d: limits.max_image_dimension2_d,
-            max_bound_descriptor_sets: limits.max_bound_descriptor_sets,
-            timestamps: limits.timestamp_compute_and_graphics == vk::TRUE
-                && families[queue_family as usize].timestamp_valid_bits > 0,
-            timestamp_period_ns: limits.timestamp_period,
-            debug_utils: debug_utils_instance.is_some(),
-        };
-
         // Enable what later techniques use, where present; techniques check `caps` before relying on it.
         let features = vk::PhysicalDeviceFeatures::default()
             .geometry_shader(caps.geometry_shader)
@@ -564,7 +528,7 @@ impl DeviceShared {
         let mut enable13 =
             vk::PhysicalDeviceVulkan13Features::default().dynamic_rendering(true).synchronization2(true);
         let mut enable12 = vk::PhysicalDeviceVulkan12Features::default()
-            .host_query_reset(f12.host_query_reset == vk::TRUE)
+            .host_query_reset(host_query_reset)
             .shader_buffer_int64_atomics(caps.buffer_int64_atomics);
         let priorities = [1.0f32];
         let queue_info = [vk::DeviceQueueCreateInfo::default()
@@ -616,6 +580,7 @@ impl DeviceShared {
             validation: validation_log,
             validation_enabled: validation,
             queue_lock: Mutex::new(()),
+            owns_handles: true,
         }))
     }
 
@@ -668,6 +633,104 @@ impl DeviceShared {
             unsafe { du.cmd_end_debug_utils_label(cmd) };
         }
     }
+}
+
+/// Which driver a device is, as Shutter names it ([`Capabilities::driver_key`] and its neighbours).
+struct DriverIdentity {
+    driver_version: String,
+    key: String,
+    project_driver: Option<String>,
+}
+
+/// What a physical device offers: its [`Capabilities`] as if every optional feature were enabled,
+/// the raw feature structs they came from, and whether it has what every technique needs
+/// (`dynamicRendering` and `synchronization2`). [`DeviceShared::new`] enables what is offered;
+/// [`DeviceShared::from_external`] narrows the capabilities to what its caller enabled.
+struct Offered {
+    caps: Capabilities,
+    supported: vk::PhysicalDeviceFeatures,
+    host_query_reset: bool,
+    dynamic_rendering_and_sync2: bool,
+}
+
+fn offered_capabilities(
+    instance: &ash::Instance,
+    physical: vk::PhysicalDevice,
+    queue_family: u32,
+    identity: &DriverIdentity,
+    debug_utils: bool,
+) -> Result<Offered> {
+    let props = unsafe { instance.get_physical_device_properties(physical) };
+    let families = unsafe { instance.get_physical_device_queue_family_properties(physical) };
+    let dev_exts = unsafe { instance.enumerate_device_extension_properties(physical) }
+        .vk("vkEnumerateDeviceExtensionProperties")?;
+    let has_dev_ext = |n: &CStr| dev_exts.iter().any(|e| e.extension_name_as_c_str().ok() == Some(n));
+    let conservative = has_dev_ext(ash::ext::conservative_rasterization::NAME);
+    let mesh_shader = has_dev_ext(ash::ext::mesh_shader::NAME);
+
+    let mut driver_props = vk::PhysicalDeviceDriverProperties::default();
+    let mut props2 = vk::PhysicalDeviceProperties2::default().push_next(&mut driver_props);
+    unsafe { instance.get_physical_device_properties2(physical, &mut props2) };
+    let supported = unsafe { instance.get_physical_device_features(physical) };
+    let mut f13 = vk::PhysicalDeviceVulkan13Features::default();
+    let mut f12 = vk::PhysicalDeviceVulkan12Features::default();
+    let mut feats2 = vk::PhysicalDeviceFeatures2::default().push_next(&mut f13).push_next(&mut f12);
+    unsafe { instance.get_physical_device_features2(physical, &mut feats2) };
+    let limits = props.limits;
+    let counts = limits.framebuffer_color_sample_counts & limits.framebuffer_depth_sample_counts;
+    let framebuffer_sample_counts =
+        [1u32, 2, 4, 8, 16, 32, 64].into_iter().filter(|&c| counts.as_raw() & c != 0).collect();
+    let caps = Capabilities {
+        device_name: cstr_field(&props.device_name),
+        device_type: format!("{:?}", props.device_type),
+        driver_name: cstr_field(&driver_props.driver_name),
+        driver_info: cstr_field(&driver_props.driver_info),
+        driver_id: format!("{:?}", driver_props.driver_id),
+        driver_version: identity.driver_version.clone(),
+        driver_key: identity.key.clone(),
+        project_driver: identity.project_driver.clone(),
+        mesh_shader,
+        api_version: format!(
+            "{}.{}.{}",
+            vk::api_version_major(props.api_version),
+            vk::api_version_minor(props.api_version),
+            vk::api_version_patch(props.api_version)
+        ),
+        framebuffer_sample_counts,
+        geometry_shader: supported.geometry_shader == vk::TRUE,
+        clip_distance: supported.shader_clip_distance == vk::TRUE,
+        sample_rate_shading: supported.sample_rate_shading == vk::TRUE,
+        independent_blend: supported.independent_blend == vk::TRUE,
+        fragment_stores_and_atomics: supported.fragment_stores_and_atomics == vk::TRUE,
+        vertex_pipeline_stores_and_atomics: supported.vertex_pipeline_stores_and_atomics == vk::TRUE,
+        conservative_rasterization: conservative,
+        buffer_int64_atomics: supported.shader_int64 == vk::TRUE
+            && f12.shader_buffer_int64_atomics == vk::TRUE,
+        max_geometry_output_vertices: limits.max_geometry_output_vertices,
+        max_geometry_total_output_components: limits.max_geometry_total_output_components,
+        max_push_constants_size: limits.max_push_constants_size,
+        max_storage_buffer_range: limits.max_storage_buffer_range,
+        max_uniform_buffer_range: limits.max_uniform_buffer_range,
+        standard_sample_locations: limits.standard_sample_locations == vk::TRUE,
+        linear_filter_rgba32f: unsafe {
+            instance.get_physical_device_format_properties(physical, vk::Format::R32G32B32A32_SFLOAT)
+        }
+        .optimal_tiling_features
+        .contains(vk::FormatFeatureFlags::SAMPLED_IMAGE_FILTER_LINEAR),
+        sub_texel_precision_bits: limits.sub_texel_precision_bits,
+        max_image_dimension_2d: limits.max_image_dimension2_d,
+        max_bound_descriptor_sets: limits.max_bound_descriptor_sets,
+        timestamps: limits.timestamp_compute_and_graphics == vk::TRUE
+            && families[queue_family as usize].timestamp_valid_bits > 0,
+        timestamp_period_ns: limits.timestamp_period,
+        debug_utils,
+    };
+    Ok(Offered {
+        caps,
+        supported,
+        host_query_reset: f12.host_query_reset == vk::TRUE,
+        dynamic_rendering_and_sync2: f13.dynamic_rendering == vk::TRUE && f13.synchronization2 == vk::TRUE,
+    })
 }
 
 /// The project's drivers ([`super::drivers`]), offered to the Vulkan loader beside the system's ICDs.
@@ -787,6 +850,210 @@ impl Drop for MessengerGuard {
                 unsafe { du.destroy_debug_utils_messenger(self.messenger, None) };
             }
         }
+    }
+}
+
+/// Who destroys a device lent to Shutter ([`DeviceShared::from_external`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Ownership {
+    /// The caller keeps the handles: Shutter never destroys the device or the instance, nor waits
+    /// on the device when its last [`Device`] clone drops.
+    Borrowed,
+    /// Shutter takes them: when the last [`Device`] clone drops it waits for the device to idle, then
+    /// destroys the device and the instance.
+    Owned,
+}
+
+/// A Vulkan device made by someone else, and what they enabled on it: the input of
+/// [`DeviceShared::from_external`]. Shutter relies only on what is listed here as enabled.
+#[derive(Clone)]
+pub struct ExternalDevice {
+    pub entry: ash::Entry,
+    pub instance: ash::Instance,
+    /// The `apiVersion` the instance was created with (Shutter needs 1.3).
+    pub instance_api_version: u32,
+    pub physical_device: vk::PhysicalDevice,
+    pub device: ash::Device,
+    /// A queue of `queue_family`: Shutter submits its uploads there (never a frame it records for
+    /// the caller).
+    pub queue: vk::Queue,
+    pub queue_family: u32,
+    /// The core features enabled at `vkCreateDevice`.
+    pub features: vk::PhysicalDeviceFeatures,
+    /// The Vulkan 1.2 features enabled (`p_next` is ignored).
+    pub features12: vk::PhysicalDeviceVulkan12Features<'static>,
+    /// The Vulkan 1.3 features enabled (`p_next` is ignored).
+    pub features13: vk::PhysicalDeviceVulkan13Features<'static>,
+    /// The device extensions enabled.
+    pub device_extensions: Vec<CString>,
+    /// `VK_EXT_debug_utils` is enabled on the instance: Shutter names its objects, labels its passes
+    /// and adds a messenger of its own that counts validation messages
+    /// ([`DeviceShared::check_validation`]).
+    pub debug_utils: bool,
+    /// The Khronos validation layer is enabled on the instance (reported as
+    /// [`DeviceShared::validation_enabled`]; its messages are counted only with `debug_utils`).
+    pub validation_layer: bool,
+    pub ownership: Ownership,
+}
+
+impl std::fmt::Debug for ExternalDevice {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("ExternalDevice")
+            .field("instance_api_version", &self.instance_api_version)
+            .field("physical_device", &self.physical_device)
+            .field("device", &self.device.handle())
+            .field("queue", &self.queue)
+            .field("queue_family", &self.queue_family)
+            .field("device_extensions", &self.device_extensions)
+            .field("debug_utils", &self.debug_utils)
+            .field("validation_layer", &self.validation_layer)
+            .field("ownership", &self.ownership)
+            .finish_non_exhaustive()
+    }
+}
+
+impl ExternalDevice {
+    fn has_extension(&self, name: &CStr) -> bool {
+        self.device_extensions.iter().any(|e| e.as_c_str() == name)
+    }
+}
+
+impl DeviceShared {
+    /// Shutter on a device someone else created (an engine embedding it): the capabilities are
+    /// what the physical device offers narrowed to what `ext` says was enabled, so a technique that
+    /// needs a feature left off refuses with [`Error::MissingFeature`] naming it, exactly as on a
+    /// device that lacks it.
+    ///
+    /// Refused with [`Error::MissingFeature`], naming everything missing at once: an instance or
+    /// device below Vulkan 1.3, `dynamicRendering` or `synchronization2` not enabled, a queue
+    /// family that is not graphics + compute.
+    ///
+    /// # Safety
+    /// * Every handle in `ext` is valid; `device` was created from `physical_device` of `instance`,
+    ///   `instance` from `entry` with `instance_api_version`, and `queue` is a queue of `device` in
+    ///   `queue_family`.
+    /// * Every feature and extension `ext` lists as enabled was enabled when `device` (or, for
+    ///   `debug_utils` and `validation_layer`, `instance`) was created.
+    /// * [`Ownership::Borrowed`]: `device` and `instance` outlive the returned [`Device`] and every
+    ///   clone of it (every Shutter object holds one). [`Ownership::Owned`]: the caller destroys
+    ///   neither and stops using them once the last clone has dropped.
+    /// * Shutter submits to `queue` (uploads while preparing a scene, and everything
+    ///   [`crate::techniques::Renderer::render`] does) under a lock of its own; the caller must not
+    ///   submit to the same queue from another thread during those calls (`vkQueueSubmit` needs
+    ///   external synchronisation).
+    pub unsafe fn from_external(ext: ExternalDevice) -> Result<Device> {
+        let instance = &ext.instance;
+        let physical = ext.physical_device;
+        let props = unsafe { instance.get_physical_device_properties(physical) };
+        let device_name = cstr_field(&props.device_name);
+        let families = unsafe { instance.get_physical_device_queue_family_properties(physical) };
+        let mut missing: Vec<String> = Vec::new();
+        if ext.instance_api_version < vk::API_VERSION_1_3 {
+            missing.push("an instance created with apiVersion 1.3".into());
+        }
+        if props.api_version < vk::API_VERSION_1_3 {
+            missing.push("Vulkan 1.3".into());
+        }
+        match families.get(ext.queue_family as usize) {
+            Some(f) if f.queue_flags.contains(vk::QueueFlags::GRAPHICS | vk::QueueFlags::COMPUTE) => {}
+            Some(_) => missing.push(format!("graphics and compute on queue family {}", ext.queue_family)),
+            None => missing.push(format!("queue family {} (it has {})", ext.queue_family, families.len())),
+        }
+        if ext.features13.dynamic_rendering != vk::TRUE {
+            missing.push("dynamicRendering (Vulkan 1.3 feature) enabled".into());
+        }
+        if ext.features13.synchronization2 != vk::TRUE {
+            missing.push("synchronization2 (Vulkan 1.3 feature) enabled".into());
+        }
+        if !missing.is_empty() {
+            return Err(Error::MissingFeature {
+                device: device_name,
+                feature: missing.join(", "),
+                needed_by: "Shutter on a device it is given (every technique)".into(),
+            });
+        }
+        let mut driver_props = vk::PhysicalDeviceDriverProperties::default();
+        let mut props2 = vk::PhysicalDeviceProperties2::default().push_next(&mut driver_props);
+        unsafe { instance.get_physical_device_properties2(physical, &mut props2) };
+        let (driver_id, driver_info) =
+            (format!("{:?}", driver_props.driver_id), cstr_field(&driver_props.driver_info));
+        let driver_version = super::drivers::driver_version(&driver_info);
+        let family = super::drivers::driver_family(&driver_id, &device_name);
+        // Only a lookup of the project's driver folders: the loader's environment is the caller's.
+        let folder = format!("{family}-{driver_version}");
+        let project_driver = super::drivers::project_drivers()
+            .ok()
+            .and_then(|ds| ds.into_iter().find(|d| d.folder == folder))
+            .map(|d| d.folder);
+        let identity = DriverIdentity {
+            key: super::drivers::driver_key(&driver_id, &device_name, &driver_info),
+            driver_version,
+            project_driver,
+        };
+        let Offered { mut caps, .. } =
+            offered_capabilities(instance, physical, ext.queue_family, &identity, ext.debug_utils)?;
+        // What Shutter may use is what is there *and* enabled.
+        let f = &ext.features;
+        caps.geometry_shader &= f.geometry_shader == vk::TRUE;
+        caps.clip_distance &= f.shader_clip_distance == vk::TRUE;
+        caps.sample_rate_shading &= f.sample_rate_shading == vk::TRUE;
+        caps.independent_blend &= f.independent_blend == vk::TRUE;
+        caps.fragment_stores_and_atomics &= f.fragment_stores_and_atomics == vk::TRUE;
+        caps.vertex_pipeline_stores_and_atomics &= f.vertex_pipeline_stores_and_atomics == vk::TRUE;
+        caps.buffer_int64_atomics &=
+            f.shader_int64 == vk::TRUE && ext.features12.shader_buffer_int64_atomics == vk::TRUE;
+        caps.conservative_rasterization &= ext.has_extension(ash::ext::conservative_rasterization::NAME);
+        caps.mesh_shader &= ext.has_extension(ash::ext::mesh_shader::NAME);
+
+        let allocator = Allocator::new(&AllocatorCreateDesc {
+            instance: ext.instance.clone(),
+            device: ext.device.clone(),
+            physical_device: physical,
+            debug_settings: Default::default(),
+            buffer_device_address: false,
+            allocation_sizes: Default::default(),
+        })?;
+        let validation_log = Box::<ValidationLog>::default();
+        let (debug_utils_instance, debug_utils_device, messenger) = if ext.debug_utils {
+            let du = ash::ext::debug_utils::Instance::new(&ext.entry, &ext.instance);
+            // A messenger of Shutter's own beside any of the caller's: every messenger sees every
+            // message, so a validation message during Shutter's work fails `check_validation`.
+            let info = vk::DebugUtilsMessengerCreateInfoEXT::default()
+                .message_severity(
+                    vk::DebugUtilsMessageSeverityFlagsEXT::ERROR
+                        | vk::DebugUtilsMessageSeverityFlagsEXT::WARNING,
+                )
+                .message_type(
+                    vk::DebugUtilsMessageTypeFlagsEXT::GENERAL
+                        | vk::DebugUtilsMessageTypeFlagsEXT::VALIDATION
+                        | vk::DebugUtilsMessageTypeFlagsEXT::PERFORMANCE,
+                )
+                .pfn_user_callback(Some(debug_callback))
+                .user_data(&*validation_log as *const ValidationLog as *mut c_void);
+            let m = unsafe { du.create_debug_utils_messenger(&info, None) }
+                .vk("vkCreateDebugUtilsMessengerEXT")?;
+            let dd = ash::ext::debug_utils::Device::new(&ext.instance, &ext.device);
+            (Some(du), Some(dd), m)
+        } else {
+            (None, None, vk::DebugUtilsMessengerEXT::null())
+        };
+        Ok(Arc::new(DeviceShared {
+            entry: ext.entry,
+            instance: ext.instance,
+            physical,
+            raw: ext.device,
+            queue: ext.queue,
+            queue_family: ext.queue_family,
+            caps,
+            allocator: ManuallyDrop::new(Mutex::new(allocator)),
+            debug_utils_instance,
+            debug_utils_device,
+            messenger,
+            validation: validation_log,
+            validation_enabled: ext.validation_layer,
+            queue_lock: Mutex::new(()),
+            owns_handles: ext.ownership == Ownership::Owned,
+        }))
     }
 }
 

@@ -33,12 +33,15 @@ impl ImageDesc {
     }
 }
 
-/// A 2D image, its memory and a view of all its mips. Freed on drop.
+/// A 2D image, its memory and a view of all its mips. Freed on drop — unless it is someone else's
+/// (`Image::borrowed`).
 pub struct Image {
     pub raw: vk::Image,
     pub view: vk::ImageView,
     pub desc: ImageDesc,
     allocation: Option<Allocation>,
+    /// Whether `raw` is Shutter's to destroy (false for an image a caller lent).
+    owns_image: bool,
     device: Device,
 }
 
@@ -75,6 +78,7 @@ impl Image {
             view: vk::ImageView::null(),
             desc,
             allocation: Some(allocation),
+            owns_image: true,
             device: device.clone(),
         };
         let a = image.allocation.as_ref().expect("just set");
@@ -88,6 +92,23 @@ impl Image {
         device.set_name(raw, name);
         device.set_name(image.view, name);
         Ok(image)
+    }
+
+    /// A caller's image, lent for one frame graph: no view (only transfers may use it) and nothing
+    /// destroyed on drop.
+    ///
+    /// # Safety
+    /// `raw` is a 2D colour image of `device` described by `desc` (one layer), valid while the
+    /// returned value and any command recorded with it are alive.
+    pub(crate) unsafe fn borrowed(device: &Device, raw: vk::Image, desc: ImageDesc) -> Image {
+        Image {
+            raw,
+            view: vk::ImageView::null(),
+            desc,
+            allocation: None,
+            owns_image: false,
+            device: device.clone(),
+        }
     }
 
     pub fn full_range(&self) -> vk::ImageSubresourceRange {
@@ -110,7 +131,9 @@ impl Drop for Image {
             }
         }
         free(&self.device, self.allocation.take());
-        unsafe { self.device.raw.destroy_image(self.raw, None) };
+        if self.owns_image {
+            unsafe { self.device.raw.destroy_image(self.raw, None) };
+        }
     }
 }
 

@@ -19,7 +19,7 @@ mod transfer;
 pub use commands::{atlas_square, compute_write_barrier, image_barriers, set_viewport, CommandRecorder};
 pub use context::{
     available_drivers, parse_env_flag, Capabilities, Device, DeviceDesc, DeviceShared, DriverSummary,
-    Feature, ValidationReport,
+    ExternalDevice, Feature, Ownership, ValidationReport,
 };
 pub use image::{aspect_of, barrier, Image, ImageDesc, Sampler};
 pub use memory::Buffer;
