@@ -316,6 +316,29 @@ enum Node<'a> {
 }
 
 /// What a pass' recording closure gets.
+///
+/// # Recording raw commands: the contract
+///
+/// A closure records with `ash`'s raw `cmd_*` calls (`unsafe`: Vulkan checks nothing). The executor
+/// guarantees, for the duration of the closure:
+///
+/// * `cmd` is a primary command buffer of `device` in the recording state, not submitted until the
+///   closure returns; inside a raster pass, dynamic rendering over the pass' attachments (or its
+///   [`PassBuilder::render_area`]) has begun, with viewport and scissor set; outside one it has not;
+/// * every resource the pass declared (`access`, `overwrite`, attachments) has the layout and the
+///   barriers its declared accesses need, and [`PassContext::image`] / [`PassContext::buffer`] return
+///   live handles for it.
+///
+/// The closure in turn promises, and each `// SAFETY:` comment in a technique points here for it:
+///
+/// * it touches on the GPU only what the pass declared, or read-only data the host wrote before the
+///   frame (the world, views, sample tables: see the frame graph's docs), with the access it declared;
+/// * every handle it records (pipelines, layouts, descriptor sets, buffers) belongs to `device` and
+///   outlives the graph's execution: the technique owns it, and the graph borrows the technique;
+/// * descriptor sets and push constants it binds match the bound pipeline's layout (the layouts are
+///   checked against every shader permutation by `gpu/layout_tests.rs`), and push ranges lie in it;
+/// * it begins or ends no rendering and submits nothing; synchronization inside one pass (e.g.
+///   between consecutive dispatches) is its own, with explicit barriers.
 pub struct PassContext<'r> {
     pub device: &'r Device,
     pub cmd: vk::CommandBuffer,
