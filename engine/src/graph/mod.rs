@@ -492,6 +492,8 @@ impl<'a> FrameGraph<'a> {
         self.pass(name).overwrite(image, Access::TransferWrite).record(move |ctx| {
             let target = ctx.image(image);
             let clear = vk::ClearColorValue { float32: value };
+            // SAFETY: the recording contract of `PassContext`; the pass declared the overwrite
+            // (TRANSFER_DST).
             unsafe {
                 ctx.device.raw.cmd_clear_color_image(
                     ctx.cmd,
@@ -539,6 +541,8 @@ impl<'a> FrameGraph<'a> {
                             .layer_count(1),
                     )
                     .image_extent(vk::Extent3D { width: src.desc.width, height: src.desc.height, depth: 1 });
+                // SAFETY: the recording contract of `PassContext`; the pass declared the image read
+                // (TRANSFER_SRC) and the host-visible buffer written.
                 unsafe {
                     ctx.device.raw.cmd_copy_image_to_buffer(
                         ctx.cmd,
@@ -659,6 +663,8 @@ fn record_pass(
         let mut ctx = PassContext { device, cmd, iteration, extent, resources };
         let recorded = record(&mut ctx);
         if raster {
+            // SAFETY: `cmd` is recording and `begin_rendering` began this pass' rendering above; the closure
+            // neither begins nor ends one (the contract of `PassContext`).
             unsafe { device.raw.cmd_end_rendering(cmd) };
         }
         recorded?;
@@ -725,6 +731,7 @@ fn record_barriers(
     let any = any_memory || !images.is_empty();
     if any {
         let memories: &[vk::MemoryBarrier] = if any_memory { std::slice::from_ref(&memory) } else { &[] };
+        // SAFETY: `cmd` is recording outside any rendering; the barriers name live resources of this graph.
         unsafe {
             device.raw.cmd_pipeline_barrier(
                 cmd,
@@ -801,6 +808,8 @@ fn begin_rendering(
     if let Some(d) = &depth {
         info = info.depth_attachment(d);
     }
+    // SAFETY: `cmd` is recording outside any rendering; the attachments' views are live and in the
+    // layouts the barriers just placed.
     unsafe { device.raw.cmd_begin_rendering(cmd, &info) };
     crate::vk::set_viewport(device, cmd, area);
     extent

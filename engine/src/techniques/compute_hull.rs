@@ -259,6 +259,8 @@ impl ComputeHull {
             let (d, cmd) = (ctx.device, ctx.cmd);
             let bind = vk::PipelineBindPoint::COMPUTE;
             let layout = self.expand_layout.raw;
+            // SAFETY: the recording contract of `PassContext` (graph/mod.rs): the pass declared what this
+            // touches, and the pipelines, layouts and sets are the technique's, of one layout.
             unsafe {
                 d.raw.cmd_bind_descriptor_sets(cmd, bind, layout, FRAME_SET_INDEX, &[view_set], &[]);
                 d.raw.cmd_bind_descriptor_sets(cmd, bind, layout, TECHNIQUE_SET_INDEX, &[technique_set], &[]);

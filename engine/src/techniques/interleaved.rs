@@ -701,6 +701,8 @@ impl InterleavedTechnique {
     ) {
         let (d, cmd) = (ctx.device, ctx.cmd);
         let bind = vk::PipelineBindPoint::COMPUTE;
+        // SAFETY: the recording contract of `PassContext` (graph/mod.rs): the pass declared what this
+        // touches, and the pipelines, layouts and sets are the technique's, of one layout.
         unsafe {
             if barrier {
                 crate::vk::compute_write_barrier(
@@ -847,6 +849,8 @@ impl InterleavedTechnique {
             move |ctx| {
                 let (d, cmd) = (ctx.device, ctx.cmd);
                 let stages = vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT;
+                // SAFETY: the recording contract of `PassContext` (graph/mod.rs): the pass declared what
+                // this touches, and the pipelines, layouts and sets are the technique's, of one layout.
                 unsafe { d.raw.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, pipeline.raw) };
                 let (first, count) = self.vpl_set(ctx.iteration);
                 let time = self.passes[(ctx.iteration as usize).min(self.passes.len() - 1)].time;
@@ -904,6 +908,8 @@ impl InterleavedTechnique {
                         layer_count: 1,
                     })
                     .image_extent(vk::Extent3D { width: w, height: h, depth: 1 });
+                // SAFETY: the recording contract of `PassContext` (graph/mod.rs): the pass declared the
+                // staging buffer read and the image written, in TRANSFER_DST layout.
                 unsafe {
                     ctx.device.raw.cmd_copy_buffer_to_image(
                         ctx.cmd,
@@ -968,6 +974,8 @@ impl InterleavedTechnique {
                 let stages = vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT;
                 let push = |i: usize| ForwardPush::new(inputs.camera, i, &s);
                 let bind = vk::PipelineBindPoint::GRAPHICS;
+                // SAFETY: the recording contract of `PassContext` (graph/mod.rs): the pass declared what
+                // this touches, and the pipelines, layouts and sets are the technique's, of one layout.
                 unsafe { ctx.device.raw.cmd_bind_pipeline(ctx.cmd, bind, this.gbuffer.raw) };
                 inputs.world.record_object_draws(
                     ctx.device,
