@@ -13,7 +13,6 @@
 
 use ash::vk;
 use bytemuck::{Pod, Zeroable};
-use glam::Vec2;
 
 use super::multipass::{FrameUse, MultipassFrame, PassDraws, COLOR_FORMAT, DEPTH_FORMAT};
 use super::shadow_maps::ShadowMaps;
@@ -31,16 +30,8 @@ use crate::vk::{
     ShaderModule,
 };
 
-/// One pass' sample of the lens and shutter.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct PassSample {
-    /// Shutter time in [0, 1] (already warped by the shutter curve).
-    pub time: f32,
-    /// Lens point in unit aperture coordinates (already mapped to the aperture shape).
-    pub lens: Vec2,
-    /// Subpixel offset in pixels, in [-0.5, 0.5)²: the pass samples pixel centre + jitter.
-    pub jitter: Vec2,
-}
+/// Moved to [`crate::sampling`] (the CPU mirrors use it too); re-exported for the techniques.
+pub use crate::sampling::PassSample;
 
 /// Push constants of `forward.vert`/`forward.frag`.
 #[repr(C)]
