@@ -269,8 +269,9 @@ fn each_file_has_the_product_of_its_axes() {
         }
     }
     assert_eq!(d.count("stochastic/stochastic.frag"), 48); // 3 hulls × 2 instrumented × 4 effects × 2 passes
-                                                           // The shading stages: 320 permutations where one shade.comp of every rate had 480 (5 rates × 2
-                                                           // instrumented × 4 effects × 3 shadows × 2 colour × 2 tints): texture-space lookups shade nothing.
+
+    // The shading stages: 320 permutations where one shade.comp of every rate had 480 (5 rates × 2
+    // instrumented × 4 effects × 3 shadows × 2 colour × 2 tints): texture-space lookups shade nothing.
     assert_eq!(d.count("stochastic/shade_exact.comp"), 192); // 2 rates × 2 × 4 effects × 3 shadows × 2 × 2
     assert_eq!(d.count("stochastic/shade_texture_space.comp"), 32); // 2 rates × 2 × 4 effects × 2 tints
     assert_eq!(d.count("stochastic/shade_decoupled.comp"), 96); // 2 × 4 effects × 3 shadows × 2 × 2

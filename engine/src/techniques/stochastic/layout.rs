@@ -128,7 +128,7 @@ pub const STOCHASTIC_SET: [Binding; 12] = [
 ];
 
 /// `StochasticPush::object` of the shading pass' dispatch that adds the background for the samples
-/// without a hit (`SHADE_BACKGROUND` in `shade.comp`).
+/// without a hit (`SHADE_BACKGROUND` in `shade.glsl`).
 pub const SHADE_BACKGROUND: u32 = u32::MAX;
 
 /// Triangles a frame may hold: the visibility payload is triangle << 1 | back with the triangles
@@ -193,11 +193,11 @@ pub const STOCHASTIC_STRUCTS: &[SharedStruct] = &[
 pub(super) const TRIANGLE_KEY_BYTES: u64 = 9 * 4;
 
 /// What the stochastic rasterizer's shaders expect of the layouts [`super::StochasticTechnique::new`] builds:
-/// sets 2 and 3 from [`STOCHASTIC_OBJECT_SET`] and [`STOCHASTIC_SET`], and [`StochasticPush`] for the
-/// raster pipelines (`hull.vert` pushes nothing) and the shading pass, [`TrianglesPush`] for
-/// `triangles.comp`. Also `expand.comp`'s: [`ComputeHull`](super::super::compute_hull::ComputeHull) builds its pipeline with these two sets'
-/// layouts (handed over here; it writes the hull bindings of set 2 and the counts' binding of set 3)
-/// and [`super::super::compute_hull::ExpandPush`].
+/// sets 2 and 3 from [`STOCHASTIC_OBJECT_SET`] and [`STOCHASTIC_SET`], and [`StochasticPush`] for the raster
+/// pipelines (`hull.vert` pushes nothing) and the shading pass, [`TrianglesPush`] for `triangles.comp`. Also
+/// `expand.comp`'s: [`ComputeHull`](super::super::compute_hull::ComputeHull) builds its pipeline with these
+/// two sets' layouts (handed over here; it writes the hull bindings of set 2 and the counts' binding of set
+/// 3) and [`super::super::compute_hull::ExpandPush`].
 pub const SHADER_INTERFACES: &[crate::gpu::layout::ShaderInterface] = &[
     crate::gpu::layout::ShaderInterface::technique(
         &[
@@ -211,21 +211,10 @@ pub const SHADER_INTERFACES: &[crate::gpu::layout::ShaderInterface] = &[
         Some(&STOCHASTIC_SET),
         Some(STOCHASTIC_STRUCTS[0]),
     ),
-    // The shading stages that shade: the same sets, and the shadow maps as set 4.
-    crate::gpu::layout::ShaderInterface::technique(
-        &["stochastic/shade_exact.comp", "stochastic/shade_decoupled.comp"],
-        Some(&STOCHASTIC_OBJECT_SET),
-        Some(&STOCHASTIC_SET),
-        Some(STOCHASTIC_STRUCTS[0]),
-    )
-    .with_shadows(&super::super::shadow_maps::SHADOW_SET),
-    // Texture-space lookups: no shadow maps (pass 1 shaded with them).
-    crate::gpu::layout::ShaderInterface::technique(
-        &["stochastic/shade_texture_space.comp"],
-        Some(&STOCHASTIC_OBJECT_SET),
-        Some(&STOCHASTIC_SET),
-        Some(STOCHASTIC_STRUCTS[0]),
-    ),
+    // The shading stages, each declared beside its Rust (shading/*.rs).
+    super::shading::EXACT_INTERFACE,
+    super::shading::TEXTURE_SPACE_INTERFACE,
+    super::shading::DECOUPLED_INTERFACE,
     crate::gpu::layout::ShaderInterface::technique(
         &["stochastic/triangles.comp"],
         Some(&STOCHASTIC_OBJECT_SET),

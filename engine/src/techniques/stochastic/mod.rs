@@ -109,7 +109,7 @@ impl CacheCounters {
     }
 }
 
-/// u32 counters of the counters buffer (`Counters` in `stochastic.frag` and `shade.comp`).
+/// u32 counters of the counters buffer (`Counters` in `stochastic.frag` and `shade.glsl`).
 const COUNTERS: usize = 9;
 
 impl SampleCounters {

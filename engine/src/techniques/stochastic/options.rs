@@ -153,9 +153,9 @@ pub struct StochasticOptions {
     pub shading: ShadingRate,
     /// Count samples tested / hit and shading invocations with atomics (slower).
     pub instrumented: bool,
-    /// Samples per pixel and pass M (S = M × passes): `None` takes all S in one pass where the
-    /// visibility buffer fits [`VISIBILITY_BUDGET_BYTES`](super::VISIBILITY_BUDGET_BYTES) ([`samples_per_pass`]); `Some(m)` forces m
-    /// (an experiment: more passes, each paying the bounds' rasterization again).
+    /// Samples per pixel and pass M (S = M × passes): `None` takes all S in one pass where the visibility
+    /// buffer fits [`VISIBILITY_BUDGET_BYTES`](super::VISIBILITY_BUDGET_BYTES) ([`samples_per_pass`]);
+    /// `Some(m)` forces m (an experiment: more passes, each paying the bounds' rasterization again).
     pub per_pass: Option<u32>,
     /// Geometry shader or compute-expanded hull ([`HullExpansion`]).
     pub expansion: HullExpansion,
@@ -559,10 +559,12 @@ pub fn device_bound(caps: &crate::vk::Capabilities) -> (BoundKind, String) {
     crate::calibration::device_bound(caps)
 }
 
-/// Samples per pixel and pass M and passes P (S = M × P) for `pixels` pixels, the per-sample buffers
-/// (`bytes` per pixel and sample of a pass: [`VISIBILITY_BYTES`](super::VISIBILITY_BYTES), plus [`TINT_BYTES`](super::TINT_BYTES) with tints) at
-/// most `max_bytes` — [`VISIBILITY_BUDGET_BYTES`](super::VISIBILITY_BUDGET_BYTES) or the device's `maxStorageBufferRange`, whichever is
-/// less: `forced` when given (it must divide S and fit), else the largest divisor of S that fits.
+/// Samples per pixel and pass M and passes P (S = M × P) for `pixels` pixels, the per-sample buffers (`bytes`
+/// per pixel and sample of a pass: [`VISIBILITY_BYTES`](super::VISIBILITY_BYTES), plus
+/// [`TINT_BYTES`](super::TINT_BYTES) with tints) at most `max_bytes` —
+/// [`VISIBILITY_BUDGET_BYTES`](super::VISIBILITY_BUDGET_BYTES) or the device's `maxStorageBufferRange`,
+/// whichever is less: `forced` when given (it must divide S and fit), else the largest divisor of S that
+/// fits.
 pub fn samples_per_pass(
     spp: u32,
     forced: Option<u32>,

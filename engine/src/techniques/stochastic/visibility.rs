@@ -141,17 +141,7 @@ pub(super) struct Visibility {
     pub objects: Vec<StochasticObject>,
     pub sampling: Sampling,
     instrumented: bool,
-    pipelines: Vec<(Effects, Pipeline)>,
-    /// The tint pass' pipelines (geometry-shader hull), per path with a tinted object.
-    tint_pipelines: Vec<(Effects, Pipeline)>,
-    /// Coverage pipelines behind the cluster bounds, and the `clusters.comp` pipelines, per path.
-    cluster_pipelines: Vec<(Effects, Pipeline)>,
-    clusters_pipelines: Vec<(Effects, Pipeline)>,
-    clusters_layout: PipelineLayout,
-    triangles_pipeline: Pipeline,
-    triangles_layout: PipelineLayout,
-    layout: PipelineLayout,
-    push_stages: vk::ShaderStageFlags,
+    pipelines: Pipelines,
     /// Set 3 ([`super::STOCHASTIC_SET`]), shared with the shading stages.
     pub technique_set: vk::DescriptorSet,
     /// One 64-bit word per pixel and sample of a pass (`visibility.glsl`).
@@ -163,7 +153,6 @@ pub(super) struct Visibility {
     /// The compute-expanded hull's buffers and pipelines ([`HullExpansion::Compute`]).
     hull: Option<ComputeHull>,
     _samples: [Buffer; 2],
-    _shaders: Vec<ShaderModule>,
 }
 
 impl Visibility {
@@ -183,128 +172,11 @@ impl Visibility {
         technique_set: vk::DescriptorSet,
     ) -> Result<Self> {
         let (device, world) = (ctx.device, ctx.world);
-        let caps = &device.caps;
         let compute = options.expansion == HullExpansion::Compute;
         let sets = layouts.both();
         let tinted = choices.iter().any(|c| c.tint_log.is_some());
-        let uses = |effects: Effects, f: &dyn Fn(&ObjectChoices) -> bool| {
-            choices.iter().any(|c| c.effects == effects && f(c))
-        };
 
-        let comp = ShaderModule::new(device, shaders::STOCHASTIC_TRIANGLES_COMP)?;
-        let triangles_layout = world.pipeline_layout(
-            device,
-            &sets,
-            std::mem::size_of::<TrianglesPush>() as u32,
-            vk::ShaderStageFlags::COMPUTE,
-        )?;
-        let triangles_pipeline =
-            Pipeline::compute(device, "camera-space triangles", &triangles_layout, &comp)?;
-        // The geometry stage is named only where the device has one.
-        let mut push_stages = vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT;
-        if caps.geometry_shader {
-            push_stages |= vk::ShaderStageFlags::GEOMETRY;
-        }
-        let layout = world.pipeline_layout(
-            device,
-            &sets,
-            std::mem::size_of::<StochasticPush>() as u32,
-            push_stages,
-        )?;
-        let (bindings, attributes) = vertex_input();
-        let vert = ShaderModule::new(device, shaders::STOCHASTIC_STOCHASTIC_VERT)?;
-        let hull_vert = ShaderModule::new(device, shaders::STOCHASTIC_HULL_VERT)?;
-        let mut shader_modules = vec![];
-        let mut pipelines = Vec::with_capacity(paths.len());
-        let mut tint_pipelines = Vec::new();
-        let raster = |name: &str, stages: &[&ShaderModule], vertex_input: bool| {
-            Pipeline::graphics(
-                device,
-                &layout,
-                &GraphicsDesc {
-                    name,
-                    stages,
-                    vertex_bindings: if vertex_input { &bindings } else { &[] },
-                    vertex_attributes: if vertex_input { &attributes[..1] } else { &[] },
-                    color_formats: &[],
-                    depth_format: None,
-                    samples: 1,
-                    sample_shading: None,
-                    faces: Faces::Both,
-                    depth_compare: vk::CompareOp::ALWAYS,
-                    depth_write: false,
-                },
-            )
-        };
-        for &effects in paths {
-            if uses(effects, &|c| c.tint_log.is_some()) {
-                let frag = StochasticFrag {
-                    hull: axes::Hull::GeometryShader,
-                    instrumented: false,
-                    effects: effects.shader_axis(),
-                    transparency_pass: axes::TransparencyPass::Tint,
-                };
-                let frag = ShaderModule::new(device, frag.source())?;
-                let geom = StochasticGeom { bound_debug: false, effects: effects.shader_axis() };
-                let geom = ShaderModule::new(device, geom.source())?;
-                let name = format!("stochastic tint ({})", effects.name());
-                tint_pipelines.push((effects, raster(&name, &[&vert, &geom, &frag], true)?));
-                shader_modules.extend([geom, frag]);
-            }
-            let frag = StochasticFrag {
-                hull: options.expansion.axis(),
-                instrumented: options.instrumented,
-                effects: effects.shader_axis(),
-                transparency_pass: axes::TransparencyPass::Coverage,
-            };
-            let frag = ShaderModule::new(device, frag.source())?;
-            let (first, geom) = if compute {
-                (&hull_vert, None)
-            } else {
-                let geom = StochasticGeom {
-                    bound_debug: debug.bound_debug_triangles > 0,
-                    effects: effects.shader_axis(),
-                };
-                (&vert, Some(ShaderModule::new(device, geom.source())?))
-            };
-            let stages: Vec<&ShaderModule> =
-                [Some(first), geom.as_ref(), Some(&frag)].into_iter().flatten().collect();
-            let name = format!("stochastic coverage ({}, {} hull)", effects.name(), options.expansion.name());
-            pipelines.push((effects, raster(&name, &stages, !compute)?));
-            shader_modules.extend(geom);
-            shader_modules.push(frag);
-        }
-        // Cluster bounds: a coverage pipeline behind cluster.vert and a clusters.comp pipeline for each
-        // path with a clustered object.
-        let clusters_layout = world.pipeline_layout(
-            device,
-            &sets,
-            std::mem::size_of::<ClustersPush>() as u32,
-            vk::ShaderStageFlags::COMPUTE,
-        )?;
-        let mut cluster_pipelines = Vec::new();
-        let mut clusters_pipelines = Vec::new();
-        let cluster_vert = ShaderModule::new(device, shaders::STOCHASTIC_CLUSTER_VERT)?;
-        for &effects in paths {
-            if !uses(effects, &|c| c.clusters > 0) {
-                continue;
-            }
-            let frag = StochasticFrag {
-                hull: axes::Hull::Cluster,
-                instrumented: options.instrumented,
-                effects: effects.shader_axis(),
-                transparency_pass: axes::TransparencyPass::Coverage,
-            };
-            let frag = ShaderModule::new(device, frag.source())?;
-            let name = format!("stochastic coverage ({}, clusters)", effects.name());
-            cluster_pipelines.push((effects, raster(&name, &[&cluster_vert, &frag], false)?));
-            shader_modules.push(frag);
-            let comp = ShaderModule::new(device, ClustersComp { effects: effects.shader_axis() }.source())?;
-            let name = format!("cluster bounds ({})", effects.name());
-            clusters_pipelines.push((effects, Pipeline::compute(device, &name, &clusters_layout, &comp)?));
-            shader_modules.push(comp);
-        }
-        shader_modules.extend([vert, hull_vert, comp, cluster_vert]);
+        let pipelines = Pipelines::new(ctx, options, debug, paths, &choices, &sets)?;
 
         let storage = vk::BufferUsageFlags::STORAGE_BUFFER;
         let (aperture, shutter) = (ctx.scene.camera.aperture, ctx.scene.camera.shutter);
@@ -370,14 +242,6 @@ impl Visibility {
             sampling,
             instrumented: options.instrumented,
             pipelines,
-            tint_pipelines,
-            cluster_pipelines,
-            clusters_pipelines,
-            clusters_layout,
-            triangles_pipeline,
-            triangles_layout,
-            layout,
-            push_stages,
             technique_set,
             visibility,
             tints,
@@ -385,7 +249,6 @@ impl Visibility {
             bound_debug,
             hull,
             _samples: samples,
-            _shaders: shader_modules,
         })
     }
 
@@ -592,10 +455,10 @@ impl Visibility {
     fn record_triangles(&self, ctx: &PassContext<'_>, world: &GpuWorld, view: &GpuView, objects: &[usize]) {
         let (d, cmd) = (ctx.device, ctx.cmd);
         let bind = vk::PipelineBindPoint::COMPUTE;
-        let layout = self.triangles_layout.raw;
+        let layout = self.pipelines.triangles_layout.raw;
         // SAFETY: the recording contract of `PassContext`; the pipeline and sets belong to `layout`.
         unsafe {
-            d.raw.cmd_bind_pipeline(cmd, bind, self.triangles_pipeline.raw);
+            d.raw.cmd_bind_pipeline(cmd, bind, self.pipelines.triangles.raw);
             d.raw.cmd_bind_descriptor_sets(cmd, bind, layout, FRAME_SET_INDEX, &[view.frame_set], &[]);
             for &i in objects {
                 let o = &world.objects[i];
@@ -621,11 +484,11 @@ impl Visibility {
     fn record_clusters(&self, ctx: &PassContext<'_>, world: &GpuWorld, view: &GpuView, objects: &[usize]) {
         let (d, cmd) = (ctx.device, ctx.cmd);
         let bind = vk::PipelineBindPoint::COMPUTE;
-        let layout = self.clusters_layout.raw;
+        let layout = self.pipelines.clusters_layout.raw;
         // SAFETY: the recording contract of `PassContext`; the pipelines and sets belong to `layout`.
         unsafe {
             d.raw.cmd_bind_descriptor_sets(cmd, bind, layout, FRAME_SET_INDEX, &[view.frame_set], &[]);
-            for (effects, pipeline) in &self.clusters_pipelines {
+            for (effects, pipeline) in &self.pipelines.clusters {
                 d.raw.cmd_bind_pipeline(cmd, bind, pipeline.raw);
                 for &i in objects.iter().filter(|&&i| self.objects[i].effects == *effects) {
                     let (o, so) = (&world.objects[i], &self.objects[i]);
@@ -711,7 +574,7 @@ impl Visibility {
         let (d, cmd) = (ctx.device, ctx.cmd);
         let bind = vk::PipelineBindPoint::GRAPHICS;
         let world = inputs.world;
-        for (effects, pipeline) in &self.pipelines {
+        for (effects, pipeline) in &self.pipelines.coverage {
             self.bind_raster(ctx, pipeline);
             let include = |i: usize| self.objects[i].effects == *effects && self.objects[i].clusters == 0;
             let view = inputs.camera;
@@ -728,7 +591,7 @@ impl Visibility {
                 d.raw.cmd_bind_descriptor_sets(
                     cmd,
                     bind,
-                    self.layout.raw,
+                    self.pipelines.layout.raw,
                     FRAME_SET_INDEX,
                     &[inputs.camera.frame_set],
                     &[],
@@ -739,13 +602,20 @@ impl Visibility {
                     }
                     d.raw.cmd_push_constants(
                         cmd,
-                        self.layout.raw,
-                        self.push_stages,
+                        self.pipelines.layout.raw,
+                        self.pipelines.push_stages,
                         0,
                         bytemuck::bytes_of(&push(i)),
                     );
                     let sets = [o.set, self.objects[i].set];
-                    d.raw.cmd_bind_descriptor_sets(cmd, bind, self.layout.raw, OBJECT_SET_INDEX, &sets, &[]);
+                    d.raw.cmd_bind_descriptor_sets(
+                        cmd,
+                        bind,
+                        self.pipelines.layout.raw,
+                        OBJECT_SET_INDEX,
+                        &sets,
+                        &[],
+                    );
                     d.raw.cmd_draw(cmd, self.objects[i].hull_count, 1, 0, 0);
                 }
             }
@@ -758,7 +628,7 @@ impl Visibility {
     /// uncovered sample adds the tint once — per run and key segment as the coverage draws.
     fn record_tints(&self, ctx: &mut PassContext<'_>, inputs: &FrameInputs<'_>, pass: u32) {
         let hull = BoundKind::ConvexHull.id();
-        for (effects, pipeline) in &self.tint_pipelines {
+        for (effects, pipeline) in &self.pipelines.tint {
             self.bind_raster(ctx, pipeline);
             let include =
                 |i: usize| self.objects[i].effects == *effects && self.objects[i].tint_log.is_some();
@@ -775,7 +645,7 @@ impl Visibility {
             d.raw.cmd_bind_descriptor_sets(
                 cmd,
                 bind,
-                self.layout.raw,
+                self.pipelines.layout.raw,
                 TECHNIQUE_SET_INDEX,
                 &[self.technique_set],
                 &[],
@@ -809,8 +679,8 @@ impl Visibility {
                     ctx.cmd,
                     view,
                     pipeline,
-                    &self.layout,
-                    self.push_stages,
+                    &self.pipelines.layout,
+                    self.pipelines.push_stages,
                     |i| include(i) && run < self.objects[i].intervals && piece(i).is_some(),
                     |i| piece(i).expect("included"),
                     |i| Some(self.objects[i].set),
@@ -825,14 +695,14 @@ impl Visibility {
         let (d, cmd) = (ctx.device, ctx.cmd);
         let bind = vk::PipelineBindPoint::GRAPHICS;
         let (world, view) = (inputs.world, inputs.camera);
-        for (effects, pipeline) in &self.cluster_pipelines {
+        for (effects, pipeline) in &self.pipelines.cluster_coverage {
             self.bind_raster(ctx, pipeline);
             // SAFETY: the recording contract of `PassContext`; the set belongs to the layout.
             unsafe {
                 d.raw.cmd_bind_descriptor_sets(
                     cmd,
                     bind,
-                    self.layout.raw,
+                    self.pipelines.layout.raw,
                     FRAME_SET_INDEX,
                     &[view.frame_set],
                     &[],
@@ -852,15 +722,15 @@ impl Visibility {
                     unsafe {
                         d.raw.cmd_push_constants(
                             cmd,
-                            self.layout.raw,
-                            self.push_stages,
+                            self.pipelines.layout.raw,
+                            self.pipelines.push_stages,
                             0,
                             bytemuck::bytes_of(&push),
                         );
                         d.raw.cmd_bind_descriptor_sets(
                             cmd,
                             bind,
-                            self.layout.raw,
+                            self.pipelines.layout.raw,
                             OBJECT_SET_INDEX,
                             &sets,
                             &[],
@@ -870,5 +740,163 @@ impl Visibility {
                 }
             }
         }
+    }
+}
+
+/// The visibility core's pipelines: camera-space triangles, cluster bounds, and the coverage and tint
+/// draws (one shader permutation per effects path in use), with their layouts.
+struct Pipelines {
+    coverage: Vec<(Effects, Pipeline)>,
+    /// The tint pass' pipelines (geometry-shader hull), per path with a tinted object.
+    tint: Vec<(Effects, Pipeline)>,
+    /// Coverage pipelines behind the cluster bounds, and the `clusters.comp` pipelines, per path.
+    cluster_coverage: Vec<(Effects, Pipeline)>,
+    clusters: Vec<(Effects, Pipeline)>,
+    clusters_layout: PipelineLayout,
+    triangles: Pipeline,
+    triangles_layout: PipelineLayout,
+    /// The raster pipelines' layout and push stages.
+    layout: PipelineLayout,
+    push_stages: vk::ShaderStageFlags,
+    _shaders: Vec<ShaderModule>,
+}
+
+impl Pipelines {
+    fn new(
+        ctx: &PrepareContext<'_>,
+        options: &StochasticOptions,
+        debug: &DebugOptions,
+        paths: &[Effects],
+        choices: &[ObjectChoices],
+        sets: &[&DescriptorSetLayout],
+    ) -> Result<Self> {
+        let (device, world) = (ctx.device, ctx.world);
+        let caps = &device.caps;
+        let compute = options.expansion == HullExpansion::Compute;
+        let uses = |effects: Effects, f: &dyn Fn(&ObjectChoices) -> bool| {
+            choices.iter().any(|c| c.effects == effects && f(c))
+        };
+        let comp = ShaderModule::new(device, shaders::STOCHASTIC_TRIANGLES_COMP)?;
+        let triangles_layout = world.pipeline_layout(
+            device,
+            sets,
+            std::mem::size_of::<TrianglesPush>() as u32,
+            vk::ShaderStageFlags::COMPUTE,
+        )?;
+        let triangles_pipeline =
+            Pipeline::compute(device, "camera-space triangles", &triangles_layout, &comp)?;
+        // The geometry stage is named only where the device has one.
+        let mut push_stages = vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT;
+        if caps.geometry_shader {
+            push_stages |= vk::ShaderStageFlags::GEOMETRY;
+        }
+        let layout =
+            world.pipeline_layout(device, sets, std::mem::size_of::<StochasticPush>() as u32, push_stages)?;
+        let (bindings, attributes) = vertex_input();
+        let vert = ShaderModule::new(device, shaders::STOCHASTIC_STOCHASTIC_VERT)?;
+        let hull_vert = ShaderModule::new(device, shaders::STOCHASTIC_HULL_VERT)?;
+        let mut shader_modules = vec![];
+        let mut pipelines = Vec::with_capacity(paths.len());
+        let mut tint_pipelines = Vec::new();
+        let raster = |name: &str, stages: &[&ShaderModule], vertex_input: bool| {
+            Pipeline::graphics(
+                device,
+                &layout,
+                &GraphicsDesc {
+                    name,
+                    stages,
+                    vertex_bindings: if vertex_input { &bindings } else { &[] },
+                    vertex_attributes: if vertex_input { &attributes[..1] } else { &[] },
+                    color_formats: &[],
+                    depth_format: None,
+                    samples: 1,
+                    sample_shading: None,
+                    faces: Faces::Both,
+                    depth_compare: vk::CompareOp::ALWAYS,
+                    depth_write: false,
+                },
+            )
+        };
+        for &effects in paths {
+            if uses(effects, &|c| c.tint_log.is_some()) {
+                let frag = StochasticFrag {
+                    hull: axes::Hull::GeometryShader,
+                    instrumented: false,
+                    effects: effects.shader_axis(),
+                    transparency_pass: axes::TransparencyPass::Tint,
+                };
+                let frag = ShaderModule::new(device, frag.source())?;
+                let geom = StochasticGeom { bound_debug: false, effects: effects.shader_axis() };
+                let geom = ShaderModule::new(device, geom.source())?;
+                let name = format!("stochastic tint ({})", effects.name());
+                tint_pipelines.push((effects, raster(&name, &[&vert, &geom, &frag], true)?));
+                shader_modules.extend([geom, frag]);
+            }
+            let frag = StochasticFrag {
+                hull: options.expansion.axis(),
+                instrumented: options.instrumented,
+                effects: effects.shader_axis(),
+                transparency_pass: axes::TransparencyPass::Coverage,
+            };
+            let frag = ShaderModule::new(device, frag.source())?;
+            let (first, geom) = if compute {
+                (&hull_vert, None)
+            } else {
+                let geom = StochasticGeom {
+                    bound_debug: debug.bound_debug_triangles > 0,
+                    effects: effects.shader_axis(),
+                };
+                (&vert, Some(ShaderModule::new(device, geom.source())?))
+            };
+            let stages: Vec<&ShaderModule> =
+                [Some(first), geom.as_ref(), Some(&frag)].into_iter().flatten().collect();
+            let name = format!("stochastic coverage ({}, {} hull)", effects.name(), options.expansion.name());
+            pipelines.push((effects, raster(&name, &stages, !compute)?));
+            shader_modules.extend(geom);
+            shader_modules.push(frag);
+        }
+        // Cluster bounds: a coverage pipeline behind cluster.vert and a clusters.comp pipeline for each
+        // path with a clustered object.
+        let clusters_layout = world.pipeline_layout(
+            device,
+            sets,
+            std::mem::size_of::<ClustersPush>() as u32,
+            vk::ShaderStageFlags::COMPUTE,
+        )?;
+        let mut cluster_pipelines = Vec::new();
+        let mut clusters_pipelines = Vec::new();
+        let cluster_vert = ShaderModule::new(device, shaders::STOCHASTIC_CLUSTER_VERT)?;
+        for &effects in paths {
+            if !uses(effects, &|c| c.clusters > 0) {
+                continue;
+            }
+            let frag = StochasticFrag {
+                hull: axes::Hull::Cluster,
+                instrumented: options.instrumented,
+                effects: effects.shader_axis(),
+                transparency_pass: axes::TransparencyPass::Coverage,
+            };
+            let frag = ShaderModule::new(device, frag.source())?;
+            let name = format!("stochastic coverage ({}, clusters)", effects.name());
+            cluster_pipelines.push((effects, raster(&name, &[&cluster_vert, &frag], false)?));
+            shader_modules.push(frag);
+            let comp = ShaderModule::new(device, ClustersComp { effects: effects.shader_axis() }.source())?;
+            let name = format!("cluster bounds ({})", effects.name());
+            clusters_pipelines.push((effects, Pipeline::compute(device, &name, &clusters_layout, &comp)?));
+            shader_modules.push(comp);
+        }
+        shader_modules.extend([vert, hull_vert, comp, cluster_vert]);
+        Ok(Pipelines {
+            coverage: pipelines,
+            tint: tint_pipelines,
+            cluster_coverage: cluster_pipelines,
+            clusters: clusters_pipelines,
+            clusters_layout,
+            triangles: triangles_pipeline,
+            triangles_layout,
+            layout,
+            push_stages,
+            _shaders: shader_modules,
+        })
     }
 }

@@ -8,10 +8,12 @@ use gpu_allocator::MemoryLocation;
 
 use super::{ShadeVariant, ShadingStage};
 use crate::error::{Error, Result};
+use crate::gpu::layout::ShaderInterface;
 use crate::graph::{Access, FrameGraph, ResourceHandle, Tracked};
 use crate::shaders::{ShadeDecoupledComp, ShaderSource};
 use crate::techniques::shadow_maps::ShadowHandles;
 use crate::techniques::stochastic::layout::{DecoupledPhase, StochasticPush};
+use crate::techniques::stochastic::layout::{STOCHASTIC_OBJECT_SET, STOCHASTIC_SET, STOCHASTIC_STRUCTS};
 use crate::techniques::stochastic::options::StochasticOptions;
 use crate::techniques::stochastic::CacheCounters;
 use crate::techniques::{FrameInputs, PrepareContext};
@@ -37,8 +39,8 @@ pub const DEFERRED_REF_BYTES: u64 = 4;
 /// ([`DecoupledMemory`]).
 pub const MSAA_GBUFFER_BYTES_PER_SAMPLE: u64 = 48;
 
-/// The deferred mode's memory ([`super::super::StochasticDraws::decoupled_memory`]) against the MSAA
-/// G-buffer of [`MSAA_GBUFFER_BYTES_PER_SAMPLE`] it replaces: both per sample of a pass (what is held at once).
+/// The deferred mode's memory ([`super::super::StochasticDraws::decoupled_memory`]) against the MSAA G-buffer
+/// of [`MSAA_GBUFFER_BYTES_PER_SAMPLE`] it replaces: both per sample of a pass (what is held at once).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct DecoupledMemory {
     /// Pixels × samples per pass.
@@ -237,3 +239,13 @@ impl ShadingStage for Decoupled {
         })
     }
 }
+
+/// `shade_decoupled.comp`'s interface: sets 2 and 3 of the stochastic frame, [`StochasticPush`], the shadow
+/// maps as set 4.
+pub(in crate::techniques::stochastic) const SHADER_INTERFACE: ShaderInterface = ShaderInterface::technique(
+    &["stochastic/shade_decoupled.comp"],
+    Some(&STOCHASTIC_OBJECT_SET),
+    Some(&STOCHASTIC_SET),
+    Some(STOCHASTIC_STRUCTS[0]),
+)
+.with_shadows(&crate::techniques::shadow_maps::SHADOW_SET);

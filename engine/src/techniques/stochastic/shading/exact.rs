@@ -3,7 +3,9 @@
 //! beyond what the shading pass binds.
 
 use super::{ShadeVariant, ShadingStage};
+use crate::gpu::layout::ShaderInterface;
 use crate::shaders::{ShadeExactComp, ShaderSource};
+use crate::techniques::stochastic::layout::{STOCHASTIC_OBJECT_SET, STOCHASTIC_SET, STOCHASTIC_STRUCTS};
 use crate::techniques::stochastic::ShadingRate;
 
 pub(super) struct Exact {
@@ -29,3 +31,13 @@ impl ShadingStage for Exact {
         .source()
     }
 }
+
+/// `shade_exact.comp`'s interface: sets 2 and 3 of the stochastic frame, [`StochasticPush`], the shadow maps
+/// as set 4.
+pub(in crate::techniques::stochastic) const SHADER_INTERFACE: ShaderInterface = ShaderInterface::technique(
+    &["stochastic/shade_exact.comp"],
+    Some(&STOCHASTIC_OBJECT_SET),
+    Some(&STOCHASTIC_SET),
+    Some(STOCHASTIC_STRUCTS[0]),
+)
+.with_shadows(&crate::techniques::shadow_maps::SHADOW_SET);

@@ -17,6 +17,10 @@ mod decoupled;
 mod exact;
 mod texture_space;
 
+pub(super) use decoupled::SHADER_INTERFACE as DECOUPLED_INTERFACE;
+pub(super) use exact::SHADER_INTERFACE as EXACT_INTERFACE;
+pub(super) use texture_space::SHADER_INTERFACE as TEXTURE_SPACE_INTERFACE;
+
 pub use decoupled::{
     DecoupledMemory, CACHE_ENTRY_BYTES, DEFAULT_CACHE_ENTRIES, DEFERRED_ARGS_OFFSET,
     DEFERRED_QUEUE_HEADER_BYTES, DEFERRED_REF_BYTES, MAX_CACHE_ENTRIES, MSAA_GBUFFER_BYTES_PER_SAMPLE,

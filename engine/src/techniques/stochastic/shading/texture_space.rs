@@ -7,10 +7,12 @@ use ash::vk;
 use super::{ShadeVariant, ShadingStage};
 use crate::error::Result;
 use crate::gpu::layout::Binding;
+use crate::gpu::layout::ShaderInterface;
 use crate::graph::{Access, FrameGraph, ResourceHandle};
 use crate::shaders::{ShadeTextureSpaceComp, ShaderSource};
 use crate::techniques::shadow_maps::{ShadowHandles, ShadowMaps};
 use crate::techniques::stochastic::layout::{StochasticPush, STOCHASTIC_OBJECT_SET};
+use crate::techniques::stochastic::layout::{STOCHASTIC_SET, STOCHASTIC_STRUCTS};
 use crate::techniques::stochastic::options::{ShadingRate, StochasticOptions};
 use crate::techniques::stochastic::{TEXTURE_SPACE_FINEST, TEXTURE_SPACE_GUTTER};
 use crate::techniques::texture_space::{self, AtlasPasses};
@@ -121,3 +123,12 @@ impl ShadingStage for TextureSpaceLookup {
         self.atlas.counters()
     }
 }
+
+/// `shade_texture_space.comp`'s interface: sets 2 and 3 of the stochastic frame, [`StochasticPush`] (no
+/// shadow maps: pass 1 shaded with them).
+pub(in crate::techniques::stochastic) const SHADER_INTERFACE: ShaderInterface = ShaderInterface::technique(
+    &["stochastic/shade_texture_space.comp"],
+    Some(&STOCHASTIC_OBJECT_SET),
+    Some(&STOCHASTIC_SET),
+    Some(STOCHASTIC_STRUCTS[0]),
+);
