@@ -53,7 +53,7 @@ layout(set = 3, binding = 2, std430) buffer Counters {
     uint samples_hit;
     uint shading_invocations;
     uint fragments;
-    // Decoupled shading (shade.comp, DECOUPLED): cache lookups, hits, evictions, stores lost to a race,
+    // Decoupled shading (shade_decoupled.comp): cache lookups, hits, evictions, stores lost to a race,
     // and (deferred) keys the hash table had no room for.
     uint cache_lookups;
     uint cache_hits;
