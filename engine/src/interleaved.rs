@@ -46,10 +46,10 @@ use crate::error::{Error, Result};
 use crate::image::LinearImage;
 use crate::reference::gbuffer::{render_gbuffer_at, GBuffer, GBufferScene};
 use crate::reference::{virtual_point_lights_at, VirtualPointLight, VplSettings};
+use crate::sampling::PassSample;
 use crate::scene::camera_space::CameraSpaceScene;
 use crate::scene::Scene;
 use crate::techniques::accumulation::accumulation_passes;
-use crate::techniques::forward::PassSample;
 
 /// An `n × m` interleaving pattern.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]

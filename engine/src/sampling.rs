@@ -50,6 +50,17 @@ impl Pcg32 {
     }
 }
 
+/// One pass' sample of the lens and shutter.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PassSample {
+    /// Shutter time in [0, 1] (already warped by the shutter curve).
+    pub time: f32,
+    /// Lens point in unit aperture coordinates (already mapped to the aperture shape).
+    pub lens: Vec2,
+    /// Subpixel offset in pixels, in [-0.5, 0.5)²: the pass samples pixel centre + jitter.
+    pub jitter: Vec2,
+}
+
 /// One sample of the pixel integral, all coordinates uniform in [0,1): `xy` is the subpixel position,
 /// `lens` the unit square that [`ApertureShape::map`] takes onto the aperture, `time` the uniform value
 /// that [`ShutterCurve::warp`] takes to shutter time.

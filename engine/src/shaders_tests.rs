@@ -5,8 +5,11 @@
 
 use std::collections::{BTreeMap, BTreeSet};
 
-use crate::shaders::axes::{Effects, Hull, Shading, Shadows, TransparencyPass};
-use crate::shaders::{self, ExpandComp, ShadeComp, ShaderSource, StochasticFrag, StochasticGeom};
+use crate::shaders::axes::{Effects, Hull, Shadows, TransparencyPass};
+use crate::shaders::{
+    self, ExpandComp, ShadeDecoupledComp, ShadeExactComp, ShadeTextureSpaceComp, ShaderSource,
+    StochasticFrag, StochasticGeom,
+};
 
 const DECLARATION: &str = include_str!("../../shaders-glsl/permutations.toml");
 
@@ -122,37 +125,68 @@ fn stochastic_frag_key_selects_the_declared_defines() {
     assert_eq!(n, StochasticFrag::SOURCES.len());
 }
 
+/// The shading stages, one file per rate: each key selects its file's declared defines, in order.
 #[test]
-fn shade_comp_key_selects_the_declared_defines() {
+fn shade_keys_select_the_declared_defines() {
     let d = declared();
-    let mut n = 0;
-    for shading in Shading::ALL {
+    let (mut exact, mut texture_space, mut decoupled) = (0, 0, 0);
+    for per_sample in [false, true] {
         for instrumented in [false, true] {
             for effects in Effects::ALL {
+                for tints in [false, true] {
+                    let key = ShadeTextureSpaceComp { per_sample, instrumented, effects, tints };
+                    let pairs = [
+                        ("per_sample", bool_name(per_sample)),
+                        ("instrumented", bool_name(instrumented)),
+                        ("effects", effects.name()),
+                        ("tints", bool_name(tints)),
+                    ];
+                    check(&d, key.source(), "stochastic/shade_texture_space.comp", &pairs);
+                    assert!(same(ShadeTextureSpaceComp::SOURCES[texture_space], key.source()));
+                    assert_eq!(ShadeTextureSpaceComp::ALL[texture_space], key);
+                    texture_space += 1;
+                }
                 for shadows in Shadows::ALL {
                     for shadow_color in [false, true] {
                         for tints in [false, true] {
-                            let key =
-                                ShadeComp { shading, instrumented, effects, shadows, shadow_color, tints };
+                            let key = ShadeExactComp {
+                                per_sample,
+                                instrumented,
+                                effects,
+                                shadows,
+                                shadow_color,
+                                tints,
+                            };
                             let pairs = [
-                                ("shading", shading.name()),
+                                ("per_sample", bool_name(per_sample)),
                                 ("instrumented", bool_name(instrumented)),
                                 ("effects", effects.name()),
                                 ("shadows", shadows.name()),
                                 ("shadow_color", bool_name(shadow_color)),
                                 ("tints", bool_name(tints)),
                             ];
-                            check(&d, key.source(), "stochastic/shade.comp", &pairs);
-                            assert!(same(ShadeComp::SOURCES[n], key.source()));
-                            assert_eq!(ShadeComp::ALL[n], key);
-                            n += 1;
+                            check(&d, key.source(), "stochastic/shade_exact.comp", &pairs);
+                            assert!(same(ShadeExactComp::SOURCES[exact], key.source()));
+                            assert_eq!(ShadeExactComp::ALL[exact], key);
+                            exact += 1;
+                            if per_sample {
+                                continue;
+                            }
+                            let key =
+                                ShadeDecoupledComp { instrumented, effects, shadows, shadow_color, tints };
+                            check(&d, key.source(), "stochastic/shade_decoupled.comp", &pairs[1..]);
+                            assert!(same(ShadeDecoupledComp::SOURCES[decoupled], key.source()));
+                            assert_eq!(ShadeDecoupledComp::ALL[decoupled], key);
+                            decoupled += 1;
                         }
                     }
                 }
             }
         }
     }
-    assert_eq!(n, ShadeComp::ALL.len());
+    assert_eq!(exact, ShadeExactComp::ALL.len());
+    assert_eq!(texture_space, ShadeTextureSpaceComp::ALL.len());
+    assert_eq!(decoupled, ShadeDecoupledComp::ALL.len());
 }
 
 #[test]
@@ -187,7 +221,7 @@ fn axis_enums_match_the_declaration() {
     let d = declared();
     let names = |v: &[(String, Vec<String>)]| v.iter().map(|(n, _)| n.clone()).collect::<Vec<_>>();
     assert_eq!(names(&d.axes["hull"]), Hull::ALL.map(|v| v.name()));
-    assert_eq!(names(&d.axes["shading"]), Shading::ALL.map(|v| v.name()));
+    assert_eq!(names(&d.axes["shadows"]), Shadows::ALL.map(|v| v.name()));
     assert_eq!(names(&d.axes["effects"]), Effects::ALL.map(|v| v.name()));
     for e in Effects::ALL {
         assert_eq!(e.defines(), d.defines(&[("effects", e.name())]));
@@ -235,7 +269,12 @@ fn each_file_has_the_product_of_its_axes() {
         }
     }
     assert_eq!(d.count("stochastic/stochastic.frag"), 48); // 3 hulls × 2 instrumented × 4 effects × 2 passes
-    assert_eq!(d.count("stochastic/shade.comp"), 480); // 5 shading × 2 instrumented × 4 effects × 3 shadows × 2 colour × 2 tints
+
+    // The shading stages: 320 permutations where one shade.comp of every rate had 480 (5 rates × 2
+    // instrumented × 4 effects × 3 shadows × 2 colour × 2 tints): texture-space lookups shade nothing.
+    assert_eq!(d.count("stochastic/shade_exact.comp"), 192); // 2 rates × 2 × 4 effects × 3 shadows × 2 × 2
+    assert_eq!(d.count("stochastic/shade_texture_space.comp"), 32); // 2 rates × 2 × 4 effects × 2 tints
+    assert_eq!(d.count("stochastic/shade_decoupled.comp"), 96); // 2 × 4 effects × 3 shadows × 2 × 2
     assert_eq!(d.count("texture_space/atlas.geom"), 4); // 2 shadow receiver × 2 sub-passes
     assert_eq!(d.count("texture_space/atlas.frag"), 24); // 2 instrumented × 3 shadows × 2 colour × 2 sub-passes
     assert_eq!(d.count("stochastic/stochastic.geom"), 8);
@@ -253,16 +292,16 @@ fn each_file_has_the_product_of_its_axes() {
 /// The permutations the hand-written `permutations.txt` listed before the axes (name, defines), and the
 /// constants the techniques use: the same names with the same defines — except the shading axis, which
 /// left the coverage stage for `shade.comp` when visibility came first (its per-sample constants
-/// there).
+/// there), and `shade.comp`'s exact rates now in `shade_exact.comp` (same suffixes and defines).
 #[test]
 fn the_former_hand_written_permutations_keep_their_names_and_defines() {
     use shaders::*;
     let former: &[(ShaderSource, &str, &str, &[&str])] = &[
-        (STOCHASTIC_SHADE_COMP_PER_SAMPLE, "shade.comp", "PER_SAMPLE", &["PER_SAMPLE"]),
+        (STOCHASTIC_SHADE_EXACT_COMP_PER_SAMPLE, "shade_exact.comp", "PER_SAMPLE", &["PER_SAMPLE"]),
         (STOCHASTIC_STOCHASTIC_FRAG_INSTRUMENTED, "stochastic.frag", "INSTRUMENTED", &["INSTRUMENTED"]),
         (
-            STOCHASTIC_SHADE_COMP_PER_SAMPLE_INSTRUMENTED,
-            "shade.comp",
+            STOCHASTIC_SHADE_EXACT_COMP_PER_SAMPLE_INSTRUMENTED,
+            "shade_exact.comp",
             "PER_SAMPLE_INSTRUMENTED",
             &["PER_SAMPLE", "INSTRUMENTED"],
         ),
@@ -272,14 +311,14 @@ fn the_former_hand_written_permutations_keep_their_names_and_defines() {
         (STOCHASTIC_STOCHASTIC_FRAG_DEFOCUS, "stochastic.frag", "DEFOCUS", &["NO_MOTION"]),
         (STOCHASTIC_STOCHASTIC_FRAG_MOTION, "stochastic.frag", "MOTION", &["NO_DEFOCUS"]),
         (
-            STOCHASTIC_SHADE_COMP_PER_SAMPLE_DEFOCUS,
-            "shade.comp",
+            STOCHASTIC_SHADE_EXACT_COMP_PER_SAMPLE_DEFOCUS,
+            "shade_exact.comp",
             "PER_SAMPLE_DEFOCUS",
             &["PER_SAMPLE", "NO_MOTION"],
         ),
         (
-            STOCHASTIC_SHADE_COMP_PER_SAMPLE_MOTION,
-            "shade.comp",
+            STOCHASTIC_SHADE_EXACT_COMP_PER_SAMPLE_MOTION,
+            "shade_exact.comp",
             "PER_SAMPLE_MOTION",
             &["PER_SAMPLE", "NO_DEFOCUS"],
         ),
@@ -296,14 +335,14 @@ fn the_former_hand_written_permutations_keep_their_names_and_defines() {
             &["INSTRUMENTED", "NO_DEFOCUS"],
         ),
         (
-            STOCHASTIC_SHADE_COMP_PER_SAMPLE_INSTRUMENTED_DEFOCUS,
-            "shade.comp",
+            STOCHASTIC_SHADE_EXACT_COMP_PER_SAMPLE_INSTRUMENTED_DEFOCUS,
+            "shade_exact.comp",
             "PER_SAMPLE_INSTRUMENTED_DEFOCUS",
             &["PER_SAMPLE", "INSTRUMENTED", "NO_MOTION"],
         ),
         (
-            STOCHASTIC_SHADE_COMP_PER_SAMPLE_INSTRUMENTED_MOTION,
-            "shade.comp",
+            STOCHASTIC_SHADE_EXACT_COMP_PER_SAMPLE_INSTRUMENTED_MOTION,
+            "shade_exact.comp",
             "PER_SAMPLE_INSTRUMENTED_MOTION",
             &["PER_SAMPLE", "INSTRUMENTED", "NO_DEFOCUS"],
         ),
@@ -360,15 +399,15 @@ fn the_former_hand_written_permutations_keep_their_names_and_defines() {
         transparency_pass: TransparencyPass::Coverage,
     };
     assert!(same(key.source(), STOCHASTIC_STOCHASTIC_FRAG_COMPUTE_HULL_INSTRUMENTED_MOTION));
-    let key = ShadeComp {
-        shading: Shading::PerSample,
+    let key = ShadeExactComp {
+        per_sample: true,
         instrumented: true,
         effects: Effects::Motion,
         shadows: Shadows::None,
         shadow_color: false,
         tints: false,
     };
-    assert!(same(key.source(), STOCHASTIC_SHADE_COMP_PER_SAMPLE_INSTRUMENTED_MOTION));
+    assert!(same(key.source(), STOCHASTIC_SHADE_EXACT_COMP_PER_SAMPLE_INSTRUMENTED_MOTION));
     let key = StochasticGeom { bound_debug: true, effects: Effects::Both };
     assert!(same(key.source(), STOCHASTIC_STOCHASTIC_GEOM_BOUND_DEBUG));
     assert!(same(ExpandComp { effects: Effects::Defocus }.source(), STOCHASTIC_EXPAND_COMP_DEFOCUS));

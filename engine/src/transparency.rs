@@ -116,7 +116,7 @@ pub fn tint_log(t: [f32; 3]) -> [u32; 3] {
     })
 }
 
-/// The transmittance of a sum of [`tint_log`]s (`shade.comp`'s `sample_tint`): `2^(−l/2¹⁶)`, 0 at
+/// The transmittance of a sum of [`tint_log`]s (`stochastic/shade.glsl`'s `sample_tint`): `2^(−l/2¹⁶)`, 0 at
 /// or beyond the cap.
 pub fn tint_from_log(l: u32) -> f32 {
     if l >= TINT_LOG_CAP {

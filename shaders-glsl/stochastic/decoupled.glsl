@@ -33,7 +33,7 @@
 //     fallback costs time, never a pixel.
 // The table lives for the frame, so a key seen in an earlier pass is not shaded again. No invocation
 // waits for another: the entry's radiance is read only after the barrier behind DC_PHASE_SHADE.
-// Needs shade.comp's shade_at, the Counters block and sample_at_time.
+// Needs shade.glsl's shade_at, the Counters block and sample_at_time.
 #ifndef SHUTTER_DECOUPLED_GLSL
 #define SHUTTER_DECOUPLED_GLSL
 
@@ -214,7 +214,7 @@ bool dc_locate(uint prim, uint payload, SampleHit h, out uint64_t key, out Sampl
     return keyed;
 }
 
-// Phase 1 of a sample (shade.comp): its key's value from the cache, if there (true).
+// Phase 1 of a sample (shade.glsl): its key's value from the cache, if there (true).
 bool decoupled_lookup(uint prim, uint payload, SampleHit h, out vec3 v) {
     v = vec3(0.0);
     uint64_t key;

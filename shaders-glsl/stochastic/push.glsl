@@ -4,7 +4,7 @@
 #define SHUTTER_STOCHASTIC_PUSH_GLSL
 
 layout(push_constant) uniform Push {
-    uint object;      // index into `objects` (shade.comp: SHADE_BACKGROUND for the empty samples)
+    uint object;      // index into `objects` (shade.glsl: SHADE_BACKGROUND for the empty samples)
     uint bound;       // bound kind id (BOUND_* in stochastic/bounds.glsl)
     uint pass_index;  // this pass tests samples [pass_index * per_pass, (pass_index + 1) * per_pass) of each pixel
     uint spp;         // S: samples per pixel over all passes (the sample tile's depth)
@@ -42,13 +42,13 @@ layout(push_constant) uniform Push {
     uint tint_log_r;
     uint tint_log_g;
     uint tint_log_b;
-    // TEXTURE_SPACE (shade.comp): the objects' atlas layout (texture_space::atlas::MipAtlas).
+    // TEXTURE_SPACE (shade.glsl): the objects' atlas layout (texture_space::atlas::MipAtlas).
     uint atlas_finest;
     uint atlas_gutter;
     // 1: the object's material is one-sided (scene::Material::one_sided): stochastic.frag drops every
     // hit on a triangle's back, as the reference's camera rays skip it.
     uint one_sided;
-    // Decoupled shading (shade.comp, DECOUPLED): entries of the memoization cache or of the deferred
+    // Decoupled shading (shade_decoupled.comp): entries of the memoization cache or of the deferred
     // mode's hash table, and the dispatch's phase (DC_PHASE_* in stochastic/decoupled.glsl).
     uint cache_entries;
     uint decoupled_phase;

@@ -342,6 +342,29 @@ enum Node<'a> {
 }
 
 /// What a pass' recording closure gets.
+///
+/// # Recording raw commands: the contract
+///
+/// A closure records with `ash`'s raw `cmd_*` calls (`unsafe`: Vulkan checks nothing). The executor
+/// guarantees, for the duration of the closure:
+///
+/// * `cmd` is a primary command buffer of `device` in the recording state, not submitted until the
+///   closure returns; inside a raster pass, dynamic rendering over the pass' attachments (or its
+///   [`PassBuilder::render_area`]) has begun, with viewport and scissor set; outside one it has not;
+/// * every resource the pass declared (`access`, `overwrite`, attachments) has the layout and the
+///   barriers its declared accesses need, and [`PassContext::image`] / [`PassContext::buffer`] return
+///   live handles for it.
+///
+/// The closure in turn promises, and each `// SAFETY:` comment in a technique points here for it:
+///
+/// * it touches on the GPU only what the pass declared, or read-only data the host wrote before the
+///   frame (the world, views, sample tables: see the frame graph's docs), with the access it declared;
+/// * every handle it records (pipelines, layouts, descriptor sets, buffers) belongs to `device` and
+///   outlives the graph's execution: the technique owns it, and the graph borrows the technique;
+/// * descriptor sets and push constants it binds match the bound pipeline's layout (the layouts are
+///   checked against every shader permutation by `gpu/layout_tests.rs`), and push ranges lie in it;
+/// * it begins or ends no rendering and submits nothing; synchronization inside one pass (e.g.
+///   between consecutive dispatches) is its own, with explicit barriers.
 pub struct PassContext<'r> {
     pub device: &'r Device,
     pub cmd: vk::CommandBuffer,
@@ -513,6 +536,8 @@ impl<'a> FrameGraph<'a> {
         self.pass(name).overwrite(image, Access::TransferWrite).record(move |ctx| {
             let target = ctx.image(image);
             let clear = vk::ClearColorValue { float32: value };
+            // SAFETY: the recording contract of `PassContext`; the pass declared the overwrite
+            // (TRANSFER_DST).
             unsafe {
                 ctx.device.raw.cmd_clear_color_image(
                     ctx.cmd,
@@ -622,6 +647,8 @@ impl<'a> FrameGraph<'a> {
                             .layer_count(1),
                     )
                     .image_extent(vk::Extent3D { width: src.desc.width, height: src.desc.height, depth: 1 });
+                // SAFETY: the recording contract of `PassContext`; the pass declared the image read
+                // (TRANSFER_SRC) and the host-visible buffer written.
                 unsafe {
                     ctx.device.raw.cmd_copy_image_to_buffer(
                         ctx.cmd,
@@ -796,6 +823,8 @@ fn record_pass(
         let mut ctx = PassContext { device, cmd, iteration, extent, resources };
         let recorded = record(&mut ctx);
         if raster {
+            // SAFETY: `cmd` is recording and `begin_rendering` began this pass' rendering above; the closure
+            // neither begins nor ends one (the contract of `PassContext`).
             unsafe { device.raw.cmd_end_rendering(cmd) };
         }
         recorded?;
@@ -862,6 +891,7 @@ fn record_barriers(
     let any = any_memory || !images.is_empty();
     if any {
         let memories: &[vk::MemoryBarrier] = if any_memory { std::slice::from_ref(&memory) } else { &[] };
+        // SAFETY: `cmd` is recording outside any rendering; the barriers name live resources of this graph.
         unsafe {
             device.raw.cmd_pipeline_barrier(
                 cmd,
@@ -938,6 +968,8 @@ fn begin_rendering(
     if let Some(d) = &depth {
         info = info.depth_attachment(d);
     }
+    // SAFETY: `cmd` is recording outside any rendering; the attachments' views are live and in the
+    // layouts the barriers just placed.
     unsafe { device.raw.cmd_begin_rendering(cmd, &info) };
     crate::vk::set_viewport(device, cmd, area);
     extent

@@ -9,9 +9,9 @@ use glam::{Vec2, Vec3};
 
 use super::{Hit, ReferenceSettings, Tracer, VirtualPointLight};
 use crate::error::Result;
+use crate::sampling::PassSample;
 use crate::scene::Scene;
 use crate::shading::shade;
-use crate::techniques::forward::PassSample;
 
 /// One texel: `None` where the pixel's centre sees the background.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -153,7 +153,7 @@ pub struct ReferenceSettings {
 }
 
 /// How often the reference shades: the ground truth shades every sample; the per-pixel mode mirrors
-/// the stochastic rasterizer's `ShadingRate::PerPixel` (`shaders-glsl/stochastic/shade.comp`) so that
+/// the stochastic rasterizer's `ShadingRate::PerPixel` (`shaders-glsl/stochastic/shade.glsl`) so that
 /// its images can be compared exactly with the same samples.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum ReferenceShading {
@@ -174,7 +174,7 @@ pub enum ReferenceShading {
 }
 
 /// Groups per object, pixel and pass that per-pixel shading remembers (`SHADE_GROUPS` in
-/// `shade.comp`).
+/// `shade.glsl`).
 pub const PER_PIXEL_SHADING_GROUPS: usize = 8;
 
 /// What a render cost.

@@ -23,10 +23,9 @@ use ash::vk;
 use bytemuck::{Pod, Zeroable};
 use gpu_allocator::MemoryLocation;
 
+use super::stochastic::StochasticObject;
 use super::FrameInputs;
-use crate::bounds::BoundKind;
 use crate::error::{Error, Result};
-use crate::geometry::KeyTimes;
 use crate::gpu::layout::{
     shared_struct, SharedStruct, FRAME_SET_INDEX, OBJECT_SET_INDEX, TECHNIQUE_SET_INDEX,
 };
@@ -225,19 +224,14 @@ impl ComputeHull {
     }
 
     /// Adds the expansion of every object on a stochastic path (after the triangles pass that writes
-    /// `triangles`) and the host read of the counts. `sets`: each object's set 2 and the set 3; each
-    /// object's path and motion key times.
-    pub fn add_expand_pass<'a>(
+    /// their camera-space triangles) and the host read of the counts: each object's set 2, path, bound
+    /// and motion key times from its record, `technique_set` the set 3.
+    pub(crate) fn add_expand_pass<'a>(
         &'a self,
         g: &mut FrameGraph<'a>,
         inputs: &FrameInputs<'a>,
-        (triangles, object_sets, technique_set): (
-            &'a [Tracked<Buffer>],
-            &'a [vk::DescriptorSet],
-            vk::DescriptorSet,
-        ),
-        (object_effects, object_keys): (&'a [Effects], &'a [KeyTimes]),
-        bounds: &'a [BoundKind],
+        objects: &'a [StochasticObject],
+        technique_set: vk::DescriptorSet,
         dilate: f32,
     ) {
         let world = inputs.world;
@@ -247,7 +241,7 @@ impl ComputeHull {
         let mut reads: Vec<BufferHandle> = vec![];
         let mut writes: Vec<BufferHandle> = vec![];
         for i in (0..world.objects.len()).filter(|&i| drawn(i)) {
-            reads.push(g.import_buffer("camera-space triangles", &triangles[i]));
+            reads.push(g.import_buffer("camera-space triangles", &objects[i].triangles));
             writes.push(g.import_buffer("hull", &self.hulls[i][0]));
             writes.push(g.import_buffer("hull triangles", &self.hulls[i][1]));
         }
@@ -265,25 +259,27 @@ impl ComputeHull {
             let (d, cmd) = (ctx.device, ctx.cmd);
             let bind = vk::PipelineBindPoint::COMPUTE;
             let layout = self.expand_layout.raw;
+            // SAFETY: the recording contract of `PassContext` (graph/mod.rs): the pass declared what this
+            // touches, and the pipelines, layouts and sets are the technique's, of one layout.
             unsafe {
                 d.raw.cmd_bind_descriptor_sets(cmd, bind, layout, FRAME_SET_INDEX, &[view_set], &[]);
                 d.raw.cmd_bind_descriptor_sets(cmd, bind, layout, TECHNIQUE_SET_INDEX, &[technique_set], &[]);
                 for (effects, pipeline) in &self.expand {
                     d.raw.cmd_bind_pipeline(cmd, bind, pipeline.raw);
                     for (i, o) in world.objects.iter().enumerate() {
-                        if !drawn(i) || object_effects[i] != *effects {
+                        if !drawn(i) || objects[i].effects != *effects {
                             continue;
                         }
-                        let sets = [o.set, object_sets[i]];
+                        let sets = [o.set, objects[i].set];
                         d.raw.cmd_bind_descriptor_sets(cmd, bind, layout, OBJECT_SET_INDEX, &sets, &[]);
-                        let keys = &object_keys[i];
+                        let keys = &objects[i].keys;
                         let segment_count = keys.segments() as u32;
                         let (segment_begin, segments, t0, t1) =
                             super::stochastic::bounded_segments(keys, effects.motion());
                         let push = ExpandPush {
                             object: i as u32,
                             triangle_count: o.triangle_count(),
-                            bound: bounds[i].id(),
+                            bound: objects[i].bound.id(),
                             capacity: self.capacity[i],
                             dilate,
                             segment_count,

@@ -13,7 +13,6 @@
 
 use ash::vk;
 use bytemuck::{Pod, Zeroable};
-use glam::Vec2;
 
 use super::multipass::{FrameUse, MultipassFrame, PassDraws, COLOR_FORMAT, DEPTH_FORMAT};
 use super::shadow_maps::ShadowMaps;
@@ -31,16 +30,8 @@ use crate::vk::{
     ShaderModule,
 };
 
-/// One pass' sample of the lens and shutter.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct PassSample {
-    /// Shutter time in [0, 1] (already warped by the shutter curve).
-    pub time: f32,
-    /// Lens point in unit aperture coordinates (already mapped to the aperture shape).
-    pub lens: Vec2,
-    /// Subpixel offset in pixels, in [-0.5, 0.5)²: the pass samples pixel centre + jitter.
-    pub jitter: Vec2,
-}
+/// Moved to [`crate::sampling`] (the CPU mirrors use it too); re-exported for the techniques.
+pub use crate::sampling::PassSample;
 
 /// Push constants of `forward.vert`/`forward.frag`.
 #[repr(C)]
@@ -164,6 +155,8 @@ fn forward_layout(
 fn bind_shadows(d: &Device, cmd: vk::CommandBuffer, layout: &PipelineLayout, lookup: Option<ShadowLookup>) {
     if let Some(l) = lookup {
         let bind = vk::PipelineBindPoint::GRAPHICS;
+        // SAFETY: the recording contract of `PassContext` (graph/mod.rs): the pass declared what this
+        // touches, and the pipelines, layouts and sets are the technique's, of one layout.
         unsafe { d.raw.cmd_bind_descriptor_sets(cmd, bind, layout.raw, TECHNIQUE_SET_INDEX, &[l.set], &[]) };
     }
 }
@@ -232,6 +225,8 @@ impl ForwardPipeline {
         pass: &PassSample,
         include: impl Fn(usize) -> bool,
     ) {
+        // SAFETY: called from pass recording closures only (the contract of `PassContext`, graph/mod.rs);
+        // the pipeline is this path's.
         unsafe { d.raw.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, self.pipeline.raw) };
         bind_shadows(d, cmd, &self.layout, self.shadows);
         let push = |i: usize| ForwardPush::new(view, i, pass);
@@ -458,6 +453,8 @@ impl TransparentDraws {
         let stages = vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT;
         let push = |i: usize| self.push(view, i, pass, index);
         let bind = vk::PipelineBindPoint::GRAPHICS;
+        // SAFETY: the recording contract of `PassContext` (graph/mod.rs): the pass declared what this
+        // touches, and the pipelines, layouts and sets are the technique's, of one layout.
         unsafe { d.raw.cmd_bind_pipeline(cmd, bind, self.coverage.raw) };
         bind_shadows(d, cmd, &self.layout, self.shadows);
         world.record_object_draws(
@@ -473,6 +470,8 @@ impl TransparentDraws {
         );
         if self.objects.iter().any(|o| o.tinted) {
             d.begin_label(cmd, "transparency tint");
+            // SAFETY: the recording contract of `PassContext` (graph/mod.rs): the pass declared what this
+            // touches, and the pipelines, layouts and sets are the technique's, of one layout.
             unsafe { d.raw.cmd_bind_pipeline(cmd, bind, self.tint.raw) };
             world.record_object_draws(
                 d,

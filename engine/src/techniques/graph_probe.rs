@@ -286,6 +286,8 @@ impl GraphProbe {
         pipeline: &'a Pipeline,
     ) -> impl FnMut(&mut crate::graph::PassContext<'_>) -> Result<()> + 'a {
         move |ctx| {
+            // SAFETY: the recording contract of `PassContext` (graph/mod.rs): the pass declared what this
+            // touches, and the pipelines, layouts and sets are the technique's, of one layout.
             unsafe {
                 ctx.device.raw.cmd_bind_pipeline(ctx.cmd, vk::PipelineBindPoint::GRAPHICS, pipeline.raw)
             };
@@ -331,6 +333,8 @@ impl GraphProbe {
                 .record(move |ctx| {
                     let (d, cmd, bind) = (ctx.device, ctx.cmd, vk::PipelineBindPoint::COMPUTE);
                     let layout = this.count_layout.raw;
+                    // SAFETY: the recording contract of `PassContext` (graph/mod.rs): the pass declared what
+                    // this touches, and the pipelines, layouts and sets are the technique's, of one layout.
                     unsafe {
                         d.raw.cmd_bind_pipeline(cmd, bind, this.count_pipeline.raw);
                         d.raw.cmd_bind_descriptor_sets(cmd, bind, layout, 0, &[frame_set], &[]);
@@ -402,6 +406,8 @@ impl FrameTechnique for GraphProbe {
             .record(move |ctx| {
                 let (d, cmd, bind) = (ctx.device, ctx.cmd, vk::PipelineBindPoint::COMPUTE);
                 let layout = this.mask_layout.raw;
+                // SAFETY: the recording contract of `PassContext` (graph/mod.rs): the pass declared what
+                // this touches, and the pipelines, layouts and sets are the technique's, of one layout.
                 unsafe {
                     d.raw.cmd_bind_pipeline(cmd, bind, this.mask_pipeline.raw);
                     d.raw.cmd_bind_descriptor_sets(cmd, bind, layout, 0, &[camera.frame_set], &[]);

@@ -755,6 +755,8 @@ impl InterleavedTechnique {
     ) {
         let (d, cmd) = (ctx.device, ctx.cmd);
         let bind = vk::PipelineBindPoint::COMPUTE;
+        // SAFETY: the recording contract of `PassContext` (graph/mod.rs): the pass declared what this
+        // touches, and the pipelines, layouts and sets are the technique's, of one layout.
         unsafe {
             if barrier {
                 crate::vk::compute_write_barrier(
@@ -980,6 +982,8 @@ impl InterleavedTechnique {
                         layer_count: 1,
                     })
                     .image_extent(vk::Extent3D { width: w, height: h, depth: 1 });
+                // SAFETY: the recording contract of `PassContext` (graph/mod.rs): the pass declared the
+                // staging buffer read and the image written, in TRANSFER_DST layout.
                 unsafe {
                     ctx.device.raw.cmd_copy_buffer_to_image(
                         ctx.cmd,
@@ -1044,6 +1048,8 @@ impl InterleavedTechnique {
                 let stages = vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT;
                 let push = |i: usize| ForwardPush::new(inputs.camera, i, &s);
                 let bind = vk::PipelineBindPoint::GRAPHICS;
+                // SAFETY: the recording contract of `PassContext` (graph/mod.rs): the pass declared what
+                // this touches, and the pipelines, layouts and sets are the technique's, of one layout.
                 unsafe { ctx.device.raw.cmd_bind_pipeline(ctx.cmd, bind, this.gbuffer.raw) };
                 inputs.world.record_object_draws(
                     ctx.device,

@@ -255,6 +255,8 @@ impl MultipassFrame {
     fn record_accumulate(&self, ctx: &PassContext<'_>, weight: f32) {
         let (d, cmd) = (ctx.device, ctx.cmd);
         let bind = vk::PipelineBindPoint::COMPUTE;
+        // SAFETY: the recording contract of `PassContext` (graph/mod.rs): the pass declared what this
+        // touches, and the pipelines, layouts and sets are the technique's, of one layout.
         unsafe {
             d.raw.cmd_bind_pipeline(cmd, bind, self.accumulate.raw);
             d.raw.cmd_bind_descriptor_sets(

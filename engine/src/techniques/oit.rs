@@ -302,6 +302,8 @@ impl ComputeStep {
     fn record<P: Pod>(&self, ctx: &PassContext<'_>, push: &P, (width, height): (u32, u32)) {
         let (d, cmd) = (ctx.device, ctx.cmd);
         let bind = vk::PipelineBindPoint::COMPUTE;
+        // SAFETY: the recording contract of `PassContext` (graph/mod.rs): the pass declared what this
+        // touches, and the pipelines, layouts and sets are the technique's, of one layout.
         unsafe {
             d.raw.cmd_bind_pipeline(cmd, bind, self.pipeline.raw);
             d.raw.cmd_bind_descriptor_sets(cmd, bind, self.layout.raw, TECHNIQUE_SET_INDEX, &[self.set], &[]);
@@ -774,6 +776,8 @@ impl OitTechnique {
     ) {
         let (d, cmd) = (ctx.device, ctx.cmd);
         let bind = vk::PipelineBindPoint::GRAPHICS;
+        // SAFETY: the recording contract of `PassContext` (graph/mod.rs): the pass declared what this
+        // touches, and the pipelines, layouts and sets are the technique's, of one layout.
         unsafe {
             d.raw.cmd_bind_pipeline(cmd, bind, pipeline.raw);
             if let Some(set) = set {

@@ -277,6 +277,8 @@ impl ShadowMaps {
         layout: vk::PipelineLayout,
         index: u32,
     ) {
+        // SAFETY: called from pass recording closures only (the contract of `PassContext`, graph/mod.rs),
+        // with `layout` one of this technique's whose set `index` is the shadow maps' layout.
         unsafe { d.raw.cmd_bind_descriptor_sets(cmd, bind_point, layout, index, &[self.set], &[]) };
     }
 
@@ -395,6 +397,8 @@ impl ShadowMaps {
                 let push = |i: usize| {
                     TransparentPush::new(ForwardPush::new(view, i, &sample), &self.casters[i], samples)
                 };
+                // SAFETY: the recording contract of `PassContext` (graph/mod.rs): the pass declared what
+                // this touches, and the pipelines, layouts and sets are the technique's, of one layout.
                 let draw = |pipeline: &Pipeline, include: &dyn Fn(usize) -> bool| unsafe {
                     d.raw.cmd_bind_pipeline(cmd, bind, pipeline.raw);
                     inputs.world.record_object_draws(

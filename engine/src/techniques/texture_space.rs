@@ -339,6 +339,8 @@ impl FrameTechnique for ShadingRates {
         pass.record(move |ctx| {
             let (d, cmd, bind) = (ctx.device, ctx.cmd, vk::PipelineBindPoint::COMPUTE);
             let layout = this.layout.raw;
+            // SAFETY: the recording contract of `PassContext` (graph/mod.rs): the pass declared what this
+            // touches, and the pipelines, layouts and sets are the technique's, of one layout.
             unsafe {
                 d.raw.cmd_bind_pipeline(cmd, bind, this.pipeline.raw);
                 d.raw.cmd_bind_descriptor_sets(cmd, bind, layout, 0, &[view.frame_set], &[]);
@@ -874,6 +876,8 @@ impl AtlasPasses {
         };
         let stages =
             vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::GEOMETRY | vk::ShaderStageFlags::FRAGMENT;
+        // SAFETY: the recording contract of `PassContext` (graph/mod.rs): the pass declared what this
+        // touches, and the pipelines, layouts and sets are the technique's, of one layout.
         unsafe {
             d.raw.cmd_bind_pipeline(cmd, bind, pipeline.raw);
             d.raw.cmd_bind_descriptor_sets(cmd, bind, layout, 0, &[view.frame_set], &[]);

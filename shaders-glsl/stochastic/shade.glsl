@@ -1,6 +1,12 @@
-#version 460
-// Stochastic rasterization, shading stage ("visibility first, shading second"): one invocation per
-// pixel reads this pass' samples from the visibility buffer (stochastic/visibility.glsl) and shades
+// Stochastic rasterization, shading stage ("visibility first, shading second"), included by one stage
+// file per shading rate (engine/src/techniques/stochastic/shading/, one Rust file each):
+//   shade_exact.comp          per pixel, or PER_SAMPLE                         (shading/exact.rs)
+//   shade_texture_space.comp  TEXTURE_SPACE: atlas lookups, per pixel or sample (shading/texture_space.rs)
+//   shade_decoupled.comp      PER_SAMPLE + DECOUPLED                           (shading/decoupled.rs)
+// Each file's permutations are its own axes' product (shaders-glsl/permutations.toml), not every
+// rate's times every other axis.
+//
+// One invocation per pixel reads this pass' samples from the visibility buffer (stochastic/visibility.glsl) and shades
 // the hits of one object (pc.object; one dispatch per object, with its set 1 and 2) — the reference's
 // rules (engine/src/reference/mod.rs): each sample's own ray, time and barycentrics, recomputed from
 // the sample tile and the payload's triangle. Adds (radiance, 1) / S per sample to the frame's
@@ -47,7 +53,7 @@ layout(set = 3, binding = 2, std430) buffer Counters {
     uint samples_hit;
     uint shading_invocations;
     uint fragments;
-    // Decoupled shading (shade.comp, DECOUPLED): cache lookups, hits, evictions, stores lost to a race,
+    // Decoupled shading (shade_decoupled.comp): cache lookups, hits, evictions, stores lost to a race,
     // and (deferred) keys the hash table had no room for.
     uint cache_lookups;
     uint cache_hits;
