@@ -97,7 +97,7 @@ fn probe_and_scenes_work() {
         "{out}"
     );
     // `static` blurs nowhere: no noise to measure, no cost model saved (the bounds still calibrate).
-    assert!(out.contains("cost model not saved"), "{out}");
+    assert!(out.contains("cost model not measured"), "{out}");
     // On a scene that blurs it is saved (in the tests' own cache) and the quality planner reads it.
     let (code, out, err) =
         shutter(&["calibrate", "default", "--size", "32x18", "--spp", "4", "--frames", "1", "--warmup", "0"]);
