@@ -1,7 +1,7 @@
 #version 460
 // Forward pass vertex stage: one (u,v,t) per draw (pinhole and accumulation passes), through any
 // view's projection (the camera's thin lens; a light's, for its shadow map).
-// View-space position at t is the lerp of the positions at shutter open and close (DESIGN.md).
+// View-space position at t is the lerp of the positions at shutter open and close (docs/MODEL.md).
 // SHADOW_RECEIVER: also the object-space position and normal, for common/shadow.glsl's lookups.
 #include "common/camera.glsl"
 
