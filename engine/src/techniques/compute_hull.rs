@@ -267,19 +267,19 @@ impl ComputeHull {
                 for (effects, pipeline) in &self.expand {
                     d.raw.cmd_bind_pipeline(cmd, bind, pipeline.raw);
                     for (i, o) in world.objects.iter().enumerate() {
-                        if !drawn(i) || objects[i].effects != *effects {
+                        if !drawn(i) || objects[i].choices.effects != *effects {
                             continue;
                         }
                         let sets = [o.set, objects[i].set];
                         d.raw.cmd_bind_descriptor_sets(cmd, bind, layout, OBJECT_SET_INDEX, &sets, &[]);
-                        let keys = &objects[i].keys;
+                        let keys = &objects[i].choices.keys;
                         let segment_count = keys.segments() as u32;
                         let (segment_begin, segments, t0, t1) =
                             super::stochastic::bounded_segments(keys, effects.motion());
                         let push = ExpandPush {
                             object: i as u32,
                             triangle_count: o.triangle_count(),
-                            bound: objects[i].bound.id(),
+                            bound: objects[i].choices.bound.id(),
                             capacity: self.capacity[i],
                             dilate,
                             segment_count,

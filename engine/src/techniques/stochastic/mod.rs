@@ -253,12 +253,12 @@ impl StochasticDraws {
 
     /// The bound kind each object draws.
     pub fn bounds(&self) -> Vec<BoundKind> {
-        self.visibility.objects.iter().map(|o| o.bound).collect()
+        self.visibility.objects.iter().map(|o| o.choices.bound).collect()
     }
 
     /// Interval count of each object (1: bounded over the whole shutter).
     pub fn object_intervals(&self) -> Vec<u32> {
-        self.visibility.objects.iter().map(|o| o.intervals).collect()
+        self.visibility.objects.iter().map(|o| o.choices.intervals).collect()
     }
 
     /// Work before the frame's graph: counters reset, the compute-expanded hull's own graph.
@@ -303,7 +303,7 @@ impl StochasticDraws {
             passes: self.visibility.sampling.passes,
             msaa_samples: 1,
             counters: self.counters()?,
-            clusters: self.visibility.objects.iter().map(|o| o.clusters).collect(),
+            clusters: self.visibility.objects.iter().map(|o| o.choices.clusters).collect(),
         })
     }
 }
@@ -405,7 +405,7 @@ impl FrameTechnique for StochasticTechnique {
         let objects = &self.draws.visibility.objects;
         objects
             .iter()
-            .any(|o| o.alpha < 1.0 || o.texture_alpha)
+            .any(|o| o.choices.alpha < 1.0 || o.choices.texture_alpha)
             .then_some(crate::transparency::TransparencyMethod::Stochastic)
     }
 

@@ -160,18 +160,8 @@ impl ObjectChoices {
 
 /// One object of the stochastic frame: its choices and its GPU side.
 pub(crate) struct StochasticObject {
-    pub effects: Effects,
-    pub bound: BoundKind,
-    pub intervals: u32,
-    pub clusters: u32,
-    pub triangle_base: u32,
-    pub triangle_count: u32,
-    pub keys: KeyTimes,
-    pub shade_rect: [u32; 4],
-    pub alpha: f32,
-    pub texture_alpha: bool,
-    pub one_sided: bool,
-    pub tint_log: Option<[u32; 3]>,
+    /// What the options chose for it (its `cluster_order` moved into `_cluster_order`'s buffer).
+    pub choices: ObjectChoices,
     /// Set 2 ([`super::STOCHASTIC_OBJECT_SET`]).
     pub set: vk::DescriptorSet,
     /// The camera view's triangles at every motion key (`triangles.comp`).
@@ -187,7 +177,12 @@ pub(crate) struct StochasticObject {
 impl StochasticObject {
     /// The object's buffers, written into its set 2 (`set`): the triangles (binding 0) and, clustered,
     /// the cluster bounds and order (3 and 4).
-    pub fn new(device: &Device, c: ObjectChoices, gpu: &GpuObject, set: vk::DescriptorSet) -> Result<Self> {
+    pub fn new(
+        device: &Device,
+        mut c: ObjectChoices,
+        gpu: &GpuObject,
+        set: vk::DescriptorSet,
+    ) -> Result<Self> {
         let storage = vk::BufferUsageFlags::STORAGE_BUFFER;
         let keys = c.keys.times().len() as u64;
         let bytes = (gpu.index_count as u64 / 3).max(1) * keys * TRIANGLE_KEY_BYTES;
@@ -200,7 +195,7 @@ impl StochasticObject {
             MemoryLocation::GpuOnly,
         )?;
         write_descriptors(device, set, &[DescriptorWrite::storage_buffer(0, &triangles)]);
-        let (cluster_bounds, cluster_order) = match c.cluster_order.filter(|_| c.clusters > 0) {
+        let (cluster_bounds, cluster_order) = match c.cluster_order.take().filter(|_| c.clusters > 0) {
             Some(order) => {
                 let per_segment = (c.triangle_count as u64).div_ceil(c.clusters as u64);
                 let bounds = Buffer::new(
@@ -224,18 +219,7 @@ impl StochasticObject {
             None => (None, None),
         };
         Ok(StochasticObject {
-            effects: c.effects,
-            bound: c.bound,
-            intervals: c.intervals,
-            clusters: c.clusters,
-            triangle_base: c.triangle_base,
-            triangle_count: c.triangle_count,
-            keys: c.keys,
-            shade_rect: c.shade_rect,
-            alpha: c.alpha,
-            texture_alpha: c.texture_alpha,
-            one_sided: c.one_sided,
-            tint_log: c.tint_log,
+            choices: c,
             set,
             triangles: Tracked::new(triangles),
             cluster_bounds,
@@ -246,27 +230,27 @@ impl StochasticObject {
 
     /// Whether it has anything to draw.
     pub fn is_drawn(&self) -> bool {
-        self.triangle_count > 0
+        self.choices.triangle_count > 0
     }
 
     /// Object `index`'s fields of the push constants (`push.glsl`) over `push`'s frame fields.
     pub fn push(&self, index: usize, view: &GpuView, push: StochasticPush) -> StochasticPush {
         let (segment_first, segment_count) = view.segments(index);
-        let tint = self.tint_log.unwrap_or([0; 3]);
+        let tint = self.choices.tint_log.unwrap_or([0; 3]);
         StochasticPush {
             object: index as u32,
-            bound: self.bound.id(),
-            triangle_base: self.triangle_base,
-            triangle_count: self.triangle_count,
+            bound: self.choices.bound.id(),
+            triangle_base: self.choices.triangle_base,
+            triangle_count: self.choices.triangle_count,
             segment_first,
             segment_count,
-            cluster_size: self.clusters.max(1),
-            alpha: self.alpha,
-            alpha_from_texture: self.texture_alpha as u32,
+            cluster_size: self.choices.clusters.max(1),
+            alpha: self.choices.alpha,
+            alpha_from_texture: self.choices.texture_alpha as u32,
             tint_log_r: tint[0],
             tint_log_g: tint[1],
             tint_log_b: tint[2],
-            one_sided: self.one_sided as u32,
+            one_sided: self.choices.one_sided as u32,
             ..push
         }
     }

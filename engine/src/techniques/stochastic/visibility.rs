@@ -425,7 +425,8 @@ impl Visibility {
             pass = pass.overwrite(h, Access::ComputeShaderWrite);
         }
         let (world, view) = (inputs.world, inputs.camera);
-        let clustered: Vec<usize> = drawn.iter().copied().filter(|&i| self.objects[i].clusters > 0).collect();
+        let clustered: Vec<usize> =
+            drawn.iter().copied().filter(|&i| self.objects[i].choices.clusters > 0).collect();
         pass.record(move |ctx| {
             self.record_triangles(ctx, world, view, &drawn);
             Ok(())
@@ -490,13 +491,13 @@ impl Visibility {
             d.raw.cmd_bind_descriptor_sets(cmd, bind, layout, FRAME_SET_INDEX, &[view.frame_set], &[]);
             for (effects, pipeline) in &self.pipelines.clusters {
                 d.raw.cmd_bind_pipeline(cmd, bind, pipeline.raw);
-                for &i in objects.iter().filter(|&&i| self.objects[i].effects == *effects) {
+                for &i in objects.iter().filter(|&&i| self.objects[i].choices.effects == *effects) {
                     let (o, so) = (&world.objects[i], &self.objects[i]);
                     let sets = [o.set, so.set];
                     d.raw.cmd_bind_descriptor_sets(cmd, bind, layout, OBJECT_SET_INDEX, &sets, &[]);
-                    let keys = &so.keys;
+                    let keys = &so.choices.keys;
                     let (first, count, t0, t1) = bounded_segments(keys, effects.motion());
-                    let n = so.clusters;
+                    let n = so.choices.clusters;
                     for segment in first..first + count {
                         let push = ClustersPush {
                             triangle_count: o.triangle_count(),
@@ -540,8 +541,8 @@ impl Visibility {
         let o = &self.objects[object];
         let base =
             StochasticPush { sample_first: first, sample_count: count, ..o.push(object, view, s.push(pass)) };
-        let keys = &o.keys;
-        if !o.effects.motion() {
+        let keys = &o.choices.keys;
+        if !o.choices.effects.motion() {
             if seg != 0 {
                 return None;
             }
@@ -576,7 +577,9 @@ impl Visibility {
         let world = inputs.world;
         for (effects, pipeline) in &self.pipelines.coverage {
             self.bind_raster(ctx, pipeline);
-            let include = |i: usize| self.objects[i].effects == *effects && self.objects[i].clusters == 0;
+            let include = |i: usize| {
+                self.objects[i].choices.effects == *effects && self.objects[i].choices.clusters == 0
+            };
             let view = inputs.camera;
             if self.hull.is_none() {
                 self.record_runs(ctx, inputs, pipeline, pass, include, |p| p);
@@ -630,8 +633,9 @@ impl Visibility {
         let hull = BoundKind::ConvexHull.id();
         for (effects, pipeline) in &self.pipelines.tint {
             self.bind_raster(ctx, pipeline);
-            let include =
-                |i: usize| self.objects[i].effects == *effects && self.objects[i].tint_log.is_some();
+            let include = |i: usize| {
+                self.objects[i].choices.effects == *effects && self.objects[i].choices.tint_log.is_some()
+            };
             self.record_runs(ctx, inputs, pipeline, pass, include, |p| StochasticPush { bound: hull, ..p });
         }
     }
@@ -667,12 +671,12 @@ impl Visibility {
         edit: impl Fn(StochasticPush) -> StochasticPush,
     ) {
         let (world, view) = (inputs.world, inputs.camera);
-        let max_runs = self.objects.iter().map(|o| o.intervals).max().unwrap_or(1);
-        let max_segments = self.objects.iter().map(|o| o.keys.segments()).max().unwrap_or(1);
+        let max_runs = self.objects.iter().map(|o| o.choices.intervals).max().unwrap_or(1);
+        let max_segments = self.objects.iter().map(|o| o.choices.keys.segments()).max().unwrap_or(1);
         for run in 0..max_runs {
             for seg in 0..max_segments {
                 let piece = |i: usize| {
-                    self.coverage_push(view, i, pass, run, self.objects[i].intervals, seg).map(&edit)
+                    self.coverage_push(view, i, pass, run, self.objects[i].choices.intervals, seg).map(&edit)
                 };
                 world.record_object_draws(
                     ctx.device,
@@ -681,7 +685,7 @@ impl Visibility {
                     pipeline,
                     &self.pipelines.layout,
                     self.pipelines.push_stages,
-                    |i| include(i) && run < self.objects[i].intervals && piece(i).is_some(),
+                    |i| include(i) && run < self.objects[i].choices.intervals && piece(i).is_some(),
                     |i| piece(i).expect("included"),
                     |i| Some(self.objects[i].set),
                 );
@@ -709,13 +713,13 @@ impl Visibility {
                 );
             }
             for (i, (o, so)) in world.objects.iter().zip(&self.objects).enumerate() {
-                let n = so.clusters;
-                if n == 0 || so.effects != *effects || !so.is_drawn() {
+                let n = so.choices.clusters;
+                if n == 0 || so.choices.effects != *effects || !so.is_drawn() {
                     continue;
                 }
                 let sets = [o.set, so.set];
                 let clusters = o.triangle_count().div_ceil(n);
-                for seg in 0..so.keys.segments() {
+                for seg in 0..so.choices.keys.segments() {
                     let Some(push) = self.coverage_push(view, i, pass, 0, 1, seg) else { continue };
                     // SAFETY: the recording contract of `PassContext`; inside the pass' rendering, with
                     // a pipeline of this layout bound.

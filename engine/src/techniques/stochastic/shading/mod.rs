@@ -368,9 +368,9 @@ impl ShadingPass {
         );
         for (effects, pipeline) in &self.pipelines {
             for (i, (o, so)) in world.objects.iter().zip(objects).enumerate() {
-                if so.effects == *effects && so.is_drawn() {
+                if so.choices.effects == *effects && so.is_drawn() {
                     for &phase in self.stage.phases() {
-                        dispatch(pipeline, i as u32, [o.set, so.set], so.shade_rect, phase);
+                        dispatch(pipeline, i as u32, [o.set, so.set], so.choices.shade_rect, phase);
                     }
                 }
             }
