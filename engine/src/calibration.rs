@@ -347,10 +347,10 @@ pub fn measure_cost_point(
     frames: usize,
     measured_on: &str,
 ) -> Result<CostPoint> {
-    use crate::quality_plan::{measure_noise, noise_scale, PILOT_SPP, PILOT_SUBFRAMES};
+    use crate::quality_plan::{measure_ms, measure_noise, noise_scale, PILOT_SPP, PILOT_SUBFRAMES};
     use crate::techniques::{RenderSettings, Technique};
     let spp = settings.spp;
-    let acc_ms = measure_noise(renderer, scene, Technique::ACCUMULATION, settings, frames, 2)?.ms;
+    let (acc_ms, _) = measure_ms(renderer, scene, Technique::ACCUMULATION, settings, frames)?;
     let pilot = RenderSettings { spp: PILOT_SPP, ..*settings };
     let acc_pilot =
         measure_noise(renderer, scene, Technique::ACCUMULATION, &pilot, 1, PILOT_SUBFRAMES)?.noise_flip;

@@ -380,10 +380,8 @@ pub fn measure_noise(
     seeds: usize,
 ) -> Result<NoiseMeasurement> {
     let seeds = seeds.max(2);
-    let mut frames = renderer.render_frames(scene, technique, settings, warm_frames.max(1) + 1)?;
-    let mut ms: Vec<f64> = frames[1..].iter().map(frame_ms).collect();
-    ms.sort_by(f64::total_cmp);
-    let mut images = vec![frames.pop().expect("a frame").image];
+    let (ms, image) = measure_ms(renderer, scene, technique, settings, warm_frames)?;
+    let mut images = vec![image];
     for k in 1..seeds {
         let other = RenderSettings { seed: subframe_seed(settings.seed, k), ..*settings };
         images.push(renderer.render(scene, technique, &other)?.image);
@@ -391,7 +389,22 @@ pub fn measure_noise(
     let (_, flips) = noise_against_the_others(&images)?;
     let mean = flips.iter().sum::<f64>() / flips.len() as f64;
     let k = seeds as f64;
-    Ok(NoiseMeasurement { ms: ms[ms.len() / 2], noise_flip: mean / (k / (k - 1.0)).sqrt() })
+    Ok(NoiseMeasurement { ms, noise_flip: mean / (k / (k - 1.0)).sqrt() })
+}
+
+/// Renders `technique` at `settings` for one warm-up and `warm_frames` timed frames: the median GPU
+/// ms of the timed frames, and the last frame's image.
+pub fn measure_ms(
+    renderer: &mut Renderer,
+    scene: &Scene,
+    technique: Technique,
+    settings: &RenderSettings,
+    warm_frames: usize,
+) -> Result<(f64, LinearImage)> {
+    let mut frames = renderer.render_frames(scene, technique, settings, warm_frames.max(1) + 1)?;
+    let mut ms: Vec<f64> = frames[1..].iter().map(frame_ms).collect();
+    ms.sort_by(f64::total_cmp);
+    Ok((ms[ms.len() / 2], frames.pop().expect("a frame").image))
 }
 
 /// Each image of independent seeds against the mean of the others: their mean FLIP map and each
