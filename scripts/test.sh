@@ -17,6 +17,10 @@ export SHUTTER_VALIDATION=1
 export SHUTTER_SYNC_VALIDATION="${SHUTTER_SYNC_VALIDATION:-1}"
 # Lavapipe is the first-class target: pick it even on a machine with a GPU, unless told otherwise.
 export SHUTTER_DEVICE="${SHUTTER_DEVICE:-llvmpipe}"
+# The library's documentation is part of its surface for porters: a broken intra-doc link or a
+# malformed doc comment fails the run (no driver needed; about a minute after the build).
+echo "== cargo doc (warnings are errors)"
+RUSTDOCFLAGS="-D warnings" cargo doc --no-deps --locked -p shutter
 read -r -a drivers <<<"${SHUTTER_TEST_DRIVERS:-lavapipe-25.0 lavapipe-22.3}"
 for driver in "${drivers[@]}"; do
   start=$SECONDS

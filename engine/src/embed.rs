@@ -57,8 +57,11 @@ impl ExternalDevice {
     }
 }
 
-/// The techniques whose frames [`EmbeddedScene::record`] can record (one graph ending in one image).
-pub const EMBEDDABLE_TECHNIQUES: &[Technique] = &[Technique::STOCHASTIC];
+/// The techniques whose frames [`EmbeddedScene::record`] can record (one graph ending in one image):
+/// those whose [`crate::techniques::TechniqueCapabilities::embeddable`] says so.
+pub fn embeddable_techniques() -> impl Iterator<Item = Technique> {
+    crate::techniques::registry::TECHNIQUES.iter().copied().filter(|t| t.info().capabilities.embeddable)
+}
 
 /// The engine's image a recorded frame ends in: the frame's linear RGBA result is copied into it
 /// (a plain copy into `R32G32B32A32_SFLOAT`; a blit, which converts, into any other colour format
@@ -125,15 +128,15 @@ impl EmbeddedScene {
     /// Uploads `scene` and builds `technique`'s pipelines and targets on `renderer`'s device, as
     /// [`Renderer::prepare`] does (the same checks: [`Scene::validate`], limits, memory), and
     /// refuses a technique or setting whose frame cannot be recorded for a caller
-    /// ([`EMBEDDABLE_TECHNIQUES`]). Submits the uploads to the device's queue and waits for them.
+    /// ([`embeddable_techniques`]). Submits the uploads to the device's queue and waits for them.
     pub fn prepare(
         renderer: &mut Renderer,
         scene: &Scene,
         technique: Technique,
         settings: &RenderSettings,
     ) -> Result<Self> {
-        if !EMBEDDABLE_TECHNIQUES.contains(&technique) {
-            let names: Vec<&str> = EMBEDDABLE_TECHNIQUES.iter().map(|t| t.name()).collect();
+        if !technique.info().capabilities.embeddable {
+            let names: Vec<&str> = embeddable_techniques().map(|t| t.name()).collect();
             return Err(Error::Unsupported(format!(
                 "technique `{technique}` cannot be recorded into a caller's command buffer yet (its frame \
                  is not one graph ending in one image); embeddable: {}",

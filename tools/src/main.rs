@@ -644,10 +644,30 @@ fn run() -> Result<()> {
         }
         Command::Techniques => {
             for t in shutter::techniques::registry::TECHNIQUES {
+                let info = t.info();
                 outln!("{:<13} {}", t.name(), t.summary());
+                let keys: Vec<&str> = info.keys.iter().flat_map(|g| g.iter()).map(|k| k.key).collect();
+                outln!("{:<13}   keys: {}", "", keys.join(", "));
+                if !info.required_features.is_empty() {
+                    let f: Vec<String> =
+                        info.required_features.iter().map(|(f, _)| f.vulkan_name()).collect();
+                    outln!("{:<13}   needs: {}", "", f.join(", "));
+                }
+                let c = info.capabilities;
+                let can: Vec<&str> = [
+                    (c.transparency, "transparency"),
+                    (c.transparency_methods, "order-independent transparency methods"),
+                    (c.embeddable, "recording into a caller's command buffer"),
+                ]
+                .into_iter()
+                .filter_map(|(has, what)| has.then_some(what))
+                .collect();
+                if !can.is_empty() {
+                    outln!("{:<13}   can: {}", "", can.join(", "));
+                }
             }
             outln!("\nsettings (render --set KEY=VALUE, bench -c and quality -s TECHNIQUE:KEY=VALUE:…):");
-            for k in shutter::techniques::settings::OPTION_KEYS {
+            for k in shutter::techniques::settings::option_keys() {
                 outln!("  {:<13} {:<22} {}", k.key, k.owner, k.values);
             }
         }

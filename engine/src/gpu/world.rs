@@ -8,6 +8,7 @@ use glam::Vec3;
 use super::layout::{self, GpuMaterial, Vertex, WorldUniforms, FRAME_SET, OBJECT_SET};
 use super::GpuView;
 use crate::error::Result;
+use crate::graph::PassContext;
 use crate::scene::{Scene, Texture};
 use crate::vk::{
     upload_texture, write_descriptors, Buffer, CommandRecorder, DescriptorPool, DescriptorSetLayout,
@@ -190,33 +191,21 @@ impl GpuWorld {
     /// Records one indexed draw per non-empty object `i` with `include(i)` as seen from `view`, with a
     /// bound graphics pipeline whose layout is `layout` ([`GpuWorld::pipeline_layout`]): binds set 0
     /// (the view's frame set) and per object set 1 and `object_set(i)` as set 2 when given, and pushes
-    /// `push(i)` for `stages`. Binding `pipeline` and set 3 is the caller's; with a
+    /// `push(i)` (for the layout's push stages). Binding `pipeline` and set 3 is the caller's; with a
     /// [`Faces::PerObject`] pipeline each draw sets the cull mode, back faces for a one-sided object.
     #[allow(clippy::too_many_arguments)]
     pub fn record_object_draws<P: bytemuck::Pod>(
         &self,
-        d: &Device,
-        cmd: vk::CommandBuffer,
+        ctx: &PassContext<'_>,
         view: &GpuView,
         pipeline: &Pipeline,
         layout: &PipelineLayout,
-        stages: vk::ShaderStageFlags,
         include: impl Fn(usize) -> bool,
         push: impl Fn(usize) -> P,
         object_set: impl Fn(usize) -> Option<vk::DescriptorSet>,
     ) {
         let once = |_| (1, 0);
-        self.record_object_draws_instanced(
-            d,
-            cmd,
-            view,
-            (pipeline, layout),
-            stages,
-            include,
-            push,
-            object_set,
-            once,
-        )
+        self.record_object_draws_instanced(ctx, view, (pipeline, layout), include, push, object_set, once)
     }
 
     /// [`GpuWorld::record_object_draws`] with `instances(i) = (count, first)` instances of object `i`'s
@@ -225,43 +214,33 @@ impl GpuWorld {
     #[allow(clippy::too_many_arguments)]
     pub fn record_object_draws_instanced<P: bytemuck::Pod>(
         &self,
-        d: &Device,
-        cmd: vk::CommandBuffer,
+        ctx: &PassContext<'_>,
         view: &GpuView,
         (pipeline, layout): (&Pipeline, &PipelineLayout),
-        stages: vk::ShaderStageFlags,
         include: impl Fn(usize) -> bool,
         push: impl Fn(usize) -> P,
         object_set: impl Fn(usize) -> Option<vk::DescriptorSet>,
         instances: impl Fn(usize) -> (u32, u32),
     ) {
         let bind = vk::PipelineBindPoint::GRAPHICS;
-        unsafe {
-            d.raw.cmd_bind_descriptor_sets(
-                cmd,
-                bind,
-                layout.raw,
-                layout::FRAME_SET_INDEX,
-                &[view.frame_set],
-                &[],
-            );
-            for (i, o) in self.objects.iter().enumerate() {
-                if o.index_count == 0 || !include(i) {
-                    continue;
-                }
-                d.raw.cmd_push_constants(cmd, layout.raw, stages, 0, bytemuck::bytes_of(&push(i)));
-                if pipeline.faces == Faces::PerObject {
-                    let cull = if o.one_sided { vk::CullModeFlags::BACK } else { vk::CullModeFlags::NONE };
-                    d.raw.cmd_set_cull_mode(cmd, cull);
-                }
-                let mut sets = vec![o.set];
-                sets.extend(object_set(i));
-                d.raw.cmd_bind_descriptor_sets(cmd, bind, layout.raw, layout::OBJECT_SET_INDEX, &sets, &[]);
-                d.raw.cmd_bind_vertex_buffers(cmd, 0, &[o.vertices.raw], &[0]);
-                d.raw.cmd_bind_index_buffer(cmd, o.indices.raw, 0, vk::IndexType::UINT32);
-                let (count, first) = instances(i);
-                d.raw.cmd_draw_indexed(cmd, o.index_count, count, 0, 0, first);
+        ctx.bind_sets(bind, layout, layout::FRAME_SET_INDEX, &[view.frame_set]);
+        for (i, o) in self.objects.iter().enumerate() {
+            if o.index_count == 0 || !include(i) {
+                continue;
             }
+            ctx.push(layout, &push(i));
+            if pipeline.faces == Faces::PerObject {
+                ctx.set_cull_mode(if o.one_sided {
+                    vk::CullModeFlags::BACK
+                } else {
+                    vk::CullModeFlags::NONE
+                });
+            }
+            let mut sets = vec![o.set];
+            sets.extend(object_set(i));
+            ctx.bind_sets(bind, layout, layout::OBJECT_SET_INDEX, &sets);
+            let (count, first) = instances(i);
+            ctx.draw_indexed((&o.vertices, &o.indices), o.index_count, count, first);
         }
     }
 }

@@ -40,6 +40,7 @@
 //! access types; imported vs transient resources); this one is much smaller: it compiles nothing
 //! ahead, tracks state while recording, and keeps techniques' own descriptor sets.
 
+mod record;
 pub mod state;
 
 use std::cell::RefCell;
@@ -341,12 +342,15 @@ enum Node<'a> {
     Repeat { count: u32, passes: Vec<Pass<'a>> },
 }
 
-/// What a pass' recording closure gets.
+/// What a pass' recording closure gets, and records with: typed commands (`bind_pipeline`,
+/// `bind_sets`, `push`, `dispatch`, `draw`, `fill_buffer`, … in `graph/record.rs`), which check what
+/// they can of the contract below — the pass' declared accesses included — and hold its one `unsafe`.
 ///
 /// # Recording raw commands: the contract
 ///
-/// A closure records with `ash`'s raw `cmd_*` calls (`unsafe`: Vulkan checks nothing). The executor
-/// guarantees, for the duration of the closure:
+/// Those commands, and a closure that records a command they lack with `ash`'s raw `cmd_*` calls on
+/// [`PassContext::cmd`] (`unsafe`: Vulkan checks nothing), rely on this. The executor guarantees, for
+/// the duration of the closure:
 ///
 /// * `cmd` is a primary command buffer of `device` in the recording state, not submitted until the
 ///   closure returns; inside a raster pass, dynamic rendering over the pass' attachments (or its
@@ -373,6 +377,8 @@ pub struct PassContext<'r> {
     /// The render area of a raster pass (zero otherwise).
     pub extent: vk::Extent2D,
     resources: &'r [Resource<'r>],
+    /// What the pass declared (the typed commands check their resources against it).
+    uses: &'r [Use],
 }
 
 impl PassContext<'_> {
@@ -820,7 +826,7 @@ fn record_pass(
         } else {
             vk::Extent2D::default()
         };
-        let mut ctx = PassContext { device, cmd, iteration, extent, resources };
+        let mut ctx = PassContext { device, cmd, iteration, extent, resources, uses: &pass.uses };
         let recorded = record(&mut ctx);
         if raster {
             // SAFETY: `cmd` is recording and `begin_rendering` began this pass' rendering above; the closure

@@ -13,7 +13,7 @@
 use glam::Vec2;
 
 use super::forward::PassSample;
-use super::{FrameTechnique, PrepareContext, TechniqueInfo};
+use super::{FrameTechnique, PrepareContext, TechniqueCapabilities, TechniqueInfo};
 use crate::error::Result;
 use crate::sampling::{stratified_samples, ApertureShape, Pcg32, Sample5, ShutterCurve};
 
@@ -21,6 +21,9 @@ use crate::sampling::{stratified_samples, ApertureShape, Pcg32, Sample5, Shutter
 pub const INFO: TechniqueInfo = TechniqueInfo {
     name: "accumulation",
     summary: "P full-scene passes, one stratified (x, y, u, v, t) each, averaged (Haeberli & Akeley)",
+    keys: &[super::forward::TRANSPARENCY_KEYS, super::shadow_maps::KEYS],
+    required_features: &[],
+    capabilities: TechniqueCapabilities { transparency: true, transparency_methods: true, embeddable: false },
     prepare,
 };
 
@@ -28,7 +31,7 @@ fn prepare(ctx: &PrepareContext<'_>) -> Result<Box<dyn FrameTechnique>> {
     let c = &ctx.scene.camera;
     let s = ctx.settings;
     let passes = accumulation_passes(s.spp, s.seed, c.aperture, c.shutter);
-    super::oit::prepare_forward(ctx, 1, passes)
+    super::forward::prepare_frame(ctx, 1, passes)
 }
 
 /// The samples of `passes` passes with `seed`, in pass order, before the aperture shape and the

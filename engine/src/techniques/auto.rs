@@ -20,7 +20,8 @@ use super::forward::ForwardTechnique;
 use super::pinhole::{pinhole_passes, PINHOLE_MSAA};
 use super::stochastic::{DebugOptions, StochasticTechnique};
 use super::{
-    FrameContext, FrameInputs, FrameTechnique, HullExpansion, PrepareContext, TechniqueFrame, TechniqueInfo,
+    FrameContext, FrameInputs, FrameTechnique, HullExpansion, PrepareContext, TechniqueCapabilities,
+    TechniqueFrame, TechniqueInfo,
 };
 use crate::error::Result;
 use crate::plan::{AutoFrame, Plan};
@@ -30,6 +31,15 @@ pub const INFO: TechniqueInfo = TechniqueInfo {
     name: "auto",
     summary: "the effect planner decides per object: pinhole, defocus-only, motion-only or both stochastic \
               permutations in one frame; nothing to simulate = pinhole",
+    // The pinhole path reads the forward frame's keys, the stochastic path the stochastic frame's; the
+    // stochastic frame checks its features when the plan takes it.
+    keys: &[super::forward::TRANSPARENCY_KEYS, super::stochastic::KEYS, super::shadow_maps::KEYS],
+    required_features: &[],
+    capabilities: TechniqueCapabilities {
+        transparency: true,
+        transparency_methods: false,
+        embeddable: false,
+    },
     prepare,
 };
 

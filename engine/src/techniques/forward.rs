@@ -15,6 +15,7 @@ use ash::vk;
 use bytemuck::{Pod, Zeroable};
 
 use super::multipass::{FrameUse, MultipassFrame, PassDraws, COLOR_FORMAT, DEPTH_FORMAT};
+use super::settings::{key, OptionKey};
 use super::shadow_maps::ShadowMaps;
 use super::{FrameContext, FrameInputs, FrameTechnique, PrepareContext, TechniqueFrame};
 use crate::error::Result;
@@ -29,6 +30,15 @@ use crate::vk::{
     ColorBlend, DescriptorSetLayout, Device, Faces, Feature, GraphicsDesc, Pipeline, PipelineLayout,
     ShaderModule,
 };
+
+/// The forward frame's transparency key (parsed by [`TransparencyMethod`]'s `FromStr`): the method
+/// for coverage below 1, read by `pinhole` and `accumulation` ([`prepare_frame`]).
+pub const TRANSPARENCY_KEYS: &[OptionKey] = &[key(
+    "transparency",
+    "pinhole, accumulation",
+    "a transparency method (docs/TRANSPARENCY.md)",
+    "peeling/4",
+)];
 
 /// Moved to [`crate::sampling`] (the CPU mirrors use it too); re-exported for the techniques.
 pub use crate::sampling::PassSample;
@@ -152,12 +162,9 @@ fn forward_layout(
 }
 
 /// Binds the shadow maps' set 3, when the pipeline receives shadows.
-fn bind_shadows(d: &Device, cmd: vk::CommandBuffer, layout: &PipelineLayout, lookup: Option<ShadowLookup>) {
+fn bind_shadows(ctx: &PassContext<'_>, layout: &PipelineLayout, lookup: Option<ShadowLookup>) {
     if let Some(l) = lookup {
-        let bind = vk::PipelineBindPoint::GRAPHICS;
-        // SAFETY: the recording contract of `PassContext` (graph/mod.rs): the pass declared what this
-        // touches, and the pipelines, layouts and sets are the technique's, of one layout.
-        unsafe { d.raw.cmd_bind_descriptor_sets(cmd, bind, layout.raw, TECHNIQUE_SET_INDEX, &[l.set], &[]) };
+        ctx.bind_sets(vk::PipelineBindPoint::GRAPHICS, layout, TECHNIQUE_SET_INDEX, &[l.set]);
     }
 }
 
@@ -218,21 +225,16 @@ impl ForwardPipeline {
     /// Draws the objects `i` with `include(i)` seen from `view` with one pass' (t, lens, jitter).
     pub fn record_draws(
         &self,
-        d: &Device,
-        cmd: vk::CommandBuffer,
+        ctx: &PassContext<'_>,
         world: &GpuWorld,
         view: &GpuView,
         pass: &PassSample,
         include: impl Fn(usize) -> bool,
     ) {
-        // SAFETY: called from pass recording closures only (the contract of `PassContext`, graph/mod.rs);
-        // the pipeline is this path's.
-        unsafe { d.raw.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, self.pipeline.raw) };
-        bind_shadows(d, cmd, &self.layout, self.shadows);
+        ctx.bind_pipeline(&self.pipeline);
+        bind_shadows(ctx, &self.layout, self.shadows);
         let push = |i: usize| ForwardPush::new(view, i, pass);
-        let stages = vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT;
-        world
-            .record_object_draws(d, cmd, view, &self.pipeline, &self.layout, stages, include, push, |_| None);
+        world.record_object_draws(ctx, view, &self.pipeline, &self.layout, include, push, |_| None);
     }
 }
 
@@ -443,48 +445,23 @@ impl TransparentDraws {
     /// `index` (its sample `pass`), each pipeline with its own layout and sets.
     pub(super) fn record(
         &self,
-        d: &Device,
-        cmd: vk::CommandBuffer,
+        ctx: &PassContext<'_>,
         inputs: &FrameInputs<'_>,
         pass: &PassSample,
         index: u32,
     ) {
         let (world, view) = (inputs.world, inputs.camera);
-        let stages = vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT;
         let push = |i: usize| self.push(view, i, pass, index);
-        let bind = vk::PipelineBindPoint::GRAPHICS;
-        // SAFETY: the recording contract of `PassContext` (graph/mod.rs): the pass declared what this
-        // touches, and the pipelines, layouts and sets are the technique's, of one layout.
-        unsafe { d.raw.cmd_bind_pipeline(cmd, bind, self.coverage.raw) };
-        bind_shadows(d, cmd, &self.layout, self.shadows);
-        world.record_object_draws(
-            d,
-            cmd,
-            view,
-            &self.coverage,
-            &self.layout,
-            stages,
-            |i| self.objects[i].transparent,
-            push,
-            |_| None,
-        );
+        ctx.bind_pipeline(&self.coverage);
+        bind_shadows(ctx, &self.layout, self.shadows);
+        let transparent = |i: usize| self.objects[i].transparent;
+        world.record_object_draws(ctx, view, &self.coverage, &self.layout, transparent, push, |_| None);
         if self.objects.iter().any(|o| o.tinted) {
-            d.begin_label(cmd, "transparency tint");
-            // SAFETY: the recording contract of `PassContext` (graph/mod.rs): the pass declared what this
-            // touches, and the pipelines, layouts and sets are the technique's, of one layout.
-            unsafe { d.raw.cmd_bind_pipeline(cmd, bind, self.tint.raw) };
-            world.record_object_draws(
-                d,
-                cmd,
-                view,
-                &self.tint,
-                &self.layout,
-                stages,
-                |i| self.objects[i].tinted,
-                push,
-                |_| None,
-            );
-            d.end_label(cmd);
+            ctx.device.begin_label(ctx.cmd, "transparency tint");
+            ctx.bind_pipeline(&self.tint);
+            let tinted = |i: usize| self.objects[i].tinted;
+            world.record_object_draws(ctx, view, &self.tint, &self.layout, tinted, push, |_| None);
+            ctx.device.end_label(ctx.cmd);
         }
     }
 }
@@ -524,7 +501,7 @@ impl ForwardDraws {
                 let targets = TransparentTargets::FORWARD;
                 Some(TransparentDraws::new(device, world, scene, (msaa, passes), seed, shadows, targets)?)
             }
-            // Several raster passes per frame pass: their own frame (oit::prepare_forward).
+            // Several raster passes per frame pass: their own frame (`prepare_frame` picks `oit`).
             TransparencyMethod::StochasticCorrected
             | TransparencyMethod::DepthBased { .. }
             | TransparencyMethod::Peeling { .. } => {
@@ -556,16 +533,31 @@ impl PassDraws for ForwardDraws {
     fn record(&self, ctx: &mut PassContext<'_>, inputs: &FrameInputs<'_>, pass: u32) {
         let sample = &self.samples[pass as usize];
         match &self.transparent {
-            None => {
-                self.pipeline.record_draws(ctx.device, ctx.cmd, inputs.world, inputs.camera, sample, |_| true)
-            }
+            None => self.pipeline.record_draws(ctx, inputs.world, inputs.camera, sample, |_| true),
             Some(t) => {
                 let opaque = |i: usize| !t.is_transparent(i);
-                self.pipeline.record_draws(ctx.device, ctx.cmd, inputs.world, inputs.camera, sample, opaque);
-                t.record(ctx.device, ctx.cmd, inputs, sample, pass);
+                self.pipeline.record_draws(ctx, inputs.world, inputs.camera, sample, opaque);
+                t.record(ctx, inputs, sample, pass);
             }
         }
     }
+}
+
+/// `pinhole`'s and `accumulation`'s frame for `samples.len()` passes at `msaa` samples: the plain
+/// forward frame ([`ForwardTechnique`]), or — only when the scene has transparency and
+/// `ctx.settings.transparency` is alpha-corrected, depth-based or peeling, which need several raster
+/// passes per frame pass — the order-independent transparency frame of [`super::oit`].
+pub fn prepare_frame(
+    ctx: &PrepareContext<'_>,
+    msaa: u32,
+    samples: Vec<PassSample>,
+) -> Result<Box<dyn FrameTechnique>> {
+    match ctx.settings.transparency {
+        TransparencyMethod::Stochastic => {}
+        _ if !has_transparency(ctx.scene) => {}
+        method => return Ok(Box::new(super::oit::OitTechnique::new(ctx, msaa, samples, method)?)),
+    }
+    Ok(Box::new(ForwardTechnique::new(ctx, msaa, samples)?))
 }
 
 /// Every object on the forward path, one [`PassSample`] per pass: `pinhole` and `accumulation`.

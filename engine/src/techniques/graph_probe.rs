@@ -28,7 +28,7 @@ use super::forward::ForwardPush;
 use super::multipass::DEPTH_FORMAT;
 use super::{FrameContext, FrameInputs, FrameTechnique, PrepareContext, TechniqueFrame};
 use crate::error::{Error, Result};
-use crate::gpu::layout::{shared_struct, vertex_input, SharedStruct, TECHNIQUE_SET_INDEX};
+use crate::gpu::layout::{shared_struct, vertex_input, SharedStruct, FRAME_SET_INDEX, TECHNIQUE_SET_INDEX};
 use crate::gpu::{GpuView, GpuWorld};
 use crate::graph::{Access, FrameGraph, Load, Store, Tracked};
 use crate::image::LinearImage;
@@ -286,26 +286,11 @@ impl GraphProbe {
         pipeline: &'a Pipeline,
     ) -> impl FnMut(&mut crate::graph::PassContext<'_>) -> Result<()> + 'a {
         move |ctx| {
-            // SAFETY: the recording contract of `PassContext` (graph/mod.rs): the pass declared what this
-            // touches, and the pipelines, layouts and sets are the technique's, of one layout.
-            unsafe {
-                ctx.device.raw.cmd_bind_pipeline(ctx.cmd, vk::PipelineBindPoint::GRAPHICS, pipeline.raw)
-            };
+            ctx.bind_pipeline(pipeline);
             let still =
                 super::forward::PassSample { time: 0.0, lens: glam::Vec2::ZERO, jitter: glam::Vec2::ZERO };
             let push = |i: usize| ForwardPush::new(view, i, &still);
-            let stages = vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT;
-            world.record_object_draws(
-                ctx.device,
-                ctx.cmd,
-                view,
-                pipeline,
-                &self.draw_layout,
-                stages,
-                |_| true,
-                push,
-                |_| None,
-            );
+            world.record_object_draws(ctx, view, pipeline, &self.draw_layout, |_| true, push, |_| None);
             Ok(())
         }
     }
@@ -331,31 +316,12 @@ impl GraphProbe {
                 .access(counts, Access::ComputeShaderReadOther)
                 .access(counts, Access::ComputeShaderWrite)
                 .record(move |ctx| {
-                    let (d, cmd, bind) = (ctx.device, ctx.cmd, vk::PipelineBindPoint::COMPUTE);
-                    let layout = this.count_layout.raw;
-                    // SAFETY: the recording contract of `PassContext` (graph/mod.rs): the pass declared what
-                    // this touches, and the pipelines, layouts and sets are the technique's, of one layout.
-                    unsafe {
-                        d.raw.cmd_bind_pipeline(cmd, bind, this.count_pipeline.raw);
-                        d.raw.cmd_bind_descriptor_sets(cmd, bind, layout, 0, &[frame_set], &[]);
-                        d.raw.cmd_bind_descriptor_sets(
-                            cmd,
-                            bind,
-                            layout,
-                            TECHNIQUE_SET_INDEX,
-                            &[this.count_set],
-                            &[],
-                        );
-                        let push = CountPush { pass_index: ctx.iteration };
-                        d.raw.cmd_push_constants(
-                            cmd,
-                            layout,
-                            vk::ShaderStageFlags::COMPUTE,
-                            0,
-                            bytemuck::bytes_of(&push),
-                        );
-                        d.raw.cmd_dispatch(cmd, 1, 1, 1);
-                    }
+                    let (layout, bind) = (&this.count_layout, vk::PipelineBindPoint::COMPUTE);
+                    ctx.bind_pipeline(&this.count_pipeline);
+                    ctx.bind_sets(bind, layout, FRAME_SET_INDEX, &[frame_set]);
+                    ctx.bind_sets(bind, layout, TECHNIQUE_SET_INDEX, &[this.count_set]);
+                    ctx.push(layout, &CountPush { pass_index: ctx.iteration });
+                    ctx.dispatch(1, 1, 1);
                     Ok(())
                 });
             Ok(())
@@ -404,30 +370,12 @@ impl FrameTechnique for GraphProbe {
             .access(shadow, sampled)
             .overwrite(mask, Access::ComputeShaderWrite)
             .record(move |ctx| {
-                let (d, cmd, bind) = (ctx.device, ctx.cmd, vk::PipelineBindPoint::COMPUTE);
-                let layout = this.mask_layout.raw;
-                // SAFETY: the recording contract of `PassContext` (graph/mod.rs): the pass declared what
-                // this touches, and the pipelines, layouts and sets are the technique's, of one layout.
-                unsafe {
-                    d.raw.cmd_bind_pipeline(cmd, bind, this.mask_pipeline.raw);
-                    d.raw.cmd_bind_descriptor_sets(cmd, bind, layout, 0, &[camera.frame_set], &[]);
-                    d.raw.cmd_bind_descriptor_sets(
-                        cmd,
-                        bind,
-                        layout,
-                        TECHNIQUE_SET_INDEX,
-                        &[this.mask_set],
-                        &[],
-                    );
-                    d.raw.cmd_push_constants(
-                        cmd,
-                        layout,
-                        vk::ShaderStageFlags::COMPUTE,
-                        0,
-                        bytemuck::bytes_of(&this.mask_push),
-                    );
-                    d.raw.cmd_dispatch(cmd, w.div_ceil(8), h.div_ceil(8), 1);
-                }
+                let (layout, bind) = (&this.mask_layout, vk::PipelineBindPoint::COMPUTE);
+                ctx.bind_pipeline(&this.mask_pipeline);
+                ctx.bind_sets(bind, layout, FRAME_SET_INDEX, &[camera.frame_set]);
+                ctx.bind_sets(bind, layout, TECHNIQUE_SET_INDEX, &[this.mask_set]);
+                ctx.push(layout, &this.mask_push);
+                ctx.dispatch(w.div_ceil(8), h.div_ceil(8), 1);
                 Ok(())
             });
         g.pass("colour, depth loaded")

@@ -36,8 +36,12 @@ use bytemuck::{Pod, Zeroable};
 
 use super::forward::{ForwardPipeline, ForwardPush, PassSample, FORWARD_STRUCTS};
 use super::multipass::{accumulation_image, DEPTH_FORMAT};
+use super::settings::{key, number, setting_error, OptionKey};
 use super::shadow_maps::ShadowMaps;
-use super::{FrameContext, FrameInputs, FrameTechnique, PrepareContext, TechniqueFrame, TechniqueInfo};
+use super::{
+    FrameContext, FrameInputs, FrameTechnique, PrepareContext, TechniqueCapabilities, TechniqueFrame,
+    TechniqueInfo,
+};
 use crate::error::{Error, Result};
 use crate::gpu::layout::{shared_struct, vertex_input, Binding, SharedStruct, TECHNIQUE_SET_INDEX};
 use crate::graph::{
@@ -55,6 +59,9 @@ use gpu_allocator::MemoryLocation;
 pub const INFO: TechniqueInfo = TechniqueInfo {
     name: "interleaved",
     summary: "interleaved deferred shading of virtual point lights for one-bounce indirect light (Segovia et al. 2006): split G-buffer, per-sub-buffer VPL subsets, edge-aware blur",
+    keys: &[KEYS, super::shadow_maps::KEYS],
+    required_features: &[],
+    capabilities: TechniqueCapabilities { transparency: false, transparency_methods: false, embeddable: false },
     prepare,
 };
 
@@ -82,6 +89,19 @@ impl std::str::FromStr for Split {
         }
     }
 }
+
+/// Technique `interleaved`'s settings keys ([`InterleavedOptions::set`] parses them).
+pub const KEYS: &[OptionKey] = &[
+    key("vpls", "interleaved", "photons", "256"),
+    key("clamp", "interleaved", "the VPLs' clamp distance", "0.2"),
+    key("pattern", "interleaved", "NxM", "8x6"),
+    key("split", "interleaved", "one or two", "one"),
+    key("block", "interleaved", "BxB patterns", "2x2"),
+    key("filter", "interleaved", "none, plain, full or axis", "plain"),
+    key("radius", "interleaved", "the filter's radius in texels", "3"),
+    key("bilinear", "interleaved", "false, true (pairs lerped in the shader) or sampler", "true"),
+    key("vpl-maps", "interleaved", "SIZE texels a face, or off", "16"),
+];
 
 /// Settings of technique `interleaved`.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -753,37 +773,17 @@ impl InterleavedTechnique {
         (w, h): (u32, u32),
         barrier: bool,
     ) {
-        let (d, cmd) = (ctx.device, ctx.cmd);
-        let bind = vk::PipelineBindPoint::COMPUTE;
-        // SAFETY: the recording contract of `PassContext` (graph/mod.rs): the pass declared what this
-        // touches, and the pipelines, layouts and sets are the technique's, of one layout.
-        unsafe {
-            if barrier {
-                crate::vk::compute_write_barrier(
-                    d,
-                    cmd,
-                    vk::PipelineStageFlags2::COMPUTE_SHADER,
-                    vk::AccessFlags2::SHADER_STORAGE_READ | vk::AccessFlags2::SHADER_STORAGE_WRITE,
-                );
-            }
-            d.raw.cmd_bind_pipeline(cmd, bind, pipeline.raw);
-            d.raw.cmd_bind_descriptor_sets(
-                cmd,
-                bind,
-                self.compute.layout.raw,
-                TECHNIQUE_SET_INDEX,
-                &[self.compute.set],
-                &[],
+        if barrier {
+            ctx.compute_write_barrier(
+                vk::PipelineStageFlags2::COMPUTE_SHADER,
+                vk::AccessFlags2::SHADER_STORAGE_READ | vk::AccessFlags2::SHADER_STORAGE_WRITE,
             );
-            d.raw.cmd_push_constants(
-                cmd,
-                self.compute.layout.raw,
-                vk::ShaderStageFlags::COMPUTE,
-                0,
-                bytemuck::bytes_of(&push),
-            );
-            d.raw.cmd_dispatch(cmd, w.div_ceil(8), h.div_ceil(8), 1);
         }
+        let layout = &self.compute.layout;
+        ctx.bind_pipeline(pipeline);
+        ctx.bind_sets(vk::PipelineBindPoint::COMPUTE, layout, TECHNIQUE_SET_INDEX, &[self.compute.set]);
+        ctx.push(layout, &push);
+        ctx.dispatch(w.div_ceil(8), h.div_ceil(8), 1);
     }
 
     /// A permutation of the padded layout (`permute.comp`).
@@ -902,23 +902,15 @@ impl InterleavedTechnique {
         let atlas_size = [self.vpl_atlas.desc.width as f32, self.vpl_atlas.desc.height as f32];
         g.pass("interleaved VPL shadow maps").depth(atlas, Load::Clear(1.0), Store::Store).record(
             move |ctx| {
-                let (d, cmd) = (ctx.device, ctx.cmd);
-                let stages = vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT;
                 let (first, _) = self.vpl_set(ctx.iteration);
                 let time = self.passes[(ctx.iteration as usize).min(self.passes.len() - 1)].time;
-                // SAFETY: the pass records inside the graph's rendering scope of `atlas`; the pipeline,
-                // its layout and the set live as long as the technique, which outlives the frame.
-                unsafe {
-                    d.raw.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, pipeline.raw);
-                    d.raw.cmd_bind_descriptor_sets(
-                        cmd,
-                        vk::PipelineBindPoint::GRAPHICS,
-                        layout.raw,
-                        3,
-                        &[self.compute.set],
-                        &[],
-                    );
-                }
+                ctx.bind_pipeline(pipeline);
+                ctx.bind_sets(
+                    vk::PipelineBindPoint::GRAPHICS,
+                    layout,
+                    TECHNIQUE_SET_INDEX,
+                    &[self.compute.set],
+                );
                 // The graph's viewport spans the whole atlas: the vertex stage places each face in its
                 // square.
                 let push = |i: usize| {
@@ -939,11 +931,9 @@ impl InterleavedTechnique {
                 let objects = inputs.world.objects.len();
                 let ranges = &self.face_ranges[set * objects..(set + 1) * objects];
                 inputs.world.record_object_draws_instanced(
-                    d,
-                    cmd,
+                    ctx,
                     inputs.camera,
                     (pipeline, layout),
-                    stages,
                     |i| ranges[i].0 > 0,
                     push,
                     |_| None,
@@ -971,7 +961,6 @@ impl InterleavedTechnique {
             .access(texels, Access::TransferRead)
             .overwrite(blur_in, Access::TransferWrite)
             .record(move |ctx| {
-                let target = ctx.image(blur_in);
                 let region = vk::BufferImageCopy::default()
                     .buffer_offset(r.gathered as u64 * 16)
                     .buffer_row_length(padded_w)
@@ -982,17 +971,7 @@ impl InterleavedTechnique {
                         layer_count: 1,
                     })
                     .image_extent(vk::Extent3D { width: w, height: h, depth: 1 });
-                // SAFETY: the recording contract of `PassContext` (graph/mod.rs): the pass declared the
-                // staging buffer read and the image written, in TRANSFER_DST layout.
-                unsafe {
-                    ctx.device.raw.cmd_copy_buffer_to_image(
-                        ctx.cmd,
-                        ctx.buffer(texels).raw,
-                        target.raw,
-                        vk::ImageLayout::TRANSFER_DST_OPTIMAL,
-                        &[region],
-                    )
-                };
+                ctx.copy_buffer_to_image(texels, blur_in, &[region]);
                 Ok(())
             });
         let sampled = Access::ComputeShaderReadSampledImageOrUniformTexelBuffer;
@@ -1035,7 +1014,7 @@ impl InterleavedTechnique {
             .accesses(shadow_reads.iter().copied())
             .record(move |ctx| {
                 let s = sample(ctx);
-                this.direct.record_draws(ctx.device, ctx.cmd, inputs.world, inputs.camera, &s, |_| true);
+                this.direct.record_draws(ctx, inputs.world, inputs.camera, &s, |_| true);
                 Ok(())
             });
         g.pass("interleaved G-buffer")
@@ -1045,19 +1024,14 @@ impl InterleavedTechnique {
             .depth(im.gdepth, Load::Clear(0.0), Store::DontCare)
             .record(move |ctx| {
                 let s = sample(ctx);
-                let stages = vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT;
                 let push = |i: usize| ForwardPush::new(inputs.camera, i, &s);
-                let bind = vk::PipelineBindPoint::GRAPHICS;
-                // SAFETY: the recording contract of `PassContext` (graph/mod.rs): the pass declared what
-                // this touches, and the pipelines, layouts and sets are the technique's, of one layout.
-                unsafe { ctx.device.raw.cmd_bind_pipeline(ctx.cmd, bind, this.gbuffer.raw) };
+                ctx.bind_pipeline(&this.gbuffer);
+                let (pipeline, layout) = (&this.gbuffer, &this.gbuffer_layout);
                 inputs.world.record_object_draws(
-                    ctx.device,
-                    ctx.cmd,
+                    ctx,
                     inputs.camera,
-                    &this.gbuffer,
-                    &this.gbuffer_layout,
-                    stages,
+                    pipeline,
+                    layout,
                     |_| true,
                     push,
                     |_| None,
@@ -1226,6 +1200,54 @@ fn faces_meeting_sphere(vpl: glam::Vec3, (centre, radius): (glam::Vec3, f32)) ->
         within(a, b) && within(a, c)
     };
     std::array::from_fn(axis)
+}
+
+impl InterleavedOptions {
+    /// Sets one of technique `interleaved`'s keys ([`KEYS`]); `Ok(false)` when `key` is not one of them.
+    pub fn set(&mut self, key: &str, value: &str) -> Result<bool> {
+        match key {
+            "vpls" => self.photons = number(key, value)?,
+            "clamp" => self.clamp = number(key, value)?,
+            "pattern" => self.pattern = value.parse()?,
+            "split" => self.split = value.parse()?,
+            "block" => {
+                let b: Pattern = value.parse()?;
+                self.block = (b.n, b.m);
+            }
+            "filter" => {
+                let radius = self.blur.map_or(self.pattern.n.max(self.pattern.m), |b| b.radius);
+                let bilinear = self.blur.is_some_and(|b| b.bilinear);
+                self.blur = Edges::of_filter(value)?.map(|edges| Blur { radius, bilinear, edges });
+            }
+            "radius" => match &mut self.blur {
+                Some(b) => b.radius = number(key, value)?,
+                None => return Err(setting_error(key, value, "a radius without a filter (filter=none)")),
+            },
+            "vpl-maps" => {
+                self.vpl_maps = match value {
+                    "off" => None,
+                    v => Some(number(key, v)?),
+                }
+            }
+            "bilinear" => match &mut self.blur {
+                Some(b) => {
+                    (b.bilinear, self.bilinear_sampler) = match value {
+                        "false" => (false, false),
+                        "true" | "pairs" => (true, false),
+                        "sampler" => (true, true),
+                        _ => return Err(setting_error(
+                            key,
+                            value,
+                            "false, true (pairs lerped in the shader) or sampler (pairs fetched by the hardware's linear filter)",
+                        )),
+                    }
+                }
+                None => return Err(setting_error(key, value, "bilinear pairs without a filter (filter=none)")),
+            },
+            _ => return Ok(false),
+        }
+        Ok(true)
+    }
 }
 
 #[cfg(test)]

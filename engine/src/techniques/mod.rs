@@ -39,8 +39,8 @@ use std::rc::Rc;
 use std::str::FromStr;
 use std::time::Instant;
 
+pub use crate::sampling::PassSample;
 pub use compute_hull::HullExpansion;
-pub use forward::PassSample;
 pub use registry::Technique;
 pub use stochastic::{
     BoundChoice, Clusters, Intervals, ObjectBoundPolicy, SampleCounters, ShadingRate, StochasticOptions,
@@ -55,7 +55,7 @@ use crate::plan::Plan;
 use crate::scene::{Scene, View};
 use crate::shadows::ShadowSettings;
 use crate::transparency::TransparencyMethod;
-use crate::vk::{CommandRecorder, Device, PassTimings};
+use crate::vk::{CommandRecorder, Device, Feature, PassTimings};
 
 impl FromStr for Technique {
     type Err = Error;
@@ -149,14 +149,70 @@ pub struct RenderOutput {
     pub stats: RenderStats,
 }
 
-/// A technique as the registry lists it.
+/// A technique as the registry lists it: everything the engine and the CLI know of it comes from
+/// here — its name, the settings keys it reads, the device features it cannot run without, what it
+/// can render — so adding a technique touches no `match` elsewhere.
 pub struct TechniqueInfo {
     /// The name on the command line and in reports.
     pub name: &'static str,
     /// One line for `--help` and the docs.
     pub summary: &'static str,
+    /// The groups of settings keys it reads besides the frame's own ([`settings::FRAME_KEYS`]), each
+    /// group declared by the options that parse it ([`RenderSettings::set`]).
+    pub keys: &'static [&'static [settings::OptionKey]],
+    /// Device features every frame of it needs, each with what needs it. [`Renderer::prepare`]
+    /// refuses a device that lacks any, naming them; features only some settings need are checked
+    /// where those settings are read.
+    pub required_features: &'static [(Feature, &'static str)],
+    /// What it can render and how its frame can be used.
+    pub capabilities: TechniqueCapabilities,
     /// Builds the technique's pipelines and targets for one scene and settings.
     pub prepare: fn(&PrepareContext<'_>) -> Result<Box<dyn FrameTechnique>>,
+}
+
+/// What a technique can render, and where its frame can go: the checks before a frame read these,
+/// never a list of technique names.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct TechniqueCapabilities {
+    /// Coverage below 1 and tints, by stochastic transparency (docs/TRANSPARENCY.md); without it a
+    /// scene with transparency is refused.
+    pub transparency: bool,
+    /// Besides stochastic transparency, the order-independent methods of `techniques/oit.rs`
+    /// (alpha-corrected and depth-based stochastic transparency, depth peeling).
+    pub transparency_methods: bool,
+    /// Its frame is one graph ending in one image, so it can be recorded into a caller's command
+    /// buffer (`crate::embed`).
+    pub embeddable: bool,
+}
+
+impl TechniqueInfo {
+    /// Every settings key it reads, the frame's first.
+    pub fn option_keys(&self) -> impl Iterator<Item = &'static settings::OptionKey> {
+        settings::FRAME_KEYS.iter().chain(self.keys.iter().flat_map(|g| g.iter()))
+    }
+
+    /// Whether it reads settings key `key`.
+    pub fn reads_key(&self, key: &str) -> bool {
+        self.option_keys().any(|k| k.key == key)
+    }
+
+    /// Every required feature `caps` lacks, all named in one error.
+    pub fn check_features(&self, caps: &crate::vk::Capabilities) -> Result<()> {
+        let missing: Vec<String> = self
+            .required_features
+            .iter()
+            .filter(|(f, _)| !caps.has(*f))
+            .map(|(f, why)| format!("{} ({why})", f.vulkan_name()))
+            .collect();
+        if missing.is_empty() {
+            return Ok(());
+        }
+        Err(Error::MissingFeature {
+            device: caps.device_name.clone(),
+            feature: missing.join(", "),
+            needed_by: format!("technique `{}`", self.name),
+        })
+    }
 }
 
 /// What a technique gets to prepare itself for a scene: the device, the uploaded world, the camera
@@ -387,6 +443,7 @@ impl Renderer {
         technique: Technique,
         settings: &RenderSettings,
     ) -> Result<PreparedFrame> {
+        technique.info().check_features(&self.device.caps)?;
         check_transparency_supported(scene, technique)?;
         check_transparency_method(scene, technique, settings.transparency)?;
         scene.validate()?;
@@ -687,9 +744,7 @@ pub const TRANSPARENCY_TECHNIQUES: &str = "pinhole, accumulation, stochastic and
 /// Refuses coverage below 1 for `technique` unless it renders it: `pinhole`, `accumulation`,
 /// `stochastic` (coverage in its coverage pass, tints in its tint pass) and `auto` do.
 pub fn check_transparency_supported(scene: &Scene, technique: Technique) -> Result<()> {
-    if [Technique::PINHOLE, Technique::ACCUMULATION, Technique::STOCHASTIC, Technique::AUTO]
-        .contains(&technique)
-    {
+    if technique.info().capabilities.transparency {
         return Ok(());
     }
     check_opaque(scene, &format!("technique `{technique}`"))
@@ -706,15 +761,20 @@ pub fn check_transparency_method(
     let has_transparency = forward::has_transparency(scene);
     if !has_transparency
         || method == TransparencyMethod::Stochastic
-        || [Technique::PINHOLE, Technique::ACCUMULATION].contains(&technique)
+        || technique.info().capabilities.transparency_methods
     {
         return Ok(());
     }
+    let with_methods: Vec<&str> = registry::TECHNIQUES
+        .iter()
+        .filter(|t| t.info().capabilities.transparency_methods)
+        .map(|t| t.name())
+        .collect();
     Err(Error::Unsupported(format!(
         "technique `{technique}` renders transparency by stochastic transparency only (--transparency \
          stochastic), not `{method}`: alpha-corrected and depth-based stochastic transparency and depth peeling \
-         are rendered by \
-         pinhole and accumulation"
+         are rendered by {}",
+        with_methods.join(" and ")
     )))
 }
 

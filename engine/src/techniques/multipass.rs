@@ -253,29 +253,11 @@ impl MultipassFrame {
 
     /// `accum += weight · resolved`.
     fn record_accumulate(&self, ctx: &PassContext<'_>, weight: f32) {
-        let (d, cmd) = (ctx.device, ctx.cmd);
-        let bind = vk::PipelineBindPoint::COMPUTE;
-        // SAFETY: the recording contract of `PassContext` (graph/mod.rs): the pass declared what this
-        // touches, and the pipelines, layouts and sets are the technique's, of one layout.
-        unsafe {
-            d.raw.cmd_bind_pipeline(cmd, bind, self.accumulate.raw);
-            d.raw.cmd_bind_descriptor_sets(
-                cmd,
-                bind,
-                self.accumulate_layout.raw,
-                TECHNIQUE_SET_INDEX,
-                &[self.accumulate_set],
-                &[],
-            );
-            d.raw.cmd_push_constants(
-                cmd,
-                self.accumulate_layout.raw,
-                vk::ShaderStageFlags::COMPUTE,
-                0,
-                bytemuck::bytes_of(&AccumulatePush { weight }),
-            );
-            d.raw.cmd_dispatch(cmd, self.accum.desc.width.div_ceil(8), self.accum.desc.height.div_ceil(8), 1);
-        }
+        let layout = &self.accumulate_layout;
+        ctx.bind_pipeline(&self.accumulate);
+        ctx.bind_sets(vk::PipelineBindPoint::COMPUTE, layout, TECHNIQUE_SET_INDEX, &[self.accumulate_set]);
+        ctx.push(layout, &AccumulatePush { weight });
+        ctx.dispatch(self.accum.desc.width.div_ceil(8), self.accum.desc.height.div_ceil(8), 1);
     }
 }
 

@@ -1,7 +1,8 @@
 //! Order-independent transparency with more than one raster pass per frame pass, for `pinhole` and
 //! `accumulation` (`--transparency stochastic/corrected`, `depth-based`, `depth-based/uncorrected`,
-//! `peeling/K`; docs/TRANSPARENCY.md). [`prepare_forward`] gives those techniques this frame when the scene has
-//! transparency and one of these methods is chosen, and the plain forward frame otherwise.
+//! `peeling/K`; docs/TRANSPARENCY.md). [`super::forward::prepare_frame`] gives those techniques this
+//! frame when the scene has transparency and one of these methods is chosen, and the plain forward
+//! frame otherwise.
 //!
 //! Per frame pass (one [`PassSample`] each, M MSAA samples), as a graph, after `clear accumulation`:
 //!
@@ -73,8 +74,8 @@ use ash::vk;
 use bytemuck::{Pod, Zeroable};
 
 use super::forward::{
-    forward_vert, has_transparency, transparent_objects, CoverageSamples, ForwardPipeline, ForwardPush,
-    ForwardTechnique, PassSample, TransparentDraws, TransparentObject, TransparentPush, TransparentTargets,
+    forward_vert, transparent_objects, CoverageSamples, ForwardPipeline, ForwardPush, PassSample,
+    TransparentDraws, TransparentObject, TransparentPush, TransparentTargets,
 };
 use super::multipass::{accumulation_image, COLOR_FORMAT, DEPTH_FORMAT};
 use super::shadow_maps::ShadowMaps;
@@ -96,22 +97,6 @@ use crate::vk::{
 /// The format of the sums, the transmittance and the peeled layers: 32-bit floats, so that a sum
 /// over many faint particles and a product of many transmittances round like the f32 closed form.
 pub const OIT_FORMAT: vk::Format = vk::Format::R32G32B32A32_SFLOAT;
-
-/// `pinhole`'s and `accumulation`'s frame for `samples.len()` passes at `msaa` samples: an
-/// [`OitTechnique`] when the scene has transparency and `ctx.settings.transparency` is depth-based or
-/// peeling, the multipass forward frame ([`ForwardTechnique`]) otherwise.
-pub fn prepare_forward(
-    ctx: &PrepareContext<'_>,
-    msaa: u32,
-    samples: Vec<PassSample>,
-) -> Result<Box<dyn FrameTechnique>> {
-    match ctx.settings.transparency {
-        TransparencyMethod::Stochastic => {}
-        _ if !has_transparency(ctx.scene) => {}
-        method => return Ok(Box::new(OitTechnique::new(ctx, msaa, samples, method)?)),
-    }
-    Ok(Box::new(ForwardTechnique::new(ctx, msaa, samples)?))
-}
 
 /// Push constants of the OIT draws (`oit/draw.glsl`): [`ForwardPush`]'s members first
 /// (`forward.vert` reads them), then coverage (as `TransparentPush`), the stochastic depth channel,
@@ -300,22 +285,10 @@ impl ComputeStep {
 
     /// One invocation per pixel of a `width × height` image.
     fn record<P: Pod>(&self, ctx: &PassContext<'_>, push: &P, (width, height): (u32, u32)) {
-        let (d, cmd) = (ctx.device, ctx.cmd);
-        let bind = vk::PipelineBindPoint::COMPUTE;
-        // SAFETY: the recording contract of `PassContext` (graph/mod.rs): the pass declared what this
-        // touches, and the pipelines, layouts and sets are the technique's, of one layout.
-        unsafe {
-            d.raw.cmd_bind_pipeline(cmd, bind, self.pipeline.raw);
-            d.raw.cmd_bind_descriptor_sets(cmd, bind, self.layout.raw, TECHNIQUE_SET_INDEX, &[self.set], &[]);
-            d.raw.cmd_push_constants(
-                cmd,
-                self.layout.raw,
-                vk::ShaderStageFlags::COMPUTE,
-                0,
-                bytemuck::bytes_of(push),
-            );
-            d.raw.cmd_dispatch(cmd, width.div_ceil(8), height.div_ceil(8), 1);
-        }
+        ctx.bind_pipeline(&self.pipeline);
+        ctx.bind_sets(vk::PipelineBindPoint::COMPUTE, &self.layout, TECHNIQUE_SET_INDEX, &[self.set]);
+        ctx.push(&self.layout, push);
+        ctx.dispatch(width.div_ceil(8), height.div_ceil(8), 1);
     }
 }
 
@@ -774,32 +747,24 @@ impl OitTechnique {
         set: Option<vk::DescriptorSet>,
         edit: impl Fn(&mut OitPush),
     ) {
-        let (d, cmd) = (ctx.device, ctx.cmd);
         let bind = vk::PipelineBindPoint::GRAPHICS;
-        // SAFETY: the recording contract of `PassContext` (graph/mod.rs): the pass declared what this
-        // touches, and the pipelines, layouts and sets are the technique's, of one layout.
-        unsafe {
-            d.raw.cmd_bind_pipeline(cmd, bind, pipeline.raw);
-            if let Some(set) = set {
-                d.raw.cmd_bind_descriptor_sets(cmd, bind, layout.raw, TECHNIQUE_SET_INDEX, &[set], &[]);
-            }
-            if let Some(maps) = &self.shadows {
-                maps.bind(d, cmd, bind, layout.raw, crate::gpu::layout::SHADOW_SET_INDEX);
-            }
+        ctx.bind_pipeline(pipeline);
+        if let Some(set) = set {
+            ctx.bind_sets(bind, layout, TECHNIQUE_SET_INDEX, &[set]);
+        }
+        if let Some(maps) = &self.shadows {
+            maps.bind(ctx, bind, layout, crate::gpu::layout::SHADOW_SET_INDEX);
         }
         let push = |i: usize| {
             let mut p = self.push(inputs.camera, i, ctx.iteration);
             edit(&mut p);
             p
         };
-        let stages = vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT;
         inputs.world.record_object_draws(
-            d,
-            cmd,
+            ctx,
             inputs.camera,
             pipeline,
             layout,
-            stages,
             |i| self.objects[i].transparent,
             push,
             |_| None,
@@ -931,7 +896,7 @@ impl OitTechnique {
                                     self.draw_transmittance(ctx, &inputs, db);
                                     let index = ctx.iteration;
                                     let pass = &self.samples[index as usize];
-                                    st.record(ctx.device, ctx.cmd, &inputs, pass, index);
+                                    st.record(ctx, &inputs, pass, index);
                                     Ok(())
                                 });
                         }
@@ -1011,7 +976,7 @@ impl OitTechnique {
             .record(move |ctx| {
                 let pass = &self.samples[ctx.iteration as usize];
                 let opaque = |i: usize| !self.objects[i].transparent;
-                self.opaque.record_draws(ctx.device, ctx.cmd, inputs.world, inputs.camera, pass, opaque);
+                self.opaque.record_draws(ctx, inputs.world, inputs.camera, pass, opaque);
                 Ok(())
             });
     }

@@ -4,19 +4,22 @@
 use glam::Vec2;
 
 use super::forward::PassSample;
-use super::{FrameTechnique, PrepareContext, TechniqueInfo};
+use super::{FrameTechnique, PrepareContext, TechniqueCapabilities, TechniqueInfo};
 use crate::error::Result;
 
 /// The registry entry.
 pub const INFO: TechniqueInfo = TechniqueInfo {
     name: "pinhole",
     summary: "one forward pass at mid-shutter through the lens centre, MSAA 4x: no blur",
+    keys: &[super::forward::TRANSPARENCY_KEYS, super::shadow_maps::KEYS],
+    required_features: &[],
+    capabilities: TechniqueCapabilities { transparency: true, transparency_methods: true, embeddable: false },
     prepare,
 };
 
 fn prepare(ctx: &PrepareContext<'_>) -> Result<Box<dyn FrameTechnique>> {
     let msaa = ctx.device.caps.msaa_samples(PINHOLE_MSAA);
-    super::oit::prepare_forward(ctx, msaa, pinhole_passes())
+    super::forward::prepare_frame(ctx, msaa, pinhole_passes())
 }
 
 /// MSAA count the pinhole technique asks for (the device may offer less).

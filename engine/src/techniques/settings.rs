@@ -1,14 +1,15 @@
 //! One grammar for a render's settings: `KEY=VALUE`, the same for `shutter render` (its flags and
 //! `--set`), `shutter bench -c`, `shutter quality -s` and a library caller ([`RenderSettings::set`]).
 //!
-//! Each key belongs to the options of what reads it, and is parsed there: the frame's own keys
-//! (`spp`, `seed`, `size`) here, the stochastic frame's in [`StochasticOptions::set`], technique
-//! `interleaved`'s in [`InterleavedOptions::set`], the shadow maps' and transparency's by their
-//! settings' `FromStr`. [`OPTION_KEYS`] lists every key with its owner and values, for help texts
-//! and error messages, and a test checks that every listed key is accepted.
+//! Each key belongs to the options of what reads it, is listed beside its parser and parsed there:
+//! the frame's own keys (`spp`, `seed`, `size`: [`FRAME_KEYS`]) here, the stochastic frame's in
+//! `stochastic/options.rs` ([`super::stochastic::KEYS`], `StochasticOptions::set`), technique
+//! `interleaved`'s in `techniques/interleaved.rs` ([`super::interleaved::KEYS`],
+//! `InterleavedOptions::set`), the shadow maps' ([`super::shadow_maps::KEYS`]) and transparency's
+//! ([`super::forward::TRANSPARENCY_KEYS`]) by their settings' `FromStr`. Each technique's
+//! [`super::TechniqueInfo::keys`] names the groups it reads; [`option_keys`] gathers them all, for
+//! help texts and error messages, and a test checks that every listed key is accepted.
 
-use super::interleaved::InterleavedOptions;
-use super::stochastic::StochasticOptions;
 use super::RenderSettings;
 use crate::error::{Error, Result};
 
@@ -24,7 +25,8 @@ pub struct OptionKey {
     pub example: &'static str,
 }
 
-const fn key(
+/// An [`OptionKey`] (for the owners' tables).
+pub const fn key(
     key: &'static str,
     owner: &'static str,
     values: &'static str,
@@ -33,35 +35,31 @@ const fn key(
     OptionKey { key, owner, values, example }
 }
 
-/// Every key [`RenderSettings::set`] takes.
-pub const OPTION_KEYS: &[OptionKey] = &[
+/// The frame's own keys, which every technique reads.
+pub const FRAME_KEYS: &[OptionKey] = &[
     key("spp", "frame", "samples per pixel S", "16"),
     key("seed", "frame", "the sample pattern's seed", "7"),
     key("size", "frame", "WIDTHxHEIGHT", "96x54"),
-    key("shadow-map", "shadow maps", "SIZE[/SAMPLES[/PCF]] or off", "512/4/1"),
-    key("transparency", "pinhole, accumulation", "a transparency method (docs/TRANSPARENCY.md)", "peeling/4"),
-    key("bound", "stochastic", "a bound or a per-object policy (docs/STOCHASTIC.md)", "bbox"),
-    key("shading", "stochastic", "a shading rate", "per-pixel"),
-    key("per-pass", "stochastic", "samples per pass", "8"),
-    key("hull", "stochastic", "geometry-shader or compute", "compute"),
-    key("intervals", "stochastic", "time intervals of the bounds: auto or a power of two", "4"),
-    key("clusters", "stochastic", "cluster bounds: auto, off or triangles per cluster", "32"),
-    key("cache", "stochastic", "decoupled shading's cache entries", "4096"),
-    key("vpls", "interleaved", "photons", "256"),
-    key("clamp", "interleaved", "the VPLs' clamp distance", "0.2"),
-    key("pattern", "interleaved", "NxM", "8x6"),
-    key("split", "interleaved", "one or two", "one"),
-    key("block", "interleaved", "BxB patterns", "2x2"),
-    key("filter", "interleaved", "none, plain, full or axis", "plain"),
-    key("radius", "interleaved", "the filter's radius in texels", "3"),
-    key("bilinear", "interleaved", "false, true (pairs lerped in the shader) or sampler", "true"),
-    key("vpl-maps", "interleaved", "SIZE texels a face, or off", "16"),
 ];
+
+/// Every key [`RenderSettings::set`] takes: the frame's, then each registered technique's groups
+/// ([`super::TechniqueInfo::keys`]) in registry order, each key once.
+pub fn option_keys() -> Vec<OptionKey> {
+    let mut keys: Vec<OptionKey> = Vec::new();
+    let all = super::registry::TECHNIQUES.iter().flat_map(|t| t.info().option_keys());
+    for k in FRAME_KEYS.iter().chain(all) {
+        if !keys.iter().any(|known| known.key == k.key) {
+            keys.push(*k);
+        }
+    }
+    keys
+}
 
 /// The keys, for an error message: `spp, seed, … (stochastic: bound, …)`.
 pub fn option_key_names() -> String {
+    let keys = option_keys();
     let mut owners: Vec<&str> = Vec::new();
-    for k in OPTION_KEYS {
+    for k in &keys {
         if !owners.contains(&k.owner) {
             owners.push(k.owner);
         }
@@ -69,19 +67,19 @@ pub fn option_key_names() -> String {
     owners
         .iter()
         .map(|o| {
-            let keys: Vec<&str> = OPTION_KEYS.iter().filter(|k| k.owner == *o).map(|k| k.key).collect();
-            format!("{o}: {}", keys.join(", "))
+            let names: Vec<&str> = keys.iter().filter(|k| k.owner == *o).map(|k| k.key).collect();
+            format!("{o}: {}", names.join(", "))
         })
         .collect::<Vec<_>>()
         .join("; ")
 }
 
-fn setting_error(key: &str, value: &str, message: impl std::fmt::Display) -> Error {
+pub(crate) fn setting_error(key: &str, value: &str, message: impl std::fmt::Display) -> Error {
     Error::Unsupported(format!("setting `{key}={value}`: {message}"))
 }
 
 /// `value` parsed as `T`, or an error naming the setting.
-fn number<T: std::str::FromStr>(key: &str, value: &str) -> Result<T>
+pub(crate) fn number<T: std::str::FromStr>(key: &str, value: &str) -> Result<T>
 where
     T::Err: std::fmt::Display,
 {
@@ -89,7 +87,7 @@ where
 }
 
 impl RenderSettings {
-    /// Sets one `key=value` ([`OPTION_KEYS`]); an unknown key or a bad value is an error naming it.
+    /// Sets one `key=value` ([`option_keys`]); an unknown key or a bad value is an error naming it.
     pub fn set(&mut self, key: &str, value: &str) -> Result<()> {
         let (key, value) = (key.trim(), value.trim());
         match key {
@@ -126,72 +124,6 @@ impl RenderSettings {
     }
 }
 
-impl StochasticOptions {
-    /// Sets one of the stochastic frame's keys; `Ok(false)` when `key` is not one of them.
-    pub fn set(&mut self, key: &str, value: &str) -> Result<bool> {
-        match key {
-            "bound" => self.bound = value.parse()?,
-            "shading" => self.shading = value.parse()?,
-            "per-pass" => self.per_pass = Some(number(key, value)?),
-            "hull" => self.expansion = value.parse()?,
-            "intervals" => self.intervals = value.parse()?,
-            "clusters" => self.clusters = value.parse()?,
-            "cache" => self.cache_entries = number(key, value)?,
-            _ => return Ok(false),
-        }
-        Ok(true)
-    }
-}
-
-impl InterleavedOptions {
-    /// Sets one of technique `interleaved`'s keys; `Ok(false)` when `key` is not one of them.
-    pub fn set(&mut self, key: &str, value: &str) -> Result<bool> {
-        use crate::interleaved::{Blur, Edges, Pattern};
-        match key {
-            "vpls" => self.photons = number(key, value)?,
-            "clamp" => self.clamp = number(key, value)?,
-            "pattern" => self.pattern = value.parse()?,
-            "split" => self.split = value.parse()?,
-            "block" => {
-                let b: Pattern = value.parse()?;
-                self.block = (b.n, b.m);
-            }
-            "filter" => {
-                let radius = self.blur.map_or(self.pattern.n.max(self.pattern.m), |b| b.radius);
-                let bilinear = self.blur.is_some_and(|b| b.bilinear);
-                self.blur = Edges::of_filter(value)?.map(|edges| Blur { radius, bilinear, edges });
-            }
-            "radius" => match &mut self.blur {
-                Some(b) => b.radius = number(key, value)?,
-                None => return Err(setting_error(key, value, "a radius without a filter (filter=none)")),
-            },
-            "vpl-maps" => {
-                self.vpl_maps = match value {
-                    "off" => None,
-                    v => Some(number(key, v)?),
-                }
-            }
-            "bilinear" => match &mut self.blur {
-                Some(b) => {
-                    (b.bilinear, self.bilinear_sampler) = match value {
-                        "false" => (false, false),
-                        "true" | "pairs" => (true, false),
-                        "sampler" => (true, true),
-                        _ => return Err(setting_error(
-                            key,
-                            value,
-                            "false, true (pairs lerped in the shader) or sampler (pairs fetched by the hardware's linear filter)",
-                        )),
-                    }
-                }
-                None => return Err(setting_error(key, value, "bilinear pairs without a filter (filter=none)")),
-            },
-            _ => return Ok(false),
-        }
-        Ok(true)
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -202,7 +134,7 @@ mod tests {
 
     #[test]
     fn every_listed_key_takes_its_example_and_changes_the_settings() {
-        for k in OPTION_KEYS {
+        for k in option_keys() {
             let mut s = settings();
             let before = format!("{s:?}");
             s.set(k.key, k.example).unwrap_or_else(|e| panic!("{}={}: {e}", k.key, k.example));

@@ -23,13 +23,14 @@ use glam::Vec2;
 use super::forward::{
     transparent_objects, CoverageSamples, ForwardPush, PassSample, TransparentObject, TransparentPush,
 };
+use super::settings::{key, OptionKey};
 use super::FrameInputs;
 use crate::error::Result;
 use crate::gpu::layout::{
     vertex_input, Binding, GpuShadowHeader, GpuShadowView, PROJECTION_ORTHOGRAPHIC, PROJECTION_PERSPECTIVE,
 };
 use crate::gpu::{object_view_records, GpuView, GpuWorld};
-use crate::graph::{Access, FrameGraph, ImageHandle, Load, ResourceHandle, Store, Tracked};
+use crate::graph::{Access, FrameGraph, ImageHandle, Load, PassContext, ResourceHandle, Store, Tracked};
 use crate::scene::Scene;
 use crate::shaders;
 use crate::shaders::axes::Shadows;
@@ -63,6 +64,10 @@ pub struct ShadowHandles {
     depth: ImageHandle,
     hue: Option<ImageHandle>,
 }
+
+/// The shadow maps' settings key (parsed by [`ShadowSettings`]' `FromStr`), read by every technique
+/// that renders a scene's shadow-casting lights.
+pub const KEYS: &[OptionKey] = &[key("shadow-map", "shadow maps", "SIZE[/SAMPLES[/PCF]] or off", "512/4/1")];
 
 /// Every shadow-casting light's maps, their passes and the receivers' descriptor set.
 pub struct ShadowMaps {
@@ -271,15 +276,12 @@ impl ShadowMaps {
     /// Binds the receivers' set as set `index` of `layout`.
     pub fn bind(
         &self,
-        d: &Device,
-        cmd: vk::CommandBuffer,
+        ctx: &PassContext<'_>,
         bind_point: vk::PipelineBindPoint,
-        layout: vk::PipelineLayout,
+        layout: &PipelineLayout,
         index: u32,
     ) {
-        // SAFETY: called from pass recording closures only (the contract of `PassContext`, graph/mod.rs),
-        // with `layout` one of this technique's whose set `index` is the shadow maps' layout.
-        unsafe { d.raw.cmd_bind_descriptor_sets(cmd, bind_point, layout, index, &[self.set], &[]) };
+        ctx.bind_sets(bind_point, layout, index, &[self.set]);
     }
 
     /// Whether the maps are rendered before every pass (something moves) rather than once per frame.
@@ -354,7 +356,7 @@ impl ShadowMaps {
         let inputs = *inputs;
         g.pass("shadow maps").depth(h.depth, Load::Clear(0.0), Store::Store).record(move |ctx| {
             let pass = if per_pass { ctx.iteration } else { 0 };
-            self.record_casters(ctx.device, ctx.cmd, &inputs, pass, false);
+            self.record_casters(ctx, &inputs, pass, false);
             Ok(())
         });
         if let Some(hue) = h.hue {
@@ -363,30 +365,21 @@ impl ShadowMaps {
                 .depth_read_only(h.depth)
                 .record(move |ctx| {
                     let pass = if per_pass { ctx.iteration } else { 0 };
-                    self.record_casters(ctx.device, ctx.cmd, &inputs, pass, true);
+                    self.record_casters(ctx, &inputs, pass, true);
                     Ok(())
                 });
         }
     }
 
     /// Every face's tiles: the depth draws, or (`hues`) the tinted casters' hue draws.
-    fn record_casters(
-        &self,
-        d: &Device,
-        cmd: vk::CommandBuffer,
-        inputs: &FrameInputs<'_>,
-        pass: u32,
-        hues: bool,
-    ) {
+    fn record_casters(&self, ctx: &PassContext<'_>, inputs: &FrameInputs<'_>, pass: u32, hues: bool) {
         let time = self.pass_times.get(pass as usize).copied().unwrap_or(0.5);
         let size = self.plan.settings.size;
-        let stages = vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT;
-        let bind = vk::PipelineBindPoint::GRAPHICS;
         for (f, (view, origin)) in self.faces.iter().zip(&self.origins).enumerate() {
             let seed = map_seed(self.coverage_seed, f as u32, pass);
             for j in 0..self.plan.sub_maps {
                 let (x, y) = (origin[0] + j * size, origin[1]);
-                crate::vk::set_viewport(d, cmd, crate::vk::atlas_square(x, y, size));
+                ctx.set_viewport(crate::vk::atlas_square(x, y, size));
                 let samples = CoverageSamples {
                     seed,
                     samples: self.plan.samples(),
@@ -397,17 +390,13 @@ impl ShadowMaps {
                 let push = |i: usize| {
                     TransparentPush::new(ForwardPush::new(view, i, &sample), &self.casters[i], samples)
                 };
-                // SAFETY: the recording contract of `PassContext` (graph/mod.rs): the pass declared what
-                // this touches, and the pipelines, layouts and sets are the technique's, of one layout.
-                let draw = |pipeline: &Pipeline, include: &dyn Fn(usize) -> bool| unsafe {
-                    d.raw.cmd_bind_pipeline(cmd, bind, pipeline.raw);
+                let draw = |pipeline: &Pipeline, include: &dyn Fn(usize) -> bool| {
+                    ctx.bind_pipeline(pipeline);
                     inputs.world.record_object_draws(
-                        d,
-                        cmd,
+                        ctx,
                         view,
                         pipeline,
                         &self.layout,
-                        stages,
                         include,
                         push,
                         |_| None,

@@ -17,7 +17,9 @@ use glam::Vec2;
 
 use super::{FrameContext, FrameInputs, FrameTechnique, PrepareContext, TechniqueFrame};
 use crate::error::Result;
-use crate::gpu::layout::{shared_struct, Binding, SharedStruct, OBJECT_SET_INDEX, TECHNIQUE_SET_INDEX};
+use crate::gpu::layout::{
+    shared_struct, Binding, SharedStruct, FRAME_SET_INDEX, OBJECT_SET_INDEX, TECHNIQUE_SET_INDEX,
+};
 use crate::graph::{Access, Tracked};
 use crate::graph::{Load, Store};
 use crate::image::LinearImage;
@@ -337,38 +339,27 @@ impl FrameTechnique for ShadingRates {
         }
         let level_count = this.levels();
         pass.record(move |ctx| {
-            let (d, cmd, bind) = (ctx.device, ctx.cmd, vk::PipelineBindPoint::COMPUTE);
-            let layout = this.layout.raw;
-            // SAFETY: the recording contract of `PassContext` (graph/mod.rs): the pass declared what this
-            // touches, and the pipelines, layouts and sets are the technique's, of one layout.
-            unsafe {
-                d.raw.cmd_bind_pipeline(cmd, bind, this.pipeline.raw);
-                d.raw.cmd_bind_descriptor_sets(cmd, bind, layout, 0, &[view.frame_set], &[]);
-                for (i, o) in this.objects.iter().enumerate() {
-                    let Some(o) = o else { continue };
-                    let object = &world.objects[i];
-                    d.raw.cmd_bind_descriptor_sets(cmd, bind, layout, OBJECT_SET_INDEX, &[object.set], &[]);
-                    d.raw.cmd_bind_descriptor_sets(cmd, bind, layout, TECHNIQUE_SET_INDEX, &[o.set], &[]);
-                    let (segment, segment_time) = view.segment_at(i, 0.5);
-                    let (segment_first, segment_count) = view.segments(i);
-                    let push = LevelsPush {
-                        triangle_count: object.triangle_count(),
-                        segment,
-                        segment_time,
-                        level_count,
-                        segment_first,
-                        segment_count,
-                        shading_times: o.shading_times,
-                    };
-                    d.raw.cmd_push_constants(
-                        cmd,
-                        layout,
-                        vk::ShaderStageFlags::COMPUTE,
-                        0,
-                        bytemuck::bytes_of(&push),
-                    );
-                    d.raw.cmd_dispatch(cmd, object.triangle_count().div_ceil(64), 1, 1);
-                }
+            let (layout, bind) = (&this.layout, vk::PipelineBindPoint::COMPUTE);
+            ctx.bind_pipeline(&this.pipeline);
+            ctx.bind_sets(bind, layout, FRAME_SET_INDEX, &[view.frame_set]);
+            for (i, o) in this.objects.iter().enumerate() {
+                let Some(o) = o else { continue };
+                let object = &world.objects[i];
+                ctx.bind_sets(bind, layout, OBJECT_SET_INDEX, &[object.set]);
+                ctx.bind_sets(bind, layout, TECHNIQUE_SET_INDEX, &[o.set]);
+                let (segment, segment_time) = view.segment_at(i, 0.5);
+                let (segment_first, segment_count) = view.segments(i);
+                let push = LevelsPush {
+                    triangle_count: object.triangle_count(),
+                    segment,
+                    segment_time,
+                    level_count,
+                    segment_first,
+                    segment_count,
+                    shading_times: o.shading_times,
+                };
+                ctx.push(layout, &push);
+                ctx.dispatch(object.triangle_count().div_ceil(64), 1, 1);
             }
             Ok(())
         });
@@ -853,8 +844,7 @@ impl AtlasPasses {
         pipeline: &Pipeline,
     ) {
         let Some(o) = &self.objects[i] else { return };
-        let (d, cmd, bind) = (ctx.device, ctx.cmd, vk::PipelineBindPoint::GRAPHICS);
-        let layout = self.layout.raw;
+        let (layout, bind) = (&self.layout, vk::PipelineBindPoint::GRAPHICS);
         let (width, height) = o.atlas.size();
         let (segment, segment_time) = view.segment_at(i, 0.5);
         let (segment_first, segment_count) = view.segments(i);
@@ -874,22 +864,15 @@ impl AtlasPasses {
             one_sided: world.objects[i].one_sided as u32,
             shading_times: o.shading.shading_times,
         };
-        let stages =
-            vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::GEOMETRY | vk::ShaderStageFlags::FRAGMENT;
-        // SAFETY: the recording contract of `PassContext` (graph/mod.rs): the pass declared what this
-        // touches, and the pipelines, layouts and sets are the technique's, of one layout.
-        unsafe {
-            d.raw.cmd_bind_pipeline(cmd, bind, pipeline.raw);
-            d.raw.cmd_bind_descriptor_sets(cmd, bind, layout, 0, &[view.frame_set], &[]);
-            d.raw.cmd_bind_descriptor_sets(cmd, bind, layout, OBJECT_SET_INDEX, &[world.objects[i].set], &[]);
-            d.raw.cmd_bind_descriptor_sets(cmd, bind, layout, TECHNIQUE_SET_INDEX, &[o.shading.set], &[]);
-            if let Some(set) = self.shadow_set {
-                let index = crate::gpu::layout::SHADOW_SET_INDEX;
-                d.raw.cmd_bind_descriptor_sets(cmd, bind, layout, index, &[set], &[]);
-            }
-            d.raw.cmd_push_constants(cmd, layout, stages, 0, bytemuck::bytes_of(&push));
-            d.raw.cmd_draw(cmd, 3 * o.shading.triangles, 1, 0, 0);
+        ctx.bind_pipeline(pipeline);
+        ctx.bind_sets(bind, layout, FRAME_SET_INDEX, &[view.frame_set]);
+        ctx.bind_sets(bind, layout, OBJECT_SET_INDEX, &[world.objects[i].set]);
+        ctx.bind_sets(bind, layout, TECHNIQUE_SET_INDEX, &[o.shading.set]);
+        if let Some(set) = self.shadow_set {
+            ctx.bind_sets(bind, layout, crate::gpu::layout::SHADOW_SET_INDEX, &[set]);
         }
+        ctx.push(layout, &push);
+        ctx.draw(3 * o.shading.triangles, 1);
     }
 }
 

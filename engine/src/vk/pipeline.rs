@@ -212,6 +212,9 @@ pub fn write_descriptors(device: &Device, set: vk::DescriptorSet, writes: &[Desc
 /// A pipeline layout, RAII.
 pub struct PipelineLayout {
     pub raw: vk::PipelineLayout,
+    set_count: u32,
+    push_bytes: u32,
+    push_stages: vk::ShaderStageFlags,
     device: Device,
 }
 
@@ -229,7 +232,30 @@ impl PipelineLayout {
             info = info.push_constant_ranges(&ranges);
         }
         let raw = unsafe { device.raw.create_pipeline_layout(&info, None) }.vk("vkCreatePipelineLayout")?;
-        Ok(PipelineLayout { raw, device: device.clone() })
+        Ok(PipelineLayout {
+            raw,
+            set_count: sets.len() as u32,
+            push_bytes,
+            push_stages,
+            device: device.clone(),
+        })
+    }
+
+    /// Its descriptor sets.
+    pub fn set_count(&self) -> u32 {
+        self.set_count
+    }
+    /// The size of its one push-constant range (0: none).
+    pub fn push_bytes(&self) -> u32 {
+        self.push_bytes
+    }
+    /// The stages of its push-constant range.
+    pub fn push_stages(&self) -> vk::ShaderStageFlags {
+        self.push_stages
+    }
+    /// Whether it was created on `device`.
+    pub fn belongs_to(&self, device: &Device) -> bool {
+        self.device.raw.handle() == device.raw.handle()
     }
 }
 
@@ -246,6 +272,13 @@ pub struct Pipeline {
     /// The sides it rasterizes ([`GraphicsDesc::faces`]; [`Faces::Both`] for compute).
     pub faces: Faces,
     device: Device,
+}
+
+impl Pipeline {
+    /// Whether it was created on `device`.
+    pub fn belongs_to(&self, device: &Device) -> bool {
+        self.device.raw.handle() == device.raw.handle()
+    }
 }
 
 impl Drop for Pipeline {

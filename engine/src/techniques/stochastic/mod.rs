@@ -40,7 +40,10 @@ use ash::vk;
 use super::compute_hull::HullExpansion;
 use super::multipass::accumulation_image;
 use super::shadow_maps::ShadowMaps;
-use super::{FrameContext, FrameInputs, FrameTechnique, PrepareContext, TechniqueFrame, TechniqueInfo};
+use super::{
+    FrameContext, FrameInputs, FrameTechnique, PrepareContext, TechniqueCapabilities, TechniqueFrame,
+    TechniqueInfo,
+};
 use crate::bounds::BoundKind;
 use crate::error::{Error, Result};
 use crate::graph::Tracked;
@@ -56,8 +59,19 @@ pub const INFO: TechniqueInfo = TechniqueInfo {
     name: "stochastic",
     summary: "stochastic rasterization, visibility first: a conservative bound per triangle, the 5D inside \
               test per sample into a visibility buffer, then shading (McGuire et al. 2010; Toth & Linder 2008)",
+    keys: &[KEYS, super::shadow_maps::KEYS],
+    required_features: REQUIRED_FEATURES,
+    capabilities: TechniqueCapabilities { transparency: true, transparency_methods: false, embeddable: true },
     prepare,
 };
+
+/// What every stochastic frame needs of the device, whatever its settings: the visibility buffer's
+/// coverage atomics and its 64-bit `atomicMax`. (The geometry-shader hull, the default, needs
+/// `geometryShader` too; `hull=compute` does not.)
+pub const REQUIRED_FEATURES: &[(Feature, &str)] = &[
+    (Feature::FragmentStoresAndAtomics, "the stochastic visibility buffer (coverage atomics)"),
+    (Feature::BufferInt64Atomics, "the stochastic visibility buffer (64-bit atomicMax)"),
+];
 
 fn prepare(ctx: &PrepareContext<'_>) -> Result<Box<dyn FrameTechnique>> {
     let effects = vec![Effects::Both; ctx.scene.objects.len()];
@@ -332,8 +346,7 @@ fn check(
             "technique `stochastic` with the geometry-shader hull (--hull compute needs none)",
         )?;
     }
-    caps.require(Feature::FragmentStoresAndAtomics, "the stochastic visibility buffer (coverage atomics)")?;
-    caps.require(Feature::BufferInt64Atomics, "the stochastic visibility buffer (64-bit atomicMax)")?;
+    INFO.check_features(caps)?;
     if options.expansion == HullExpansion::Compute && debug.bound_debug_triangles > 0 {
         return Err(Error::Unsupported(
             "the bound debug output exists for the geometry-shader hull only".into(),

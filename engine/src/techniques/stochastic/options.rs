@@ -6,6 +6,7 @@ use crate::bounds::BoundKind;
 use crate::error::{Error, Result};
 use crate::geometry::KeyTimes;
 use crate::sampling::{ApertureShape, SampleTile, ShutterCurve, SAMPLE_TILE_SIZE};
+use crate::techniques::settings::{key, number, OptionKey};
 
 use super::super::compute_hull::HullExpansion;
 use super::shading::DEFAULT_CACHE_ENTRIES;
@@ -144,6 +145,17 @@ impl std::str::FromStr for ShadingRate {
         crate::error::parse_named(&ShadingRate::NAMED, |r| r.name(), "shading rate", s)
     }
 }
+
+/// The stochastic frame's settings keys ([`StochasticOptions::set`] parses them).
+pub const KEYS: &[OptionKey] = &[
+    key("bound", "stochastic", "a bound or a per-object policy (docs/STOCHASTIC.md)", "bbox"),
+    key("shading", "stochastic", "a shading rate", "per-pixel"),
+    key("per-pass", "stochastic", "samples per pass", "8"),
+    key("hull", "stochastic", "geometry-shader or compute", "compute"),
+    key("intervals", "stochastic", "time intervals of the bounds: auto or a power of two", "4"),
+    key("clusters", "stochastic", "cluster bounds: auto, off or triangles per cluster", "32"),
+    key("cache", "stochastic", "decoupled shading's cache entries", "4096"),
+];
 
 /// Settings of the `stochastic` technique.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -649,6 +661,23 @@ pub struct DebugOptions {
 
 /// Floats per triangle in the bound debug buffer (see `stochastic.geom`).
 pub const BOUND_DEBUG_STRIDE: usize = 8 + 2 * 48;
+
+impl StochasticOptions {
+    /// Sets one of the stochastic frame's keys ([`KEYS`]); `Ok(false)` when `key` is not one of them.
+    pub fn set(&mut self, key: &str, value: &str) -> Result<bool> {
+        match key {
+            "bound" => self.bound = value.parse()?,
+            "shading" => self.shading = value.parse()?,
+            "per-pass" => self.per_pass = Some(number(key, value)?),
+            "hull" => self.expansion = value.parse()?,
+            "intervals" => self.intervals = value.parse()?,
+            "clusters" => self.clusters = value.parse()?,
+            "cache" => self.cache_entries = number(key, value)?,
+            _ => return Ok(false),
+        }
+        Ok(true)
+    }
+}
 
 #[cfg(test)]
 mod tests {

@@ -679,12 +679,10 @@ impl Visibility {
                     self.coverage_push(view, i, pass, run, self.objects[i].choices.intervals, seg).map(&edit)
                 };
                 world.record_object_draws(
-                    ctx.device,
-                    ctx.cmd,
+                    ctx,
                     view,
                     pipeline,
                     &self.pipelines.layout,
-                    self.pipelines.push_stages,
                     |i| include(i) && run < self.objects[i].choices.intervals && piece(i).is_some(),
                     |i| piece(i).expect("included"),
                     |i| Some(self.objects[i].set),

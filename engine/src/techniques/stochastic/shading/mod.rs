@@ -305,7 +305,7 @@ impl ShadingPass {
                 &[],
             );
             if let Some(maps) = &self.shadows {
-                maps.bind(d, cmd, bind, layout, crate::gpu::layout::SHADOW_SET_INDEX);
+                maps.bind(ctx, bind, &self.layout, crate::gpu::layout::SHADOW_SET_INDEX);
             }
         }
         let mut first = true;
