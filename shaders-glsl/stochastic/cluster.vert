@@ -5,7 +5,7 @@
 // gl_PrimitiveID (two triangles per cluster): the same for every fragment of a primitive, so the
 // triangles it loads by it are loaded once for all the pixels llvmpipe shades together.
 #include "common/frame.glsl"
-#include "stochastic/push.glsl"
+#include "stochastic/visibility_push.glsl"
 
 layout(set = 2, binding = 3, std430) readonly buffer Clusters { vec4 clusters[]; };
 

@@ -33,7 +33,8 @@
 //     fallback costs time, never a pixel.
 // The table lives for the frame, so a key seen in an earlier pass is not shaded again. No invocation
 // waits for another: the entry's radiance is read only after the barrier behind DC_PHASE_SHADE.
-// Needs shade.glsl's shade_at, the Counters block and sample_at_time.
+// Needs shade.glsl (shade_at, shade_hit, sample_at_time, the Counters block) and shade_decoupled.comp's
+// push constants (DecoupledPush).
 #ifndef SHUTTER_DECOUPLED_GLSL
 #define SHUTTER_DECOUPLED_GLSL
 
@@ -206,7 +207,7 @@ bool dc_locate(uint prim, uint payload, SampleHit h, out uint64_t key, out Sampl
     }
     m = sample_at_time(prim, 0.5);
     ivec2 cell;
-    vec4 grid = decoupled_grids[pc.triangle_base + prim];
+    vec4 grid = decoupled_grids[pc.shade.triangle_base + prim];
     bool keyed = dc_shading_point(m.a, m.b, m.c, w, grid, cell, wc);
     key = dc_key(payload, cell);
     // From the lens centre at mid-shutter.
@@ -214,7 +215,7 @@ bool dc_locate(uint prim, uint payload, SampleHit h, out uint64_t key, out Sampl
     return keyed;
 }
 
-// Phase 1 of a sample (shade.glsl): its key's value from the cache, if there (true).
+// Phase 1 of a sample (shade_decoupled.comp): its key's value from the cache, if there (true).
 bool decoupled_lookup(uint prim, uint payload, SampleHit h, out vec3 v) {
     v = vec3(0.0);
     uint64_t key;
@@ -313,7 +314,7 @@ void deferred_shade_point() {
     uint s = queue.slots[i];
     uint64_t key = cache.entries[s].key;
     uint payload = uint(key >> 32);
-    uint prim = (payload >> 1) - pc.triangle_base;
+    uint prim = (payload >> 1) - pc.shade.triangle_base;
     vec3 wc = vec3(uintBitsToFloat(cache.entries[s].seq), uintBitsToFloat(cache.entries[s].wy),
                    uintBitsToFloat(cache.entries[s].wz));
     SampleHit m = sample_at_time(prim, 0.5);

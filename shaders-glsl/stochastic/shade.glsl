@@ -1,46 +1,33 @@
-// Stochastic rasterization, shading stage ("visibility first, shading second"), included by one stage
-// file per shading rate (engine/src/techniques/stochastic/shading/, one Rust file each):
-//   shade_exact.comp          per pixel, or PER_SAMPLE                         (shading/exact.rs)
-//   shade_texture_space.comp  TEXTURE_SPACE: atlas lookups, per pixel or sample (shading/texture_space.rs)
-//   shade_decoupled.comp      PER_SAMPLE + DECOUPLED                           (shading/decoupled.rs)
-// Each file's permutations are its own axes' product (shaders-glsl/permutations.toml), not every
-// rate's times every other axis.
+// Stochastic rasterization, shading stage ("visibility first, shading second"): what every stage file
+// shares, one per shading rate (engine/src/techniques/stochastic/shading/, one Rust file each):
+//   shade_exact.comp          per pixel, or PER_SAMPLE; its loops in shade_loops.glsl  (shading/exact.rs)
+//   shade_texture_space.comp  atlas lookups, per pixel or PER_SAMPLE; shade_loops.glsl (shading/texture_space.rs)
+//   shade_decoupled.comp      per sample, memoization cache or deferred (decoupled.glsl) (shading/decoupled.rs)
+// Each file declares its own push constants (`pc`: ShadePush `shade` first, shade_push.glsl, then its
+// own fields) before including this, and has its own axes (shaders-glsl/permutations.toml).
 //
 // One invocation per pixel reads this pass' samples from the visibility buffer (stochastic/visibility.glsl) and shades
-// the hits of one object (pc.object; one dispatch per object, with its set 1 and 2) — the reference's
+// the hits of one object (pc.shade.object; one dispatch per object, with its set 1 and 2) — the reference's
 // rules (engine/src/reference/mod.rs): each sample's own ray, time and barycentrics, recomputed from
 // the sample tile and the payload's triangle. Adds (radiance, 1) / S per sample to the frame's
-// accumulation image. pc.object == SHADE_BACKGROUND adds the background for the samples without a hit.
-//   default:    per-pixel shading: samples of the pixel (in this pass) that hit the same triangle from
-//               the same side share the radiance of the first of them (up to SHADE_GROUPS groups per
-//               object; later groups are shaded per sample) — how often we shade, never what is
-//               visible. Mirrored by the reference's ShadingRate::PerPixel.
-//   PER_SAMPLE: every hit shaded.
+// accumulation image (shade_end). pc.shade.object == SHADE_BACKGROUND adds the background for the
+// samples without a hit (shade_begin).
 //   INSTRUMENTED: counts shading evaluations.
 //   NO_MOTION / NO_DEFOCUS: as in stochastic.frag.
 //   SHADOWS (SHADOW_MSAA, SHADOW_COLOR): lights attenuated by their shadow maps at the sample's
 //               surface point (common/shadow.glsl), bound as set 4 — sets 2 and 3 are this
 //               technique's. The maps are rendered once per frame: the stochastic frame takes them
 //               only when nothing moves in the world (shadows::casters_move).
-//   TEXTURE_SPACE: adaptive texture-space shading's pass 2 — each hit looks its radiance up in its
-//               object's shading atlas (pass 1, techniques/texture_space.rs) at its shading
-//               coordinate and its triangle's level, bilinear, instead of shading: with PER_SAMPLE
-//               every hit (the paper's per-sample lookup), without it once per group, at the group's
-//               first hit (the paper's per-pixel lookup takes the pixel centre).
-//   DECOUPLED:  (with PER_SAMPLE) decoupled shading (stochastic/decoupled.glsl): each hit takes the
-//               radiance of its key — (triangle, side, lens-centre pixel cell at mid-shutter) — from
-//               a memoization cache, or shades the key's shading point and stores it; or, deferred
-//               (pc.decoupled_phase), from a hash table whose new points a dispatch of their own
-//               shades between the per-pixel allocation and resolve dispatches.
 //   TINTS:      every sample's radiance (or background) times the product of the tints in front of
 //               it, from the tint buffer stochastic.frag's tint pass filled (transparency::tint_from_log);
 //               per-pixel groups weigh their radiance by the sum of their samples' tints.
+#ifndef SHUTTER_STOCHASTIC_SHADE_GLSL
+#define SHUTTER_STOCHASTIC_SHADE_GLSL
 #define SHADOW_SET 4
 #include "common/object.glsl"
 #include "common/shading.glsl"
 #include "common/texture_sample.glsl"
 #include "stochastic/inside.glsl"
-#include "stochastic/push.glsl"
 #include "stochastic/visibility.glsl"
 #include "stochastic/camera_triangles.glsl"
 
@@ -76,7 +63,7 @@ float tint_from_log(uint l) {
 
 // The product of the tints in front of what sample i of pixel pix sees.
 vec3 sample_tint(uvec2 pix, uint i) {
-    uint at = 3u * visibility_index(pix, i, pc.per_pass);
+    uint at = 3u * visibility_index(pix, i, pc.shade.per_pass);
     return vec3(tint_from_log(tint_log[at]), tint_from_log(tint_log[at + 1u]), tint_from_log(tint_log[at + 2u]));
 }
 #else
@@ -84,8 +71,7 @@ vec3 sample_tint(uvec2 pix, uint i) {
     return vec3(1.0);
 }
 #endif
-const uint SHADE_BACKGROUND = 0xffffffffu;
-const uint SHADE_GROUPS = 8u;  // engine/src/reference: PER_PIXEL_SHADING_GROUPS
+const uint SHADE_BACKGROUND = 0xffffffffu;  // shading::SHADE_BACKGROUND
 
 // The sample's ray and the triangle at its time.
 struct SampleHit {
@@ -104,13 +90,13 @@ SampleHit sample_at_time(uint prim, float t) {
     h.t = t;
     // KeyTimes::segment_of: the interior keys at or below t.
     uint seg = 0u;
-    for (uint j = 1u; j < pc.segment_count; j++) {
-        if (object_views[pc.segment_first + j].time.x <= h.t) seg = j;
+    for (uint j = 1u; j < pc.shade.segment_count; j++) {
+        if (object_views[pc.shade.segment_first + j].time.x <= h.t) seg = j;
     }
-    h.seg = pc.segment_first + seg;
+    h.seg = pc.shade.segment_first + seg;
     h.s = segment_time(object_views[h.seg], h.t);
     vec3 p_open[3], p_close[3];
-    load_triangle(prim, seg, pc.segment_count + 1u, p_open, p_close);
+    load_triangle(prim, seg, pc.shade.segment_count + 1u, p_open, p_close);
     h.a = shutter_lerp(p_open[0], p_close[0], h.s);
     h.b = shutter_lerp(p_open[1], p_close[1], h.s);
     h.c = shutter_lerp(p_open[2], p_close[2], h.s);
@@ -130,38 +116,6 @@ SampleHit sample_at(uint prim, uint tile_index, uvec2 pix) {
     primary_ray(vec2(pix) + xl.xy, xl.zw, h.ro, h.rd);
     return h;
 }
-
-#ifdef TEXTURE_SPACE
-// Set 2 (STOCHASTIC_OBJECT_SET): the object's shading atlas, each triangle's level (levels.comp's
-// layout: radius, spacing, level, valid) and each corner's shading coordinate in texels of level 0.
-layout(set = 2, binding = 5) uniform sampler2D atlas;
-layout(set = 2, binding = 6, std430) readonly buffer AtlasLevels { vec4 atlas_levels[]; };
-layout(set = 2, binding = 7, std430) readonly buffer AtlasCoords { vec2 atlas_coords[]; };
-
-// MipAtlas::level_rect's corner.
-vec2 atlas_level_offset(uint level) {
-    if (level == 0u) return vec2(0.0);
-    uint y = 0u;
-    for (uint k = 1u; k < level; k++) y += (pc.atlas_finest >> k) + pc.atlas_gutter;
-    return vec2(float(pc.atlas_finest + pc.atlas_gutter), float(y));
-}
-
-// The shaded radiance at barycentrics w of triangle prim: a bilinear lookup at its level.
-vec3 atlas_lookup(uint prim, vec3 w) {
-    uint level = uint(atlas_levels[prim].z);
-    vec2 t = w.x * atlas_coords[3u * prim] + w.y * atlas_coords[3u * prim + 1u] + w.z * atlas_coords[3u * prim + 2u];
-    vec2 p = t / float(1u << level) + atlas_level_offset(level) - 0.5;
-    vec2 p0 = floor(p);
-    vec2 f = p - p0;
-    ivec2 size = textureSize(atlas, 0);
-    ivec2 i0 = clamp(ivec2(p0), ivec2(0), size - 1), i1 = clamp(ivec2(p0) + 1, ivec2(0), size - 1);
-    vec3 a = texelFetch(atlas, ivec2(i0.x, i0.y), 0).rgb;
-    vec3 b = texelFetch(atlas, ivec2(i1.x, i0.y), 0).rgb;
-    vec3 c = texelFetch(atlas, ivec2(i0.x, i1.y), 0).rgb;
-    vec3 d = texelFetch(atlas, ivec2(i1.x, i1.y), 0).rgb;
-    return mix(mix(a, b, f.x), mix(c, d, f.x), f.y);
-}
-#endif
 
 // The object's material, loaded once per invocation.
 Material object_material;
@@ -206,217 +160,79 @@ vec3 shade_at(uint prim, SampleHit h, vec3 w, bool back) {
     return shade(position, n, -h.rd, albedo, object_material.albedo_specular.w, object_material.params.x, h.t);
 }
 
-// Radiance of the sample hitting triangle `prim` (the reference's Tracer::shade_hit).
-vec3 shade_hit(uint prim, SampleHit h) {
-    // The coverage pass' own test gives the barycentrics; a sample it accepted that rounds out here
-    // keeps the plane's.
+// The barycentrics of the sample's hit on triangle (h.a, h.b, h.c): the coverage pass' own test gives
+// them; a sample it accepted that rounds out here keeps the plane's.
+vec3 hit_barycentrics(SampleHit h) {
     float z;
     vec3 w;
     if (!sample_hit(h.a, h.b, h.c, h.ro, h.rd, z, w)) {
         bool ok;
         w = plane_barycentrics(h.a, h.b, h.c, h.ro, h.rd, ok);
     }
-#ifdef TEXTURE_SPACE
-    return atlas_lookup(prim, w);
-#else
-    return shade_at(prim, h, w, dot(cross(h.b - h.a, h.c - h.a), h.rd) > 0.0);
-#endif
+    return w;
 }
 
-#ifdef DECOUPLED
-#include "stochastic/decoupled.glsl"
-#endif
+// Radiance of the sample hitting triangle `prim` (the reference's Tracer::shade_hit).
+vec3 shade_hit(uint prim, SampleHit h) {
+    vec3 w = hit_barycentrics(h);
+    return shade_at(prim, h, w, dot(cross(h.b - h.a, h.c - h.a), h.rd) > 0.0);
+}
 
 // Whether a visibility payload names a triangle of this dispatch's object, and which (object-local).
 bool is_object_key(uint key) {
-    return (key >> 1) - pc.triangle_base < pc.triangle_count;  // unsigned: below the base wraps high
+    return (key >> 1) - pc.shade.triangle_base < pc.shade.triangle_count;  // unsigned: below the base wraps high
 }
 
 uint triangle_of(uint key) {
-    return (key >> 1) - pc.triangle_base;
+    return (key >> 1) - pc.shade.triangle_base;
 }
 
-// Component g (0..8) of the pair (lo, hi), by selects rather than a variable index.
-uint pick(uvec4 lo, uvec4 hi, uint g) {
-    uvec4 v = g < 4u ? lo : hi;
-    uint k = g & 3u;
-    return k == 0u ? v.x : (k == 1u ? v.y : (k == 2u ? v.z : v.w));
+// The invocation's pixel; false when nothing is left to do: outside the viewport, or the background
+// dispatch (pc.shade.object == SHADE_BACKGROUND), done here — the samples without a hit add the
+// background (times their tints).
+bool shade_begin(out uvec2 pix) {
+    pix = gl_GlobalInvocationID.xy + uvec2(pc.shade.origin_x, pc.shade.origin_y);
+    if (any(greaterThanEqual(pix, uvec2(view.viewport.xy)))) return false;
+    if (pc.shade.object != SHADE_BACKGROUND) return true;
+    float inv_spp = 1.0 / float(pc.shade.spp);
+    uint empty = 0u;
+    vec3 through = vec3(0.0);  // Σ of the empty samples' tints
+    for (uint i = 0u; i < pc.shade.per_pass; i++) {
+        if (visibility[visibility_index(pix, i, pc.shade.per_pass)] == 0UL) {
+            empty++;
+            through += sample_tint(pix, i);
+        }
+    }
+    if (empty > 0u) {
+        vec4 add = vec4(world.background.rgb * through, float(empty)) * inv_spp;
+        imageStore(accum, ivec2(pix), imageLoad(accum, ivec2(pix)) + add);
+    }
+    return false;
 }
 
-float pickf(vec4 lo, vec4 hi, uint g) {
-    vec4 v = g < 4u ? lo : hi;
-    uint k = g & 3u;
-    return k == 0u ? v.x : (k == 1u ? v.y : (k == 2u ? v.z : v.w));
+// The sample tile's index of the pixel's first sample of this pass.
+uint sample_base(uvec2 pix) {
+    return ((pix.y % SAMPLE_TILE_SIZE) * SAMPLE_TILE_SIZE + pix.x % SAMPLE_TILE_SIZE) * pc.shade.spp
+         + pc.shade.pass_index * pc.shade.per_pass;
 }
 
-void main() {
-#ifdef DECOUPLED
-    // The deferred mode's dispatches that are not per pixel (stochastic/decoupled.glsl).
-    if (pc.decoupled_phase == DC_PHASE_ARGS) {
-        deferred_args();
-        return;
+// Which of the pass' samples chunk .. chunk + 31 of the pixel hit this dispatch's object: bit j for
+// sample chunk + j (the per-sample loops' cheap first step).
+uint object_samples(uvec2 pix, uint chunk) {
+    uint mine = 0u;
+    uint n = min(32u, pc.shade.per_pass - chunk);
+    for (uint j = 0u; j < n; j++) {
+        uint64_t v = visibility[visibility_index(pix, chunk + j, pc.shade.per_pass)];
+        bool is_mine = v != 0UL && is_object_key(visibility_payload(v));
+        mine |= is_mine ? 1u << j : 0u;
     }
-    if (pc.decoupled_phase == DC_PHASE_SHADE) {
-        object_material = materials[pc.object];
-        deferred_shade_point();
-        return;
-    }
-#endif
-    uvec2 pix = gl_GlobalInvocationID.xy + uvec2(pc.origin_x, pc.origin_y);
-    if (any(greaterThanEqual(pix, uvec2(view.viewport.xy)))) return;
-    float inv_spp = 1.0 / float(pc.spp);
-    if (pc.object == SHADE_BACKGROUND) {
-        uint empty = 0u;
-        vec3 through = vec3(0.0);  // Σ of the empty samples' tints
-        for (uint i = 0u; i < pc.per_pass; i++) {
-            if (visibility[visibility_index(pix, i, pc.per_pass)] == 0UL) {
-                empty++;
-                through += sample_tint(pix, i);
-            }
-        }
-        if (empty > 0u) {
-            vec4 add = vec4(world.background.rgb * through, float(empty)) * inv_spp;
-            imageStore(accum, ivec2(pix), imageLoad(accum, ivec2(pix)) + add);
-        }
-        return;
-    }
-    object_material = materials[pc.object];
-    uint base = ((pix.y % SAMPLE_TILE_SIZE) * SAMPLE_TILE_SIZE + pix.x % SAMPLE_TILE_SIZE) * pc.spp
-              + pc.pass_index * pc.per_pass;
-    vec3 sum = vec3(0.0);
-    uint count = 0u, shaded = 0u;
-#ifdef PER_SAMPLE
-    // Per 32 samples: first which are this object's (a cheap loop), then the shading of those only,
-    // lowest first — llvmpipe pays a loop body's shading code on every iteration it contains it.
-    for (uint chunk = 0u; chunk < pc.per_pass; chunk += 32u) {
-        uint mine = 0u;
-        uint n = min(32u, pc.per_pass - chunk);
-        for (uint j = 0u; j < n; j++) {
-            uint64_t v = visibility[visibility_index(pix, chunk + j, pc.per_pass)];
-            bool is_mine = v != 0UL && is_object_key(visibility_payload(v));
-            mine |= is_mine ? 1u << j : 0u;
-        }
-        count += uint(bitCount(mine));
-#ifdef DECOUPLED
-        // Decoupled: first every sample's cache lookup (cheap), then the shading of the misses only —
-        // in lock-step lanes a shading inside the lookup loop would be paid on every iteration by
-        // every lane whenever one lane missed.
-        uint miss = 0u;
-        while (mine != 0u) {
-            uint j = uint(findLSB(mine));
-            mine &= mine - 1u;
-            uint at = visibility_index(pix, chunk + j, pc.per_pass);
-            uint payload = visibility_payload(visibility[at]);
-            uint prim = triangle_of(payload);
-            vec3 v = vec3(0.0);
-            bool hit;
-            if (pc.decoupled_phase == DC_PHASE_ALLOCATE) {
-                // The deferred mode's first dispatch: each sample's entry, nothing added.
-                refs[at] = deferred_allocate(prim, payload, sample_at(prim, base + chunk + j, pix));
-                hit = true;
-            } else if (pc.decoupled_phase == DC_PHASE_RESOLVE) {
-                uint ref = refs[at];
-                hit = ref != DC_SHADE_HERE;
-                if (hit) v = deferred_value(ref);
-            } else {
-                hit = decoupled_lookup(prim, payload, sample_at(prim, base + chunk + j, pix), v);
-            }
-            sum += hit ? sample_tint(pix, chunk + j) * v : vec3(0.0);
-            miss |= hit ? 0u : 1u << j;
-        }
-        mine = miss;
-#endif
-        while (mine != 0u) {
-            uint i = chunk + uint(findLSB(mine));
-            mine &= mine - 1u;
-            uint payload = visibility_payload(visibility[visibility_index(pix, i, pc.per_pass)]);
-            uint prim = triangle_of(payload);
-#ifdef DECOUPLED
-            sum += sample_tint(pix, i) * decoupled_shade(prim, payload, sample_at(prim, base + i, pix));
-#else
-            sum += sample_tint(pix, i) * shade_hit(prim, sample_at(prim, base + i, pix));
-            shaded++;
-#endif
-        }
-    }
-#else
-    // Two phases, so that SIMD lanes (llvmpipe runs 8 pixels in lock-step) shade together: first the
-    // pixel's groups — (triangle, side), the first sample of each, how many samples it stands for —
-    // then one shading per group. Samples beyond SHADE_GROUPS groups are shaded on their own. The
-    // groups live in vectors read by selects: llvmpipe keeps a dynamically indexed local array in
-    // memory, which cost more than all the shading.
-    const uint NO_KEY = 0xffffffffu;
-    uvec4 key_lo = uvec4(NO_KEY), key_hi = uvec4(NO_KEY);
-    uvec4 first_lo = uvec4(0u), first_hi = uvec4(0u);
-    uvec4 count_lo = uvec4(0u), count_hi = uvec4(0u);
-#ifdef TINTS
-    // Per group and channel: Σ of its samples' tints (the weight of its radiance).
-    vec4 tr_lo = vec4(0.0), tr_hi = vec4(0.0), tg_lo = vec4(0.0), tg_hi = vec4(0.0);
-    vec4 tb_lo = vec4(0.0), tb_hi = vec4(0.0);
-#endif
-    uint groups = 0u;
-    bool overflow = false;
-    // Branch-free but for the rare overflow: llvmpipe pays every branch's masking per sample.
-    for (uint i = 0u; i < pc.per_pass; i++) {
-        uint64_t v = visibility[visibility_index(pix, i, pc.per_pass)];
-        uint payload = visibility_payload(v);
-        bool mine = v != 0UL && is_object_key(payload);
-        uint key = payload;  // the group: the triangle and the side its ray sees
-        uvec4 m = uvec4(mine ? 1u : 0u);
-        uvec4 in_lo = uvec4(equal(key_lo, uvec4(key))) & m, in_hi = uvec4(equal(key_hi, uvec4(key))) & m;
-        bool found = any(bvec4(in_lo | in_hi));
-        bool insert = mine && !found && groups < SHADE_GROUPS;
-        uvec4 ins = uvec4(insert ? 1u : 0u);
-        uvec4 at_lo = uvec4(equal(uvec4(groups), uvec4(0u, 1u, 2u, 3u))) & ins;
-        uvec4 at_hi = uvec4(equal(uvec4(groups), uvec4(4u, 5u, 6u, 7u))) & ins;
-        key_lo = mix(key_lo, uvec4(key), bvec4(at_lo));
-        key_hi = mix(key_hi, uvec4(key), bvec4(at_hi));
-        first_lo = mix(first_lo, uvec4(i), bvec4(at_lo));
-        first_hi = mix(first_hi, uvec4(i), bvec4(at_hi));
-        count_lo += in_lo + at_lo;
-        count_hi += in_hi + at_hi;
-#ifdef TINTS
-        vec3 tint = sample_tint(pix, i);
-        vec4 g_lo = vec4(in_lo + at_lo), g_hi = vec4(in_hi + at_hi);
-        tr_lo += g_lo * tint.r;
-        tr_hi += g_hi * tint.r;
-        tg_lo += g_lo * tint.g;
-        tg_hi += g_hi * tint.g;
-        tb_lo += g_lo * tint.b;
-        tb_hi += g_hi * tint.b;
-#endif
-        groups += insert ? 1u : 0u;
-        count += mine ? 1u : 0u;
-        overflow = overflow || (mine && !found && !insert);
-    }
-    // Samples of groups past SHADE_GROUPS, each on its own (rare: kept out of the loop above, whose
-    // every iteration llvmpipe would otherwise pay for the shading code).
-    for (uint i = 0u; overflow && i < pc.per_pass; i++) {
-        uint64_t v = visibility[visibility_index(pix, i, pc.per_pass)];
-        uint payload = visibility_payload(v);
-        uint key = payload;
-        bool grouped = any(equal(key_lo, uvec4(key))) || any(equal(key_hi, uvec4(key)));
-        if (v != 0UL && is_object_key(payload) && !grouped) {
-            uint prim = triangle_of(key);
-            sum += sample_tint(pix, i) * shade_hit(prim, sample_at(prim, base + i, pix));
-            shaded++;
-        }
-    }
-    for (uint g = 0u; g < groups; g++) {
-        uint prim = triangle_of(pick(key_lo, key_hi, g));
-        uint first = pick(first_lo, first_hi, g);
-#ifdef TINTS
-        vec3 weight = vec3(pickf(tr_lo, tr_hi, g), pickf(tg_lo, tg_hi, g), pickf(tb_lo, tb_hi, g));
-#else
-        vec3 weight = vec3(float(pick(count_lo, count_hi, g)));
-#endif
-        sum += weight * shade_hit(prim, sample_at(prim, base + first, pix));
-        shaded++;
-    }
-#endif
-#ifdef DECOUPLED
-    if (pc.decoupled_phase == DC_PHASE_ALLOCATE) count = 0u;  // adds nothing
-#endif
+    return mine;
+}
+
+// Adds the object's `count` samples of the pixel, whose radiance (times their tints) sums to `sum`:
+// (sum, count) / S; counts `shaded` shading evaluations (INSTRUMENTED).
+void shade_end(uvec2 pix, vec3 sum, uint count, uint shaded) {
+    float inv_spp = 1.0 / float(pc.shade.spp);
     if (count > 0u) {
         vec4 add = vec4(sum, float(count)) * inv_spp;
         imageStore(accum, ivec2(pix), imageLoad(accum, ivec2(pix)) + add);
@@ -425,3 +241,5 @@ void main() {
     if (shaded > 0u) atomicAdd(counters.shading_invocations, shaded);
 #endif
 }
+
+#endif

@@ -3,10 +3,10 @@
 // pixel whose time lies in the draw's motion key segment, the 5D inside test of its (x, y, u, v, t)
 // against the moving, defocused triangle (linear within the segment); each hit
 // goes into the visibility buffer (stochastic/visibility.glsl) with its own view depth by one 64-bit
-// atomicMax, so occlusion is resolved per sample, exactly, and nothing is shaded here: shade.comp
-// shades the surviving hits afterwards. The pass has no attachments and no depth test; a pixel that
-// several pieces of a bound (or a pixel split by a strip diagonal) cover is tested more than once, which
-// the max makes harmless.
+// atomicMax, so occlusion is resolved per sample, exactly, and nothing is shaded here: the shading
+// stages (shade_*.comp) shade the surviving hits afterwards. The pass has no attachments and no depth
+// test; a pixel that several pieces of a bound (or a pixel split by a strip diagonal) cover is tested
+// more than once, which the max makes harmless.
 //   INSTRUMENTED: atomic counters of fragments, samples tested and samples hit.
 //   NO_MOTION:  defocus-only objects (engine/src/plan.rs): the triangle at mid-shutter, no time
 //               interpolation.
@@ -20,12 +20,12 @@
 //              strictly in front of the hit the visibility buffer holds for it, gets the tint added to
 //              its entry of the tint buffer as −log2 T in fixed point (transparency::tint_log) — an
 //              integer sum, so the product of the tints in front of a sample's visible surface comes
-//              out the same whatever order the atomics run in. shade.comp (TINTS) multiplies it in.
+//              out the same whatever order the atomics run in. The shading (TINTS) multiplies it in.
 // llvmpipe runs this for every pixel a bound touches and masks SIMD lanes rather than branching, so
 // the work here is only what a miss must pay anyway: load the triangle, test the samples.
 #include "common/frame.glsl"
 #include "stochastic/inside.glsl"
-#include "stochastic/push.glsl"
+#include "stochastic/visibility_push.glsl"
 #include "stochastic/visibility.glsl"
 #include "stochastic/camera_triangles.glsl"
 #include "common/coverage.glsl"
@@ -40,7 +40,7 @@ layout(set = 3, binding = 2, std430) buffer Counters {
     uint samples_hit;
     uint shading_invocations;
     uint fragments;
-    // Decoupled shading (shade.comp, DECOUPLED): cache lookups, hits, evictions, stores lost to a race,
+    // Decoupled shading (shade_decoupled.comp): cache lookups, hits, evictions, stores lost to a race,
     // and (deferred) keys the hash table had no room for.
     uint cache_lookups;
     uint cache_hits;

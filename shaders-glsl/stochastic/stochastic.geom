@@ -10,7 +10,7 @@
 // A one-sided object's triangle (pc.one_sided) that faces away from every lens point over the draw's
 // time interval gets no bound (common/back_facing.glsl): stochastic.frag would drop all its hits.
 #include "stochastic/bounds.glsl"
-#include "stochastic/push.glsl"
+#include "stochastic/visibility_push.glsl"
 #include "common/back_facing.glsl"
 
 layout(triangles) in;

@@ -3,7 +3,7 @@
 // motion segment. The geometry stage bounds the triangle over the draw's time and the lens; nothing is
 // projected here.
 #include "common/frame.glsl"
-#include "stochastic/push.glsl"
+#include "stochastic/visibility_push.glsl"
 
 layout(location = 0) in vec3 in_position;
 

@@ -21,7 +21,7 @@
 //     the object at mid-shutter and a half turn collapses it onto a line (its lerped normals and
 //     light directions degenerate: N·L ≈ 1, not what any sample sees). The texel is shaded instead
 //     at each shading time t_j, as the per-sample path shades a sample at its time (stochastic/
-//     shade.comp shade_at: the triangle, normal, lights and eye at t_j, the side facing the eye
+//     shade.glsl shade_at: the triangle, normal, lights and eye at t_j, the side facing the eye
 //     then), and the shadings are averaged, each weighed by how many samples see the texel at t_j:
 //     the density of its projection at the lens centre, pixels per unit of area (ts_sample_density)
 //     — 0 where it is behind the camera, outside [near, far] or off the image (by its circle of
@@ -110,7 +110,7 @@ bool in_front(TexelAt x) {
     return -x.pos.z >= view.lens.z && -x.pos.z <= view.lens.w;
 }
 
-// The texel's point x shaded at shutter time t (stochastic/shade.comp's shade_at at the lens centre).
+// The texel's point x shaded at shutter time t (stochastic/shade.glsl's shade_at at the lens centre).
 vec3 shade_texel(TexelAt x, float t, Material m, vec3 albedo) {
     vec3 to_eye = dot(x.pos, x.pos) > 0.0 ? normalize(-x.pos) : vec3(0.0, 0.0, 1.0);
     vec3 n;

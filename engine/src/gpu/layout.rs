@@ -214,6 +214,9 @@ pub struct SharedMember {
     pub array: Option<(usize, usize)>,
     /// The scalar (or struct) under any arrays.
     pub component: Component,
+    /// A struct's own layout, where the reflection test checks its members too (a header struct a
+    /// push-constant block embeds: [`GpuField::LAYOUT`]).
+    pub layout: Option<&'static SharedStruct>,
 }
 
 /// The scalar (or struct) a [`SharedMember`] is made of.
@@ -231,6 +234,9 @@ pub trait GpuField {
     const COMPONENT: Component;
     /// `(length, element size)` of an array.
     const ARRAY: Option<(usize, usize)> = None;
+    /// A struct's [`SharedStruct`], for a struct whose members the reflection test is to check
+    /// wherever it is a member (not one of [`SHARED_STRUCTS`], which are checked everywhere).
+    const LAYOUT: Option<&'static SharedStruct> = None;
 }
 
 impl GpuField for f32 {
@@ -259,6 +265,7 @@ impl SharedMember {
             size: std::mem::size_of::<F>(),
             array: F::ARRAY,
             component: F::COMPONENT,
+            layout: F::LAYOUT,
         }
     }
 }

@@ -8,7 +8,8 @@
 //!   a sampler's or image's variable name (`albedo_texture`); every table entry is declared by some
 //!   shader at that set;
 //! * the push-constant block matches the interface's push struct: size (`size_of`), member names,
-//!   offsets (`offset_of`), sizes and scalar types, in order;
+//!   offsets (`offset_of`), sizes and scalar types, in order; a struct member with a layout of its own
+//!   ([`super::layout::GpuField::LAYOUT`]: the shading stages' `ShadePush` header) likewise;
 //! * every struct of [`SHARED_STRUCTS`], wherever a shader lays it out (std140 or std430), matches the
 //!   Rust struct the same way, arrays by length and `ArrayStride` (`lights[16]`: 80,
 //!   `model_view[2]`: 64), and every array of it (`materials[]`) has `ArrayStride` = `size_of`; each
@@ -247,6 +248,23 @@ fn compiled_shaders_match_the_rust_layouts() {
                 pushes_seen.insert(index);
                 for what in compare_struct(&block, &rust) {
                     m.shader(source, format!("push constants `{}`: {what}", block.name));
+                }
+                // A struct the block embeds with a layout of its own (a header: `ShadePush shade`).
+                let structs = spirv.laid_out_structs();
+                for nested in rust.members.iter().filter_map(|r| r.layout) {
+                    let Some(s) = structs.iter().find(|s| s.name == nested.glsl) else {
+                        m.shader(
+                            source,
+                            format!("push constants `{}`: no struct `{}` laid out", block.name, nested.glsl),
+                        );
+                        continue;
+                    };
+                    for what in compare_struct(s, nested) {
+                        m.shader(
+                            source,
+                            format!("push constants `{}`, struct `{}`: {what}", block.name, s.name),
+                        );
+                    }
                 }
             }
         }

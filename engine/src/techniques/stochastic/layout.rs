@@ -1,17 +1,19 @@
-//! What the stochastic frame's shaders share with the CPU: push-constant structs, descriptor tables of
-//! sets 2 and 3, buffer strides, and the shader interfaces the reflection test
-//! (`gpu/layout_tests.rs`) checks every permutation against.
+//! What the stochastic frame's shaders share with the CPU: the visibility core's push-constant structs,
+//! descriptor tables of sets 2 and 3, buffer strides, and the shader interfaces the reflection test
+//! (`gpu/layout_tests.rs`) checks every permutation against. Each shading stage declares its own push
+//! struct and interface beside its Rust (`shading/*.rs`).
 
 use ash::vk;
 use bytemuck::{Pod, Zeroable};
 
 use crate::gpu::layout::{shared_struct, Binding, SharedStruct};
 
-/// Push constants of the stochastic pipelines (`stochastic/push.glsl`).
+/// Push constants of the visibility core's coverage and tint draws (`stochastic/visibility_push.glsl`):
+/// vertex, geometry and fragment stages, geometry-shader, compute-hull and cluster paths alike. The
+/// shading stages push their own (`shading::ShadePush` first).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
-pub struct StochasticPush {
-    pub object: u32,
+pub struct VisibilityPush {
     pub bound: u32,
     pub pass_index: u32,
     pub spp: u32,
@@ -21,8 +23,6 @@ pub struct StochasticPush {
     pub sample_count: u32,
     pub t0: f32,
     pub t1: f32,
-    pub origin_x: u32,
-    pub origin_y: u32,
     pub triangle_base: u32,
     pub triangle_count: u32,
     pub segment_first: u32,
@@ -40,32 +40,8 @@ pub struct StochasticPush {
     pub tint_log_r: u32,
     pub tint_log_g: u32,
     pub tint_log_b: u32,
-    /// Texture-space shading: the atlases' level 0 side and gutter (0 elsewhere).
-    pub atlas_finest: u32,
-    pub atlas_gutter: u32,
     /// 1: the object's material is one-sided; the coverage stage drops hits on its back.
     pub one_sided: u32,
-    /// Decoupled shading: entries of the memoization cache or hash table (0 elsewhere).
-    pub cache_entries: u32,
-    /// Decoupled shading: the dispatch's phase ([`DecoupledPhase`]; 0, the memoization cache, elsewhere).
-    pub decoupled_phase: u32,
-}
-
-/// The dispatches of decoupled shading per object and pass (`DC_PHASE_*` in `decoupled.glsl`): the
-/// memoization cache's one, or the deferred mode's four.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[repr(u32)]
-pub enum DecoupledPhase {
-    Memo = 0,
-    /// Per pixel: each sample's key found in or added to the hash table, its entry in the compact
-    /// G-buffer.
-    Allocate = 1,
-    /// One invocation: the new entries' range and the next dispatch's indirect arguments.
-    Args = 2,
-    /// Indirect, one invocation per new entry: its shading point shaded.
-    Shade = 3,
-    /// Per pixel: each sample's radiance read from its entry (or shaded on the spot).
-    Resolve = 4,
 }
 
 /// Push constants of `clusters.comp`.
@@ -127,10 +103,6 @@ pub const STOCHASTIC_SET: [Binding; 12] = [
     Binding { binding: 11, ty: vk::DescriptorType::STORAGE_BUFFER, block: "DeferredRefs" },
 ];
 
-/// `StochasticPush::object` of the shading pass' dispatch that adds the background for the samples
-/// without a hit (`SHADE_BACKGROUND` in `shade.glsl`).
-pub const SHADE_BACKGROUND: u32 = u32::MAX;
-
 /// Triangles a frame may hold: the visibility payload is triangle << 1 | back with the triangles
 /// numbered across all objects (`visibility.glsl`), and the shading pass' empty group key is all ones.
 pub const MAX_FRAME_TRIANGLES: u64 = (1 << 31) - 1;
@@ -148,9 +120,8 @@ pub const TINT_BYTES: u64 = 12;
 pub const STOCHASTIC_STRUCTS: &[SharedStruct] = &[
     shared_struct!(
         "Push",
-        StochasticPush,
+        VisibilityPush,
         [
-            object,
             bound,
             pass_index,
             spp,
@@ -160,8 +131,6 @@ pub const STOCHASTIC_STRUCTS: &[SharedStruct] = &[
             sample_count,
             t0,
             t1,
-            origin_x,
-            origin_y,
             triangle_base,
             triangle_count,
             segment_first,
@@ -174,11 +143,7 @@ pub const STOCHASTIC_STRUCTS: &[SharedStruct] = &[
             tint_log_r,
             tint_log_g,
             tint_log_b,
-            atlas_finest,
-            atlas_gutter,
-            one_sided,
-            cache_entries,
-            decoupled_phase
+            one_sided
         ]
     ),
     shared_struct!("Push", TrianglesPush, [segment_first, keys, triangle_count]),
@@ -193,8 +158,8 @@ pub const STOCHASTIC_STRUCTS: &[SharedStruct] = &[
 pub(super) const TRIANGLE_KEY_BYTES: u64 = 9 * 4;
 
 /// What the stochastic rasterizer's shaders expect of the layouts [`super::StochasticTechnique::new`] builds:
-/// sets 2 and 3 from [`STOCHASTIC_OBJECT_SET`] and [`STOCHASTIC_SET`], and [`StochasticPush`] for the raster
-/// pipelines (`hull.vert` pushes nothing) and the shading pass, [`TrianglesPush`] for `triangles.comp`. Also
+/// sets 2 and 3 from [`STOCHASTIC_OBJECT_SET`] and [`STOCHASTIC_SET`], and [`VisibilityPush`] for the raster
+/// pipelines (`hull.vert` pushes nothing), [`TrianglesPush`] for `triangles.comp`. Also
 /// `expand.comp`'s: [`ComputeHull`](super::super::compute_hull::ComputeHull) builds its pipeline with these
 /// two sets' layouts (handed over here; it writes the hull bindings of set 2 and the counts' binding of set
 /// 3) and [`super::super::compute_hull::ExpandPush`].
@@ -211,7 +176,7 @@ pub const SHADER_INTERFACES: &[crate::gpu::layout::ShaderInterface] = &[
         Some(&STOCHASTIC_SET),
         Some(STOCHASTIC_STRUCTS[0]),
     ),
-    // The shading stages, each declared beside its Rust (shading/*.rs).
+    // The shading stages, each declared beside its Rust and its push constants (shading/*.rs).
     super::shading::EXACT_INTERFACE,
     super::shading::TEXTURE_SPACE_INTERFACE,
     super::shading::DECOUPLED_INTERFACE,

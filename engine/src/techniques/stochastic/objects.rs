@@ -7,7 +7,7 @@ use gpu_allocator::MemoryLocation;
 
 use super::super::compute_hull::HullExpansion;
 use super::super::PrepareContext;
-use super::layout::{StochasticPush, CLUSTER_BYTES, MAX_FRAME_TRIANGLES, TRIANGLE_KEY_BYTES};
+use super::layout::{VisibilityPush, CLUSTER_BYTES, MAX_FRAME_TRIANGLES, TRIANGLE_KEY_BYTES};
 use super::options::{
     auto_clusters, auto_intervals, choose_cluster_order, shading_rect, Clusters, DebugOptions, Intervals,
     StochasticOptions, DEFAULT_CLUSTER_TRIANGLES,
@@ -233,12 +233,12 @@ impl StochasticObject {
         self.choices.triangle_count > 0
     }
 
-    /// Object `index`'s fields of the push constants (`push.glsl`) over `push`'s frame fields.
-    pub fn push(&self, index: usize, view: &GpuView, push: StochasticPush) -> StochasticPush {
+    /// Object `index`'s fields of the coverage push constants (`visibility_push.glsl`) over `push`'s
+    /// frame fields.
+    pub fn push(&self, index: usize, view: &GpuView, push: VisibilityPush) -> VisibilityPush {
         let (segment_first, segment_count) = view.segments(index);
         let tint = self.choices.tint_log.unwrap_or([0; 3]);
-        StochasticPush {
-            object: index as u32,
+        VisibilityPush {
             bound: self.choices.bound.id(),
             triangle_base: self.choices.triangle_base,
             triangle_count: self.choices.triangle_count,

@@ -21,8 +21,7 @@ use gpu_allocator::MemoryLocation;
 use super::super::compute_hull::{ComputeHull, HullExpansion, INITIAL_VERTICES_PER_TRIANGLE};
 use super::super::{FrameContext, FrameInputs, PrepareContext};
 use super::layout::{
-    ClustersPush, StochasticPush, TrianglesPush, SHADE_BACKGROUND, TINT_BYTES, VISIBILITY_BUDGET_BYTES,
-    VISIBILITY_BYTES,
+    ClustersPush, TrianglesPush, VisibilityPush, TINT_BYTES, VISIBILITY_BUDGET_BYTES, VISIBILITY_BYTES,
 };
 use super::objects::{ObjectChoices, StochasticObject};
 use super::options::{bounded_segments, gpu_samples, samples_per_pass, DebugOptions, StochasticOptions};
@@ -82,11 +81,10 @@ impl Sampling {
         self.size.0 as u64 * self.size.1 as u64 * self.per_pass as u64
     }
 
-    /// The frame's fields of the push constants of pass `pass` (the whole pass' samples), no object's:
-    /// those of the background dispatch.
-    pub fn push(&self, pass: u32) -> StochasticPush {
-        StochasticPush {
-            object: SHADE_BACKGROUND,
+    /// The frame's fields of the coverage push constants of pass `pass` (the whole pass' samples), no
+    /// object's.
+    pub fn push(&self, pass: u32) -> VisibilityPush {
+        VisibilityPush {
             pass_index: pass,
             spp: self.spp,
             per_pass: self.per_pass,
@@ -534,20 +532,20 @@ impl Visibility {
         run: u32,
         runs: u32,
         seg: usize,
-    ) -> Option<StochasticPush> {
+    ) -> Option<VisibilityPush> {
         let s = &self.sampling;
         let count = s.per_pass / runs;
         let first = run * count;
         let o = &self.objects[object];
         let base =
-            StochasticPush { sample_first: first, sample_count: count, ..o.push(object, view, s.push(pass)) };
+            VisibilityPush { sample_first: first, sample_count: count, ..o.push(object, view, s.push(pass)) };
         let keys = &o.choices.keys;
         if !o.choices.effects.motion() {
             if seg != 0 {
                 return None;
             }
             let (segment, _, t0, t1) = bounded_segments(keys, false);
-            return Some(StochasticPush { t0, t1, segment, ..base });
+            return Some(VisibilityPush { t0, t1, segment, ..base });
         }
         // The run's samples' shutter times: [ξ0, ξ1) of the unwarped time, through the shutter curve
         // (monotone, the very function that warped the samples; it maps 0 to 0 and 1 to 1 exactly, so
@@ -567,7 +565,7 @@ impl Visibility {
         // The samples' local times: monotone in t, so those of [max(t0, t_a), min(t1, t_b)] bound them
         // (the same rounded arithmetic as the shaders'; (0, 1) for two keys and the whole shutter).
         let (s0, s1) = (keys.local_time(seg, t0.max(t_a)), keys.local_time(seg, t1.min(t_b)));
-        Some(StochasticPush { t0: s0, t1: s1, segment: seg as u32, ..base })
+        Some(VisibilityPush { t0: s0, t1: s1, segment: seg as u32, ..base })
     }
 
     /// The coverage draws of pass `pass`, inside the attachment-less rendering.
@@ -636,7 +634,7 @@ impl Visibility {
             let include = |i: usize| {
                 self.objects[i].choices.effects == *effects && self.objects[i].choices.tint_log.is_some()
             };
-            self.record_runs(ctx, inputs, pipeline, pass, include, |p| StochasticPush { bound: hull, ..p });
+            self.record_runs(ctx, inputs, pipeline, pass, include, |p| VisibilityPush { bound: hull, ..p });
         }
     }
 
@@ -668,7 +666,7 @@ impl Visibility {
         pipeline: &Pipeline,
         pass: u32,
         include: impl Fn(usize) -> bool,
-        edit: impl Fn(StochasticPush) -> StochasticPush,
+        edit: impl Fn(VisibilityPush) -> VisibilityPush,
     ) {
         let (world, view) = (inputs.world, inputs.camera);
         let max_runs = self.objects.iter().map(|o| o.choices.intervals).max().unwrap_or(1);
@@ -793,7 +791,7 @@ impl Pipelines {
             push_stages |= vk::ShaderStageFlags::GEOMETRY;
         }
         let layout =
-            world.pipeline_layout(device, sets, std::mem::size_of::<StochasticPush>() as u32, push_stages)?;
+            world.pipeline_layout(device, sets, std::mem::size_of::<VisibilityPush>() as u32, push_stages)?;
         let (bindings, attributes) = vertex_input();
         let vert = ShaderModule::new(device, shaders::STOCHASTIC_STOCHASTIC_VERT)?;
         let hull_vert = ShaderModule::new(device, shaders::STOCHASTIC_HULL_VERT)?;

@@ -4,16 +4,16 @@
 //! between the per-pixel allocation and resolve dispatches ([`DecoupledPhase`]).
 
 use ash::vk;
+use bytemuck::{Pod, Zeroable};
 use gpu_allocator::MemoryLocation;
 
-use super::{ShadeVariant, ShadingStage};
+use super::{ShadePush, ShadeVariant, ShadingStage};
 use crate::error::{Error, Result};
-use crate::gpu::layout::ShaderInterface;
+use crate::gpu::layout::{shared_struct, ShaderInterface, SharedStruct};
 use crate::graph::{Access, FrameGraph, ResourceHandle, Tracked};
 use crate::shaders::{ShadeDecoupledComp, ShaderSource};
 use crate::techniques::shadow_maps::ShadowHandles;
-use crate::techniques::stochastic::layout::{DecoupledPhase, StochasticPush};
-use crate::techniques::stochastic::layout::{STOCHASTIC_OBJECT_SET, STOCHASTIC_SET, STOCHASTIC_STRUCTS};
+use crate::techniques::stochastic::layout::{STOCHASTIC_OBJECT_SET, STOCHASTIC_SET};
 use crate::techniques::stochastic::options::StochasticOptions;
 use crate::techniques::stochastic::CacheCounters;
 use crate::techniques::{FrameInputs, PrepareContext};
@@ -58,6 +58,38 @@ impl DecoupledMemory {
     pub fn msaa_gbuffer_bytes(&self) -> u64 {
         self.samples * MSAA_GBUFFER_BYTES_PER_SAMPLE
     }
+}
+
+/// Push constants of `shade_decoupled.comp`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub(super) struct DecoupledPush {
+    pub shade: ShadePush,
+    /// Entries of the memoization cache or of the deferred mode's hash table.
+    pub cache_entries: u32,
+    /// The dispatch's phase ([`DecoupledPhase`]).
+    pub decoupled_phase: u32,
+}
+
+/// For the reflection test.
+const DECOUPLED_PUSH: SharedStruct =
+    shared_struct!("Push", DecoupledPush, [shade, cache_entries, decoupled_phase]);
+
+/// The dispatches of decoupled shading per object and pass (`DC_PHASE_*` in `decoupled.glsl`): the
+/// memoization cache's one, or the deferred mode's four. (Every other stage has one dispatch, `Memo`.)
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[repr(u32)]
+pub(in crate::techniques::stochastic) enum DecoupledPhase {
+    Memo = 0,
+    /// Per pixel: each sample's key found in or added to the hash table, its entry in the compact
+    /// G-buffer.
+    Allocate = 1,
+    /// One invocation: the new entries' range and the next dispatch's indirect arguments.
+    Args = 2,
+    /// Indirect, one invocation per new entry: its shading point shaded.
+    Shade = 3,
+    /// Per pixel: each sample's radiance read from its entry (or shaded on the spot).
+    Resolve = 4,
 }
 
 /// Decoupled shading's stage: its buffers (`decoupled.glsl`, set 3 bindings 8–11).
@@ -212,8 +244,17 @@ impl ShadingStage for Decoupled {
         }
     }
 
-    fn push(&self, _object: u32, push: StochasticPush) -> StochasticPush {
-        StochasticPush { cache_entries: self.cache_entries, ..push }
+    fn push_size(&self) -> u32 {
+        std::mem::size_of::<DecoupledPush>() as u32
+    }
+
+    fn push(&self, shade: ShadePush, phase: DecoupledPhase) -> Vec<u8> {
+        bytemuck::bytes_of(&DecoupledPush {
+            shade,
+            cache_entries: self.cache_entries,
+            decoupled_phase: phase as u32,
+        })
+        .to_vec()
     }
 
     fn indirect_args(&self) -> Option<vk::Buffer> {
@@ -240,12 +281,12 @@ impl ShadingStage for Decoupled {
     }
 }
 
-/// `shade_decoupled.comp`'s interface: sets 2 and 3 of the stochastic frame, [`StochasticPush`], the shadow
+/// `shade_decoupled.comp`'s interface: sets 2 and 3 of the stochastic frame, [`DecoupledPush`], the shadow
 /// maps as set 4.
 pub(in crate::techniques::stochastic) const SHADER_INTERFACE: ShaderInterface = ShaderInterface::technique(
     &["stochastic/shade_decoupled.comp"],
     Some(&STOCHASTIC_OBJECT_SET),
     Some(&STOCHASTIC_SET),
-    Some(STOCHASTIC_STRUCTS[0]),
+    Some(DECOUPLED_PUSH),
 )
 .with_shadows(&crate::techniques::shadow_maps::SHADOW_SET);

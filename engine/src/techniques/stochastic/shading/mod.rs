@@ -11,12 +11,16 @@
 //! | decoupled (memoization cache or deferred) | `decoupled.rs` | `stochastic/shade_decoupled.comp` |
 //!
 //! Tints (stochastic transparency's tint buffer) and shadow maps are axes every stage takes
-//! ([`ShadeVariant`]); the pass here binds sets 0, 3 and 4, the stage its own bindings.
+//! ([`ShadeVariant`]); the pass here binds sets 0, 3 and 4, the stage its own bindings. Every stage
+//! pushes its own struct, declared in its file with its GLSL block in its shader: [`ShadePush`], the
+//! fields every stage reads, first, then its own (`stochastic/shade_push.glsl`; the stage files include
+//! `stochastic/shade.glsl`, what they share).
 
 mod decoupled;
 mod exact;
 mod texture_space;
 
+pub(super) use decoupled::DecoupledPhase;
 pub(super) use decoupled::SHADER_INTERFACE as DECOUPLED_INTERFACE;
 pub(super) use exact::SHADER_INTERFACE as EXACT_INTERFACE;
 pub(super) use texture_space::SHADER_INTERFACE as TEXTURE_SPACE_INTERFACE;
@@ -27,22 +31,96 @@ pub use decoupled::{
 };
 
 use ash::vk;
+use bytemuck::{Pod, Zeroable};
 
 use super::super::shadow_maps::{ShadowHandles, ShadowMaps};
 use super::super::{FrameInputs, PrepareContext};
-use super::layout::{
-    DecoupledPhase, StochasticPush, SHADE_BACKGROUND, STOCHASTIC_OBJECT_BINDINGS_WITHOUT_ATLAS,
-    STOCHASTIC_OBJECT_SET,
-};
+use super::layout::{STOCHASTIC_OBJECT_BINDINGS_WITHOUT_ATLAS, STOCHASTIC_OBJECT_SET};
 use super::options::{ShadingRate, StochasticOptions};
 use super::visibility::{SetLayouts, Visibility, VisibilityHandles};
 use super::CacheCounters;
 use crate::error::{Error, Result};
-use crate::gpu::layout::{Binding, FRAME_SET_INDEX, OBJECT_SET_INDEX, TECHNIQUE_SET_INDEX};
+use crate::gpu::layout::{
+    shared_struct, Binding, Component, GpuField, SharedStruct, FRAME_SET_INDEX, OBJECT_SET_INDEX,
+    TECHNIQUE_SET_INDEX,
+};
+use crate::gpu::GpuView;
 use crate::graph::{Access, FrameGraph, ImageHandle, PassContext, ResourceHandle};
 use crate::plan::Effects;
 use crate::shaders::{axes, ShaderSource};
 use crate::vk::{Device, Pipeline, PipelineLayout, ShaderModule};
+
+/// The push constants every shading stage's struct starts with (`stochastic/shade_push.glsl`): which
+/// object the dispatch shades, from which pixel on, in which pass.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub(super) struct ShadePush {
+    /// The object's index, or [`SHADE_BACKGROUND`].
+    pub object: u32,
+    pub pass_index: u32,
+    pub spp: u32,
+    pub per_pass: u32,
+    /// The dispatch covers the object's screen box from this pixel on.
+    pub origin_x: u32,
+    pub origin_y: u32,
+    /// The object's first triangle in the frame's numbering (visibility payloads) and its count.
+    pub triangle_base: u32,
+    pub triangle_count: u32,
+    /// The object's first key segment in the view's object records and its segment count.
+    pub segment_first: u32,
+    pub segment_count: u32,
+}
+
+impl ShadePush {
+    /// Of pass `pass`' dispatch for object `object` of `visibility` (or [`SHADE_BACKGROUND`]) from pixel
+    /// `origin` on.
+    fn new(visibility: &Visibility, view: &GpuView, object: u32, pass: u32, origin: [u32; 2]) -> Self {
+        let o = visibility.objects.get(object as usize).map(|o| &o.choices);
+        let (triangle_base, triangle_count) = o.map_or((0, 0), |c| (c.triangle_base, c.triangle_count));
+        let (segment_first, segment_count) =
+            if o.is_some() { view.segments(object as usize) } else { (0, 1) };
+        let s = &visibility.sampling;
+        ShadePush {
+            object,
+            pass_index: pass,
+            spp: s.spp,
+            per_pass: s.per_pass,
+            origin_x: origin[0],
+            origin_y: origin[1],
+            triangle_base,
+            triangle_count,
+            segment_first,
+            segment_count,
+        }
+    }
+}
+
+/// `ShadePush shade` is each stage's block's first member: the reflection test checks its members too.
+impl GpuField for ShadePush {
+    const COMPONENT: Component = Component::Struct("ShadePush");
+    const LAYOUT: Option<&'static SharedStruct> = Some(&SHADE_PUSH);
+}
+
+const SHADE_PUSH: SharedStruct = shared_struct!(
+    "ShadePush",
+    ShadePush,
+    [
+        object,
+        pass_index,
+        spp,
+        per_pass,
+        origin_x,
+        origin_y,
+        triangle_base,
+        triangle_count,
+        segment_first,
+        segment_count
+    ]
+);
+
+/// [`ShadePush::object`] of the shading pass' dispatch that adds the background for the samples without
+/// a hit (`SHADE_BACKGROUND` in `stochastic/shade.glsl`).
+pub(super) const SHADE_BACKGROUND: u32 = u32::MAX;
 
 /// The axes every shading stage's shader has besides its rate.
 #[derive(Clone, Copy, Debug)]
@@ -55,10 +133,17 @@ pub(super) struct ShadeVariant {
 }
 
 /// A shading rate: its shader, the bindings and passes it adds, its dispatches' push constants.
-/// Everything has a default but the shader: the exact rates need nothing more.
+/// Everything has a default but the shader and the push constants: the exact rates need nothing more.
 pub(super) trait ShadingStage {
     /// Its shader permutation for `v`.
     fn shader(&self, v: ShadeVariant) -> ShaderSource;
+
+    /// The size of its push constants (the pipeline layout's range).
+    fn push_size(&self) -> u32;
+
+    /// Its push constants for a `phase` dispatch of `shade`'s object (or the background's): its own
+    /// struct, `shade` first, as bytes.
+    fn push(&self, shade: ShadePush, phase: DecoupledPhase) -> Vec<u8>;
 
     /// Set 2's binding table (bindings 5–7, the shading atlas, only where a stage reads them: lavapipe
     /// (Mesa 22.3) crashes binding a set whose combined image sampler was never written).
@@ -94,11 +179,6 @@ pub(super) trait ShadingStage {
     /// The dispatches per object and pass.
     fn phases(&self) -> &'static [DecoupledPhase] {
         &[DecoupledPhase::Memo]
-    }
-
-    /// Its fields of the push constants of a dispatch for `object` (or [`SHADE_BACKGROUND`]).
-    fn push(&self, _object: u32, push: StochasticPush) -> StochasticPush {
-        push
     }
 
     /// The indirect arguments of a [`DecoupledPhase::Shade`] dispatch.
@@ -191,12 +271,8 @@ impl ShadingPass {
         let device = ctx.device;
         let sets: Vec<_> =
             layouts.both().into_iter().chain(shadows.as_ref().map(ShadowMaps::set_layout)).collect();
-        let layout = ctx.world.pipeline_layout(
-            device,
-            &sets,
-            std::mem::size_of::<StochasticPush>() as u32,
-            vk::ShaderStageFlags::COMPUTE,
-        )?;
+        let layout =
+            ctx.world.pipeline_layout(device, &sets, stage.push_size(), vk::ShaderStageFlags::COMPUTE)?;
         let (shadow_axis, shadow_color) =
             shadows.as_ref().map_or((axes::Shadows::None, false), |m| m.lookup());
         let mut pipelines = Vec::with_capacity(paths.len());
@@ -323,28 +399,14 @@ impl ShadingPass {
                 barrier();
             }
             first = false;
-            let push = match objects.get(object as usize) {
-                Some(o) => o.push(object as usize, view, visibility.sampling.push(pass)),
-                None => visibility.sampling.push(pass),
-            };
-            let push = StochasticPush {
-                origin_x: x0,
-                origin_y: y0,
-                decoupled_phase: phase as u32,
-                ..self.stage.push(object, push)
-            };
+            let push = self.stage.push(ShadePush::new(visibility, view, object, pass, [x0, y0]), phase);
+            debug_assert_eq!(push.len(), self.stage.push_size() as usize);
             // SAFETY: the recording contract of `PassContext`; the pipeline and sets belong to `layout`,
             // the indirect buffer (the deferred queue) is declared by the stage's frame passes.
             unsafe {
                 d.raw.cmd_bind_pipeline(cmd, bind, pipeline.raw);
                 d.raw.cmd_bind_descriptor_sets(cmd, bind, layout, OBJECT_SET_INDEX, &sets, &[]);
-                d.raw.cmd_push_constants(
-                    cmd,
-                    layout,
-                    vk::ShaderStageFlags::COMPUTE,
-                    0,
-                    bytemuck::bytes_of(&push),
-                );
+                d.raw.cmd_push_constants(cmd, layout, vk::ShaderStageFlags::COMPUTE, 0, &push);
                 match phase {
                     DecoupledPhase::Args => d.raw.cmd_dispatch(cmd, 1, 1, 1),
                     DecoupledPhase::Shade => d.raw.cmd_dispatch_indirect(

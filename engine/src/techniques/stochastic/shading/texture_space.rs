@@ -3,21 +3,36 @@
 //! repeat — per sample, or once per (triangle, side) group of the pixel.
 
 use ash::vk;
+use bytemuck::{Pod, Zeroable};
 
-use super::{ShadeVariant, ShadingStage};
+use super::{DecoupledPhase, ShadePush, ShadeVariant, ShadingStage};
 use crate::error::Result;
 use crate::gpu::layout::Binding;
-use crate::gpu::layout::ShaderInterface;
+use crate::gpu::layout::{shared_struct, ShaderInterface, SharedStruct};
 use crate::graph::{Access, FrameGraph, ResourceHandle};
 use crate::shaders::{ShadeTextureSpaceComp, ShaderSource};
 use crate::techniques::shadow_maps::{ShadowHandles, ShadowMaps};
-use crate::techniques::stochastic::layout::{StochasticPush, STOCHASTIC_OBJECT_SET};
-use crate::techniques::stochastic::layout::{STOCHASTIC_SET, STOCHASTIC_STRUCTS};
+use crate::techniques::stochastic::layout::{STOCHASTIC_OBJECT_SET, STOCHASTIC_SET};
 use crate::techniques::stochastic::options::{ShadingRate, StochasticOptions};
 use crate::techniques::stochastic::{TEXTURE_SPACE_FINEST, TEXTURE_SPACE_GUTTER};
 use crate::techniques::texture_space::{self, AtlasPasses};
 use crate::techniques::{FrameInputs, PrepareContext};
 use crate::vk::{write_descriptors, DescriptorWrite, Device, Sampler};
+
+/// Push constants of `shade_texture_space.comp`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub(super) struct TextureSpacePush {
+    pub shade: ShadePush,
+    /// The object's atlas layout ([`crate::texture_space::atlas::MipAtlas`]): level 0's side and the
+    /// gutter (0 for the background).
+    pub atlas_finest: u32,
+    pub atlas_gutter: u32,
+}
+
+/// For the reflection test.
+const TEXTURE_SPACE_PUSH: SharedStruct =
+    shared_struct!("Push", TextureSpacePush, [shade, atlas_finest, atlas_gutter]);
 
 pub(super) struct TextureSpaceLookup {
     per_sample: bool,
@@ -110,13 +125,18 @@ impl ShadingStage for TextureSpaceLookup {
         uses
     }
 
-    fn push(&self, object: u32, push: StochasticPush) -> StochasticPush {
-        let atlas = self.atlas.object_atlas(object as usize);
-        StochasticPush {
+    fn push_size(&self) -> u32 {
+        std::mem::size_of::<TextureSpacePush>() as u32
+    }
+
+    fn push(&self, shade: ShadePush, _phase: DecoupledPhase) -> Vec<u8> {
+        let atlas = self.atlas.object_atlas(shade.object as usize);
+        bytemuck::bytes_of(&TextureSpacePush {
+            shade,
             atlas_finest: atlas.map_or(0, |a| a.finest()),
             atlas_gutter: atlas.map_or(0, |a| a.gutter()),
-            ..push
-        }
+        })
+        .to_vec()
     }
 
     fn atlas_texels(&self) -> Result<Option<(u64, u64)>> {
@@ -124,11 +144,11 @@ impl ShadingStage for TextureSpaceLookup {
     }
 }
 
-/// `shade_texture_space.comp`'s interface: sets 2 and 3 of the stochastic frame, [`StochasticPush`] (no
+/// `shade_texture_space.comp`'s interface: sets 2 and 3 of the stochastic frame, [`TextureSpacePush`] (no
 /// shadow maps: pass 1 shaded with them).
 pub(in crate::techniques::stochastic) const SHADER_INTERFACE: ShaderInterface = ShaderInterface::technique(
     &["stochastic/shade_texture_space.comp"],
     Some(&STOCHASTIC_OBJECT_SET),
     Some(&STOCHASTIC_SET),
-    Some(STOCHASTIC_STRUCTS[0]),
+    Some(TEXTURE_SPACE_PUSH),
 );

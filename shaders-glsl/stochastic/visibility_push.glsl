@@ -1,10 +1,10 @@
-// Push constants of the stochastic rasterizer, shared by its vertex, geometry and fragment stages and
-// its shading pass. Mirrors `StochasticPush` in engine/src/techniques/stochastic.rs.
-#ifndef SHUTTER_STOCHASTIC_PUSH_GLSL
-#define SHUTTER_STOCHASTIC_PUSH_GLSL
+// Push constants of the stochastic rasterizer's visibility core: its coverage and tint draws, shared by
+// their vertex, geometry and fragment stages. Mirrors `VisibilityPush` in
+// engine/src/techniques/stochastic/layout.rs; the shading stages push their own (shade_push.glsl).
+#ifndef SHUTTER_STOCHASTIC_VISIBILITY_PUSH_GLSL
+#define SHUTTER_STOCHASTIC_VISIBILITY_PUSH_GLSL
 
 layout(push_constant) uniform Push {
-    uint object;      // index into `objects` (shade.glsl: SHADE_BACKGROUND for the empty samples)
     uint bound;       // bound kind id (BOUND_* in stochastic/bounds.glsl)
     uint pass_index;  // this pass tests samples [pass_index * per_pass, (pass_index + 1) * per_pass) of each pixel
     uint spp;         // S: samples per pixel over all passes (the sample tile's depth)
@@ -13,14 +13,11 @@ layout(push_constant) uniform Push {
     // Interval bounds: this draw tests the pass' samples [sample_first, sample_first + sample_count)
     // that lie in key segment `segment` of the object's motion (samples come in time order), and
     // bounds the triangle over [t0, t1] of the segment's local time, which holds all of theirs.
-    // NO_MOTION: t0 = t1 is the local time of mid-shutter in `segment`. The shading pass ignores them.
+    // NO_MOTION: t0 = t1 is the local time of mid-shutter in `segment`.
     uint sample_first;
     uint sample_count;
     float t0;
     float t1;
-    // The shading pass' dispatch covers the object's screen box from this pixel on.
-    uint origin_x;
-    uint origin_y;
     // The object's first triangle in the frame's numbering (visibility payloads) and its count.
     uint triangle_base;
     uint triangle_count;
@@ -42,16 +39,9 @@ layout(push_constant) uniform Push {
     uint tint_log_r;
     uint tint_log_g;
     uint tint_log_b;
-    // TEXTURE_SPACE (shade.glsl): the objects' atlas layout (texture_space::atlas::MipAtlas).
-    uint atlas_finest;
-    uint atlas_gutter;
     // 1: the object's material is one-sided (scene::Material::one_sided): stochastic.frag drops every
     // hit on a triangle's back, as the reference's camera rays skip it.
     uint one_sided;
-    // Decoupled shading (shade_decoupled.comp): entries of the memoization cache or of the deferred
-    // mode's hash table, and the dispatch's phase (DC_PHASE_* in stochastic/decoupled.glsl).
-    uint cache_entries;
-    uint decoupled_phase;
 } pc;
 
 #endif
