@@ -77,8 +77,12 @@ impl PassContext<'_> {
 
     /// Pushes `value` at offset 0 of `layout`'s push-constant range, for the range's stages.
     pub fn push<T: bytemuck::Pod>(&self, layout: &PipelineLayout, value: &T) {
+        self.push_bytes(layout, bytemuck::bytes_of(value));
+    }
+
+    /// Pushes `bytes` at offset 0 of `layout`'s push-constant range (a stage's push built at run time).
+    pub fn push_bytes(&self, layout: &PipelineLayout, bytes: &[u8]) {
         assert!(layout.belongs_to(self.device), "a pipeline layout of another device");
-        let bytes = bytemuck::bytes_of(value);
         assert!(
             bytes.len() as u32 <= layout.push_bytes(),
             "{} push-constant bytes into a range of {}",

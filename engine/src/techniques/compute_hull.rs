@@ -256,48 +256,37 @@ impl ComputeHull {
         // Atomics read and write the counts.
         pass = pass.access(counts, Access::ComputeShaderReadOther).access(counts, Access::ComputeShaderWrite);
         pass.record(move |ctx| {
-            let (d, cmd) = (ctx.device, ctx.cmd);
             let bind = vk::PipelineBindPoint::COMPUTE;
-            let layout = self.expand_layout.raw;
-            // SAFETY: the recording contract of `PassContext` (graph/mod.rs): the pass declared what this
-            // touches, and the pipelines, layouts and sets are the technique's, of one layout.
-            unsafe {
-                d.raw.cmd_bind_descriptor_sets(cmd, bind, layout, FRAME_SET_INDEX, &[view_set], &[]);
-                d.raw.cmd_bind_descriptor_sets(cmd, bind, layout, TECHNIQUE_SET_INDEX, &[technique_set], &[]);
-                for (effects, pipeline) in &self.expand {
-                    d.raw.cmd_bind_pipeline(cmd, bind, pipeline.raw);
-                    for (i, o) in world.objects.iter().enumerate() {
-                        if !drawn(i) || objects[i].choices.effects != *effects {
-                            continue;
-                        }
-                        let sets = [o.set, objects[i].set];
-                        d.raw.cmd_bind_descriptor_sets(cmd, bind, layout, OBJECT_SET_INDEX, &sets, &[]);
-                        let keys = &objects[i].choices.keys;
-                        let segment_count = keys.segments() as u32;
-                        let (segment_begin, segments, t0, t1) =
-                            super::stochastic::bounded_segments(keys, effects.motion());
-                        let push = ExpandPush {
-                            object: i as u32,
-                            triangle_count: o.triangle_count(),
-                            bound: objects[i].choices.bound.id(),
-                            capacity: self.capacity[i],
-                            dilate,
-                            segment_count,
-                            segment_begin,
-                            segments,
-                            t0,
-                            t1,
-                            one_sided: o.one_sided as u32,
-                        };
-                        d.raw.cmd_push_constants(
-                            cmd,
-                            layout,
-                            vk::ShaderStageFlags::COMPUTE,
-                            0,
-                            bytemuck::bytes_of(&push),
-                        );
-                        d.raw.cmd_dispatch(cmd, (o.triangle_count() * segments).div_ceil(64), 1, 1);
+            let layout = &self.expand_layout;
+            ctx.bind_sets(bind, layout, FRAME_SET_INDEX, &[view_set]);
+            ctx.bind_sets(bind, layout, TECHNIQUE_SET_INDEX, &[technique_set]);
+            for (effects, pipeline) in &self.expand {
+                ctx.bind_pipeline(pipeline);
+                for (i, o) in world.objects.iter().enumerate() {
+                    if !drawn(i) || objects[i].choices.effects != *effects {
+                        continue;
                     }
+                    let sets = [o.set, objects[i].set];
+                    ctx.bind_sets(bind, layout, OBJECT_SET_INDEX, &sets);
+                    let keys = &objects[i].choices.keys;
+                    let segment_count = keys.segments() as u32;
+                    let (segment_begin, segments, t0, t1) =
+                        super::stochastic::bounded_segments(keys, effects.motion());
+                    let push = ExpandPush {
+                        object: i as u32,
+                        triangle_count: o.triangle_count(),
+                        bound: objects[i].choices.bound.id(),
+                        capacity: self.capacity[i],
+                        dilate,
+                        segment_count,
+                        segment_begin,
+                        segments,
+                        t0,
+                        t1,
+                        one_sided: o.one_sided as u32,
+                    };
+                    ctx.push(layout, &push);
+                    ctx.dispatch((o.triangle_count() * segments).div_ceil(64), 1, 1);
                 }
             }
             Ok(())

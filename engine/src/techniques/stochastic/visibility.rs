@@ -370,9 +370,7 @@ impl Visibility {
         }
         clear.record(move |ctx| {
             for b in std::iter::once(visibility).chain(tints) {
-                let b = ctx.buffer(b);
-                // SAFETY: the recording contract of `PassContext`; the pass declared the overwrite.
-                unsafe { ctx.device.raw.cmd_fill_buffer(ctx.cmd, b.raw, 0, vk::WHOLE_SIZE, 0) };
+                ctx.fill_buffer(b, 0);
             }
             Ok(())
         });
@@ -452,69 +450,49 @@ impl Visibility {
     }
 
     fn record_triangles(&self, ctx: &PassContext<'_>, world: &GpuWorld, view: &GpuView, objects: &[usize]) {
-        let (d, cmd) = (ctx.device, ctx.cmd);
         let bind = vk::PipelineBindPoint::COMPUTE;
-        let layout = self.pipelines.triangles_layout.raw;
-        // SAFETY: the recording contract of `PassContext`; the pipeline and sets belong to `layout`.
-        unsafe {
-            d.raw.cmd_bind_pipeline(cmd, bind, self.pipelines.triangles.raw);
-            d.raw.cmd_bind_descriptor_sets(cmd, bind, layout, FRAME_SET_INDEX, &[view.frame_set], &[]);
-            for &i in objects {
-                let o = &world.objects[i];
-                let sets = [o.set, self.objects[i].set];
-                d.raw.cmd_bind_descriptor_sets(cmd, bind, layout, OBJECT_SET_INDEX, &sets, &[]);
-                let (segment_first, segments) = view.segments(i);
-                let push =
-                    TrianglesPush { segment_first, keys: segments + 1, triangle_count: o.triangle_count() };
-                d.raw.cmd_push_constants(
-                    cmd,
-                    layout,
-                    vk::ShaderStageFlags::COMPUTE,
-                    0,
-                    bytemuck::bytes_of(&push),
-                );
-                d.raw.cmd_dispatch(cmd, o.triangle_count().div_ceil(64), 1, 1);
-            }
+        let layout = &self.pipelines.triangles_layout;
+        ctx.bind_pipeline(&self.pipelines.triangles);
+        ctx.bind_sets(bind, layout, FRAME_SET_INDEX, &[view.frame_set]);
+        for &i in objects {
+            let o = &world.objects[i];
+            let sets = [o.set, self.objects[i].set];
+            ctx.bind_sets(bind, layout, OBJECT_SET_INDEX, &sets);
+            let (segment_first, segments) = view.segments(i);
+            let push =
+                TrianglesPush { segment_first, keys: segments + 1, triangle_count: o.triangle_count() };
+            ctx.push(layout, &push);
+            ctx.dispatch(o.triangle_count().div_ceil(64), 1, 1);
         }
     }
 
     /// `clusters.comp` for each clustered object (`objects`) and key segment (the segment holding
     /// mid-shutter for an object that does not move).
     fn record_clusters(&self, ctx: &PassContext<'_>, world: &GpuWorld, view: &GpuView, objects: &[usize]) {
-        let (d, cmd) = (ctx.device, ctx.cmd);
         let bind = vk::PipelineBindPoint::COMPUTE;
-        let layout = self.pipelines.clusters_layout.raw;
-        // SAFETY: the recording contract of `PassContext`; the pipelines and sets belong to `layout`.
-        unsafe {
-            d.raw.cmd_bind_descriptor_sets(cmd, bind, layout, FRAME_SET_INDEX, &[view.frame_set], &[]);
-            for (effects, pipeline) in &self.pipelines.clusters {
-                d.raw.cmd_bind_pipeline(cmd, bind, pipeline.raw);
-                for &i in objects.iter().filter(|&&i| self.objects[i].choices.effects == *effects) {
-                    let (o, so) = (&world.objects[i], &self.objects[i]);
-                    let sets = [o.set, so.set];
-                    d.raw.cmd_bind_descriptor_sets(cmd, bind, layout, OBJECT_SET_INDEX, &sets, &[]);
-                    let keys = &so.choices.keys;
-                    let (first, count, t0, t1) = bounded_segments(keys, effects.motion());
-                    let n = so.choices.clusters;
-                    for segment in first..first + count {
-                        let push = ClustersPush {
-                            triangle_count: o.triangle_count(),
-                            cluster_size: n,
-                            segment_count: keys.segments() as u32,
-                            segment,
-                            t0,
-                            t1,
-                            one_sided: o.one_sided as u32,
-                        };
-                        d.raw.cmd_push_constants(
-                            cmd,
-                            layout,
-                            vk::ShaderStageFlags::COMPUTE,
-                            0,
-                            bytemuck::bytes_of(&push),
-                        );
-                        d.raw.cmd_dispatch(cmd, o.triangle_count().div_ceil(n).div_ceil(64), 1, 1);
-                    }
+        let layout = &self.pipelines.clusters_layout;
+        ctx.bind_sets(bind, layout, FRAME_SET_INDEX, &[view.frame_set]);
+        for (effects, pipeline) in &self.pipelines.clusters {
+            ctx.bind_pipeline(pipeline);
+            for &i in objects.iter().filter(|&&i| self.objects[i].choices.effects == *effects) {
+                let (o, so) = (&world.objects[i], &self.objects[i]);
+                let sets = [o.set, so.set];
+                ctx.bind_sets(bind, layout, OBJECT_SET_INDEX, &sets);
+                let keys = &so.choices.keys;
+                let (first, count, t0, t1) = bounded_segments(keys, effects.motion());
+                let n = so.choices.clusters;
+                for segment in first..first + count {
+                    let push = ClustersPush {
+                        triangle_count: o.triangle_count(),
+                        cluster_size: n,
+                        segment_count: keys.segments() as u32,
+                        segment,
+                        t0,
+                        t1,
+                        one_sided: o.one_sided as u32,
+                    };
+                    ctx.push(layout, &push);
+                    ctx.dispatch(o.triangle_count().div_ceil(n).div_ceil(64), 1, 1);
                 }
             }
         }
@@ -570,7 +548,6 @@ impl Visibility {
 
     /// The coverage draws of pass `pass`, inside the attachment-less rendering.
     fn record_coverage(&self, ctx: &mut PassContext<'_>, inputs: &FrameInputs<'_>, pass: u32) {
-        let (d, cmd) = (ctx.device, ctx.cmd);
         let bind = vk::PipelineBindPoint::GRAPHICS;
         let world = inputs.world;
         for (effects, pipeline) in &self.pipelines.coverage {
@@ -587,38 +564,15 @@ impl Visibility {
             // segment holding mid-shutter and its local time.
             let push = |i: usize| self.coverage_push(view, i, pass, 0, 1, 0).expect("segment 0 always draws");
             // Compute-expanded hull: each object's triangle list, no vertex input.
-            // SAFETY: the recording contract of `PassContext`; the pipeline and sets belong to the layout.
-            unsafe {
-                d.raw.cmd_bind_descriptor_sets(
-                    cmd,
-                    bind,
-                    self.pipelines.layout.raw,
-                    FRAME_SET_INDEX,
-                    &[inputs.camera.frame_set],
-                    &[],
-                );
-                for (i, o) in world.objects.iter().enumerate() {
-                    if !include(i) || self.objects[i].hull_count == 0 {
-                        continue;
-                    }
-                    d.raw.cmd_push_constants(
-                        cmd,
-                        self.pipelines.layout.raw,
-                        self.pipelines.push_stages,
-                        0,
-                        bytemuck::bytes_of(&push(i)),
-                    );
-                    let sets = [o.set, self.objects[i].set];
-                    d.raw.cmd_bind_descriptor_sets(
-                        cmd,
-                        bind,
-                        self.pipelines.layout.raw,
-                        OBJECT_SET_INDEX,
-                        &sets,
-                        &[],
-                    );
-                    d.raw.cmd_draw(cmd, self.objects[i].hull_count, 1, 0, 0);
+            ctx.bind_sets(bind, &self.pipelines.layout, FRAME_SET_INDEX, &[inputs.camera.frame_set]);
+            for (i, o) in world.objects.iter().enumerate() {
+                if !include(i) || self.objects[i].hull_count == 0 {
+                    continue;
                 }
+                ctx.push(&self.pipelines.layout, &push(i));
+                let sets = [o.set, self.objects[i].set];
+                ctx.bind_sets(bind, &self.pipelines.layout, OBJECT_SET_INDEX, &sets);
+                ctx.draw(self.objects[i].hull_count, 1);
             }
         }
     }
@@ -640,19 +594,9 @@ impl Visibility {
 
     /// Binds a raster pipeline of the frame and its set 3.
     fn bind_raster(&self, ctx: &PassContext<'_>, pipeline: &Pipeline) {
-        let (d, cmd, bind) = (ctx.device, ctx.cmd, vk::PipelineBindPoint::GRAPHICS);
-        // SAFETY: the recording contract of `PassContext`; the pipeline and set belong to the layout.
-        unsafe {
-            d.raw.cmd_bind_pipeline(cmd, bind, pipeline.raw);
-            d.raw.cmd_bind_descriptor_sets(
-                cmd,
-                bind,
-                self.pipelines.layout.raw,
-                TECHNIQUE_SET_INDEX,
-                &[self.technique_set],
-                &[],
-            );
-        }
+        let bind = vk::PipelineBindPoint::GRAPHICS;
+        ctx.bind_pipeline(pipeline);
+        ctx.bind_sets(bind, &self.pipelines.layout, TECHNIQUE_SET_INDEX, &[self.technique_set]);
     }
 
     /// The geometry-shader draws of pass `pass` of the objects `include` admits with `pipeline`
@@ -692,22 +636,11 @@ impl Visibility {
     /// The coverage draws of the clustered objects in pass `pass`: per object and key segment (the
     /// one holding mid-shutter for an object that does not move), six vertices per cluster.
     fn record_cluster_coverage(&self, ctx: &mut PassContext<'_>, inputs: &FrameInputs<'_>, pass: u32) {
-        let (d, cmd) = (ctx.device, ctx.cmd);
         let bind = vk::PipelineBindPoint::GRAPHICS;
         let (world, view) = (inputs.world, inputs.camera);
         for (effects, pipeline) in &self.pipelines.cluster_coverage {
             self.bind_raster(ctx, pipeline);
-            // SAFETY: the recording contract of `PassContext`; the set belongs to the layout.
-            unsafe {
-                d.raw.cmd_bind_descriptor_sets(
-                    cmd,
-                    bind,
-                    self.pipelines.layout.raw,
-                    FRAME_SET_INDEX,
-                    &[view.frame_set],
-                    &[],
-                );
-            }
+            ctx.bind_sets(bind, &self.pipelines.layout, FRAME_SET_INDEX, &[view.frame_set]);
             for (i, (o, so)) in world.objects.iter().zip(&self.objects).enumerate() {
                 let n = so.choices.clusters;
                 if n == 0 || so.choices.effects != *effects || !so.is_drawn() {
@@ -717,26 +650,9 @@ impl Visibility {
                 let clusters = o.triangle_count().div_ceil(n);
                 for seg in 0..so.choices.keys.segments() {
                     let Some(push) = self.coverage_push(view, i, pass, 0, 1, seg) else { continue };
-                    // SAFETY: the recording contract of `PassContext`; inside the pass' rendering, with
-                    // a pipeline of this layout bound.
-                    unsafe {
-                        d.raw.cmd_push_constants(
-                            cmd,
-                            self.pipelines.layout.raw,
-                            self.pipelines.push_stages,
-                            0,
-                            bytemuck::bytes_of(&push),
-                        );
-                        d.raw.cmd_bind_descriptor_sets(
-                            cmd,
-                            bind,
-                            self.pipelines.layout.raw,
-                            OBJECT_SET_INDEX,
-                            &sets,
-                            &[],
-                        );
-                        d.raw.cmd_draw(cmd, 6 * clusters, 1, 0, 0);
-                    }
+                    ctx.push(&self.pipelines.layout, &push);
+                    ctx.bind_sets(bind, &self.pipelines.layout, OBJECT_SET_INDEX, &sets);
+                    ctx.draw(6 * clusters, 1);
                 }
             }
         }
@@ -755,9 +671,8 @@ struct Pipelines {
     clusters_layout: PipelineLayout,
     triangles: Pipeline,
     triangles_layout: PipelineLayout,
-    /// The raster pipelines' layout and push stages.
+    /// The raster pipelines' layout (its push range carries the push stages).
     layout: PipelineLayout,
-    push_stages: vk::ShaderStageFlags,
     _shaders: Vec<ShaderModule>,
 }
 
@@ -895,7 +810,6 @@ impl Pipelines {
             triangles: triangles_pipeline,
             triangles_layout,
             layout,
-            push_stages,
             _shaders: shader_modules,
         })
     }

@@ -218,9 +218,7 @@ impl ShadingStage for Decoupled {
             .overwrite(q, Access::TransferWrite)
             .record(move |ctx| {
                 for b in [h, q] {
-                    let b = ctx.buffer(b);
-                    // SAFETY: the recording contract of `PassContext`; the pass declared the overwrite.
-                    unsafe { ctx.device.raw.cmd_fill_buffer(ctx.cmd, b.raw, 0, vk::WHOLE_SIZE, 0) };
+                    ctx.fill_buffer(b, 0);
                 }
                 Ok(())
             });

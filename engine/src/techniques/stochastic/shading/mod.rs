@@ -354,35 +354,23 @@ impl ShadingPass {
     ) {
         let (d, cmd) = (ctx.device, ctx.cmd);
         let bind = vk::PipelineBindPoint::COMPUTE;
-        let layout = self.layout.raw;
+        let layout = &self.layout;
         let (w, h) = visibility.sampling.size;
         let (world, view, objects) = (inputs.world, inputs.camera, &visibility.objects);
         let barrier = || {
             // Read-modify-write of the accumulation image by consecutive dispatches; the deferred mode's
             // table, queue and G-buffer, and its shading dispatch's indirect arguments.
-            crate::vk::compute_write_barrier(
-                d,
-                cmd,
+            ctx.compute_write_barrier(
                 vk::PipelineStageFlags2::COMPUTE_SHADER | vk::PipelineStageFlags2::DRAW_INDIRECT,
                 vk::AccessFlags2::SHADER_STORAGE_READ
                     | vk::AccessFlags2::SHADER_STORAGE_WRITE
                     | vk::AccessFlags2::INDIRECT_COMMAND_READ,
             );
         };
-        // SAFETY: the recording contract of `PassContext`; the sets belong to `layout`.
-        unsafe {
-            d.raw.cmd_bind_descriptor_sets(cmd, bind, layout, FRAME_SET_INDEX, &[view.frame_set], &[]);
-            d.raw.cmd_bind_descriptor_sets(
-                cmd,
-                bind,
-                layout,
-                TECHNIQUE_SET_INDEX,
-                &[visibility.technique_set],
-                &[],
-            );
-            if let Some(maps) = &self.shadows {
-                maps.bind(ctx, bind, &self.layout, crate::gpu::layout::SHADOW_SET_INDEX);
-            }
+        ctx.bind_sets(bind, layout, FRAME_SET_INDEX, &[view.frame_set]);
+        ctx.bind_sets(bind, layout, TECHNIQUE_SET_INDEX, &[visibility.technique_set]);
+        if let Some(maps) = &self.shadows {
+            maps.bind(ctx, bind, &self.layout, crate::gpu::layout::SHADOW_SET_INDEX);
         }
         let mut first = true;
         let indirect = self.stage.indirect_args();
@@ -401,21 +389,19 @@ impl ShadingPass {
             first = false;
             let push = self.stage.push(ShadePush::new(visibility, view, object, pass, [x0, y0]), phase);
             debug_assert_eq!(push.len(), self.stage.push_size() as usize);
-            // SAFETY: the recording contract of `PassContext`; the pipeline and sets belong to `layout`,
-            // the indirect buffer (the deferred queue) is declared by the stage's frame passes.
-            unsafe {
-                d.raw.cmd_bind_pipeline(cmd, bind, pipeline.raw);
-                d.raw.cmd_bind_descriptor_sets(cmd, bind, layout, OBJECT_SET_INDEX, &sets, &[]);
-                d.raw.cmd_push_constants(cmd, layout, vk::ShaderStageFlags::COMPUTE, 0, &push);
-                match phase {
-                    DecoupledPhase::Args => d.raw.cmd_dispatch(cmd, 1, 1, 1),
-                    DecoupledPhase::Shade => d.raw.cmd_dispatch_indirect(
-                        cmd,
-                        indirect.expect("the deferred mode has its queue"),
-                        decoupled::DEFERRED_ARGS_OFFSET,
-                    ),
-                    _ => d.raw.cmd_dispatch(cmd, rw.div_ceil(8), rh.div_ceil(8), 1),
+            ctx.bind_pipeline(pipeline);
+            ctx.bind_sets(bind, layout, OBJECT_SET_INDEX, &sets);
+            ctx.push_bytes(layout, &push);
+            match phase {
+                DecoupledPhase::Args => ctx.dispatch(1, 1, 1),
+                DecoupledPhase::Shade => {
+                    let queue = indirect.expect("the deferred mode has its queue");
+                    // SAFETY: the recording contract of `PassContext`; the indirect buffer (the deferred
+                    // queue, a buffer the stage owns) is declared by the stage's frame passes, not by
+                    // this pass, so `PassContext::dispatch_indirect`'s check cannot be used here.
+                    unsafe { d.raw.cmd_dispatch_indirect(cmd, queue, decoupled::DEFERRED_ARGS_OFFSET) }
                 }
+                _ => ctx.dispatch(rw.div_ceil(8), rh.div_ceil(8), 1),
             }
         };
         // The background dispatch reads no object's data; any permutation does it. Set 1 and 2 of the
