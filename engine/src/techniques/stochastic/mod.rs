@@ -16,7 +16,7 @@
 //! depth per pixel through `gl_FragDepth`): on a CPU rasterizer that masks SIMD lanes, shading there is
 //! paid by every bound fragment, and one depth per pixel misorders samples (`docs/STOCHASTIC.md`).
 //!
-//! The (x, y, u, v, t) samples are those of the CPU reference ([`SampleTile`]: 64×64 pixels × S
+//! The (x, y, u, v, t) samples are those of the CPU reference ([`SampleTile`](crate::sampling::SampleTile): 64×64 pixels × S
 //! stratified samples, aperture shape and shutter curve applied here, never in the shaders), so at
 //! equal S and seed the two estimate the pixel integral with the very same samples.
 //! Shaders: `shaders-glsl/stochastic/`.
@@ -137,9 +137,10 @@ impl SampleCounters {
     }
 }
 
-/// The stochastic path of a set of objects, as its data flows: the [`Visibility`] core (per-object
-/// records, coverage pipelines, visibility buffer) feeds the [`ShadingPass`] (one [`ShadingStage`]
-/// per shading rate), which adds into the accumulation image.
+/// The stochastic path of a set of objects, as its data flows: the visibility core (`Visibility` in
+/// `visibility.rs`: per-object records, coverage pipelines, visibility buffer) feeds the shading pass
+/// (`ShadingPass` in `shading/mod.rs`: one `ShadingStage` per shading rate), which adds into the
+/// accumulation image.
 pub struct StochasticDraws {
     visibility: Visibility,
     shading: ShadingPass,

@@ -29,7 +29,7 @@ pub enum ShadingRate {
     #[default]
     PerSample,
     /// Adaptive texture-space shading (Andersson et al. 2014; docs/ATSS.md): every object shaded once
-    /// per frame into its own mip atlas at a level chosen per triangle ([`super::texture_space`],
+    /// per frame into its own mip atlas at a level chosen per triangle ([`crate::techniques::texture_space`],
     /// level 0 at most [`TEXTURE_SPACE_FINEST`]², fitted per object), at the lens centre and
     /// mid-shutter — or, for an object that turns in camera space within the shutter, at several
     /// times, weighed by the samples that see each texel then
@@ -58,7 +58,7 @@ pub enum ShadingRate {
 }
 
 /// The largest level 0 side of the atlases of [`ShadingRate::TextureSpace`], texels — the paper's;
-/// each object's is fitted to what its triangles ask for ([`super::texture_space::AtlasSize`]).
+/// each object's is fitted to what its triangles ask for ([`AtlasSize`](crate::techniques::texture_space::AtlasSize)).
 pub const TEXTURE_SPACE_FINEST: u32 = 2048;
 /// Texels between the atlas' levels.
 pub const TEXTURE_SPACE_GUTTER: u32 = 4;
