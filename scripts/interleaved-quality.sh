@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Interleaved deferred shading's image quality, by its CPU mirror (engine/src/interleaved.rs,
+# Interleaved deferred shading's image quality, by its CPU mirror (engine/src/mirror/interleaved.rs,
 # `shutter reference --vpls N --interleave NxM`), on the built-in `cornell` at 160×120 with 1024 photons
 # (880 VPLs on `cornell`) clamped at 0.1, and on the textured `interior` alike (docs/INTERLEAVED.md): every pattern (2x2, 4x4, 8x6, 8x8) × filter (none,
 # plain Gaussian, the paper's edge-aware one, per-axis edges, the paper's with bilinear pairs) against the

@@ -40,8 +40,8 @@ use std::path::PathBuf;
 
 use serde::{Deserialize, Serialize};
 
-use crate::bounds::BoundKind;
 use crate::error::{Error, Result};
+use crate::mirror::bounds::BoundKind;
 use crate::quality_plan::CostModel;
 use crate::vk::drivers::driver_matches;
 use crate::vk::Capabilities;

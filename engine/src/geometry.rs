@@ -1,6 +1,6 @@
 //! The geometry model, written once: a triangle moving linearly over the shutter
 //! ([`MovingTriangle`]) and the one ray–triangle intersector ([`intersect_triangle`]) that every CPU
-//! consumer uses — the bounds' inside test ([`crate::bounds::sample_hit`], the specification of the
+//! consumer uses — the bounds' inside test ([`crate::mirror::bounds::sample_hit`], the specification of the
 //! GPU's `sample_hit` in `shaders-glsl/stochastic/inside.glsl`) and the reference's BVH
 //! ([`crate::reference::Bvh`]). A hit is therefore the same hit, with the same barycentrics and the
 //! same depth, whether the reference or a GPU technique finds it (docs/MODEL.md "The model").
@@ -203,7 +203,7 @@ pub fn intersect_triangle(p: &[Vec3; 3], o: Vec3, d: Vec3) -> Option<TriangleHit
 
 /// Barycentrics of the point where the ray `o + s·d` meets the plane of `p` (no range checks): `None`
 /// for a degenerate triangle or a ray in its plane. `plane_barycentrics` in `inside.glsl` (footprints;
-/// decoupled shading's shading points, [`crate::decoupled::shading_point`]).
+/// decoupled shading's shading points, [`crate::mirror::decoupled::shading_point`]).
 pub fn plane_barycentrics(p: &[Vec3; 3], o: Vec3, d: Vec3) -> Option<Vec3> {
     let (e1, e2) = (p[1] - p[0], p[2] - p[0]);
     let n_len = e1.cross(e2).length();

@@ -24,10 +24,10 @@
 
 use std::path::Path;
 
-use crate::decoupled::GridKind;
 use crate::error::{Error, Result};
 use crate::image::LinearImage;
 use crate::metrics::compare;
+use crate::mirror::decoupled::GridKind;
 use crate::plan::Plan;
 use crate::reference::{render_reference, render_reference_cached, ReferenceSettings};
 use crate::scene::file::parse_scene;

@@ -61,21 +61,18 @@
 //! }
 //! ```
 
-pub mod aas;
-pub mod bounds;
 pub mod calibration;
-pub mod decoupled;
 pub mod embed;
-pub mod error;
+mod error;
 pub mod geometry;
 pub mod gpu;
 pub mod graph;
 pub mod hard_cases;
 pub mod image;
 pub mod image_io;
-pub mod interleaved;
 pub mod limits;
 pub mod metrics;
+pub mod mirror;
 pub mod plan;
 pub mod progress;
 pub mod quality_plan;
@@ -83,9 +80,7 @@ pub mod reference;
 pub mod sampling;
 pub mod scene;
 pub mod shading;
-pub mod shadows;
 pub mod techniques;
-pub mod texture_space;
 pub mod transparency;
 pub mod vk;
 

@@ -21,8 +21,8 @@ use std::fmt;
 
 use glam::Vec2;
 
+use crate::mirror::shadow_maps::{casters_move, ShadowKind, SPOT_CUBE_DEG};
 use crate::scene::{Intrinsics, Light, Scene, View};
-use crate::shadows::{casters_move, ShadowKind, SPOT_CUBE_DEG};
 
 /// Blur below which an effect is not simulated, in pixels (circle-of-confusion radius; screen-motion
 /// length). Ignoring a blur of b px moves edges by at most b px, so the error grows about linearly in
@@ -448,8 +448,8 @@ mod tests {
     /// `bbox` bound inside the box; an object reaching the near plane has no box (the whole image).
     #[test]
     fn screen_box_holds_every_triangle_bound() {
-        use crate::bounds::{bound, BoundKind};
         use crate::geometry::MovingTriangle;
+        use crate::mirror::bounds::{bound, BoundKind};
         use crate::scene::CameraSpaceScene;
         for name in ["default", "one-mover", "static"] {
             let s = builtin_scene(name).unwrap().unwrap();

@@ -1,5 +1,5 @@
 // Shadow-map lookups for a surface that receives shadows (SHADOWS defined): the GLSL side of
-// engine/src/shadows.rs (the math, mirrored there and tested) and engine/src/techniques/shadow_maps.rs
+// engine/src/mirror/shadow_maps.rs (the math, mirrored there and tested) and engine/src/techniques/shadow_maps.rs
 // (what is bound). Every shadow-casting light has one lookup space (its view, or for a point light its
 // position with the world's axes) and one or six rendered views (a point light's cube faces), each a
 // tile of S depth samples per texel in one atlas: `sub_maps` tiles side by side of `msaa` samples each

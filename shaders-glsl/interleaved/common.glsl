@@ -1,6 +1,6 @@
 // Interleaved deferred shading's compute passes (engine/src/techniques/interleaved.rs): set 3 and the
 // push constants every pass shares, and the split layout's index maps — the GLSL mirror of
-// engine/src/interleaved.rs (Layout::split, block_split, block_translate), operation for operation.
+// engine/src/mirror/interleaved.rs (Layout::split, block_split, block_translate), operation for operation.
 #ifndef SHUTTER_INTERLEAVED_GLSL
 #define SHUTTER_INTERLEAVED_GLSL
 

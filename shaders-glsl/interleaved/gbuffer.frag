@@ -1,6 +1,6 @@
 #version 460
 // Interleaved deferred shading (engine/src/techniques/interleaved.rs, the CPU mirror
-// engine/src/interleaved.rs), step 1: the G-buffer of what the pixel's centre sees at mid-shutter
+// engine/src/mirror/interleaved.rs), step 1: the G-buffer of what the pixel's centre sees at mid-shutter
 // through the lens centre (forward/forward.vert with no jitter): camera-space position (w = 1 for a
 // surface; the clear, 0, is the background), the shading normal facing the viewer, the albedo.
 #include "common/frame.glsl"

@@ -1,5 +1,5 @@
 // Screen-space bounds of stochastic rasterization: the GLSL mirror of bounds::bound() in
-// engine/src/bounds/ (mod.rs: hard cases, convex hull, box; shapes.rs: the thesis' shapes, our
+// engine/src/mirror/bounds/ (mod.rs: hard cases, convex hull, box; shapes.rs: the thesis' shapes, our
 // reconstruction; hull.rs: monotone chain). The CPU code is the specification: read its docs for the
 // shapes and why each is conservative. Same formulas in the same order, in float; differences:
 // * MovingTriangle::is_degenerate runs in f64 on the CPU, in float here with the same relative
@@ -18,7 +18,7 @@
 #define SHUTTER_STOCHASTIC_BOUNDS_GLSL
 #include "common/frame.glsl"
 
-// BoundKind::id() (engine/src/bounds/mod.rs), the `kind` argument of compute_bound.
+// BoundKind::id() (engine/src/mirror/bounds/mod.rs), the `kind` argument of compute_bound.
 #define BOUND_BBOX 0
 #define BOUND_2D_HEXAGON 1
 #define BOUND_PARALLEL_EDGE_TRIANGLE 2
@@ -32,7 +32,7 @@
 #define BOUND_MAX_POINTS 48
 #define BOUND_MAX_PIECES 4
 
-// Constants of engine/src/bounds/ (checked against the CPU values by a test in bounds/tests.rs).
+// Constants of engine/src/mirror/bounds/ (checked against the CPU values by a test in bounds/tests.rs).
 const float BOUND_FLT_EPSILON = 1.1920929e-7;
 const float BOUND_RADIUS_ROUND_UP = 1.0000005;  // RADIUS_ROUND_UP = 1 + 4 eps
 const float BOUND_DEGENERATE_EPS = 1e-12;       // DEGENERATE_EPS (is_degenerate)
@@ -388,7 +388,7 @@ int bound_box_(vec2 lo, vec2 hi) {
     return 1;
 }
 
-// clip_and_box (engine/src/bounds/mod.rs): the end vertices' hull clipped to z >= z_clip, each point
+// clip_and_box (engine/src/mirror/bounds/mod.rs): the end vertices' hull clipped to z >= z_clip, each point
 // widened by its circle of confusion, boxed and clamped to the viewport. -1 when that is the viewport.
 int bound_clip_and_box_(vec3 v[6], float z_clip) {
     float W = view.viewport.x, H = view.viewport.y, s = view.viewport.z;
@@ -510,7 +510,7 @@ int bound_compute_(int kind, vec3 v[6]) {
 
 // v: camera-space end vertices (open 0..2, close 3..5). Returns the number of convex pieces written
 // (0 = culled, -1 = the whole viewport); piece k has piece_len[k] points, stored consecutively in pts,
-// CCW (positive shoelace area in pixel coordinates). Mirrors bounds::bound() in engine/src/bounds/
+// CCW (positive shoelace area in pixel coordinates). Mirrors bounds::bound() in engine/src/mirror/bounds/
 // (ScreenBound::pieces() gives the CPU's pieces in this layout). Entries past the written points and
 // pieces are left undefined. A piece may have 1 or 2 points (a point or segment) for a pinhole
 // image that degenerates.

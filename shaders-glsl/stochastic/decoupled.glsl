@@ -1,5 +1,5 @@
 // Decoupled shading (Ragan-Kelley et al. 2011) in the shading pass: the GLSL mirror of
-// engine/src/decoupled.rs (which explains the mapping), operation for operation, and the memoization
+// engine/src/mirror/decoupled.rs (which explains the mapping), operation for operation, and the memoization
 // cache. A sample's key is (its triangle in the frame's numbering, the side its ray sees, the
 // lens-centre pixel cell of its surface point at mid-shutter); the key's value is the radiance at the
 // key's shading point, a function of the key alone — so the cache below may miss, evict, race and

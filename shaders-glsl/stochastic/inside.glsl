@@ -1,4 +1,4 @@
-// The 5D inside test: the GLSL mirror of bounds::sample_hit (engine/src/bounds/inside.rs), operation for
+// The 5D inside test: the GLSL mirror of bounds::sample_hit (engine/src/mirror/bounds/inside.rs), operation for
 // operation. Does the thin-lens ray through `pixel` from lens sample `lens` hit triangle (a, b, c)
 // (camera space at the sample's time)? Möller–Trumbore, edges inclusive, the hit's depth clamped to the
 // vertices' depth range; hits outside [near, far], degenerate triangles and rays in the triangle's plane

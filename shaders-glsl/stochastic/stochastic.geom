@@ -1,7 +1,7 @@
 #version 460
 // Stochastic rasterization, geometry stage (McGuire et al. 2010; Toth & Linder 2008): replaces each
 // triangle by a conservative screen-space bound of everywhere it can land over the lens and shutter
-// (stochastic/bounds.glsl, mirrored by engine/src/bounds), dilated by one pixel box so the rasterizer
+// (stochastic/bounds.glsl, mirrored by engine/src/mirror/bounds), dilated by one pixel box so the rasterizer
 // generates a fragment for every pixel whose square touches the bound and covers all of its samples
 // (emit.glsl). Only positions and the primitive ID leave this stage: the fragment stage reads the
 // triangle itself from the geometry buffers by ID (thesis §9.6: keep the GS output small).

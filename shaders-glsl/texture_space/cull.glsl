@@ -1,5 +1,5 @@
 // Conservative frustum culling of pass 1 over every lens point and shutter time. GLSL port of
-// engine/src/texture_space/cull.rs (which derives the test): a triangle is culled when its vertices
+// engine/src/mirror/texture_space/cull.rs (which derives the test): a triangle is culled when its vertices
 // at every key of the object's motion lie outside one plane of the frustum widened by the lens —
 // near, far, or an image edge pushed out by TS_CULL_MARGIN_PX, seen through any lens point; and, for
 // one-sided materials, when every lens point at every time sees its back (ts_back_facing). Needs

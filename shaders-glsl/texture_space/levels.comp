@@ -2,7 +2,7 @@
 // Adaptive texture-space shading: the shading rate of every triangle of one object at mid-shutter, or
 // over its shading times where it turns in camera space (texture_space/rate.glsl,
 // ts_triangle_level_over_shutter), written per triangle — what pass 1's geometry shader will compute, run
-// here on its own so that tests compare it with the CPU mirror (engine/src/texture_space/rate.rs).
+// here on its own so that tests compare it with the CPU mirror (engine/src/mirror/texture_space/rate.rs).
 #include "common/frame.glsl"
 #include "common/object.glsl"
 #include "texture_space/rate.glsl"

@@ -1,5 +1,5 @@
 // The per-triangle shading rate of adaptive texture-space shading (Andersson et al. 2014, §3.1.1 and
-// Appendix A). GLSL port of engine/src/texture_space/rate.rs, which documents the steps; the view's
+// Appendix A). GLSL port of engine/src/mirror/texture_space/rate.rs, which documents the steps; the view's
 // intrinsics come from common/frame.glsl (viewport.xyz = width, height, pixel scale; lens.xy =
 // aperture radius, focus distance). Camera space, lens centre. Needs common/frame.glsl (object_views).
 #ifndef SHUTTER_TEXTURE_SPACE_RATE_GLSL

@@ -6,9 +6,9 @@
 use std::sync::Arc;
 
 use glam::{Mat4, Vec3};
-use shutter::bounds::BoundKind;
 use shutter::image::LinearImage;
 use shutter::metrics::compare;
+use shutter::mirror::bounds::BoundKind;
 use shutter::plan::{Effects, Plan};
 use shutter::reference::{render_reference, ReferenceSettings};
 use shutter::scene::builtin::{builtin_mesh, builtin_scene};

@@ -16,8 +16,8 @@ use std::fmt::Write as _;
 use std::path::PathBuf;
 use std::time::Instant;
 
-use shutter::bounds::BoundKind;
 use shutter::image::LinearImage;
+use shutter::mirror::bounds::BoundKind;
 use shutter::scene::builtin::builtin_scene;
 use shutter::scene::Scene;
 use shutter::techniques::{

@@ -8,8 +8,8 @@ use std::any::Any;
 use std::sync::Arc;
 
 use glam::{Mat4, Vec2, Vec3};
-use shutter::bounds::{sample_hit, MovingTriangle};
 use shutter::graph::{Access, MAX_PASSES_PER_SUBMIT};
+use shutter::mirror::bounds::{sample_hit, MovingTriangle};
 use shutter::scene::builtin::builtin_mesh;
 use shutter::scene::{Environment, Light, Material, Mesh, Object, Scene, View};
 use shutter::techniques::graph_probe::{pixel_point, GraphProbe};

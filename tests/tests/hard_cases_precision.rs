@@ -196,7 +196,10 @@ fn a_motion_key_of_scale_zero_does_not_poison_the_normals() {
     let rates = [
         ("per-sample", ShadingRate::PerSample),
         ("per-pixel", ShadingRate::PerPixel),
-        ("decoupled", ShadingRate::Decoupled { grid: shutter::decoupled::GridKind::Pixel, deferred: false }),
+        (
+            "decoupled",
+            ShadingRate::Decoupled { grid: shutter::mirror::decoupled::GridKind::Pixel, deferred: false },
+        ),
     ];
     for (name, rate) in rates {
         let rmse = stochastic_rmse(&mut r, &format!("zero-scale-{name}"), &scene, rate, 16);

@@ -1,11 +1,11 @@
-//! Technique `interleaved` (docs/INTERLEAVED.md) against its CPU mirror (`shutter::interleaved`): the
+//! Technique `interleaved` (docs/INTERLEAVED.md) against its CPU mirror (`shutter::mirror::interleaved`): the
 //! same VPLs, split, subsets, filter and composition give the same image, but for the pixels whose
 //! centre lies on an edge between two surfaces (the rasterizer and the ray test break the tie
 //! differently); the split's variants give identical images; depth of field and motion, rendered as
 //! accumulated passes, match the mirror pass for pass; what it does not model is refused.
 
 use shutter::image::LinearImage;
-use shutter::interleaved::{
+use shutter::mirror::interleaved::{
     frame_passes, pass_vpls, render_frame, Blur, Edges, InterleavedSettings, Pattern,
 };
 use shutter::reference::VplSettings;
@@ -48,7 +48,7 @@ fn gpu_passes(r: &mut Renderer, scene: &Scene, o: InterleavedOptions, spp: u32) 
 }
 
 /// The CPU mirror with `o`'s settings, with exact shadow rays to the VPLs (`visibility`) or none: a
-/// frame of `spp` passes ([`shutter::interleaved::render_frame`]; one for a still pinhole scene), VPLs
+/// frame of `spp` passes ([`shutter::mirror::interleaved::render_frame`]; one for a still pinhole scene), VPLs
 /// per pass as the technique traces them.
 fn cpu_frame(scene: &Scene, o: &InterleavedOptions, spp: u32, visibility: bool) -> LinearImage {
     let passes = frame_passes(scene, spp, scene.image.seed);

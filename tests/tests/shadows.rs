@@ -16,10 +16,10 @@ use std::sync::Arc;
 
 use glam::{Mat4, Vec3};
 use shutter::image::LinearImage;
+use shutter::mirror::shadow_maps::ShadowSettings;
 use shutter::reference::{render_reference_shared_samples, ReferenceSettings};
 use shutter::scene::builtin::builtin_mesh;
 use shutter::scene::{Environment, ImageSettings, Light, Material, Mesh, Object, Scene};
-use shutter::shadows::ShadowSettings;
 use shutter::techniques::accumulation::accumulation_samples;
 use shutter::techniques::{RenderSettings, Renderer, Technique};
 use shutter::transparency::TransparencyMethod;

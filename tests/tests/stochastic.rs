@@ -6,9 +6,9 @@
 use std::sync::Arc;
 
 use glam::{Mat4, Quat, Vec2, Vec3};
-use shutter::bounds::{bound, BoundKind, MovingTriangle, ScreenBound};
 use shutter::image::LinearImage;
 use shutter::metrics::compare;
+use shutter::mirror::bounds::{bound, BoundKind, MovingTriangle, ScreenBound};
 use shutter::reference::{render_reference, ReferenceSettings};
 use shutter::sampling::Pcg32;
 use shutter::scene::builtin::{builtin_mesh, builtin_scene};
@@ -1232,14 +1232,14 @@ fn hard_smooth_lens_matches_the_reference() {
 /// the cache's counters add up.
 /// `--shading decoupled`: the pixel grid, the memoization cache.
 const DECOUPLED: ShadingRate =
-    ShadingRate::Decoupled { grid: shutter::decoupled::GridKind::Pixel, deferred: false };
+    ShadingRate::Decoupled { grid: shutter::mirror::decoupled::GridKind::Pixel, deferred: false };
 
 /// The reference's decoupled shading on `grid` of `scene` at `w × h`, `spp`, seed 5 (the seed of the
 /// decoupled tests' renders), and its count of distinct keys.
 fn decoupled_reference(
     scene: &Scene,
     (w, h, spp): (u32, u32, u32),
-    grid: shutter::decoupled::GridKind,
+    grid: shutter::mirror::decoupled::GridKind,
 ) -> (LinearImage, u64) {
     let settings = ReferenceSettings {
         width: w,
@@ -1260,7 +1260,7 @@ fn decoupled_shading_matches_the_reference_whatever_the_cache() {
     let (w, h, spp) = (96, 54, 8);
     let mut r = renderer();
     let mut images = vec![];
-    let (truth, keys) = decoupled_reference(&scene, (w, h, spp), shutter::decoupled::GridKind::Pixel);
+    let (truth, keys) = decoupled_reference(&scene, (w, h, spp), shutter::mirror::decoupled::GridKind::Pixel);
     for cache_entries in [1, 1 << 16, 1 << 16] {
         let o = StochasticOptions {
             instrumented: true,
@@ -1310,7 +1310,7 @@ fn decoupled_shading_matches_the_reference_whatever_the_cache() {
 /// ablation, which ignores motion, never has fewer than full AAS.
 #[test]
 fn aas_grids_shade_fewer_points_and_match_the_reference() {
-    use shutter::decoupled::GridKind;
+    use shutter::mirror::decoupled::GridKind;
     let scene = builtin_scene("default").expect("built-in").expect("parses");
     let (w, h, spp) = (96, 54, 8);
     let mut r = renderer();
@@ -1341,7 +1341,7 @@ fn aas_grids_shade_fewer_points_and_match_the_reference() {
 /// report counts the compact G-buffer and the table.
 #[test]
 fn deferred_decoupled_shading_allocates_each_key_once() {
-    use shutter::decoupled::GridKind;
+    use shutter::mirror::decoupled::GridKind;
     let scene = builtin_scene("default").expect("built-in").expect("parses");
     let (w, h, spp) = (96, 54, 8);
     let mut r = renderer();

@@ -1,16 +1,16 @@
 //! Adaptive texture-space shading on the GPU (docs/ATSS.md), so far its per-triangle shading rate:
 //! `shaders-glsl/texture_space/rate.glsl` (run by `ShadingRates`) against its CPU mirror
-//! `shutter::texture_space::rate::triangle_level_over_shutter`, triangle by triangle, on built-in
+//! `shutter::mirror::texture_space::rate::triangle_level_over_shutter`, triangle by triangle, on built-in
 //! scenes with depth of field, motion, Spot's own uvs and generated charts, and on the hard cases of a
 //! camera rolling and turning half round (several shading times).
 
 use glam::Vec2;
+use shutter::mirror::texture_space::atlas::MipAtlas;
+use shutter::mirror::texture_space::rate::{shading_time_count, triangle_level_over_shutter};
 use shutter::scene::builtin::builtin_scene;
 use shutter::scene::camera_space::CameraSpaceScene;
 use shutter::techniques::texture_space::{AtlasResult, ShadingAtlas, ShadingRates, BILINEAR_HULL_TEXELS};
 use shutter::techniques::{FrameTechnique, RenderSettings};
-use shutter::texture_space::atlas::MipAtlas;
-use shutter::texture_space::rate::{shading_time_count, triangle_level_over_shutter};
 use shutter_tests::renderer;
 
 /// Relative difference of the minor radius allowed between the GPU (f32 throughout) and the CPU (f32
@@ -240,7 +240,7 @@ fn the_conservative_sub_pass_fills_every_texel_a_lookup_reads() {
 /// margin (f32 transforms differ in the last bits); and both cullings are not vacuous.
 #[test]
 fn gpu_culling_matches_the_cpu_mirror() {
-    use shutter::texture_space::cull::{
+    use shutter::mirror::texture_space::cull::{
         back_facing_by, culled, key_points, outside_frustum, BACK_FACING_MARGIN, CULL_MARGIN_PX,
     };
     let mut scene = builtin_scene("default").expect("built-in").expect("parses");

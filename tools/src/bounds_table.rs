@@ -7,7 +7,7 @@ use std::path::Path;
 
 use anyhow::{Context, Result};
 use plotters::prelude::*;
-use shutter::bounds::BoundKind;
+use shutter::mirror::bounds::BoundKind;
 use shutter::plan::Plan;
 use shutter::scene::Scene;
 use shutter::techniques::{

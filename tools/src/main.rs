@@ -92,7 +92,7 @@ enum Command {
         /// With --vpls: clamp the VPLs' 1/d² at this distance (scene units; 0: off, unbiased).
         #[arg(long, default_value_t = 0.0)]
         clamp: f32,
-        /// With --vpls: the CPU mirror of interleaved deferred shading (engine/src/interleaved.rs) on
+        /// With --vpls: the CPU mirror of interleaved deferred shading (engine/src/mirror/interleaved.rs) on
         /// a G-buffer of one sample at each pixel's centre (a still pinhole scene) or, for a scene
         /// with a lens or motion, --spp accumulated passes of one (subpixel, lens, time) sample each:
         /// each pixel of an NxM pattern gathers its own subset of the VPLs; 1x1 with --filter none is
@@ -296,7 +296,8 @@ fn default_out(scene: &str, what: &str, ext: &str) -> Result<PathBuf> {
 /// `shutter plan --atlases`: texture-space shading's atlas per object (docs/ATSS.md).
 fn print_atlas_plan(sc: &shutter::scene::Scene, w: u32, h: u32) -> anyhow::Result<()> {
     use shutter::techniques::stochastic::{TEXTURE_SPACE_FINEST, TEXTURE_SPACE_GUTTER};
-    let largest = shutter::texture_space::atlas::MipAtlas::new(TEXTURE_SPACE_FINEST, TEXTURE_SPACE_GUTTER)?;
+    let largest =
+        shutter::mirror::texture_space::atlas::MipAtlas::new(TEXTURE_SPACE_FINEST, TEXTURE_SPACE_GUTTER)?;
     let view = shutter::scene::view::View::camera(sc, w, h);
     let t0 = std::time::Instant::now();
     let rows = shutter::techniques::texture_space::plan_atlases(sc, &view, largest);
@@ -443,11 +444,11 @@ fn run() -> Result<()> {
             let Some(count) = vpls else {
                 return Err(anyhow::anyhow!("--interleave shades virtual point lights: give --vpls N"));
             };
-            let pattern: shutter::interleaved::Pattern = pattern.parse()?;
-            let block: shutter::interleaved::Pattern = block.parse()?;
+            let pattern: shutter::mirror::interleaved::Pattern = pattern.parse()?;
+            let block: shutter::mirror::interleaved::Pattern = block.parse()?;
             let radius = radius.unwrap_or(pattern.n.max(pattern.m));
-            let blur = shutter::interleaved::Edges::of_filter(&filter)?
-                .map(|edges| shutter::interleaved::Blur { radius, bilinear, edges });
+            let blur = shutter::mirror::interleaved::Edges::of_filter(&filter)?
+                .map(|edges| shutter::mirror::interleaved::Blur { radius, bilinear, edges });
             let seed = seed.unwrap_or(sc.image.seed);
             let out = match out {
                 Some(o) => o,
@@ -456,9 +457,9 @@ fn run() -> Result<()> {
             check_image_output(&out)?;
             let start = std::time::Instant::now();
             let v = shutter::reference::VplSettings { count, clamp, seed };
-            let passes = shutter::interleaved::frame_passes(&sc, spp, seed);
-            let sets = shutter::interleaved::pass_vpls(&sc, &v, &passes)?;
-            let settings = shutter::interleaved::InterleavedSettings {
+            let passes = shutter::mirror::interleaved::frame_passes(&sc, spp, seed);
+            let sets = shutter::mirror::interleaved::pass_vpls(&sc, &v, &passes)?;
+            let settings = shutter::mirror::interleaved::InterleavedSettings {
                 pattern,
                 block: (block.n, block.m),
                 blur,
@@ -466,7 +467,8 @@ fn run() -> Result<()> {
                 clamp,
                 visibility: !snsm,
             };
-            let image = shutter::interleaved::render_frame(&sc, (width, height), &passes, &sets, &settings)?;
+            let image =
+                shutter::mirror::interleaved::render_frame(&sc, (width, height), &passes, &sets, &settings)?;
             let secs = start.elapsed().as_secs_f64();
             shutter::progress::check_interrupt()?;
             save_image(&out, &image)?;

@@ -1,4 +1,4 @@
-//! The CPU G-buffer of interleaved deferred shading ([`crate::interleaved`]): per pixel, what the
+//! The CPU G-buffer of interleaved deferred shading ([`crate::mirror::interleaved`]): per pixel, what the
 //! camera sees through the pixel's centre at mid-shutter through the lens centre, or through one
 //! pass' sample of (subpixel, lens, time) shared by every pixel ([`render_gbuffer_at`]) — position and shading normal
 //! (camera space), albedo, the direct light (the model's shading, shadowed) — and the one-bounce light

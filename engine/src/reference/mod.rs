@@ -165,12 +165,12 @@ pub enum ReferenceShading {
     /// of them, for at most [`PER_PIXEL_SHADING_GROUPS`] groups per object (samples of later groups are
     /// shaded on their own).
     PerPixel { per_pass: u32 },
-    /// Decoupled shading ([`crate::decoupled`]): every sample takes the radiance of its key's shading
+    /// Decoupled shading ([`crate::mirror::decoupled`]): every sample takes the radiance of its key's shading
     /// point — on its triangle at mid-shutter, seen from the lens centre, on the sample's side — or of
-    /// its own hit when it has no key; keys are cells of the grid [`crate::decoupled::GridKind`] says.
+    /// its own hit when it has no key; keys are cells of the grid [`crate::mirror::decoupled::GridKind`] says.
     /// What `--shading decoupled`, `aas` and `aas-isotropic` (and their `-deferred` modes) compute
     /// whatever their cache does.
-    Decoupled(crate::decoupled::GridKind),
+    Decoupled(crate::mirror::decoupled::GridKind),
 }
 
 /// Groups per object, pixel and pass that per-pixel shading remembers (`SHADE_GROUPS` in
@@ -190,7 +190,7 @@ pub struct ReferenceStats {
     /// Wall time of preparing camera-space geometry and building the BVH.
     pub build_seconds: f64,
     /// [`ReferenceShading::Decoupled`]: the distinct keys (shading points) the image's samples name —
-    /// what a cache that never forgot would shade ([`crate::decoupled::key`]).
+    /// what a cache that never forgot would shade ([`crate::mirror::decoupled::key`]).
     pub decoupled_keys: Option<u64>,
 }
 
@@ -465,7 +465,7 @@ struct Tracer<'a> {
     /// Every pixel's samples, when they are shared ([`render_reference_shared_samples`]).
     shared: Option<Vec<Sample5>>,
     /// [`ReferenceShading::Decoupled`] with an AAS grid: each triangle's (by id); empty: pixels.
-    grids: Vec<crate::aas::bounds::ShadingGrid>,
+    grids: Vec<crate::mirror::aas::bounds::ShadingGrid>,
     /// One-bounce indirect light by instant radiosity ([`render_reference_vpl`]): the VPLs and the
     /// clamping distance; `None`: bounce rays.
     vpls: Option<(Vec<VirtualPointLight>, f32)>,
@@ -509,8 +509,8 @@ impl<'a> Tracer<'a> {
         let object_keys: Vec<KeyTimes> = scene_space.objects.iter().map(|m| m.keys.clone()).collect();
         let intrinsics = scene.camera.intrinsics(s.width, s.height);
         let grids = match s.shading {
-            ReferenceShading::Decoupled(kind) if kind != crate::decoupled::GridKind::Pixel => {
-                crate::decoupled::object_grids(scene, &scene_space, &intrinsics, kind)
+            ReferenceShading::Decoupled(kind) if kind != crate::mirror::decoupled::GridKind::Pixel => {
+                crate::mirror::decoupled::object_grids(scene, &scene_space, &intrinsics, kind)
             }
             _ => vec![],
         };
@@ -783,10 +783,10 @@ impl<'a> Tracer<'a> {
     ) -> Vec3 {
         let ([(p0, _), (p1, _)], s) = self.segment_at(hit.id, 0.5);
         let mid = MovingTriangle { v0: p0, v1: p1 }.at(s);
-        let grid = self.grids.get(hit.id as usize).unwrap_or(&crate::decoupled::PIXEL_GRID);
-        let sp = crate::decoupled::shading_point(&self.intrinsics, &mid, hit.hit.barycentrics, grid);
+        let grid = self.grids.get(hit.id as usize).unwrap_or(&crate::mirror::decoupled::PIXEL_GRID);
+        let sp = crate::mirror::decoupled::shading_point(&self.intrinsics, &mid, hit.hit.barycentrics, grid);
         let Some(cell) = sp.cell else { return self.shade_hit(hit, d, time, bounce, lights) };
-        keys.push(crate::decoupled::key(hit.id, hit.hit.back, cell));
+        keys.push(crate::mirror::decoupled::key(hit.id, hit.hit.back, cell));
         let w = sp.barycentrics;
         let point = w.x * mid[0] + w.y * mid[1] + w.z * mid[2];
         let at =

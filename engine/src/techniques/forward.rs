@@ -177,11 +177,6 @@ pub struct ForwardPipeline {
 }
 
 impl ForwardPipeline {
-    /// Every light unshadowed.
-    pub fn new(device: &Device, world: &GpuWorld, samples: u32) -> Result<Self> {
-        Self::with_shadows(device, world, samples, None)
-    }
-
     /// Shadow-casting lights attenuated by `shadows`' maps, when given.
     pub fn with_shadows(
         device: &Device,
@@ -475,11 +470,6 @@ pub struct ForwardDraws {
 }
 
 impl ForwardDraws {
-    /// Pass p drawn with `samples[p]`, at `msaa` samples, every object opaque.
-    pub fn new(device: &Device, world: &GpuWorld, msaa: u32, samples: Vec<PassSample>) -> Result<Self> {
-        Ok(ForwardDraws { pipeline: ForwardPipeline::new(device, world, msaa)?, samples, transparent: None })
-    }
-
     /// Pass p drawn with `samples[p]`, at `msaa` samples; `scene`'s objects with coverage below 1
     /// by `method` with coverage seeded by `seed` (nothing more is built for an opaque scene); lights
     /// attenuated by `shadows`' maps when given.

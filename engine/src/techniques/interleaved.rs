@@ -1,7 +1,7 @@
 //! Technique `interleaved`: interleaved deferred shading of virtual point lights (Segovia, Iehl,
 //! Mitanchey & Péroche 2006; docs/INTERLEAVED.md) for a scene's one-bounce indirect light
 //! (`[environment] indirect = "one-bounce"`), on top of its direct light. The GPU port of
-//! [`crate::interleaved`], which specifies every step; shaders in `shaders-glsl/interleaved/`.
+//! [`crate::mirror::interleaved`], which specifies every step; shaders in `shaders-glsl/interleaved/`.
 //!
 //! As a graph, one pass each, timestamped by name:
 //! 1. `interleaved direct`: the forward pipeline's direct light (shadow maps included) through the
@@ -21,7 +21,7 @@
 //! A still pinhole scene is one such pass, through the pixel centres at mid-shutter. A scene with a
 //! lens or motion repeats all seven steps for `spp` passes, each through one (subpixel, lens, time)
 //! sample shared by every pixel — technique `accumulation`'s samples — and averages them
-//! ([`crate::interleaved::frame_passes`]). A moving scene's VPLs are a set per pass, traced at its
+//! ([`crate::mirror::interleaved::frame_passes`]). A moving scene's VPLs are a set per pass, traced at its
 //! time, and its VPL shadow maps are rendered in every pass; a still scene's are one set, its maps
 //! rendered once.
 //!
@@ -47,7 +47,7 @@ use crate::gpu::layout::{shared_struct, vertex_input, Binding, SharedStruct, TEC
 use crate::graph::{
     Access, BufferHandle, FrameGraph, ImageHandle, Load, PassContext, ResourceHandle, Store, Tracked,
 };
-use crate::interleaved::{Blur, Discontinuity, Edges, Layout, Pattern};
+use crate::mirror::interleaved::{Blur, Discontinuity, Edges, Layout, Pattern};
 use crate::shaders;
 use crate::vk::{
     write_descriptors, Buffer, DescriptorPool, DescriptorSetLayout, DescriptorWrite, Faces, GraphicsDesc,
@@ -332,7 +332,7 @@ pub struct InterleavedTechnique {
     options: InterleavedOptions,
     layout: Layout,
     regions: Regions,
-    /// The frame's passes ([`crate::interleaved::frame_passes`]).
+    /// The frame's passes ([`crate::mirror::interleaved::frame_passes`]).
     passes: Vec<PassSample>,
     /// Each VPL set's first VPL and count in `Vpls`: one for a still scene, one per pass otherwise.
     vpl_sets: Vec<(u32, u32)>,
@@ -380,10 +380,10 @@ impl InterleavedTechnique {
                 "technique interleaved shades opaque surfaces only: the scene has alpha or tints".into(),
             ));
         }
-        let passes = crate::interleaved::frame_passes(scene, s.spp, s.seed);
+        let passes = crate::mirror::interleaved::frame_passes(scene, s.spp, s.seed);
         let vpl_settings =
             crate::reference::VplSettings { count: options.photons, clamp: options.clamp, seed: s.seed };
-        let sets = crate::interleaved::pass_vpls(scene, &vpl_settings, &passes)?;
+        let sets = crate::mirror::interleaved::pass_vpls(scene, &vpl_settings, &passes)?;
         let mut vpl_sets = Vec::with_capacity(sets.len());
         let mut first = 0;
         for set in &sets {

@@ -19,16 +19,16 @@
 //! with a [`Technique`] into a [`RenderOutput`].
 
 pub mod accumulation;
-pub mod auto;
+pub(crate) mod auto;
 pub mod compute_hull;
 pub mod forward;
 pub mod graph_probe;
 pub mod interleaved;
 pub mod multipass;
 pub mod oit;
-pub mod pinhole;
+pub(crate) mod pinhole;
 pub mod registry;
-pub mod report;
+pub(crate) mod report;
 pub mod settings;
 pub mod shadow_maps;
 pub mod stochastic;
@@ -51,9 +51,9 @@ use crate::gpu::{GpuView, GpuWorld};
 use crate::graph::{FrameGraph, GraphResult, ImageHandle, TransientPool};
 use crate::image::LinearImage;
 use crate::limits::{MAX_IMAGE_DIMENSION, MAX_SPP, MAX_STOCHASTIC_SPP};
+use crate::mirror::shadow_maps::ShadowSettings;
 use crate::plan::Plan;
 use crate::scene::{Scene, View};
-use crate::shadows::ShadowSettings;
 use crate::transparency::TransparencyMethod;
 use crate::vk::{CommandRecorder, Device, Feature, PassTimings};
 
@@ -135,7 +135,7 @@ pub struct RenderStats {
     pub plan: Option<Plan>,
     /// The method that rendered coverage below 1 and tints; `None` for an opaque scene.
     pub transparency: Option<TransparencyMethod>,
-    /// The shadow maps rendered ([`crate::shadows::ShadowPlan::summary`], and whether per pass);
+    /// The shadow maps rendered ([`crate::mirror::shadow_maps::ShadowPlan::summary`], and whether per pass);
     /// `None` without shadow-casting lights.
     pub shadows: Option<String>,
 }
@@ -693,7 +693,7 @@ pub fn feature_paths(caps: &crate::vk::Capabilities) -> Vec<FeaturePath> {
             format!(
                 "pinhole/accumulation MSAA at the standard locations; stochastic dilates its bounds by {:.4} px \
                  (one sample at the pixel centre) ({})",
-                crate::bounds::dilation_px(1, caps.standard_sample_locations),
+                crate::mirror::bounds::dilation_px(1, caps.standard_sample_locations),
                 if caps.standard_sample_locations { "from the standard locations" } else { "half-pixel box: locations unknown" }
             ),
         ),

@@ -147,16 +147,6 @@ impl MultipassFrame {
         })
     }
 
-    /// MSAA samples per pixel of every pass.
-    pub fn samples(&self) -> u32 {
-        self.samples
-    }
-
-    /// Passes per frame.
-    pub fn passes(&self) -> u32 {
-        self.passes
-    }
-
     /// A frame's result: `image` from [`MultipassFrame::render`], this frame's pass and sample counts.
     pub fn technique_frame(
         &self,

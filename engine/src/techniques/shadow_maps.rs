@@ -1,4 +1,4 @@
-//! Shadow maps on the GPU (docs/SHADOWS.md; the plan and the lookup math: [`crate::shadows`]): every
+//! Shadow maps on the GPU (docs/SHADOWS.md; the plan and the lookup math: [`crate::mirror::shadow_maps`]): every
 //! shadow-casting light's faces rendered through the frame graph into one depth atlas — a light is a
 //! second view ([`GpuView`]), drawn by the forward vertex stage — and, for tinted casters, a hue atlas;
 //! and the descriptor set (set 3 of a receiving forward pipeline, set 4 of the stochastic shading
@@ -31,10 +31,10 @@ use crate::gpu::layout::{
 };
 use crate::gpu::{object_view_records, GpuView, GpuWorld};
 use crate::graph::{Access, FrameGraph, ImageHandle, Load, PassContext, ResourceHandle, Store, Tracked};
+use crate::mirror::shadow_maps::{map_seed, FaceProjection, ShadowKind, ShadowPlan, ShadowSettings};
 use crate::scene::Scene;
 use crate::shaders;
 use crate::shaders::axes::Shadows;
-use crate::shadows::{map_seed, FaceProjection, ShadowKind, ShadowPlan, ShadowSettings};
 use crate::transparency::coverage_seed;
 use crate::vk::{
     write_descriptors, Buffer, ColorBlend, DescriptorPool, DescriptorSetLayout, DescriptorWrite, Device,
@@ -238,7 +238,7 @@ impl ShadowMaps {
             }
         }
         modules.push(vert);
-        let moving = crate::shadows::casters_move(scene);
+        let moving = crate::mirror::shadow_maps::casters_move(scene);
         Ok(Some(ShadowMaps {
             plan,
             faces,

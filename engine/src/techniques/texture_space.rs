@@ -3,7 +3,7 @@
 //! for tests):
 //!
 //! * [`ShadingRates`]: the per-triangle shading rate (`shaders-glsl/texture_space/rate.glsl`, the
-//!   port of [`crate::texture_space::rate`]) by a compute pass over every triangle of every object at
+//!   port of [`crate::mirror::texture_space::rate`]) by a compute pass over every triangle of every object at
 //!   mid-shutter (or its shading times, for an object that turns in camera space), so that tests
 //!   compare it with the CPU mirror;
 //! * [`ShadingAtlas`]: pass 1 — every object shaded into its own mip atlas at each triangle's level
@@ -23,8 +23,8 @@ use crate::gpu::layout::{
 use crate::graph::{Access, Tracked};
 use crate::graph::{Load, Store};
 use crate::image::LinearImage;
+use crate::mirror::texture_space::atlas::{shading_space_of, triangle_charts, MipAtlas, ShadingSpace};
 use crate::shaders;
-use crate::texture_space::atlas::{shading_space_of, triangle_charts, MipAtlas, ShadingSpace};
 use crate::vk::{
     write_descriptors, Buffer, DescriptorPool, DescriptorSetLayout, DescriptorWrite, Pipeline,
     PipelineLayout, ShaderModule,
@@ -56,7 +56,7 @@ pub struct LevelsPush {
     /// Levels of the object's atlas.
     pub level_count: u32,
     /// The object's key segments (`ObjectViews` indices) and its shading times
-    /// ([`crate::texture_space::rate::shading_time_count`]): the rate over several times.
+    /// ([`crate::mirror::texture_space::rate::shading_time_count`]): the rate over several times.
     pub segment_first: u32,
     pub segment_count: u32,
     pub shading_times: u32,
@@ -112,7 +112,7 @@ pub struct AtlasPush {
     pub segment_count: u32,
     /// 1: the material is one-sided, pass 1 culls back faces too.
     pub one_sided: u32,
-    /// [`crate::texture_space::rate::shading_time_count`]: 1 shades at mid-shutter (`segment`,
+    /// [`crate::mirror::texture_space::rate::shading_time_count`]: 1 shades at mid-shutter (`segment`,
     /// `segment_time`, `time`), more at each of those times over the shutter (`atlas.frag`).
     pub shading_times: u32,
 }
@@ -188,7 +188,7 @@ struct ObjectShading {
     space: ShadingSpace,
     coords: Vec<Vec2>,
     triangles: u32,
-    /// [`crate::texture_space::rate::shading_time_count`] of the object's motion in the prepared view.
+    /// [`crate::mirror::texture_space::rate::shading_time_count`] of the object's motion in the prepared view.
     shading_times: u32,
     set: vk::DescriptorSet,
     coords_buffer: Buffer,
@@ -231,7 +231,7 @@ impl ObjectShading {
             space,
             coords,
             triangles: triangles as u32,
-            shading_times: crate::texture_space::rate::shading_time_count(motion),
+            shading_times: crate::mirror::texture_space::rate::shading_time_count(motion),
             set,
             coords_buffer,
             levels,
@@ -458,7 +458,7 @@ pub enum AtlasSize {
     /// Every object's the given layout (the probes: tests compare texels at known sizes).
     Fixed,
     /// Level 0 at most the given layout's, halved once per level that the object's triangles do not
-    /// need at the view's shading times ([`crate::texture_space::rate::fitted_level`] on the CPU at
+    /// need at the view's shading times ([`crate::mirror::texture_space::rate::fitted_level`] on the CPU at
     /// prepare time: triangles over at most [`FITTED_COARSER_AREA`] of its pixels may ask for finer;
     /// never below [`MIN_FITTED_FINEST`]): the texels a frame clears and the memory follow the
     /// object's size on screen and its blur. A triangle that asks for a finer level than the atlas
@@ -469,7 +469,7 @@ pub enum AtlasSize {
 }
 
 /// The share of an object's pixels [`AtlasSize::Fitted`] may shade coarser than the rate asks
-/// ([`crate::texture_space::rate::fitted_level`]).
+/// ([`crate::mirror::texture_space::rate::fitted_level`]).
 pub const FITTED_COARSER_AREA: f64 = 0.01;
 
 /// The smallest level 0 [`AtlasSize::Fitted`] gives an object, texels.
@@ -480,7 +480,7 @@ const CHART_GUTTER: u32 = 2;
 
 /// Object `i`'s atlas layout, shading space and per-corner shading coordinates (texels of its
 /// level 0) for `size` at most `largest` (None: no triangles). Fitted: `largest` halved once per level
-/// [`crate::texture_space::rate::fitted_level`] finds unneeded in `view`; generated charts that do not
+/// [`crate::mirror::texture_space::rate::fitted_level`] finds unneeded in `view`; generated charts that do not
 /// fit the smaller atlas are laid at the next size up.
 pub fn object_atlas_layout(
     scene: &crate::scene::Scene,
@@ -495,7 +495,7 @@ pub fn object_atlas_layout(
     }
     let (space, coords) = shading_coords(&o.mesh, largest.finest(), CHART_GUTTER)?;
     let skip = match (size, view.intrinsics()) {
-        (AtlasSize::Fitted, Some(intrinsics)) => crate::texture_space::rate::fitted_level(
+        (AtlasSize::Fitted, Some(intrinsics)) => crate::mirror::texture_space::rate::fitted_level(
             &intrinsics,
             &o.mesh,
             &view.space.objects[i],
@@ -529,18 +529,18 @@ pub struct AtlasPlan {
     pub triangles: usize,
     /// The layout and shading space, or why there is none (charts that do not fit).
     pub layout: std::result::Result<(MipAtlas, ShadingSpace), String>,
-    /// Triangles pass 1 culls outside the frustum ([`crate::texture_space::cull::outside_frustum`]).
+    /// Triangles pass 1 culls outside the frustum ([`crate::mirror::texture_space::cull::outside_frustum`]).
     pub culled: usize,
     /// Triangles pass 1 culls as back-facing at every lens point and time (one-sided materials,
-    /// [`crate::texture_space::cull::back_facing`]), of those inside the frustum; `None` for a
+    /// [`crate::mirror::texture_space::cull::back_facing`]), of those inside the frustum; `None` for a
     /// two-sided material, whose back faces are never culled.
     pub back_facing: Option<usize>,
     /// The texels the shade sub-pass covers, estimated on the CPU: the area of every kept triangle in
-    /// its level ([`crate::texture_space::rate::triangle_level_over_shutter`], the fitted layout's
+    /// its level ([`crate::mirror::texture_space::rate::triangle_level_over_shutter`], the fitted layout's
     /// coordinates), without the conservative sub-pass' gutters. Where it comes from: shaded texels per
     /// object, which the GPU's counters only give for the whole frame.
     pub texels: f64,
-    /// How many times pass 1 shades each of them ([`crate::texture_space::rate::shading_time_count`]:
+    /// How many times pass 1 shades each of them ([`crate::mirror::texture_space::rate::shading_time_count`]:
     /// 1, mid-shutter, unless the object turns in camera space within the shutter).
     pub shading_times: u32,
 }
@@ -559,13 +559,13 @@ pub fn plan_atlases(
     view: &crate::scene::view::View,
     largest: MipAtlas,
 ) -> Vec<AtlasPlan> {
-    use crate::texture_space::cull::{culled, key_points};
+    use crate::mirror::texture_space::cull::{culled, key_points};
     (0..scene.objects.len())
         .map(|i| {
             let o = &scene.objects[i];
             let fitted = object_atlas_layout(scene, view, i, largest, AtlasSize::Fitted);
             let (mut frustum, mut back, mut texels) = (0, 0, 0.0);
-            let times = crate::texture_space::rate::shading_time_count(&view.space.objects[i]);
+            let times = crate::mirror::texture_space::rate::shading_time_count(&view.space.objects[i]);
             if let Some(intrinsics) = view.intrinsics() {
                 let motion = &view.space.objects[i];
                 for t in 0..o.mesh.indices.len() / 3 {
@@ -578,7 +578,7 @@ pub fn plan_atlases(
                         continue;
                     }
                     let tex = [0, 1, 2].map(|k| coords[3 * t + k]);
-                    let rate = crate::texture_space::rate::triangle_level_over_shutter;
+                    let rate = crate::mirror::texture_space::rate::triangle_level_over_shutter;
                     if let Some((c, _)) = rate(&intrinsics, &o.mesh, motion, t, tex, atlas.levels(), times) {
                         let scale = 1.0 / (1u64 << c.level) as f64;
                         let (e1, e2) = (tex[1] - tex[0], tex[2] - tex[0]);

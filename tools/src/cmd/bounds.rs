@@ -65,7 +65,7 @@ pub fn run(args: BoundsArgs) -> Result<()> {
     let sc = load_scene(&scene)?;
     let (width, height) = size.unwrap_or((sc.image.width, sc.image.height));
     let bounds = if bounds.is_empty() {
-        shutter::bounds::BoundKind::ALL.iter().map(|&k| k.into()).collect()
+        shutter::mirror::bounds::BoundKind::ALL.iter().map(|&k| k.into()).collect()
     } else {
         bounds.iter().map(|b| b.parse()).collect::<shutter::Result<Vec<_>>>()?
     };

@@ -5,7 +5,7 @@ use clap::Args;
 
 use std::path::PathBuf;
 
-use shutter::bounds::BoundKind;
+use shutter::mirror::bounds::BoundKind;
 use shutter::techniques::{RenderSettings, Renderer};
 
 use crate::{bench, create_device, load_scene, parse_size, provenance};

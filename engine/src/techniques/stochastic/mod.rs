@@ -5,7 +5,7 @@
 //! samples ([`samples_per_pass`]; one pass unless the visibility buffer would be too large). In every
 //! pass each triangle goes through a geometry shader that replaces it by a conservative screen-space
 //! bound of everywhere it can land over the lens and the shutter (`bounds`, selectable per draw,
-//! mirrored on the CPU in [`crate::bounds`]), dilated by half a pixel; for every pixel the bound
+//! mirrored on the CPU in [`crate::mirror::bounds`]), dilated by half a pixel; for every pixel the bound
 //! touches, the coverage fragment shader runs the 5D inside test of each of the pass' samples — the
 //! ray from the sample's lens point through its (x, y) against the triangle at the sample's time — and
 //! keeps each hit in a visibility buffer, one 64-bit word per pixel and sample, `atomicMax` of (view
@@ -44,10 +44,10 @@ use super::{
     FrameContext, FrameInputs, FrameTechnique, PrepareContext, TechniqueCapabilities, TechniqueFrame,
     TechniqueInfo,
 };
-use crate::bounds::BoundKind;
 use crate::error::{Error, Result};
 use crate::graph::Tracked;
 use crate::image::LinearImage;
+use crate::mirror::bounds::BoundKind;
 use crate::plan::{Effects, Plan};
 use crate::vk::{write_descriptors, DescriptorPool, DescriptorSetLayout, DescriptorWrite, Feature, Image};
 use objects::ObjectChoices;
@@ -111,7 +111,7 @@ pub struct CacheCounters {
     /// Stores skipped because another invocation held the entry.
     pub busy: u64,
     /// The deferred mode: keyed samples whose key found no entry within
-    /// [`crate::decoupled::DEFERRED_PROBES`] of the hash table's (shaded on the spot).
+    /// [`crate::mirror::decoupled::DEFERRED_PROBES`] of the hash table's (shaded on the spot).
     pub overflows: u64,
     /// The deferred mode's memory (None for the memoization cache).
     pub memory: Option<DecoupledMemory>,

@@ -12,11 +12,11 @@ use super::options::{
     auto_clusters, auto_intervals, choose_cluster_order, shading_rect, Clusters, DebugOptions, Intervals,
     StochasticOptions, DEFAULT_CLUSTER_TRIANGLES,
 };
-use crate::bounds::BoundKind;
 use crate::error::{Error, Result};
 use crate::geometry::KeyTimes;
 use crate::gpu::{GpuObject, GpuView};
 use crate::graph::Tracked;
+use crate::mirror::bounds::BoundKind;
 use crate::plan::{Effects, Plan};
 use crate::vk::{write_descriptors, Buffer, DescriptorWrite, Device};
 

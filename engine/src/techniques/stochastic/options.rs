@@ -2,9 +2,9 @@
 //! cluster decisions per object, samples per pass, the sample tile as the shaders read it, and each
 //! object's shading rectangle. Pure CPU code, unit-tested here.
 
-use crate::bounds::BoundKind;
 use crate::error::{Error, Result};
 use crate::geometry::KeyTimes;
+use crate::mirror::bounds::BoundKind;
 use crate::sampling::{ApertureShape, SampleTile, ShutterCurve, SAMPLE_TILE_SIZE};
 use crate::techniques::settings::{key, number, OptionKey};
 
@@ -33,17 +33,17 @@ pub enum ShadingRate {
     /// level 0 at most [`TEXTURE_SPACE_FINEST`]², fitted per object), at the lens centre and
     /// mid-shutter — or, for an object that turns in camera space within the shutter, at several
     /// times, weighed by the samples that see each texel then
-    /// ([`crate::texture_space::rate::shading_time_count`]); every sample looks its radiance up there. Not mirrored by the reference (its shading is view-independent).
+    /// ([`crate::mirror::texture_space::rate::shading_time_count`]); every sample looks its radiance up there. Not mirrored by the reference (its shading is view-independent).
     TextureSpace,
     /// [`ShadingRate::TextureSpace`]'s atlases, looked up once per pixel and (triangle, side) group as
     /// [`ShadingRate::PerPixel`] shades — at the group's first hit (the paper's per-pixel, "MSAA",
     /// lookup: at the pixel centre).
     TextureSpacePerPixel,
-    /// Decoupled shading (Ragan-Kelley et al. 2011; [`crate::decoupled`], docs/DECOUPLED.md): every
+    /// Decoupled shading (Ragan-Kelley et al. 2011; [`crate::mirror::decoupled`], docs/DECOUPLED.md): every
     /// sample takes the radiance of its key — (triangle, side, cell of `grid` around its surface point
     /// at mid-shutter through the lens centre) — which is shaded at the key's shading point. The grid:
     /// pixels (`decoupled`), or each triangle's adaptive anisotropic grid (Vaidyanathan et al. 2012,
-    /// [`crate::aas::bounds`]: oriented along its motion, stretched by its blur; `aas`), or that grid
+    /// [`crate::mirror::aas::bounds`]: oriented along its motion, stretched by its blur; `aas`), or that grid
     /// for defocus only (`aas-isotropic`, the ablation). Where the radiance is kept:
     /// * `deferred: false`: a memoization cache of [`StochasticOptions::cache_entries`] direct-mapped
     ///   entries in the shading pass; a miss shades and stores.
@@ -54,7 +54,7 @@ pub enum ShadingRate {
     ///
     /// Mirrored by the reference ([`crate::reference::ReferenceShading::Decoupled`]): the same image
     /// whatever the cache.
-    Decoupled { grid: crate::decoupled::GridKind, deferred: bool },
+    Decoupled { grid: crate::mirror::decoupled::GridKind, deferred: bool },
 }
 
 /// The largest level 0 side of the atlases of [`ShadingRate::TextureSpace`], texels — the paper's;
@@ -68,7 +68,7 @@ impl ShadingRate {
     pub const ALL: [ShadingRate; 2] = [ShadingRate::PerPixel, ShadingRate::PerSample];
     /// Every rate, by name.
     pub const NAMED: [ShadingRate; 10] = {
-        use crate::decoupled::GridKind::*;
+        use crate::mirror::decoupled::GridKind::*;
         [
             ShadingRate::PerPixel,
             ShadingRate::PerSample,
@@ -83,7 +83,7 @@ impl ShadingRate {
         ]
     };
     pub fn name(&self) -> &'static str {
-        use crate::decoupled::GridKind::*;
+        use crate::mirror::decoupled::GridKind::*;
         match self {
             ShadingRate::PerPixel => "per-pixel",
             ShadingRate::PerSample => "per-sample",
@@ -112,7 +112,7 @@ impl ShadingRate {
     }
 
     /// The decoupled rates' grid (None for the others).
-    pub fn decoupled_grid(&self) -> Option<crate::decoupled::GridKind> {
+    pub fn decoupled_grid(&self) -> Option<crate::mirror::decoupled::GridKind> {
         match self {
             ShadingRate::Decoupled { grid, .. } => Some(*grid),
             _ => None,
@@ -182,7 +182,7 @@ pub struct StochasticOptions {
 }
 
 /// Cluster bounds: an object is drawn with one bound per cluster of N triangles, neighbours in a Morton
-/// order of their centroids ([`crate::bounds::cluster::cluster_order`]) (the union
+/// order of their centroids ([`crate::mirror::bounds::cluster::cluster_order`]) (the union
 /// of their `bbox` bounds, `clusters.comp`) instead of one per triangle; the fragment stage first
 /// rejects each sample whose ray misses the cluster's camera-space box, then tests the cluster's
 /// triangles. Same samples, same hits, same image: only the cost changes. It pays where many small
@@ -248,7 +248,7 @@ pub fn auto_clusters(triangles: usize, cluster_area_px: Option<f32>, coc_px: f32
 
 /// The order `mesh`'s triangles form clusters of `n` in, and the clusters' mean area in pixels
 /// ([`mean_cluster_area_px`]): the stored order or a Morton order of the centroids
-/// ([`crate::bounds::cluster::cluster_order`]), whichever gives the smaller clusters on screen (the
+/// ([`crate::mirror::bounds::cluster::cluster_order`]), whichever gives the smaller clusters on screen (the
 /// built-in meshes are generated patch by patch, tighter than a Morton curve; an OBJ may store its
 /// triangles in any order). Without a measured area (a vertex at the near plane): the Morton order.
 pub fn choose_cluster_order(
@@ -258,7 +258,7 @@ pub fn choose_cluster_order(
     n: usize,
 ) -> (Vec<u32>, Option<f32>) {
     let stored: Vec<u32> = (0..mesh.triangle_count() as u32).collect();
-    let morton = crate::bounds::cluster::cluster_order(mesh);
+    let morton = crate::mirror::bounds::cluster::cluster_order(mesh);
     // The vertices projected once for both orders.
     let projected = project_vertices(mesh, model_view, k);
     let a = mean_cluster_area(mesh, &projected, &stored, n);

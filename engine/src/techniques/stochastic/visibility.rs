@@ -26,11 +26,11 @@ use super::layout::{
 use super::objects::{ObjectChoices, StochasticObject};
 use super::options::{bounded_segments, gpu_samples, samples_per_pass, DebugOptions, StochasticOptions};
 use super::{BOUND_DEBUG_STRIDE, COUNTERS};
-use crate::bounds::BoundKind;
 use crate::error::Result;
 use crate::gpu::layout::{vertex_input, FRAME_SET_INDEX, OBJECT_SET_INDEX, TECHNIQUE_SET_INDEX};
 use crate::gpu::{GpuView, GpuWorld};
 use crate::graph::{Access, BufferHandle, FrameGraph, PassContext, ResourceHandle, Tracked};
+use crate::mirror::bounds::BoundKind;
 use crate::plan::Effects;
 use crate::sampling::ShutterCurve;
 use crate::shaders::{self, axes, ClustersComp, StochasticFrag, StochasticGeom};
@@ -48,7 +48,7 @@ pub(super) struct Sampling {
     pub size: (u32, u32),
     /// The camera's shutter curve: run k of K covers the warped times of `[k/K, (k+1)/K)`.
     pub shutter: ShutterCurve,
-    /// Box half-size of the bound dilation ([`crate::bounds::dilation_px`] for one sample per pixel).
+    /// Box half-size of the bound dilation ([`crate::mirror::bounds::dilation_px`] for one sample per pixel).
     pub dilate: f32,
     /// [`crate::transparency::coverage_seed`] of the render seed.
     pub coverage_seed: u32,
@@ -71,7 +71,7 @@ impl Sampling {
             size: (width, height),
             shutter: ctx.scene.camera.shutter,
             // One rasterizer sample per pixel, at its centre.
-            dilate: crate::bounds::dilation_px(1, caps.standard_sample_locations),
+            dilate: crate::mirror::bounds::dilation_px(1, caps.standard_sample_locations),
             coverage_seed: crate::transparency::coverage_seed(ctx.settings.seed),
         })
     }

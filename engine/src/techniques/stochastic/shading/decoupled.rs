@@ -139,7 +139,7 @@ impl Decoupled {
         let (width, height) = ctx.camera.size();
         let intrinsics = ctx.scene.camera.intrinsics(width, height);
         let grids: Vec<[f32; 4]> =
-            crate::decoupled::object_grids(ctx.scene, &ctx.camera.space, &intrinsics, kind)
+            crate::mirror::decoupled::object_grids(ctx.scene, &ctx.camera.space, &intrinsics, kind)
                 .iter()
                 .map(|g| [g.axis.x, g.axis.y, g.along, g.across])
                 .collect();

@@ -4,11 +4,11 @@
 //! *How* a hit's radiance is found is the shading rate's, one [`ShadingStage`] per file with its
 //! shader:
 //!
-//! | rate | file | shader |
-//! |---|---|---|
-//! | per pixel / per sample (exact) | `exact.rs` | `stochastic/shade_exact.comp` |
-//! | texture-space lookup | `texture_space.rs` | `stochastic/shade_texture_space.comp` |
-//! | decoupled (memoization cache or deferred) | `decoupled.rs` | `stochastic/shade_decoupled.comp` |
+//! | rate | file | its CPU mirror | shader |
+//! |---|---|---|---|
+//! | per pixel / per sample (exact) | `exact.rs` | the reference's own shading ([`crate::shading`]) | `stochastic/shade_exact.comp` |
+//! | texture-space lookup | `texture_space.rs` | [`crate::mirror::texture_space`] | `stochastic/shade_texture_space.comp` |
+//! | decoupled (memoization cache or deferred) | `decoupled.rs` | [`crate::mirror::decoupled`], [`crate::mirror::aas`] | `stochastic/shade_decoupled.comp` |
 //!
 //! Tints (stochastic transparency's tint buffer) and shadow maps are axes every stage takes
 //! ([`ShadeVariant`]); the pass here binds sets 0, 3 and 4, the stage its own bindings. Every stage
@@ -225,7 +225,7 @@ pub(super) fn shadow_maps(ctx: &PrepareContext<'_>) -> Result<Option<ShadowMaps>
     if !(ctx.scene.lights.iter().any(|l| l.shadows()) && ctx.settings.shadows.enabled) {
         return Ok(None);
     }
-    if crate::shadows::casters_move(ctx.scene) {
+    if crate::mirror::shadow_maps::casters_move(ctx.scene) {
         return Err(Error::Unsupported(
             "shadow-casting lights with moving objects: the stochastic rasterizer renders shadow \
              maps once per frame, exact only when nothing moves (every sample has its own time); \

@@ -24,7 +24,7 @@ use crate::vk::{write_descriptors, DescriptorWrite, Device, Sampler};
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
 pub(super) struct TextureSpacePush {
     pub shade: ShadePush,
-    /// The object's atlas layout ([`crate::texture_space::atlas::MipAtlas`]): level 0's side and the
+    /// The object's atlas layout ([`crate::mirror::texture_space::atlas::MipAtlas`]): level 0's side and the
     /// gutter (0 for the background).
     pub atlas_finest: u32,
     pub atlas_gutter: u32,
@@ -48,7 +48,8 @@ impl TextureSpaceLookup {
         options: &StochasticOptions,
         shadows: Option<&ShadowMaps>,
     ) -> Result<Self> {
-        let layout = crate::texture_space::atlas::MipAtlas::new(TEXTURE_SPACE_FINEST, TEXTURE_SPACE_GUTTER)?;
+        let layout =
+            crate::mirror::texture_space::atlas::MipAtlas::new(TEXTURE_SPACE_FINEST, TEXTURE_SPACE_GUTTER)?;
         let atlas = AtlasPasses::new(
             ctx,
             layout,

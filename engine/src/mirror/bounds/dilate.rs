@@ -74,7 +74,7 @@ pub fn dilate_box(poly: &[Vec2], h: f32) -> Vec<Vec2> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::bounds::{convex_contains, convex_hull, signed_area};
+    use crate::mirror::bounds::{convex_contains, convex_hull, signed_area};
     use proptest::prelude::*;
 
     fn point() -> impl Strategy<Value = Vec2> {

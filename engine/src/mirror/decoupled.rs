@@ -19,11 +19,11 @@
 
 use glam::{IVec2, Vec2, Vec3};
 
-use crate::aas::bounds::ShadingGrid;
+use crate::mirror::aas::bounds::ShadingGrid;
 use crate::scene::Intrinsics;
 
 /// Which screen-space grid cells the keys: the pixel grid (Ragan-Kelley's decoupled sampling), or the
-/// AAS grid per triangle ([`crate::aas::bounds::shading_grid`]: oriented along the motion and stretched
+/// AAS grid per triangle ([`crate::mirror::aas::bounds::shading_grid`]: oriented along the motion and stretched
 /// by the blur), or AAS for defocus only (the isotropic ablation).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum GridKind {
@@ -50,14 +50,14 @@ pub fn object_grids(
         return vec![PIXEL_GRID; scene.triangle_count()];
     }
     // The cutoffs are numerical transforms: computed once, and only for the AAS grids.
-    let cutoffs = crate::aas::spectrum::camera_cutoffs(scene.camera.aperture, scene.camera.shutter);
+    let cutoffs = crate::mirror::aas::spectrum::camera_cutoffs(scene.camera.aperture, scene.camera.shutter);
     let isotropic = kind == GridKind::AasIsotropic;
     scene
         .objects
         .iter()
         .zip(&space.objects)
         .flat_map(|(o, motion)| {
-            crate::aas::bounds::triangle_grids(intrinsics, &o.mesh, motion, &cutoffs, isotropic)
+            crate::mirror::aas::bounds::triangle_grids(intrinsics, &o.mesh, motion, &cutoffs, isotropic)
         })
         .collect()
 }

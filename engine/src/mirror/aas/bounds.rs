@@ -205,7 +205,7 @@ pub fn triangle_grids(
             for mv in &motion.model_view {
                 let p = [0, 1, 2].map(|k| mv.transform_point3(mesh.positions[t[k] as usize]));
                 if p.iter().any(|v| -v.z <= intrinsics.near || v.z.is_nan()) {
-                    return crate::decoupled::PIXEL_GRID;
+                    return crate::mirror::decoupled::PIXEL_GRID;
                 }
                 keys.push(p.map(|v| intrinsics.project(v, Vec2::ZERO)));
                 coc.push(p.map(|v| intrinsics.circle_of_confusion_px(-v.z)));
@@ -385,6 +385,6 @@ mod tests {
         );
         assert!(triangle_grids(&k, &mesh, &behind, &cut, false)
             .iter()
-            .all(|g| *g == crate::decoupled::PIXEL_GRID));
+            .all(|g| *g == crate::mirror::decoupled::PIXEL_GRID));
     }
 }

@@ -197,7 +197,7 @@ mod tests {
         assert!((e - rayleigh).abs() < 2e-3, "{e} vs {rayleigh}");
         let cutoff = aperture_cutoff(disk, ENERGY_KEPT).unwrap();
         assert!((cutoff - 0.951).abs() < 0.005, "sharp disk: {cutoff}");
-        let atss = crate::texture_space::rate::grid_spacing_px(12.0) as f64;
+        let atss = crate::mirror::texture_space::rate::grid_spacing_px(12.0) as f64;
         let aas = 1.0 / (2.0 * (cutoff / 12.0).min(RECONSTRUCTION_CUTOFF));
         assert!((aas / atss - 1.0).abs() < 0.06, "AAS spacing {aas} vs ATSS {atss} at φ = 12 px");
     }

@@ -9,7 +9,7 @@
 //!   motion directions, and from them the oriented shading grid.
 //!
 //! The grid keys decoupled shading's samples in `--shading aas` and `aas-isotropic`
-//! ([`crate::decoupled::object_grids`], computed on the CPU per frame and uploaded; the GPU only reads
+//! ([`crate::mirror::decoupled::object_grids`], computed on the CPU per frame and uploaded; the GPU only reads
 //! it). Not yet here (issue 14): a GPU port of the bounds, and the grid in Liktor & Dachsbacher's
 //! deferred variant.
 

@@ -1339,7 +1339,7 @@ fn kind_names_ids_and_parsing() {
 /// The GLSL mirror's `BOUND_*` ids and constants are the CPU's (whitespace-insensitive text match).
 #[test]
 fn glsl_mirror_uses_the_cpu_constants() {
-    let src: String = include_str!("../../../shaders-glsl/stochastic/bounds.glsl")
+    let src: String = include_str!("../../../../shaders-glsl/stochastic/bounds.glsl")
         .chars()
         .filter(|c| !c.is_whitespace())
         .collect();

@@ -658,7 +658,7 @@ mod fit_tests {
         let intr = view.intrinsics().unwrap();
         let i = scene.objects.iter().position(|o| o.name == "spot").unwrap();
         let o = &scene.objects[i];
-        let space = crate::texture_space::atlas::shading_space_of(&o.mesh);
+        let space = crate::mirror::texture_space::atlas::shading_space_of(&o.mesh);
         let coords: Vec<Vec2> =
             o.mesh.indices.iter().map(|&k| space.to_unit(o.mesh.uvs[k as usize]) * 2048.0).collect();
         let motion = &view.space.objects[i];
