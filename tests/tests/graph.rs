@@ -283,3 +283,57 @@ fn importing_a_resource_twice_gives_one_handle() {
     })
     .expect("graph");
 }
+
+/// A descriptor set is written once, at prepare time, and what it reaches is declared on the pass
+/// that binds it: binding a set that references a buffer of the graph the pass did not declare
+/// panics with both names (a forgotten declaration would be a missing barrier), and declaring it
+/// binds the very same set without complaint.
+#[test]
+fn binding_a_set_checks_the_pass_declared_what_it_references() {
+    use ash::vk;
+    use shutter::vk::{
+        write_descriptors, DescriptorPool, DescriptorSetLayout, DescriptorWrite, PipelineLayout,
+    };
+
+    let scene = probe_scene(16, 16);
+    let mut r = renderer();
+    let mut prepared = prepare(&mut r, &scene, 16, 1);
+    let mut bound = |declare_a: bool| {
+        r.run_with(&mut prepared, |_, _, frame| {
+            let device = frame.device().clone();
+            let usage = vk::BufferUsageFlags::STORAGE_BUFFER;
+            let a = shutter::graph::Tracked::new(shutter::vk::Buffer::with_data(
+                &device, "a", usage, &[0u32; 4],
+            )?);
+            let b = shutter::graph::Tracked::new(shutter::vk::Buffer::with_data(
+                &device, "b", usage, &[0u32; 4],
+            )?);
+            let storage = vk::DescriptorType::STORAGE_BUFFER;
+            let set_layout =
+                DescriptorSetLayout::new(&device, "a and b", &[(0, storage, vk::ShaderStageFlags::COMPUTE)])?;
+            let layout = PipelineLayout::new(&device, &[&set_layout], 4, vk::ShaderStageFlags::COMPUTE)?;
+            let pool = DescriptorPool::new(&device, 1, &[(storage, 1)])?;
+            let set = pool.allocate(&set_layout)?;
+            write_descriptors(&device, set, &[DescriptorWrite::storage_buffer(0, &a)]);
+            let mut g = frame.graph();
+            let (ha, hb) = (g.import_buffer("a", &a), g.import_buffer("b", &b));
+            let pass = g.pass("binds a").access(hb, Access::ComputeShaderReadOther);
+            let pass = if declare_a { pass.access(ha, Access::ComputeShaderReadOther) } else { pass };
+            let (layout, set) = (&layout, set);
+            pass.record(move |ctx| {
+                ctx.bind_sets(vk::PipelineBindPoint::COMPUTE, layout, 0, &[set]);
+                Ok(())
+            });
+            frame.run(g)?;
+            Ok(())
+        })
+    };
+    bound(true).expect("a declared: the set binds");
+    let undeclared = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| bound(false)));
+    let message = undeclared.expect_err("a undeclared: binding the set must panic");
+    let message = message.downcast_ref::<String>().cloned().unwrap_or_default();
+    assert!(
+        message.contains("set 0, binding 0 references `a`, which the pass did not declare"),
+        "the panic: {message}"
+    );
+}

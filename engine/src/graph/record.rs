@@ -14,9 +14,18 @@
 //!   range's, and the value must fit in that range (checked: an overflow panics with the sizes, a bug
 //!   in the technique, never input).
 //! * **Descriptor sets** must lie within the layout's sets (checked) and have been allocated from the
-//!   layouts it was built with — the one thing not checked here: the set layouts are reflected against
-//!   every compiled shader permutation by `gpu/layout_tests.rs`, and every test runs with the
-//!   validation layer, which reports an incompatible set.
+//!   layouts it was built with — not checked here: the set layouts are reflected against every
+//!   compiled shader permutation by `gpu/layout_tests.rs`, and every test runs with the validation
+//!   layer, which reports an incompatible set.
+//! * **Graph resources a descriptor set references** must be declared by the pass that binds it
+//!   (checked in [`PassContext::bind_sets`]): every buffer and image view Shutter writes into a set is
+//!   recorded per binding ([`crate::vk::DescriptorRefs`]), and a set that reaches a resource of this
+//!   graph the pass did not declare panics with both names. So a set is written once, at prepare time,
+//!   and what it binds is declared once, on the pass; the check keeps the two from drifting apart (a
+//!   forgotten declaration is a missing barrier). Resources outside the graph — the world, the views,
+//!   the sample tables the host wrote before the frame — are not the graph's to order, and an image
+//!   bound through a view other than its own [`crate::vk::Image::view`] (one mip level of an atlas) is
+//!   not matched.
 //! * **Graph resources a command names** ([`PassContext::fill_buffer`],
 //!   [`PassContext::dispatch_indirect`], [`PassContext::copy_buffer_to_image`]) must have been
 //!   declared by the pass with the access the command makes (checked), so their barriers and layouts
@@ -28,7 +37,7 @@
 use ash::vk;
 
 use super::{Access, BufferHandle, ImageHandle, PassContext, ResourceHandle};
-use crate::vk::{Buffer, Pipeline, PipelineLayout};
+use crate::vk::{Buffer, DescriptorRef, Pipeline, PipelineLayout};
 
 impl PassContext<'_> {
     /// Whether this pass declared `resource` with `access`.
@@ -53,7 +62,25 @@ impl PassContext<'_> {
         unsafe { self.device.raw.cmd_bind_pipeline(self.cmd, pipeline.bind_point, pipeline.raw) };
     }
 
-    /// Binds `sets` as sets `first..` of `layout` for `bind_point`.
+    /// Panics if `set` references a resource of this graph the pass did not declare.
+    fn expect_set_declared(&self, set: vk::DescriptorSet, index: u32) {
+        for (binding, what) in self.device.descriptor_refs.of(set) {
+            let resource = self.resources.iter().position(|r| match what {
+                DescriptorRef::Buffer(b) => r.buffer().is_some_and(|buf| buf.raw == b),
+                DescriptorRef::View(v) => r.image().is_some_and(|img| img.view == v),
+            });
+            if let Some(resource) = resource {
+                assert!(
+                    self.uses.iter().any(|u| u.resource == resource),
+                    "bind_sets: set {index}, binding {binding} references `{}`, which the pass did not declare",
+                    self.resources[resource].name
+                );
+            }
+        }
+    }
+
+    /// Binds `sets` as sets `first..` of `layout` for `bind_point`, after checking that every graph
+    /// resource they reference is declared by the pass (module docs).
     pub fn bind_sets(
         &self,
         bind_point: vk::PipelineBindPoint,
@@ -68,6 +95,9 @@ impl PassContext<'_> {
             first as usize + sets.len(),
             layout.set_count()
         );
+        for (i, set) in sets.iter().enumerate() {
+            self.expect_set_declared(*set, first + i as u32);
+        }
         // SAFETY: the contract of `PassContext`; the range of sets lies in the layout (checked);
         // their compatibility with it is the layout tests' and the validation layer's (module docs).
         unsafe {

@@ -318,6 +318,9 @@ pub struct DeviceShared {
     /// Whether the device and instance are Shutter's to destroy: false for a device a caller lent
     /// ([`DeviceShared::from_external`] with [`Ownership::Borrowed`]).
     owns_handles: bool,
+    /// What each descriptor set Shutter wrote references, so that binding one in a graph pass can
+    /// be checked against the pass' declared accesses (`graph/record.rs`).
+    pub(crate) descriptor_refs: super::pipeline::DescriptorRefs,
 }
 
 /// The one owner of the Vulkan device; cheap to clone.
@@ -581,6 +584,7 @@ impl DeviceShared {
             validation_enabled: validation,
             queue_lock: Mutex::new(()),
             owns_handles: true,
+            descriptor_refs: Default::default(),
         }))
     }
 
@@ -1053,6 +1057,7 @@ impl DeviceShared {
             validation_enabled: ext.validation_layer,
             queue_lock: Mutex::new(()),
             owns_handles: ext.ownership == Ownership::Owned,
+            descriptor_refs: Default::default(),
         }))
     }
 }

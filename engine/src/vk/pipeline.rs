@@ -137,13 +137,48 @@ impl DescriptorPool {
     pub fn allocate(&self, layout: &DescriptorSetLayout) -> Result<vk::DescriptorSet> {
         let layouts = [layout.raw];
         let info = vk::DescriptorSetAllocateInfo::default().descriptor_pool(self.raw).set_layouts(&layouts);
-        Ok(unsafe { self.device.raw.allocate_descriptor_sets(&info) }.vk("vkAllocateDescriptorSets")?[0])
+        let set =
+            unsafe { self.device.raw.allocate_descriptor_sets(&info) }.vk("vkAllocateDescriptorSets")?[0];
+        self.device.descriptor_refs.clear(set);
+        Ok(set)
     }
 }
 
 impl Drop for DescriptorPool {
     fn drop(&mut self) {
         unsafe { self.device.raw.destroy_descriptor_pool(self.raw, None) };
+    }
+}
+
+/// What one binding of a descriptor set references: a buffer, or an image through one of its views.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum DescriptorRef {
+    Buffer(vk::Buffer),
+    View(vk::ImageView),
+}
+
+/// Per descriptor set, what [`write_descriptors`] wrote into it, binding by binding; a set
+/// [`DescriptorPool::allocate`] hands out starts empty (a handle may be reused after its pool went).
+#[derive(Default)]
+pub struct DescriptorRefs(
+    std::sync::Mutex<std::collections::HashMap<vk::DescriptorSet, Vec<(u32, DescriptorRef)>>>,
+);
+
+impl DescriptorRefs {
+    fn clear(&self, set: vk::DescriptorSet) {
+        self.0.lock().expect("descriptor refs").remove(&set);
+    }
+
+    fn write(&self, set: vk::DescriptorSet, binding: u32, what: DescriptorRef) {
+        let mut map = self.0.lock().expect("descriptor refs");
+        let refs = map.entry(set).or_default();
+        refs.retain(|(b, _)| *b != binding);
+        refs.push((binding, what));
+    }
+
+    /// What `set` references, by binding (empty for a set Shutter did not write).
+    pub fn of(&self, set: vk::DescriptorSet) -> Vec<(u32, DescriptorRef)> {
+        self.0.lock().expect("descriptor refs").get(&set).cloned().unwrap_or_default()
     }
 }
 
@@ -163,7 +198,17 @@ impl DescriptorWrite {
     }
 }
 
+/// Writes `writes` into `set`, and records what each binding now references
+/// ([`DescriptorRefs`]: a graph pass that binds the set must declare those of them in its graph).
 pub fn write_descriptors(device: &Device, set: vk::DescriptorSet, writes: &[DescriptorWrite]) {
+    for w in writes {
+        let (binding, what) = match w {
+            DescriptorWrite::Buffer { binding, buffer, .. } => (*binding, DescriptorRef::Buffer(*buffer)),
+            DescriptorWrite::StorageImage { binding, view }
+            | DescriptorWrite::SampledImage { binding, view, .. } => (*binding, DescriptorRef::View(*view)),
+        };
+        device.descriptor_refs.write(set, binding, what);
+    }
     let buffer_infos: Vec<[vk::DescriptorBufferInfo; 1]> = writes
         .iter()
         .map(|w| match w {
