@@ -284,56 +284,76 @@ fn importing_a_resource_twice_gives_one_handle() {
     .expect("graph");
 }
 
-/// A descriptor set is written once, at prepare time, and what it reaches is declared on the pass
-/// that binds it: binding a set that references a buffer of the graph the pass did not declare
-/// panics with both names (a forgotten declaration would be a missing barrier), and declaring it
-/// binds the very same set without complaint.
+/// A descriptor set is written once, at prepare time, and what a dispatch reads through it is
+/// declared on the pass: dispatching `accumulate.comp` (set 3: binding 0 read, binding 1 read and
+/// written) with a set whose binding 0 is an image of the graph the pass did not declare panics with
+/// the pipeline, the binding and the image (a forgotten declaration would be a missing barrier);
+/// declaring it dispatches the very same set without complaint, and binding 2 — in the set, not used
+/// by the shader — needs no declaration.
 #[test]
-fn binding_a_set_checks_the_pass_declared_what_it_references() {
+fn a_dispatch_checks_the_pass_declared_what_its_sets_reach() {
     use ash::vk;
     use shutter::vk::{
-        write_descriptors, DescriptorPool, DescriptorSetLayout, DescriptorWrite, PipelineLayout,
+        write_descriptors, DescriptorPool, DescriptorSetLayout, DescriptorWrite, Image, ImageDesc, Pipeline,
+        PipelineLayout, ShaderModule,
     };
 
     let scene = probe_scene(16, 16);
     let mut r = renderer();
     let mut prepared = prepare(&mut r, &scene, 16, 1);
-    let mut bound = |declare_a: bool| {
+    let mut dispatch = |declare_a: bool| {
         r.run_with(&mut prepared, |_, _, frame| {
             let device = frame.device().clone();
-            let usage = vk::BufferUsageFlags::STORAGE_BUFFER;
-            let a = shutter::graph::Tracked::new(shutter::vk::Buffer::with_data(
-                &device, "a", usage, &[0u32; 4],
-            )?);
-            let b = shutter::graph::Tracked::new(shutter::vk::Buffer::with_data(
-                &device, "b", usage, &[0u32; 4],
-            )?);
-            let storage = vk::DescriptorType::STORAGE_BUFFER;
-            let set_layout =
-                DescriptorSetLayout::new(&device, "a and b", &[(0, storage, vk::ShaderStageFlags::COMPUTE)])?;
-            let layout = PipelineLayout::new(&device, &[&set_layout], 4, vk::ShaderStageFlags::COMPUTE)?;
-            let pool = DescriptorPool::new(&device, 1, &[(storage, 1)])?;
-            let set = pool.allocate(&set_layout)?;
-            write_descriptors(&device, set, &[DescriptorWrite::storage_buffer(0, &a)]);
+            let desc = ImageDesc::new_2d(4, 4, vk::Format::R32G32B32A32_SFLOAT, vk::ImageUsageFlags::STORAGE);
+            let image = |name: &str| Image::new(&device, name, desc).map(shutter::graph::Tracked::new);
+            let (a, b, c) = (image("a")?, image("b")?, image("c")?);
+            let (storage, compute) = (vk::DescriptorType::STORAGE_IMAGE, vk::ShaderStageFlags::COMPUTE);
+            let empty = DescriptorSetLayout::new(&device, "empty", &[])?;
+            let set3 = DescriptorSetLayout::new(
+                &device,
+                "accumulate",
+                &[(0, storage, compute), (1, storage, compute), (2, storage, compute)],
+            )?;
+            let layout = PipelineLayout::new(&device, &[&empty, &empty, &empty, &set3], 4, compute)?;
+            let shader = ShaderModule::new(&device, shutter::shaders::ACCUMULATION_ACCUMULATE_COMP)?;
+            assert_eq!(shader.used_descriptors, [(3, 0), (3, 1)], "what accumulate.comp reads");
+            let pipeline = Pipeline::compute(&device, "accumulate", &layout, &shader)?;
+            let pool = DescriptorPool::new(&device, 1, &[(storage, 3)])?;
+            let set = pool.allocate(&set3)?;
+            write_descriptors(
+                &device,
+                set,
+                &[
+                    DescriptorWrite::StorageImage { binding: 0, view: a.view },
+                    DescriptorWrite::StorageImage { binding: 1, view: b.view },
+                    DescriptorWrite::StorageImage { binding: 2, view: c.view },
+                ],
+            );
             let mut g = frame.graph();
-            let (ha, hb) = (g.import_buffer("a", &a), g.import_buffer("b", &b));
-            let pass = g.pass("binds a").access(hb, Access::ComputeShaderReadOther);
+            let (ha, hb) = (g.import_image("a", &a), g.import_image("b", &b));
+            g.import_image("c", &c);
+            let pass = g.pass("accumulate").access(hb, Access::ComputeShaderReadWrite);
             let pass = if declare_a { pass.access(ha, Access::ComputeShaderReadOther) } else { pass };
-            let (layout, set) = (&layout, set);
+            let (layout, pipeline) = (&layout, &pipeline);
             pass.record(move |ctx| {
-                ctx.bind_sets(vk::PipelineBindPoint::COMPUTE, layout, 0, &[set]);
+                ctx.bind_pipeline(pipeline);
+                ctx.bind_sets(vk::PipelineBindPoint::COMPUTE, layout, 3, &[set]);
+                ctx.push(layout, &0.5f32);
+                ctx.dispatch(1, 1, 1);
                 Ok(())
             });
             frame.run(g)?;
             Ok(())
         })
     };
-    bound(true).expect("a declared: the set binds");
-    let undeclared = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| bound(false)));
-    let message = undeclared.expect_err("a undeclared: binding the set must panic");
+    dispatch(true).expect("a declared: the dispatch records and runs");
+    let undeclared = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| dispatch(false)));
+    let message = undeclared.expect_err("a undeclared: the dispatch must panic");
     let message = message.downcast_ref::<String>().cloned().unwrap_or_default();
     assert!(
-        message.contains("set 0, binding 0 references `a`, which the pass did not declare"),
+        message.contains(
+            "dispatch: pipeline `accumulate` reads set 3, binding 0: `a`, which the pass did not declare"
+        ),
         "the panic: {message}"
     );
 }

@@ -335,3 +335,25 @@ fn light_kinds_match_the_glsl_defines() {
         assert!(frame.lines().any(|l| l.trim() == line), "frame.glsl lacks `{line}`");
     }
 }
+
+/// What the frame graph's declared-access check takes a pipeline to read
+/// ([`crate::vk::statically_used_descriptors`]: the entry point's interface, nothing more) is, for
+/// every compiled permutation, exactly the descriptors a full SPIR-V reflection finds in the module;
+/// and a module with a descriptor the entry point does not list would be caught by that reflection
+/// here, not missed by the check.
+#[test]
+fn statically_used_descriptors_match_the_reflection() {
+    let mut checked = 0;
+    for source in shaders::ALL {
+        let words = ash::util::read_spv(&mut std::io::Cursor::new(source.spirv)).expect("SPIR-V words");
+        let used = crate::vk::statically_used_descriptors(&words);
+        let reflection = Reflection::new(source.spirv).expect("reflects");
+        let mut reflected: Vec<(u32, u32)> =
+            reflection.descriptors().iter().map(|d| (d.set, d.binding)).collect();
+        reflected.sort_unstable();
+        reflected.dedup();
+        assert_eq!(used, reflected, "{} [{}]", source.file, source.permutation);
+        checked += usize::from(!used.is_empty());
+    }
+    assert!(checked > 100, "only {checked} permutations read any descriptor");
+}

@@ -379,6 +379,8 @@ pub struct PassContext<'r> {
     resources: &'r [Resource<'r>],
     /// What the pass declared (the typed commands check their resources against it).
     uses: &'r [Use],
+    /// What its commands bound, for the check of what a draw or dispatch reads (`record.rs`).
+    bound: std::cell::RefCell<record::Bound>,
 }
 
 impl PassContext<'_> {
@@ -826,7 +828,15 @@ fn record_pass(
         } else {
             vk::Extent2D::default()
         };
-        let mut ctx = PassContext { device, cmd, iteration, extent, resources, uses: &pass.uses };
+        let mut ctx = PassContext {
+            device,
+            cmd,
+            iteration,
+            extent,
+            resources,
+            uses: &pass.uses,
+            bound: Default::default(),
+        };
         let recorded = record(&mut ctx);
         if raster {
             // SAFETY: `cmd` is recording and `begin_rendering` began this pass' rendering above; the closure

@@ -17,15 +17,19 @@
 //!   layouts it was built with — not checked here: the set layouts are reflected against every
 //!   compiled shader permutation by `gpu/layout_tests.rs`, and every test runs with the validation
 //!   layer, which reports an incompatible set.
-//! * **Graph resources a descriptor set references** must be declared by the pass that binds it
-//!   (checked in [`PassContext::bind_sets`]): every buffer and image view Shutter writes into a set is
-//!   recorded per binding ([`crate::vk::DescriptorRefs`]), and a set that reaches a resource of this
-//!   graph the pass did not declare panics with both names. So a set is written once, at prepare time,
-//!   and what it binds is declared once, on the pass; the check keeps the two from drifting apart (a
-//!   forgotten declaration is a missing barrier). Resources outside the graph — the world, the views,
-//!   the sample tables the host wrote before the frame — are not the graph's to order, and an image
-//!   bound through a view other than its own [`crate::vk::Image::view`] (one mip level of an atlas) is
-//!   not matched.
+//! * **Graph resources a draw or dispatch reads through its descriptor sets** must be declared by the
+//!   pass (checked at each [`PassContext::draw`], [`PassContext::draw_indexed`],
+//!   [`PassContext::dispatch`] and [`PassContext::dispatch_indirect`] after a pipeline or a set
+//!   changed): every buffer and image view Shutter writes into a set is recorded per binding
+//!   ([`crate::vk::DescriptorRefs`]), every pipeline knows the (set, binding) pairs its shaders
+//!   statically use ([`crate::vk::statically_used_descriptors`]), and a used binding that reaches a
+//!   resource of this graph the pass did not declare panics with the pipeline, the binding and the
+//!   resource. So a set is written once, at prepare time, and what the pass reads through it is
+//!   declared once, on the pass; the check keeps the two from drifting apart (a forgotten declaration
+//!   is a missing barrier). A binding the bound pipeline does not use is not an access and is not
+//!   checked. Not matched: an image bound through a view other than its own
+//!   [`crate::vk::Image::view`] (one mip level of an atlas), and resources outside the graph (the
+//!   world, the views, the sample tables the host wrote before the frame).
 //! * **Graph resources a command names** ([`PassContext::fill_buffer`],
 //!   [`PassContext::dispatch_indirect`], [`PassContext::copy_buffer_to_image`]) must have been
 //!   declared by the pass with the access the command makes (checked), so their barriers and layouts
@@ -39,7 +43,62 @@ use ash::vk;
 use super::{Access, BufferHandle, ImageHandle, PassContext, ResourceHandle};
 use crate::vk::{Buffer, DescriptorRef, Pipeline, PipelineLayout};
 
+/// What is bound at each bind point of a pass' command buffer, as far as the declared-access check
+/// needs: the pipeline's name and statically used descriptors, the sets by index, and whether that
+/// combination was checked since it last changed.
+#[derive(Default)]
+pub(super) struct Bound {
+    graphics: BoundPoint,
+    compute: BoundPoint,
+}
+
+#[derive(Default)]
+struct BoundPoint {
+    pipeline: Option<(String, Vec<(u32, u32)>)>,
+    sets: Vec<Option<vk::DescriptorSet>>,
+    checked: bool,
+}
+
+impl Bound {
+    fn point(&mut self, bind_point: vk::PipelineBindPoint) -> &mut BoundPoint {
+        if bind_point == vk::PipelineBindPoint::COMPUTE {
+            &mut self.compute
+        } else {
+            &mut self.graphics
+        }
+    }
+}
+
 impl PassContext<'_> {
+    /// Panics if the pipeline bound at `bind_point` reads, through a set bound there, a resource of
+    /// this graph the pass did not declare (module docs); once per change of pipeline or sets.
+    fn expect_reads_declared(&self, bind_point: vk::PipelineBindPoint, command: &str) {
+        let mut bound = self.bound.borrow_mut();
+        let point = bound.point(bind_point);
+        if point.checked {
+            return;
+        }
+        point.checked = true;
+        let Some((pipeline, used)) = &point.pipeline else { return };
+        for &(set_index, binding) in used {
+            let Some(Some(set)) = point.sets.get(set_index as usize) else { continue };
+            let refs = self.device.descriptor_refs.of(*set);
+            let Some((_, what)) = refs.iter().find(|(b, _)| *b == binding) else { continue };
+            let resource = self.resources.iter().position(|r| match *what {
+                DescriptorRef::Buffer(b) => r.buffer().is_some_and(|buf| buf.raw == b),
+                DescriptorRef::View(v) => r.image().is_some_and(|img| img.view == v),
+            });
+            if let Some(resource) = resource {
+                assert!(
+                    self.uses.iter().any(|u| u.resource == resource),
+                    "{command}: pipeline `{pipeline}` reads set {set_index}, binding {binding}: `{}`, which the \
+                     pass did not declare",
+                    self.resources[resource].name
+                );
+            }
+        }
+    }
+
     /// Whether this pass declared `resource` with `access`.
     fn declared(&self, resource: ResourceHandle, access: Access) -> bool {
         let index = resource.index();
@@ -57,30 +116,19 @@ impl PassContext<'_> {
     /// Binds `pipeline` at its bind point.
     pub fn bind_pipeline(&self, pipeline: &Pipeline) {
         assert!(pipeline.belongs_to(self.device), "a pipeline of another device");
+        {
+            let mut bound = self.bound.borrow_mut();
+            let point = bound.point(pipeline.bind_point);
+            point.pipeline = Some((pipeline.name.clone(), pipeline.used_descriptors.clone()));
+            point.checked = false;
+        }
         // SAFETY: the executor's half of the contract of `PassContext` (recording state); the
         // pipeline is live and of this device (checked above).
         unsafe { self.device.raw.cmd_bind_pipeline(self.cmd, pipeline.bind_point, pipeline.raw) };
     }
 
-    /// Panics if `set` references a resource of this graph the pass did not declare.
-    fn expect_set_declared(&self, set: vk::DescriptorSet, index: u32) {
-        for (binding, what) in self.device.descriptor_refs.of(set) {
-            let resource = self.resources.iter().position(|r| match what {
-                DescriptorRef::Buffer(b) => r.buffer().is_some_and(|buf| buf.raw == b),
-                DescriptorRef::View(v) => r.image().is_some_and(|img| img.view == v),
-            });
-            if let Some(resource) = resource {
-                assert!(
-                    self.uses.iter().any(|u| u.resource == resource),
-                    "bind_sets: set {index}, binding {binding} references `{}`, which the pass did not declare",
-                    self.resources[resource].name
-                );
-            }
-        }
-    }
-
-    /// Binds `sets` as sets `first..` of `layout` for `bind_point`, after checking that every graph
-    /// resource they reference is declared by the pass (module docs).
+    /// Binds `sets` as sets `first..` of `layout` for `bind_point` (what the next draw or dispatch
+    /// reads through them is checked against the pass' declarations then: module docs).
     pub fn bind_sets(
         &self,
         bind_point: vk::PipelineBindPoint,
@@ -95,8 +143,17 @@ impl PassContext<'_> {
             first as usize + sets.len(),
             layout.set_count()
         );
-        for (i, set) in sets.iter().enumerate() {
-            self.expect_set_declared(*set, first + i as u32);
+        {
+            let mut bound = self.bound.borrow_mut();
+            let point = bound.point(bind_point);
+            for (i, set) in sets.iter().enumerate() {
+                let index = first as usize + i;
+                if point.sets.len() <= index {
+                    point.sets.resize(index + 1, None);
+                }
+                point.sets[index] = Some(*set);
+            }
+            point.checked = false;
         }
         // SAFETY: the contract of `PassContext`; the range of sets lies in the layout (checked);
         // their compatibility with it is the layout tests' and the validation layer's (module docs).
@@ -126,6 +183,7 @@ impl PassContext<'_> {
 
     /// Dispatches `x × y × z` workgroups of the bound compute pipeline.
     pub fn dispatch(&self, x: u32, y: u32, z: u32) {
+        self.expect_reads_declared(vk::PipelineBindPoint::COMPUTE, "dispatch");
         // SAFETY: the contract of `PassContext`.
         unsafe { self.device.raw.cmd_dispatch(self.cmd, x, y, z) };
     }
@@ -134,6 +192,7 @@ impl PassContext<'_> {
     /// the pass declared as [`Access::IndirectBuffer`].
     pub fn dispatch_indirect(&self, args: BufferHandle, offset: u64) {
         self.expect_declared(args.into(), Access::IndirectBuffer, "dispatch_indirect");
+        self.expect_reads_declared(vk::PipelineBindPoint::COMPUTE, "dispatch_indirect");
         // SAFETY: the contract of `PassContext`; the buffer is the pass' declared indirect source.
         unsafe { self.device.raw.cmd_dispatch_indirect(self.cmd, self.buffer(args).raw, offset) };
     }
@@ -141,6 +200,7 @@ impl PassContext<'_> {
     /// Draws `vertices` vertices, `instances` instances, of the bound graphics pipeline (no vertex
     /// buffers: the shaders fetch what they need).
     pub fn draw(&self, vertices: u32, instances: u32) {
+        self.expect_reads_declared(vk::PipelineBindPoint::GRAPHICS, "draw");
         // SAFETY: the contract of `PassContext` (inside a raster pass' rendering).
         unsafe { self.device.raw.cmd_draw(self.cmd, vertices, instances, 0, 0) };
     }
@@ -155,6 +215,7 @@ impl PassContext<'_> {
         instances: u32,
         first_instance: u32,
     ) {
+        self.expect_reads_declared(vk::PipelineBindPoint::GRAPHICS, "draw_indexed");
         // SAFETY: the contract of `PassContext` (inside a raster pass' rendering); the buffers are live
         // for the call and, being the world's, for the graph's execution.
         unsafe {

@@ -24,8 +24,9 @@ pub use context::{
 pub use image::{aspect_of, barrier, Image, ImageDesc, Sampler};
 pub use memory::Buffer;
 pub use pipeline::{
-    write_descriptors, Binding, ColorBlend, DescriptorPool, DescriptorRef, DescriptorRefs,
-    DescriptorSetLayout, DescriptorWrite, Faces, GraphicsDesc, Pipeline, PipelineLayout, ShaderModule,
+    statically_used_descriptors, write_descriptors, Binding, ColorBlend, DescriptorPool, DescriptorRef,
+    DescriptorRefs, DescriptorSetLayout, DescriptorWrite, Faces, GraphicsDesc, Pipeline, PipelineLayout,
+    ShaderModule,
 };
 pub use queries::{GpuTimer, PassTimings};
 pub use transfer::{read_rgba32f, srgb_mip_chain, upload_texture};

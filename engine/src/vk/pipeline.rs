@@ -19,7 +19,53 @@ fn stage_flags(s: ShaderStage) -> vk::ShaderStageFlags {
 pub struct ShaderModule {
     pub raw: vk::ShaderModule,
     pub source: ShaderSource,
+    /// The (set, binding) pairs its entry point statically uses ([`statically_used_descriptors`]).
+    pub used_descriptors: Vec<(u32, u32)>,
     device: Device,
+}
+
+/// The (set, binding) of every descriptor `words`' entry points statically use, sorted. From
+/// SPIR-V 1.4 on, an `OpEntryPoint`'s interface lists every global variable the entry point
+/// statically uses — descriptors included — so this reads the interfaces and the variables'
+/// `DescriptorSet` and `Binding` decorations, nothing else (the build compiles SPIR-V 1.5). A
+/// binding a shader declares but never touches is not used: Vulkan reads no descriptor there.
+pub fn statically_used_descriptors(words: &[u32]) -> Vec<(u32, u32)> {
+    const OP_ENTRY_POINT: u32 = 15;
+    const OP_DECORATE: u32 = 71;
+    const DECORATION_BINDING: u32 = 33;
+    const DECORATION_DESCRIPTOR_SET: u32 = 34;
+    let (mut interface, mut set, mut binding) =
+        (Vec::new(), std::collections::HashMap::new(), std::collections::HashMap::new());
+    let mut at = 5; // after the header
+    while at < words.len() {
+        let (count, opcode) = ((words[at] >> 16) as usize, words[at] & 0xffff);
+        if count == 0 || at + count > words.len() {
+            break; // malformed: nothing more can be read
+        }
+        let operands = &words[at + 1..at + count];
+        match opcode {
+            OP_ENTRY_POINT if operands.len() >= 2 => {
+                // Execution model, entry id, the name (a NUL-terminated string packed four bytes a
+                // word), then the interface ids.
+                let name_words =
+                    operands[2..].iter().position(|w| w.to_le_bytes().contains(&0)).map_or(0, |i| i + 1);
+                interface.extend_from_slice(&operands[(2 + name_words).min(operands.len())..]);
+            }
+            OP_DECORATE if operands.len() == 3 && operands[1] == DECORATION_DESCRIPTOR_SET => {
+                set.insert(operands[0], operands[2]);
+            }
+            OP_DECORATE if operands.len() == 3 && operands[1] == DECORATION_BINDING => {
+                binding.insert(operands[0], operands[2]);
+            }
+            _ => {}
+        }
+        at += count;
+    }
+    let mut used: Vec<(u32, u32)> =
+        interface.iter().filter_map(|id| Some((*set.get(id)?, *binding.get(id)?))).collect();
+    used.sort_unstable();
+    used.dedup();
+    used
 }
 
 impl ShaderModule {
@@ -30,7 +76,8 @@ impl ShaderModule {
         let info = vk::ShaderModuleCreateInfo::default().code(&words);
         let raw = unsafe { device.raw.create_shader_module(&info, None) }.vk("vkCreateShaderModule")?;
         device.set_name(raw, &format!("{}[{}]", source.file, source.permutation));
-        Ok(ShaderModule { raw, source, device: device.clone() })
+        let used_descriptors = statically_used_descriptors(&words);
+        Ok(ShaderModule { raw, source, used_descriptors, device: device.clone() })
     }
     fn stage_info(&self) -> vk::PipelineShaderStageCreateInfo<'_> {
         vk::PipelineShaderStageCreateInfo::default()
@@ -316,7 +363,20 @@ pub struct Pipeline {
     pub bind_point: vk::PipelineBindPoint,
     /// The sides it rasterizes ([`GraphicsDesc::faces`]; [`Faces::Both`] for compute).
     pub faces: Faces,
+    /// Its name, as given at creation (for messages).
+    pub name: String,
+    /// The (set, binding) pairs its stages statically use, sorted: what a draw or dispatch with it
+    /// reads through the bound sets (`graph/record.rs` checks those against the pass' declarations).
+    pub used_descriptors: Vec<(u32, u32)>,
     device: Device,
+}
+
+/// The union of `stages`' statically used descriptors, sorted.
+fn used_by(stages: &[&ShaderModule]) -> Vec<(u32, u32)> {
+    let mut used: Vec<(u32, u32)> = stages.iter().flat_map(|s| s.used_descriptors.iter().copied()).collect();
+    used.sort_unstable();
+    used.dedup();
+    used
 }
 
 impl Pipeline {
@@ -509,6 +569,8 @@ impl Pipeline {
             raw,
             bind_point: vk::PipelineBindPoint::GRAPHICS,
             faces: d.faces,
+            name: d.name.to_string(),
+            used_descriptors: used_by(d.stages),
             device: device.clone(),
         })
     }
@@ -528,6 +590,8 @@ impl Pipeline {
             raw,
             bind_point: vk::PipelineBindPoint::COMPUTE,
             faces: Faces::Both,
+            name: name.to_string(),
+            used_descriptors: used_by(&[shader]),
             device: device.clone(),
         })
     }
