@@ -92,14 +92,23 @@ pub use error::{Error, Result};
 /// frames recorded into its command buffers ([`EmbeddedScene`](crate::embed::EmbeddedScene)), and
 /// the `ash` and `glam` types they take.
 pub mod prelude {
+    #[doc(no_inline)]
     pub use crate::embed::{EmbeddedScene, ExternalDevice, FrameTarget, FrameToken, Ownership};
+    #[doc(no_inline)]
     pub use crate::graph::Access;
+    #[doc(no_inline)]
     pub use crate::image::LinearImage;
+    #[doc(no_inline)]
     pub use crate::scene::{Camera, Environment, Light, Material, Mesh, Object, Scene};
+    #[doc(no_inline)]
     pub use crate::techniques::{RenderSettings, Renderer, Technique};
+    #[doc(no_inline)]
     pub use crate::vk::{Device, Feature};
+    #[doc(no_inline)]
     pub use crate::{Error, Result};
+    #[doc(no_inline)]
     pub use ash::vk;
+    #[doc(no_inline)]
     pub use glam::{Mat4, Quat, Vec3};
 }
 

@@ -49,20 +49,37 @@ struct Cli {
     /// `$SHUTTER_DRIVER`, else the best device by type and, among equals, the newest driver.
     #[arg(long, global = true, value_name = "NAME")]
     driver: Option<String>,
+    /// Treat these device features as absent although the device offers them, to see the path
+    /// Shutter takes without them (or its refusal): geometry-shader, clip-distance,
+    /// sample-rate-shading, independent-blend, fragment-stores-and-atomics,
+    /// vertex-pipeline-stores-and-atomics, conservative-rasterization, buffer-int64-atomics,
+    /// timestamp-queries, linear-filter-rgba32f, msaa-N. Comma-separated or repeated; added to
+    /// `$SHUTTER_DISABLE`. They are not enabled on the device, so validation reports any use.
+    #[arg(long, global = true, value_name = "FEATURE", value_delimiter = ',')]
+    disable: Vec<String>,
     #[command(subcommand)]
     command: Command,
 }
 
 /// `--driver`, set once before any command runs.
 static DRIVER: std::sync::OnceLock<Option<String>> = std::sync::OnceLock::new();
+/// `--disable`, parsed, set once before any command runs.
+static DISABLED: std::sync::OnceLock<Vec<shutter::vk::Feature>> = std::sync::OnceLock::new();
 
-/// The device as the environment says, with `--driver` (if given) in place of `$SHUTTER_DRIVER`.
-fn create_device() -> shutter::Result<shutter::vk::Device> {
+/// The device description the environment gives, with `--driver` (if given) in place of
+/// `$SHUTTER_DRIVER` and `--disable`'s features added to `$SHUTTER_DISABLE`'s.
+fn device_desc() -> shutter::Result<shutter::vk::DeviceDesc> {
     let mut desc = shutter::vk::DeviceDesc::from_env()?;
     if let Some(Some(d)) = DRIVER.get() {
         desc.driver = Some(d.clone());
     }
-    shutter::vk::DeviceShared::new(&desc)
+    desc.disabled.extend(DISABLED.get().into_iter().flatten().copied());
+    Ok(desc)
+}
+
+/// The device [`device_desc`] describes.
+fn create_device() -> shutter::Result<shutter::vk::Device> {
+    shutter::vk::DeviceShared::new(&device_desc()?)
 }
 
 #[derive(Subcommand)]
@@ -423,6 +440,8 @@ fn install_interrupt_handler() {
 fn run() -> Result<()> {
     let cli = Cli::parse();
     DRIVER.set(cli.driver.clone()).expect("run() is called once");
+    let disabled = cli.disable.iter().map(|k| k.parse()).collect::<Result<Vec<_>, String>>();
+    DISABLED.set(disabled.map_err(|e| anyhow::anyhow!("--disable {e}"))?).expect("run() is called once");
     match cli.command {
         Command::Render(args) => cmd::render::run(args)?,
         Command::Reference {
@@ -688,7 +707,7 @@ fn probe(all: bool, json: bool) -> Result<()> {
         let mut devices = vec![];
         for d in &list {
             // Name the driver by its full version and the device by name: exactly this one.
-            let mut desc = shutter::vk::DeviceDesc::from_env()?;
+            let mut desc = device_desc()?;
             desc.driver = Some(format!(
                 "{}-{}",
                 shutter::vk::drivers::driver_family(&d.driver_id, &d.device_name),

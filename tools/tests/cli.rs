@@ -625,3 +625,48 @@ fn empty_scenes_render_plan_bench_and_measure() {
         let _ = std::fs::remove_file(p);
     }
 }
+
+/// `--disable FEATURE` (issue 31): a feature the device offers is reported absent, with what Shutter
+/// does instead, and is not enabled (validation is on: a use would fail the render); the stochastic
+/// frame refuses its geometry-shader hull by name and renders with the compute hull; an unknown
+/// feature is an error listing the keys.
+#[test]
+fn disabled_features_are_absent_and_their_fallbacks_taken() {
+    let (code, out, err) = shutter(&["probe", "--disable", "geometry-shader,msaa-4"]);
+    assert_eq!(code, 0, "{err}");
+    assert!(out.contains("geometry shader   false"), "{out}");
+    assert!(out.contains("MSAA counts       [1]"), "{out}");
+    assert!(out.contains("disabled          geometry-shader, msaa-4"), "{out}");
+    assert!(out.contains("auto takes the compute-expanded hull; stochastic needs --hull compute"), "{out}");
+
+    let png = std::env::temp_dir().join(format!("shutter-cli-{}-disabled.png", std::process::id()));
+    let png = png.display().to_string();
+    let render = |extra: &[&str]| {
+        let mut args = vec![
+            "render",
+            "one-mover",
+            "--technique",
+            "stochastic",
+            "--size",
+            "32x18",
+            "--spp",
+            "4",
+            "--out",
+            &png,
+        ];
+        args.extend_from_slice(extra);
+        shutter(&args)
+    };
+    let (code, _, err) = render(&["--disable", "geometry-shader"]);
+    assert_eq!(code, 1, "{err}");
+    assert!(err.contains("geometryShader") && err.contains("--hull compute"), "{err}");
+    let (code, out, err) =
+        render(&["--disable", "geometry-shader,timestamp-queries", "--set", "hull=compute"]);
+    assert_eq!(code, 0, "{err}");
+    assert!(out.contains("GPU not timed (no timestamp queries)"), "{out}");
+    let _ = std::fs::remove_file(&png);
+
+    let (code, _, err) = shutter(&["probe", "--disable", "warp-drive"]);
+    assert_eq!(code, 1, "{err}");
+    assert!(err.contains("`warp-drive`") && err.contains("buffer-int64-atomics"), "{err}");
+}

@@ -17,19 +17,23 @@ impl RenderOutput {
     ) -> Vec<String> {
         let mut lines = Vec::new();
         lines.push(format!(
-        "{} {} {}x{} spp {} on {}: {} passes, MSAA {}x, GPU {:.1} ms, CPU frame {:.1} ms, upload {:.1} ms",
-        scene.name,
-        technique.name(),
-        settings.width,
-        settings.height,
-        settings.spp,
-        device_name,
-        self.stats.passes,
-        self.stats.msaa_samples,
-        self.timings.total_ms(),
-        self.stats.cpu_frame_ms,
-        self.stats.upload_ms
-    ));
+            "{} {} {}x{} spp {} on {}: {} passes, MSAA {}x, GPU {}, CPU frame {:.1} ms, upload {:.1} ms",
+            scene.name,
+            technique.name(),
+            settings.width,
+            settings.height,
+            settings.spp,
+            device_name,
+            self.stats.passes,
+            self.stats.msaa_samples,
+            if self.timings.passes.is_empty() {
+                "not timed (no timestamp queries)".to_string()
+            } else {
+                format!("{:.1} ms", self.timings.total_ms())
+            },
+            self.stats.cpu_frame_ms,
+            self.stats.upload_ms
+        ));
         for (name, ms) in &self.timings.passes {
             lines.push(format!("  {name:<12} {ms:>10.2} ms"));
         }

@@ -35,6 +35,10 @@ pub struct DeviceDesc {
     pub validation: bool,
     /// Also enable synchronization validation (slow).
     pub sync_validation: bool,
+    /// Features to treat as absent although the device offers them (`SHUTTER_DISABLE`, the CLI's
+    /// `--disable`): they are neither enabled on the device nor reported in its [`Capabilities`], so
+    /// every technique takes the path it takes on a device without them — or refuses, naming them.
+    pub disabled: Vec<Feature>,
 }
 
 impl DeviceDesc {
@@ -58,6 +62,14 @@ impl DeviceDesc {
             device_name: std::env::var("SHUTTER_DEVICE").ok().filter(|s| !s.is_empty()),
             validation: flag("SHUTTER_VALIDATION")?.unwrap_or(cfg!(debug_assertions)),
             sync_validation: flag("SHUTTER_SYNC_VALIDATION")?.unwrap_or(false),
+            disabled: match std::env::var("SHUTTER_DISABLE") {
+                Ok(v) => Feature::parse_list(&v).map_err(|_| Error::Environment {
+                    name: "SHUTTER_DISABLE",
+                    value: v.clone(),
+                    expected: FEATURE_KEYS,
+                })?,
+                Err(_) => Vec::new(),
+            },
         })
     }
 }
@@ -132,6 +144,8 @@ pub struct Capabilities {
     /// Nanoseconds per timestamp tick.
     pub timestamp_period_ns: f32,
     pub debug_utils: bool,
+    /// What [`DeviceDesc::disabled`] turned off although the device offers it (keys, as given).
+    pub disabled: Vec<String>,
 }
 
 /// A device capability a technique may depend on.
@@ -152,7 +166,50 @@ pub enum Feature {
     Msaa(u32),
 }
 
+/// Every feature's key, for messages: what `--disable` and `SHUTTER_DISABLE` take.
+pub const FEATURE_KEYS: &str =
+    "a comma-separated list of geometry-shader, clip-distance, sample-rate-shading, \
+     independent-blend, fragment-stores-and-atomics, vertex-pipeline-stores-and-atomics, \
+     conservative-rasterization, buffer-int64-atomics, timestamp-queries, linear-filter-rgba32f, msaa-N \
+     (N = 2, 4, 8, ...)";
+
 impl Feature {
+    /// Every feature but MSAA, whose counts are [`Feature::Msaa`]'s.
+    pub const FLAGS: [Feature; 10] = [
+        Feature::GeometryShader,
+        Feature::ClipDistance,
+        Feature::SampleRateShading,
+        Feature::IndependentBlend,
+        Feature::FragmentStoresAndAtomics,
+        Feature::VertexPipelineStoresAndAtomics,
+        Feature::ConservativeRasterization,
+        Feature::BufferInt64Atomics,
+        Feature::TimestampQueries,
+        Feature::LinearFilterRgba32f,
+    ];
+
+    /// Its key on the command line and in `SHUTTER_DISABLE` (`geometry-shader`, `msaa-4`).
+    pub fn key(&self) -> String {
+        match self {
+            Feature::GeometryShader => "geometry-shader".into(),
+            Feature::ClipDistance => "clip-distance".into(),
+            Feature::SampleRateShading => "sample-rate-shading".into(),
+            Feature::IndependentBlend => "independent-blend".into(),
+            Feature::FragmentStoresAndAtomics => "fragment-stores-and-atomics".into(),
+            Feature::VertexPipelineStoresAndAtomics => "vertex-pipeline-stores-and-atomics".into(),
+            Feature::ConservativeRasterization => "conservative-rasterization".into(),
+            Feature::BufferInt64Atomics => "buffer-int64-atomics".into(),
+            Feature::TimestampQueries => "timestamp-queries".into(),
+            Feature::LinearFilterRgba32f => "linear-filter-rgba32f".into(),
+            Feature::Msaa(n) => format!("msaa-{n}"),
+        }
+    }
+
+    /// `a,b c` (commas or spaces; empty: none) into features, refusing an unknown key by name.
+    pub fn parse_list(list: &str) -> std::result::Result<Vec<Feature>, String> {
+        list.split([',', ' ']).filter(|k| !k.is_empty()).map(str::parse).collect()
+    }
+
     /// The name Vulkan gives it.
     pub fn vulkan_name(&self) -> String {
         match self {
@@ -175,7 +232,45 @@ impl Feature {
     }
 }
 
+impl std::str::FromStr for Feature {
+    type Err = String;
+    fn from_str(key: &str) -> std::result::Result<Self, String> {
+        if let Some(n) = key.strip_prefix("msaa-") {
+            return match n.parse::<u32>() {
+                Ok(n) if n >= 2 && n.is_power_of_two() => Ok(Feature::Msaa(n)),
+                _ => Err(format!("`{key}`: MSAA counts are 2, 4, 8, ... (one sample cannot be disabled)")),
+            };
+        }
+        Feature::FLAGS
+            .into_iter()
+            .find(|f| f.key() == key)
+            .ok_or_else(|| format!("`{key}` is not a feature: {FEATURE_KEYS}"))
+    }
+}
+
 impl Capabilities {
+    /// Treats `feature` as absent (the device is then created without it): what `--disable` does.
+    /// Disabling MSAA n also disables every higher count (a technique asks for the largest count
+    /// not above what it wants, [`Capabilities::msaa_samples`]).
+    pub fn disable(&mut self, feature: Feature) {
+        if self.has(feature) {
+            self.disabled.push(feature.key());
+        }
+        match feature {
+            Feature::GeometryShader => self.geometry_shader = false,
+            Feature::ClipDistance => self.clip_distance = false,
+            Feature::SampleRateShading => self.sample_rate_shading = false,
+            Feature::IndependentBlend => self.independent_blend = false,
+            Feature::FragmentStoresAndAtomics => self.fragment_stores_and_atomics = false,
+            Feature::VertexPipelineStoresAndAtomics => self.vertex_pipeline_stores_and_atomics = false,
+            Feature::ConservativeRasterization => self.conservative_rasterization = false,
+            Feature::BufferInt64Atomics => self.buffer_int64_atomics = false,
+            Feature::TimestampQueries => self.timestamps = false,
+            Feature::LinearFilterRgba32f => self.linear_filter_rgba32f = false,
+            Feature::Msaa(n) => self.framebuffer_sample_counts.retain(|&c| c < n),
+        }
+    }
+
     /// Mesa's software rasterizer (lavapipe, device name "llvmpipe").
     pub fn is_lavapipe(&self) -> bool {
         self.driver_id == format!("{:?}", vk::DriverId::MESA_LLVMPIPE)
@@ -250,6 +345,13 @@ impl std::fmt::Display for Capabilities {
         writeln!(f, "storage buffer range {} bytes", self.max_storage_buffer_range)?;
         writeln!(f, "max image 2D      {}", self.max_image_dimension_2d)?;
         writeln!(f, "timestamps        {} ({} ns/tick)", self.timestamps, self.timestamp_period_ns)?;
+        if !self.disabled.is_empty() {
+            writeln!(
+                f,
+                "disabled          {} (offered; --disable / SHUTTER_DISABLE)",
+                self.disabled.join(", ")
+            )?;
+        }
         write!(f, "debug utils       {}", self.debug_utils)
     }
 }
@@ -499,7 +601,7 @@ impl DeviceShared {
             key: chosen.key.clone(),
             project_driver: chosen.project_driver.clone(),
         };
-        let Offered { caps, supported, host_query_reset, dynamic_rendering_and_sync2 } =
+        let Offered { mut caps, supported, host_query_reset, dynamic_rendering_and_sync2 } =
             offered_capabilities(
                 &instance,
                 physical,
@@ -507,6 +609,9 @@ impl DeviceShared {
                 &identity,
                 debug_utils_instance.is_some(),
             )?;
+        for feature in &desc.disabled {
+            caps.disable(*feature);
+        }
         let conservative = caps.conservative_rasterization;
         if !dynamic_rendering_and_sync2 {
             return Err(Error::MissingFeature {
@@ -728,6 +833,7 @@ fn offered_capabilities(
             && families[queue_family as usize].timestamp_valid_bits > 0,
         timestamp_period_ns: limits.timestamp_period,
         debug_utils,
+        disabled: Vec::new(),
     };
     Ok(Offered {
         caps,
@@ -1084,6 +1190,26 @@ mod tests {
                      it on; 0, false, off or no to turn it off"
                 )
             );
+        }
+    }
+
+    /// Every feature's key parses back to it, lists take commas and spaces, and an unknown key or
+    /// an MSAA count that is no count is refused naming it.
+    #[test]
+    fn feature_keys_round_trip_and_unknown_ones_are_refused() {
+        let all: Vec<Feature> = Feature::FLAGS.into_iter().chain([2, 4, 8, 16].map(Feature::Msaa)).collect();
+        for f in &all {
+            assert_eq!(f.key().parse::<Feature>(), Ok(*f), "{}", f.key());
+            assert!(FEATURE_KEYS.contains(f.key().trim_end_matches(char::is_numeric)), "{} listed", f.key());
+        }
+        assert_eq!(
+            Feature::parse_list("geometry-shader, msaa-4 buffer-int64-atomics,"),
+            Ok(vec![Feature::GeometryShader, Feature::Msaa(4), Feature::BufferInt64Atomics])
+        );
+        assert_eq!(Feature::parse_list(""), Ok(vec![]));
+        for bad in ["geometry", "msaa-1", "msaa-3", "msaa-x", "GEOMETRY-SHADER"] {
+            let e = bad.parse::<Feature>().unwrap_err();
+            assert!(e.contains(&format!("`{bad}`")), "{bad}: {e}");
         }
     }
 }

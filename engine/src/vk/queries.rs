@@ -29,8 +29,9 @@ pub struct PassTimings {
 }
 
 impl PassTimings {
+    /// The passes' sum; 0 (not the -0 an empty float `sum` gives) when nothing was timed.
     pub fn total_ms(&self) -> f64 {
-        self.passes.iter().map(|(_, ms)| ms).sum()
+        self.passes.iter().fold(0.0, |total, (_, ms)| total + ms)
     }
     pub fn get(&self, name: &str) -> Option<f64> {
         self.passes.iter().find(|(n, _)| n == name).map(|(_, ms)| *ms)
