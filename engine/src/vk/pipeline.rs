@@ -157,6 +157,8 @@ impl Drop for DescriptorSetLayout {
 /// A descriptor pool from which sets are allocated; sets die with the pool.
 pub struct DescriptorPool {
     pub raw: vk::DescriptorPool,
+    /// Every set allocated from it (forgotten by the device's [`DescriptorRefs`] when it goes).
+    sets: std::sync::Mutex<Vec<vk::DescriptorSet>>,
     device: Device,
 }
 
@@ -166,7 +168,7 @@ impl DescriptorPool {
             sizes.iter().map(|&(ty, n)| vk::DescriptorPoolSize { ty, descriptor_count: n.max(1) }).collect();
         let info = vk::DescriptorPoolCreateInfo::default().max_sets(max_sets.max(1)).pool_sizes(&s);
         let raw = unsafe { device.raw.create_descriptor_pool(&info, None) }.vk("vkCreateDescriptorPool")?;
-        Ok(DescriptorPool { raw, device: device.clone() })
+        Ok(DescriptorPool { raw, sets: Default::default(), device: device.clone() })
     }
     /// A pool for `sets` sets of each `(table, sets)` entry.
     pub fn for_tables(device: &Device, max_sets: u32, tables: &[(&[Binding], u32)]) -> Result<Self> {
@@ -186,13 +188,14 @@ impl DescriptorPool {
         let info = vk::DescriptorSetAllocateInfo::default().descriptor_pool(self.raw).set_layouts(&layouts);
         let set =
             unsafe { self.device.raw.allocate_descriptor_sets(&info) }.vk("vkAllocateDescriptorSets")?[0];
-        self.device.descriptor_refs.clear(set);
+        self.sets.lock().expect("pool sets").push(set);
         Ok(set)
     }
 }
 
 impl Drop for DescriptorPool {
     fn drop(&mut self) {
+        self.device.descriptor_refs.forget(&self.sets.lock().expect("pool sets"));
         unsafe { self.device.raw.destroy_descriptor_pool(self.raw, None) };
     }
 }
@@ -204,16 +207,20 @@ pub enum DescriptorRef {
     View(vk::ImageView),
 }
 
-/// Per descriptor set, what [`write_descriptors`] wrote into it, binding by binding; a set
-/// [`DescriptorPool::allocate`] hands out starts empty (a handle may be reused after its pool went).
+/// Per descriptor set, what [`write_descriptors`] wrote into it, binding by binding. A pool's sets
+/// are forgotten when the pool is dropped, so the record does not grow with every prepared frame and
+/// a handle the driver reuses after its pool went starts empty.
 #[derive(Default)]
 pub struct DescriptorRefs(
     std::sync::Mutex<std::collections::HashMap<vk::DescriptorSet, Vec<(u32, DescriptorRef)>>>,
 );
 
 impl DescriptorRefs {
-    fn clear(&self, set: vk::DescriptorSet) {
-        self.0.lock().expect("descriptor refs").remove(&set);
+    fn forget(&self, sets: &[vk::DescriptorSet]) {
+        let mut map = self.0.lock().expect("descriptor refs");
+        for set in sets {
+            map.remove(set);
+        }
     }
 
     fn write(&self, set: vk::DescriptorSet, binding: u32, what: DescriptorRef) {
