@@ -32,6 +32,7 @@ use crate::plan::Plan;
 use crate::reference::{render_reference, render_reference_cached, ReferenceSettings};
 use crate::scene::file::parse_scene;
 use crate::scene::Scene;
+use crate::techniques::stochastic::{Coverage, MaskRate};
 use crate::techniques::{RenderSettings, Renderer, ShadingRate, StochasticOptions, Technique};
 
 /// One named hard scene: its file under `scenes/hard/`, embedded.
@@ -103,6 +104,9 @@ pub enum Column {
     Pinhole,
     Accumulation,
     Stochastic(ShadingRate),
+    /// `stochastic` on the mask coverage path (per-sample shading): per sample, exact; per fragment,
+    /// one depth per pixel and triangle (`techniques::stochastic::Coverage::Mask`).
+    StochasticMask(MaskRate),
     Auto,
 }
 
@@ -114,12 +118,18 @@ pub const COLUMNS: &[Column] = &[
     Column::Stochastic(ShadingRate::PerPixel),
     Column::Stochastic(ShadingRate::TextureSpace),
     Column::Stochastic(ShadingRate::Decoupled { grid: GridKind::Pixel, deferred: true }),
+    Column::StochasticMask(MaskRate::Sample),
+    Column::StochasticMask(MaskRate::Fragment),
     Column::Auto,
 ];
 
 /// The floor `pinhole` may show (and `auto`, which renders a still scene with it): its MSAA shades
 /// once per pixel, at the centre (measured 0.054 on `grazing-light`'s hard spot rim at 48×27).
 pub const PINHOLE_FLOOR_LIMIT: f64 = 0.07;
+
+/// The floor the mask path's per-fragment mode may show: measured on the matrix (docs/HARD_CASES.md,
+/// docs/HARDWARE.md), with margin.
+pub const MASK_PER_FRAGMENT_FLOOR_LIMIT: f64 = 0.10;
 
 /// An exact column passes at S₂ within this factor of the reference's own error …
 pub const EXACT_FACTOR: f64 = 1.5;
@@ -132,6 +142,7 @@ impl Column {
             Column::Pinhole => "pinhole".into(),
             Column::Accumulation => "accumulation".into(),
             Column::Stochastic(rate) => format!("stochastic {}", rate.name()),
+            Column::StochasticMask(rate) => format!("stochastic {}", Coverage::Mask(*rate).name()),
             Column::Auto => "auto".into(),
         }
     }
@@ -140,7 +151,7 @@ impl Column {
         match self {
             Column::Pinhole => Technique::PINHOLE,
             Column::Accumulation => Technique::ACCUMULATION,
-            Column::Stochastic(_) => Technique::STOCHASTIC,
+            Column::Stochastic(_) | Column::StochasticMask(_) => Technique::STOCHASTIC,
             Column::Auto => Technique::AUTO,
         }
     }
@@ -152,6 +163,8 @@ impl Column {
             Column::Stochastic(shading) => {
                 settings.with_stochastic(StochasticOptions { shading: *shading, ..Default::default() })
             }
+            Column::StochasticMask(rate) => settings
+                .with_stochastic(StochasticOptions { coverage: Coverage::Mask(*rate), ..Default::default() }),
             _ => settings,
         }
     }
@@ -166,6 +179,8 @@ impl Column {
             Column::Stochastic(ShadingRate::PerPixel) => Some(0.10),
             Column::Stochastic(ShadingRate::TextureSpace | ShadingRate::TextureSpacePerPixel) => Some(0.08),
             Column::Stochastic(ShadingRate::Decoupled { .. }) => Some(0.08),
+            // One depth per pixel and triangle: where two surfaces cross within a pixel's blur.
+            Column::StochasticMask(MaskRate::Fragment) => Some(MASK_PER_FRAGMENT_FLOOR_LIMIT),
             _ => None,
         }
     }

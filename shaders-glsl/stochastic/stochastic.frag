@@ -30,24 +30,7 @@
 #include "stochastic/camera_triangles.glsl"
 #include "common/coverage.glsl"
 #include "common/texture_sample.glsl"
-
-// The sample tile (sampling::SampleTile): 64 x 64 pixels x S samples; xy in [0,1) within the pixel,
-// lens already mapped to the aperture shape, time already warped by the shutter curve.
-layout(set = 3, binding = 0, std430) readonly buffer SamplesXyLens { vec4 sample_xy_lens[]; };
-layout(set = 3, binding = 1, std430) readonly buffer SamplesTime { float sample_time[]; };
-layout(set = 3, binding = 2, std430) buffer Counters {
-    uint samples_tested;
-    uint samples_hit;
-    uint shading_invocations;
-    uint fragments;
-    // Decoupled shading (shade_decoupled.comp): cache lookups, hits, evictions, stores lost to a race,
-    // and (deferred) keys the hash table had no room for.
-    uint cache_lookups;
-    uint cache_hits;
-    uint cache_evictions;
-    uint cache_busy;
-    uint cache_overflows;
-} counters;
+#include "stochastic/coverage_draw.glsl"
 
 #ifdef COMPUTE_HULL
 // The compute-expanded hull (expand.comp, hull.vert) passes the triangle's index instead of a primitive ID.
@@ -70,8 +53,6 @@ bool sample_sees_cluster(vec2 q, vec2 lens, vec4 pin, vec4 phi) {
     return phi.z > 0.5 || (all(greaterThanEqual(q, lo - pad)) && all(lessThanEqual(q, hi + pad)));
 }
 #endif
-
-const uint SAMPLE_TILE_SIZE = 64u;
 
 #ifdef TINT_PASS
 layout(set = 3, binding = 7, std430) buffer TintLog { uint tint_log[]; };
@@ -98,43 +79,6 @@ bool keep_hit(uvec2 pix, uint i, float z, uint tri, bool back, bool covered) {
     return true;
 }
 
-// Stochastic transparency: the reference's coverage decisions (common/coverage.glsl) for triangle `tri`
-// (the frame's numbering, the reference's) in this pixel — its key and covered count, drawn once per
-// (pixel, triangle) — so a partly covering surface hides exactly the samples it hides there. Opaque
-// objects skip the hashes (a uniform branch: pc.alpha is the draw's).
-struct Coverage {
-    uint key;
-    uint count;
-};
-
-Coverage triangle_coverage(uvec2 pix, uint tri) {
-    Coverage c = Coverage(0u, 0u);
-    if (pc.alpha < 1.0 || pc.alpha_from_texture != 0u) {
-        c.key = coverage_key(pc.coverage_seed, pix, tri);
-        c.count = coverage_count(pc.alpha, pc.spp, c.key);
-    }
-    return c;
-}
-
-// Does that triangle cover sample i of this pass, hit at barycentrics w? With texture alpha the
-// coverage is the hit's (the reference's Tracer::coverage: alpha × the texture's alpha at the hit's
-// uv), so the count is drawn for it; the rank is the triangle's in this pixel either way.
-bool sample_covered(Coverage c, uint i, uint prim, vec3 w) {
-    if (pc.alpha_from_texture != 0u) {
-        vec2 uv = vec2(0.0);
-        vec2 uvs[3];
-        for (uint k = 0u; k < 3u; k++) {
-            Vertex v = vertices[indices[3u * prim + k]];
-            uvs[k] = vec2(v.uv[0], v.uv[1]);
-        }
-        uv = w.x * uvs[0] + w.y * uvs[1] + w.z * uvs[2];
-        float alpha = pc.alpha * texture_alpha_bilinear(uv);
-        uint count = coverage_count(alpha, pc.spp, c.key);
-        return coverage_rank(pc.pass_index * pc.per_pass + i, pc.spp, c.key) < count;
-    }
-    return pc.alpha >= 1.0 || coverage_rank(pc.pass_index * pc.per_pass + i, pc.spp, c.key) < c.count;
-}
-
 void main() {
 #if defined(CLUSTER_BOUNDS)
     uint seg = pc.segment;
@@ -152,54 +96,28 @@ void main() {
     uint prim = uint(gl_PrimitiveID);
     uint seg = pc.segment;
 #endif
+#ifdef CLUSTER_BOUNDS
     vec3 p_open[3], p_close[3];
-#ifndef CLUSTER_BOUNDS
-    load_triangle(prim, seg, pc.segment_count + 1u, p_open, p_close);
-#endif
-#ifdef NO_MOTION
-#ifndef CLUSTER_BOUNDS
-    for (uint k = 0u; k < 3u; k++) p_open[k] = shutter_lerp(p_open[k], p_close[k], pc.t0);
-#endif
-#else
+#ifndef NO_MOTION
     // The segment's samples: times in [t_a, t_b) (the first segment from -inf, the last to +inf).
     vec4 seg_time = object_views[pc.segment_first + seg].time;
     const float INF = uintBitsToFloat(0x7f800000u);
     float t_a = seg == 0u ? -INF : seg_time.x;
     float t_b = seg + 1u == pc.segment_count ? INF : seg_time.y;
 #endif
+#endif
     uvec2 pix = uvec2(gl_FragCoord.xy);
-    uint base = ((pix.y % SAMPLE_TILE_SIZE) * SAMPLE_TILE_SIZE + pix.x % SAMPLE_TILE_SIZE) * pc.spp
-              + pc.pass_index * pc.per_pass;
+    uint base = tile_base(pix);
     uint hits = 0u, tested = 0u;
     uint end = pc.sample_first + pc.sample_count;
 #ifndef CLUSTER_BOUNDS
+    DrawnTriangle d = drawn_triangle(prim, seg);
     Coverage coverage = triangle_coverage(pix, pc.triangle_base + prim);
     for (uint i = pc.sample_first; i < end; i++) {
-        vec4 xl = sample_xy_lens[base + i];
-#ifdef NO_DEFOCUS
-        xl.zw = vec2(0.0);
-#endif
-        vec3 ro, rd;
-        primary_ray(vec2(pix) + xl.xy, xl.zw, ro, rd);
-#ifdef NO_MOTION
-        bool in_segment = true;
-        float s = pc.t0;
-#else
-        float t = sample_time[base + i];
-        bool in_segment = t >= t_a && t < t_b;
-        float s = min((t - seg_time.x) * seg_time.z, 1.0);  // segment_time (common/frame.glsl)
-#endif
         float z;
         vec3 w;
         bool back;
-#ifdef NO_MOTION
-        vec3 a = p_open[0], b = p_open[1], c = p_open[2];
-#else
-        vec3 a = shutter_lerp(p_open[0], p_close[0], s);
-        vec3 b = shutter_lerp(p_open[1], p_close[1], s);
-        vec3 c = shutter_lerp(p_open[2], p_close[2], s);
-#endif
-        if (sample_hit(a, b, c, ro, rd, z, w, back) && in_segment && !(back && pc.one_sided != 0u)) {
+        if (drawn_sample_hit(d, pix, base, i, z, w, back)) {
             bool covered = sample_covered(coverage, i, prim, w);
             if (keep_hit(pix, i, z, pc.triangle_base + prim, back, covered)) hits++;
         }

@@ -664,6 +664,32 @@ fn disabled_features_are_absent_and_their_fallbacks_taken() {
         render(&["--disable", "geometry-shader,timestamp-queries", "--set", "hull=compute"]);
     assert_eq!(code, 0, "{err}");
     assert!(out.contains("GPU not timed (no timestamp queries)"), "{out}");
+    // Without 64-bit atomics the stochastic frame takes the mask coverage path, not a refusal; `auto`
+    // with blur too (one-mover moves).
+    for technique in ["stochastic", "auto"] {
+        let (code, out, err) = shutter(&[
+            "render",
+            "one-mover",
+            "--technique",
+            technique,
+            "--size",
+            "32x18",
+            "--spp",
+            "4",
+            "--out",
+            &png,
+            "--disable",
+            "buffer-int64-atomics",
+        ]);
+        assert_eq!(code, 0, "{technique}: {err}");
+        assert!(out.contains("mask coverage (MSAA 4x × 1 passes)"), "{technique}: {out}");
+    }
+    let (code, out, err) = render(&["--disable", "buffer-int64-atomics,sample-rate-shading"]);
+    assert_eq!(code, 0, "{err}");
+    assert!(out.contains("mask-per-fragment coverage"), "{out}");
+    let (code, _, err) = render(&["--disable", "shader-int64"]);
+    assert_eq!(code, 1, "{err}");
+    assert!(err.contains("shaderInt64") && err.contains("coverage"), "{err}");
     let _ = std::fs::remove_file(&png);
 
     let (code, _, err) = shutter(&["probe", "--disable", "warp-drive"]);

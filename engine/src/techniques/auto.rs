@@ -110,4 +110,11 @@ impl FrameTechnique for Auto {
             AutoPath::Stochastic(s) => s.shadows(),
         }
     }
+
+    fn coverage(&self) -> Option<super::stochastic::Coverage> {
+        match &self.path {
+            AutoPath::Pinhole(_) => None,
+            AutoPath::Stochastic(s) => s.coverage(),
+        }
+    }
 }

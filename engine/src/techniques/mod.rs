@@ -138,6 +138,8 @@ pub struct RenderStats {
     /// The shadow maps rendered ([`crate::mirror::shadow_maps::ShadowPlan::summary`], and whether per pass);
     /// `None` without shadow-casting lights.
     pub shadows: Option<String>,
+    /// The stochastic frame's coverage path (`visibility`, `mask`, ...), as the device resolved it.
+    pub coverage: Option<stochastic::Coverage>,
 }
 
 /// An image with how it was made.
@@ -258,6 +260,10 @@ pub trait FrameTechnique: Any {
     }
     /// The shadow maps it renders, if any (one line).
     fn shadows(&self) -> Option<String> {
+        None
+    }
+    /// The stochastic frame's coverage path as the device resolved it, if it has one.
+    fn coverage(&self) -> Option<stochastic::Coverage> {
         None
     }
 }
@@ -530,6 +536,7 @@ impl Renderer {
                 plan: prepared.technique.plan().cloned(),
                 transparency: prepared.technique.transparency(),
                 shadows: prepared.technique.shadows(),
+                coverage: prepared.technique.coverage(),
             },
         })
     }

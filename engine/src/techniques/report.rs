@@ -69,8 +69,18 @@ impl RenderOutput {
                 .as_ref()
                 .is_some_and(|p| p.auto_frame().0 == crate::plan::AutoFrame::Stochastic)
         {
+            let coverage = match self.stats.coverage {
+                Some(c) if c.mask_rate().is_some() => format!(
+                    "{} coverage (MSAA {}x × {} passes)",
+                    c.name(),
+                    self.stats.msaa_samples,
+                    self.stats.passes
+                ),
+                Some(c) => format!("{} coverage", c.name()),
+                None => format!("{} coverage", settings.stochastic.coverage.name()),
+            };
             lines.push(format!(
-                "  bound {}, shading {}, {} hull",
+                "  bound {}, shading {}, {} hull, {coverage}",
                 settings.stochastic.bound.name(),
                 settings.stochastic.shading.name(),
                 settings.stochastic.expansion.name()

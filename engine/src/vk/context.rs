@@ -121,6 +121,9 @@ pub struct Capabilities {
     /// `shaderInt64` and `shaderBufferInt64Atomics`: 64-bit atomics on storage buffers (the stochastic
     /// visibility buffer packs a sample's depth and payload into one `atomicMax`).
     pub buffer_int64_atomics: bool,
+    /// `shaderInt64`: 64-bit integers in shaders, without atomics (the stochastic shading stages read
+    /// the visibility buffer's words; the mask coverage path fills it without atomics).
+    pub shader_int64: bool,
     pub max_geometry_output_vertices: u32,
     pub max_geometry_total_output_components: u32,
     pub max_push_constants_size: u32,
@@ -159,6 +162,8 @@ pub enum Feature {
     VertexPipelineStoresAndAtomics,
     ConservativeRasterization,
     BufferInt64Atomics,
+    /// 64-bit integers in shaders (`shaderInt64`); disabling it disables [`Feature::BufferInt64Atomics`].
+    ShaderInt64,
     TimestampQueries,
     /// Linear filtering of `R32G32B32A32_SFLOAT` images.
     LinearFilterRgba32f,
@@ -170,12 +175,12 @@ pub enum Feature {
 pub const FEATURE_KEYS: &str =
     "a comma-separated list of geometry-shader, clip-distance, sample-rate-shading, \
      independent-blend, fragment-stores-and-atomics, vertex-pipeline-stores-and-atomics, \
-     conservative-rasterization, buffer-int64-atomics, timestamp-queries, linear-filter-rgba32f, msaa-N \
+     conservative-rasterization, buffer-int64-atomics, shader-int64, timestamp-queries, linear-filter-rgba32f, msaa-N \
      (N = 2, 4, 8, ...)";
 
 impl Feature {
     /// Every feature but MSAA, whose counts are [`Feature::Msaa`]'s.
-    pub const FLAGS: [Feature; 10] = [
+    pub const FLAGS: [Feature; 11] = [
         Feature::GeometryShader,
         Feature::ClipDistance,
         Feature::SampleRateShading,
@@ -184,6 +189,7 @@ impl Feature {
         Feature::VertexPipelineStoresAndAtomics,
         Feature::ConservativeRasterization,
         Feature::BufferInt64Atomics,
+        Feature::ShaderInt64,
         Feature::TimestampQueries,
         Feature::LinearFilterRgba32f,
     ];
@@ -199,6 +205,7 @@ impl Feature {
             Feature::VertexPipelineStoresAndAtomics => "vertex-pipeline-stores-and-atomics".into(),
             Feature::ConservativeRasterization => "conservative-rasterization".into(),
             Feature::BufferInt64Atomics => "buffer-int64-atomics".into(),
+            Feature::ShaderInt64 => "shader-int64".into(),
             Feature::TimestampQueries => "timestamp-queries".into(),
             Feature::LinearFilterRgba32f => "linear-filter-rgba32f".into(),
             Feature::Msaa(n) => format!("msaa-{n}"),
@@ -221,6 +228,7 @@ impl Feature {
             Feature::VertexPipelineStoresAndAtomics => "vertexPipelineStoresAndAtomics".into(),
             Feature::ConservativeRasterization => "VK_EXT_conservative_rasterization".into(),
             Feature::BufferInt64Atomics => "shaderInt64 and shaderBufferInt64Atomics".into(),
+            Feature::ShaderInt64 => "shaderInt64".into(),
             Feature::TimestampQueries => "timestampComputeAndGraphics".into(),
             Feature::LinearFilterRgba32f => {
                 "VK_FORMAT_FEATURE_SAMPLED_IMAGE_FILTER_LINEAR_BIT for R32G32B32A32_SFLOAT".into()
@@ -265,6 +273,12 @@ impl Capabilities {
             Feature::VertexPipelineStoresAndAtomics => self.vertex_pipeline_stores_and_atomics = false,
             Feature::ConservativeRasterization => self.conservative_rasterization = false,
             Feature::BufferInt64Atomics => self.buffer_int64_atomics = false,
+            Feature::ShaderInt64 => {
+                if self.buffer_int64_atomics {
+                    self.disable(Feature::BufferInt64Atomics);
+                }
+                self.shader_int64 = false
+            }
             Feature::TimestampQueries => self.timestamps = false,
             Feature::LinearFilterRgba32f => self.linear_filter_rgba32f = false,
             Feature::Msaa(n) => self.framebuffer_sample_counts.retain(|&c| c < n),
@@ -286,6 +300,7 @@ impl Capabilities {
             Feature::VertexPipelineStoresAndAtomics => self.vertex_pipeline_stores_and_atomics,
             Feature::ConservativeRasterization => self.conservative_rasterization,
             Feature::BufferInt64Atomics => self.buffer_int64_atomics,
+            Feature::ShaderInt64 => self.shader_int64,
             Feature::TimestampQueries => self.timestamps,
             Feature::LinearFilterRgba32f => self.linear_filter_rgba32f,
             Feature::Msaa(n) => self.framebuffer_sample_counts.contains(&n),
@@ -341,6 +356,7 @@ impl std::fmt::Display for Capabilities {
         writeln!(f, "VK_EXT_conservative_rasterization {}", self.conservative_rasterization)?;
         writeln!(f, "VK_EXT_mesh_shader {}", self.mesh_shader)?;
         writeln!(f, "64-bit buffer atomics {}", self.buffer_int64_atomics)?;
+        writeln!(f, "64-bit shader integers {}", self.shader_int64)?;
         writeln!(f, "push constants    {} bytes", self.max_push_constants_size)?;
         writeln!(f, "storage buffer range {} bytes", self.max_storage_buffer_range)?;
         writeln!(f, "max image 2D      {}", self.max_image_dimension_2d)?;
@@ -628,7 +644,7 @@ impl DeviceShared {
             .independent_blend(caps.independent_blend)
             .fragment_stores_and_atomics(caps.fragment_stores_and_atomics)
             .vertex_pipeline_stores_and_atomics(caps.vertex_pipeline_stores_and_atomics)
-            .shader_int64(caps.buffer_int64_atomics)
+            .shader_int64(caps.shader_int64)
             .sampler_anisotropy(supported.sampler_anisotropy == vk::TRUE)
             .shader_storage_image_write_without_format(
                 supported.shader_storage_image_write_without_format == vk::TRUE,
@@ -815,6 +831,7 @@ fn offered_capabilities(
         conservative_rasterization: conservative,
         buffer_int64_atomics: supported.shader_int64 == vk::TRUE
             && f12.shader_buffer_int64_atomics == vk::TRUE,
+        shader_int64: supported.shader_int64 == vk::TRUE,
         max_geometry_output_vertices: limits.max_geometry_output_vertices,
         max_geometry_total_output_components: limits.max_geometry_total_output_components,
         max_push_constants_size: limits.max_push_constants_size,
@@ -1112,6 +1129,7 @@ impl DeviceShared {
         caps.vertex_pipeline_stores_and_atomics &= f.vertex_pipeline_stores_and_atomics == vk::TRUE;
         caps.buffer_int64_atomics &=
             f.shader_int64 == vk::TRUE && ext.features12.shader_buffer_int64_atomics == vk::TRUE;
+        caps.shader_int64 &= f.shader_int64 == vk::TRUE;
         caps.conservative_rasterization &= ext.has_extension(ash::ext::conservative_rasterization::NAME);
         caps.mesh_shader &= ext.has_extension(ash::ext::mesh_shader::NAME);
 

@@ -88,7 +88,7 @@ pub const STOCHASTIC_OBJECT_SET: [Binding; 8] = [
 
 /// Set 3 of the stochastic rasterizer: the sample tile, counters, bound debug output, hull counts, the
 /// visibility buffer and the accumulation image.
-pub const STOCHASTIC_SET: [Binding; 12] = [
+pub const STOCHASTIC_SET: [Binding; 14] = [
     Binding { binding: 0, ty: vk::DescriptorType::STORAGE_BUFFER, block: "SamplesXyLens" },
     Binding { binding: 1, ty: vk::DescriptorType::STORAGE_BUFFER, block: "SamplesTime" },
     Binding { binding: 2, ty: vk::DescriptorType::STORAGE_BUFFER, block: "Counters" },
@@ -101,6 +101,8 @@ pub const STOCHASTIC_SET: [Binding; 12] = [
     Binding { binding: 9, ty: vk::DescriptorType::STORAGE_BUFFER, block: "DecoupledGrids" },
     Binding { binding: 10, ty: vk::DescriptorType::STORAGE_BUFFER, block: "DeferredQueue" },
     Binding { binding: 11, ty: vk::DescriptorType::STORAGE_BUFFER, block: "DeferredRefs" },
+    Binding { binding: 12, ty: vk::DescriptorType::COMBINED_IMAGE_SAMPLER, block: "mask_payload" },
+    Binding { binding: 13, ty: vk::DescriptorType::COMBINED_IMAGE_SAMPLER, block: "mask_depth" },
 ];
 
 /// Triangles a frame may hold: the visibility payload is triangle << 1 | back with the triangles
@@ -152,6 +154,7 @@ pub const STOCHASTIC_STRUCTS: &[SharedStruct] = &[
         ClustersPush,
         [triangle_count, cluster_size, segment_count, segment, t0, t1, one_sided]
     ),
+    shared_struct!("Push", super::mask::MaskResolvePush, [width, height, per_pass]),
 ];
 
 /// Bytes per camera-space triangle and motion key (`triangles.comp`): 3 vertices × xyz.
@@ -171,6 +174,7 @@ pub const SHADER_INTERFACES: &[crate::gpu::layout::ShaderInterface] = &[
             "stochastic/hull.vert",
             "stochastic/cluster.vert",
             "stochastic/stochastic.frag",
+            "stochastic/mask.frag",
         ],
         Some(&STOCHASTIC_OBJECT_SET),
         Some(&STOCHASTIC_SET),
@@ -197,5 +201,11 @@ pub const SHADER_INTERFACES: &[crate::gpu::layout::ShaderInterface] = &[
         Some(&STOCHASTIC_OBJECT_SET),
         Some(&STOCHASTIC_SET),
         Some(super::super::compute_hull::EXPAND_STRUCTS[0]),
+    ),
+    crate::gpu::layout::ShaderInterface::technique(
+        &["stochastic/mask_resolve.comp"],
+        Some(&STOCHASTIC_OBJECT_SET),
+        Some(&STOCHASTIC_SET),
+        Some(STOCHASTIC_STRUCTS[3]),
     ),
 ];

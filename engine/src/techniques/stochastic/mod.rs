@@ -22,12 +22,17 @@
 //! Shaders: `shaders-glsl/stochastic/`.
 
 mod layout;
+mod mask;
 mod objects;
 mod options;
 mod shading;
 mod visibility;
 
 pub use layout::*;
+pub use mask::{
+    mask_sample_counts, mask_samples_per_pass, Coverage, MaskRate, MaskResolvePush, MASK_DEPTH_FORMAT,
+    MASK_DEPTH_SCALE, MASK_PAYLOAD_FORMAT,
+};
 pub(crate) use objects::StochasticObject;
 pub use options::*;
 pub use shading::{
@@ -60,18 +65,11 @@ pub const INFO: TechniqueInfo = TechniqueInfo {
     summary: "stochastic rasterization, visibility first: a conservative bound per triangle, the 5D inside \
               test per sample into a visibility buffer, then shading (McGuire et al. 2010; Toth & Linder 2008)",
     keys: &[KEYS, super::shadow_maps::KEYS],
-    required_features: REQUIRED_FEATURES,
+    // Per coverage path: `Coverage::resolve` (the visibility buffer's atomics, or the mask path's).
+    required_features: &[],
     capabilities: TechniqueCapabilities { transparency: true, transparency_methods: false, embeddable: true },
     prepare,
 };
-
-/// What every stochastic frame needs of the device, whatever its settings: the visibility buffer's
-/// coverage atomics and its 64-bit `atomicMax`. (The geometry-shader hull, the default, needs
-/// `geometryShader` too; `hull=compute` does not.)
-pub const REQUIRED_FEATURES: &[(Feature, &str)] = &[
-    (Feature::FragmentStoresAndAtomics, "the stochastic visibility buffer (coverage atomics)"),
-    (Feature::BufferInt64Atomics, "the stochastic visibility buffer (64-bit atomicMax)"),
-];
 
 fn prepare(ctx: &PrepareContext<'_>) -> Result<Box<dyn FrameTechnique>> {
     let effects = vec![Effects::Both; ctx.scene.objects.len()];
@@ -164,7 +162,10 @@ impl StochasticDraws {
         object_effects: &[Effects],
     ) -> Result<Self> {
         let (device, world) = (ctx.device, ctx.world);
-        let paths = check(ctx, &options, &debug, object_effects)?;
+        let (paths, coverage) = check(ctx, &options, &debug, object_effects)?;
+        // The mask path draws one bound per triangle (a mask fragment names one triangle).
+        let clusters = if coverage.mask_rate().is_some() { Clusters::Off } else { options.clusters };
+        let options = StochasticOptions { coverage, clusters, ..options };
         // Tinted objects (coverage below 1 and a tint): a tint pass per frame pass behind the geometry
         // shader's one-piece convex hull (every sample tested once per triangle), and a tint buffer.
         let tinted = ObjectChoices::tint_logs(ctx).iter().any(Option::is_some);
@@ -316,20 +317,20 @@ impl StochasticDraws {
         Ok(TechniqueFrame {
             image,
             passes: self.visibility.sampling.passes,
-            msaa_samples: 1,
+            msaa_samples: self.visibility.msaa_samples(),
             counters: self.counters()?,
             clusters: self.visibility.objects.iter().map(|o| o.choices.clusters).collect(),
         })
     }
 }
 
-/// The checks before anything is built, and the effects paths in use.
+/// The checks before anything is built; the effects paths in use and the coverage path taken.
 fn check(
     ctx: &PrepareContext<'_>,
     options: &StochasticOptions,
     debug: &DebugOptions,
     object_effects: &[Effects],
-) -> Result<Vec<Effects>> {
+) -> Result<(Vec<Effects>, Coverage)> {
     let (world, caps, spp) = (ctx.world, &ctx.device.caps, ctx.settings.spp);
     if object_effects.len() != world.objects.len() {
         return Err(Error::Unsupported(format!(
@@ -347,7 +348,30 @@ fn check(
             "technique `stochastic` with the geometry-shader hull (--hull compute needs none)",
         )?;
     }
-    INFO.check_features(caps)?;
+    let coverage = options.coverage.resolve(caps)?;
+    if coverage.mask_rate().is_some() {
+        let path = format!("the `{}` coverage path", coverage.name());
+        if let Clusters::Fixed(_) = options.clusters {
+            return Err(Error::Unsupported(format!(
+                "cluster bounds on {path}: a mask fragment names one triangle (clusters=off or auto)"
+            )));
+        }
+        if options.instrumented {
+            caps.require(Feature::FragmentStoresAndAtomics, &format!("the sample counters of {path}"))?;
+        }
+        if ObjectChoices::tint_logs(ctx).iter().any(Option::is_some) {
+            caps.require(
+                Feature::FragmentStoresAndAtomics,
+                &format!("tints on {path} (the tint pass' atomics)"),
+            )?;
+        }
+        if options.shading.decoupled_grid().is_some() {
+            caps.require(
+                Feature::BufferInt64Atomics,
+                &format!("`--shading {}` (its cache's 64-bit keys) on {path}", options.shading.name()),
+            )?;
+        }
+    }
     if options.expansion == HullExpansion::Compute && debug.bound_debug_triangles > 0 {
         return Err(Error::Unsupported(
             "the bound debug output exists for the geometry-shader hull only".into(),
@@ -368,7 +392,7 @@ fn check(
             limit: format!("1..={MAX_STOCHASTIC_SPP} for technique `stochastic`"),
         });
     }
-    Ok(paths)
+    Ok((paths, coverage))
 }
 
 /// Technique `stochastic`: every object on the stochastic path simulating both effects.
@@ -425,5 +449,9 @@ impl FrameTechnique for StochasticTechnique {
 
     fn shadows(&self) -> Option<String> {
         self.draws.shading.shadows.as_ref().map(ShadowMaps::summary)
+    }
+
+    fn coverage(&self) -> Option<Coverage> {
+        Some(self.draws.options.coverage)
     }
 }

@@ -9,6 +9,7 @@ use crate::sampling::{ApertureShape, SampleTile, ShutterCurve, SAMPLE_TILE_SIZE}
 use crate::techniques::settings::{key, number, OptionKey};
 
 use super::super::compute_hull::HullExpansion;
+use super::mask::Coverage;
 use super::shading::DEFAULT_CACHE_ENTRIES;
 
 pub use crate::limits::MAX_STOCHASTIC_SPP;
@@ -152,6 +153,7 @@ pub const KEYS: &[OptionKey] = &[
     key("shading", "stochastic", "a shading rate", "per-pixel"),
     key("per-pass", "stochastic", "samples per pass", "8"),
     key("hull", "stochastic", "geometry-shader or compute", "compute"),
+    key("coverage", "stochastic", "device, visibility, mask or mask-per-fragment", "mask"),
     key("intervals", "stochastic", "time intervals of the bounds: auto or a power of two", "4"),
     key("clusters", "stochastic", "cluster bounds: auto, off or triangles per cluster", "32"),
     key("cache", "stochastic", "decoupled shading's cache entries", "4096"),
@@ -171,6 +173,9 @@ pub struct StochasticOptions {
     pub per_pass: Option<u32>,
     /// Geometry shader or compute-expanded hull ([`HullExpansion`]).
     pub expansion: HullExpansion,
+    /// How the coverage pass keeps each sample's nearest hit: the visibility buffer's 64-bit atomics
+    /// or the hardware's multisampled depth test ([`Coverage`]; the device's choice by default).
+    pub coverage: Coverage,
     /// Interval bounds: into how many runs of time-ordered samples each object's draw is split, each
     /// bounded over its own sub-interval of the shutter ([`Intervals`]).
     pub intervals: Intervals,
@@ -417,6 +422,7 @@ impl Default for StochasticOptions {
             instrumented: false,
             per_pass: None,
             expansion: HullExpansion::GeometryShader,
+            coverage: Coverage::Device,
             intervals: Intervals::Auto,
             clusters: Clusters::Auto,
             cache_entries: DEFAULT_CACHE_ENTRIES,
@@ -670,6 +676,7 @@ impl StochasticOptions {
             "shading" => self.shading = value.parse()?,
             "per-pass" => self.per_pass = Some(number(key, value)?),
             "hull" => self.expansion = value.parse()?,
+            "coverage" => self.coverage = value.parse()?,
             "intervals" => self.intervals = value.parse()?,
             "clusters" => self.clusters = value.parse()?,
             "cache" => self.cache_entries = number(key, value)?,

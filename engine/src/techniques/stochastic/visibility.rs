@@ -23,17 +23,21 @@ use super::super::{FrameContext, FrameInputs, PrepareContext};
 use super::layout::{
     ClustersPush, TrianglesPush, VisibilityPush, TINT_BYTES, VISIBILITY_BUDGET_BYTES, VISIBILITY_BYTES,
 };
+use super::mask::{
+    mask_sample_counts, mask_samples_per_pass, MaskHandles, MaskRate, MaskTarget, MASK_DEPTH_FORMAT,
+    MASK_PAYLOAD_FORMAT,
+};
 use super::objects::{ObjectChoices, StochasticObject};
 use super::options::{bounded_segments, gpu_samples, samples_per_pass, DebugOptions, StochasticOptions};
 use super::{BOUND_DEBUG_STRIDE, COUNTERS};
 use crate::error::Result;
 use crate::gpu::layout::{vertex_input, FRAME_SET_INDEX, OBJECT_SET_INDEX, TECHNIQUE_SET_INDEX};
 use crate::gpu::{GpuView, GpuWorld};
-use crate::graph::{Access, BufferHandle, FrameGraph, PassContext, ResourceHandle, Tracked};
+use crate::graph::{Access, BufferHandle, FrameGraph, Load, PassContext, ResourceHandle, Store, Tracked};
 use crate::mirror::bounds::BoundKind;
 use crate::plan::Effects;
 use crate::sampling::ShutterCurve;
-use crate::shaders::{self, axes, ClustersComp, StochasticFrag, StochasticGeom};
+use crate::shaders::{self, axes, ClustersComp, MaskFrag, StochasticFrag, StochasticGeom};
 use crate::vk::{
     write_descriptors, Buffer, DescriptorPool, DescriptorSetLayout, DescriptorWrite, Faces, GraphicsDesc,
     Pipeline, PipelineLayout, ShaderModule,
@@ -63,15 +67,24 @@ impl Sampling {
         let sample_bytes = VISIBILITY_BYTES + if tinted { TINT_BYTES } else { 0 };
         let pixels = width as u64 * height as u64;
         let spp = ctx.settings.spp;
-        let (per_pass, passes) = samples_per_pass(spp, options.per_pass, pixels, sample_bytes, max_bytes)?;
+        // The mask path: M = the multisampled target's samples, an MSAA count of the device.
+        let (per_pass, passes) = match options.coverage.mask_rate() {
+            None => samples_per_pass(spp, options.per_pass, pixels, sample_bytes, max_bytes)?,
+            Some(_) => {
+                let counts = mask_sample_counts(ctx.device);
+                mask_samples_per_pass(spp, options.per_pass, &counts, pixels, sample_bytes, max_bytes)?
+            }
+        };
+        // The rasterizer's samples per pixel: one at the centre, or the mask target's M — every one
+        // of them must lie inside the bound of a pixel the bound touches (gl_SampleMask only clears).
+        let raster_samples = if options.coverage.mask_rate().is_some() { per_pass } else { 1 };
         Ok(Sampling {
             spp,
             per_pass,
             passes,
             size: (width, height),
             shutter: ctx.scene.camera.shutter,
-            // One rasterizer sample per pixel, at its centre.
-            dilate: crate::mirror::bounds::dilation_px(1, caps.standard_sample_locations),
+            dilate: crate::mirror::bounds::dilation_px(raster_samples, caps.standard_sample_locations),
             coverage_seed: crate::transparency::coverage_seed(ctx.settings.seed),
         })
     }
@@ -125,6 +138,8 @@ pub(super) struct VisibilityHandles {
     pub counters: Option<BufferHandle>,
     /// What the coverage and tint passes read besides the visibility and tint buffers.
     coverage_uses: Vec<(ResourceHandle, Access)>,
+    /// The mask path's target (None on the visibility path).
+    mask: Option<MaskHandles>,
     /// Read back after the frame.
     host_reads: Vec<BufferHandle>,
 }
@@ -150,6 +165,8 @@ pub(super) struct Visibility {
     bound_debug: Option<Tracked<Buffer>>,
     /// The compute-expanded hull's buffers and pipelines ([`HullExpansion::Compute`]).
     hull: Option<ComputeHull>,
+    /// The mask coverage path's target and resolve ([`super::Coverage::Mask`]).
+    mask: Option<MaskTarget>,
     _samples: [Buffer; 2],
 }
 
@@ -174,7 +191,7 @@ impl Visibility {
         let sets = layouts.both();
         let tinted = choices.iter().any(|c| c.tint_log.is_some());
 
-        let pipelines = Pipelines::new(ctx, options, debug, paths, &choices, &sets)?;
+        let pipelines = Pipelines::new(ctx, options, debug, paths, &choices, &sets, sampling.per_pass)?;
 
         let storage = vk::BufferUsageFlags::STORAGE_BUFFER;
         let (aperture, shutter) = (ctx.scene.camera.aperture, ctx.scene.camera.shutter);
@@ -235,6 +252,12 @@ impl Visibility {
         } else {
             None
         };
+        let mask = match options.coverage.mask_rate() {
+            Some(_) => {
+                Some(MaskTarget::new(device, world, sampling.per_pass, sampling.size, &sets, technique_set)?)
+            }
+            None => None,
+        };
         Ok(Visibility {
             objects,
             sampling,
@@ -246,8 +269,14 @@ impl Visibility {
             counters,
             bound_debug,
             hull,
+            mask,
             _samples: samples,
         })
+    }
+
+    /// Samples per pixel of the coverage pass' target: the mask path's M, or 1 (no target).
+    pub fn msaa_samples(&self) -> u32 {
+        self.mask.as_ref().map_or(1, |m| m.samples)
     }
 
     /// Whether any object has a triangle.
@@ -350,6 +379,7 @@ impl Visibility {
             host_reads.push(h);
         }
         VisibilityHandles {
+            mask: self.mask.as_ref().map(|m| m.import(g)),
             visibility: g.import_buffer("stochastic visibility", &self.visibility),
             tints: self.tints.as_ref().map(|t| g.import_buffer("stochastic tints", t)),
             triangles,
@@ -364,26 +394,47 @@ impl Visibility {
     pub fn add_pass<'a>(&'a self, g: &mut FrameGraph<'a>, h: &VisibilityHandles, inputs: &FrameInputs<'a>) {
         let (visibility, tints, inputs) = (h.visibility, h.tints, *inputs);
         let (w, hgt) = self.sampling.size;
-        let mut clear = g.pass("clear visibility").overwrite(visibility, Access::TransferWrite);
-        if let Some(t) = tints {
-            clear = clear.overwrite(t, Access::TransferWrite);
-        }
-        clear.record(move |ctx| {
-            for b in std::iter::once(visibility).chain(tints) {
-                ctx.fill_buffer(b, 0);
+        // The mask path's resolve writes every word of the visibility buffer: only the tints to clear.
+        let cleared: Vec<BufferHandle> =
+            [(h.mask.is_none()).then_some(visibility), tints].into_iter().flatten().collect();
+        if !cleared.is_empty() {
+            let mut clear = g.pass("clear visibility");
+            for &b in &cleared {
+                clear = clear.overwrite(b, Access::TransferWrite);
             }
-            Ok(())
-        });
-        g.pass("stochastic coverage")
-            .render_area(w, hgt)
-            .access(visibility, Access::FragmentShaderReadOther)
-            .access(visibility, Access::FragmentShaderWrite)
-            .accesses(h.coverage_uses.iter().copied())
-            .record(move |ctx| {
-                self.record_coverage(ctx, &inputs, ctx.iteration);
-                self.record_cluster_coverage(ctx, &inputs, ctx.iteration);
+            clear.record(move |ctx| {
+                for &b in &cleared {
+                    ctx.fill_buffer(b, 0);
+                }
                 Ok(())
             });
+        }
+        match (&self.mask, h.mask) {
+            (Some(mask), Some(target)) => {
+                // Payload cleared to 0, depth to 1.0 (nothing); the hardware keeps the nearest hit.
+                g.pass("stochastic mask coverage")
+                    .color(target.payload, Load::Clear([0.0; 4]), Store::Store)
+                    .depth(target.depth, Load::Clear(1.0), Store::Store)
+                    .accesses(h.coverage_uses.iter().copied())
+                    .record(move |ctx| {
+                        self.record_coverage(ctx, &inputs, ctx.iteration);
+                        Ok(())
+                    });
+                mask.add_resolve_pass(g, target, visibility, self.technique_set);
+            }
+            _ => {
+                g.pass("stochastic coverage")
+                    .render_area(w, hgt)
+                    .access(visibility, Access::FragmentShaderReadOther)
+                    .access(visibility, Access::FragmentShaderWrite)
+                    .accesses(h.coverage_uses.iter().copied())
+                    .record(move |ctx| {
+                        self.record_coverage(ctx, &inputs, ctx.iteration);
+                        self.record_cluster_coverage(ctx, &inputs, ctx.iteration);
+                        Ok(())
+                    });
+            }
+        }
         if let Some(t) = tints {
             // The finished visibility buffer says what each sample sees; the tinted objects multiply
             // their tint into the samples they pass in front of it.
@@ -684,6 +735,7 @@ impl Pipelines {
         paths: &[Effects],
         choices: &[ObjectChoices],
         sets: &[&DescriptorSetLayout],
+        mask_samples: u32,
     ) -> Result<Self> {
         let (device, world) = (ctx.device, ctx.world);
         let caps = &device.caps;
@@ -713,25 +765,40 @@ impl Pipelines {
         let mut shader_modules = vec![];
         let mut pipelines = Vec::with_capacity(paths.len());
         let mut tint_pipelines = Vec::new();
+        // Attachment-less (the visibility path, the tint pass) or into the mask target.
+        let raster_into =
+            |name: &str, stages: &[&ShaderModule], vertex_input: bool, mask: Option<MaskRate>| {
+                let (samples, sample_shading) = match mask {
+                    None => (1, None),
+                    Some(MaskRate::Sample) => (mask_samples, Some(1.0)),
+                    Some(MaskRate::Fragment) => (mask_samples, None),
+                };
+                Pipeline::graphics(
+                    device,
+                    &layout,
+                    &GraphicsDesc {
+                        name,
+                        stages,
+                        vertex_bindings: if vertex_input { &bindings } else { &[] },
+                        vertex_attributes: if vertex_input { &attributes[..1] } else { &[] },
+                        color_formats: if mask.is_some() { &[MASK_PAYLOAD_FORMAT] } else { &[] },
+                        depth_format: mask.map(|_| MASK_DEPTH_FORMAT),
+                        samples,
+                        sample_shading,
+                        faces: Faces::Both,
+                        depth_compare: if mask.is_some() {
+                            vk::CompareOp::LESS_OR_EQUAL
+                        } else {
+                            vk::CompareOp::ALWAYS
+                        },
+                        depth_write: mask.is_some(),
+                    },
+                )
+            };
         let raster = |name: &str, stages: &[&ShaderModule], vertex_input: bool| {
-            Pipeline::graphics(
-                device,
-                &layout,
-                &GraphicsDesc {
-                    name,
-                    stages,
-                    vertex_bindings: if vertex_input { &bindings } else { &[] },
-                    vertex_attributes: if vertex_input { &attributes[..1] } else { &[] },
-                    color_formats: &[],
-                    depth_format: None,
-                    samples: 1,
-                    sample_shading: None,
-                    faces: Faces::Both,
-                    depth_compare: vk::CompareOp::ALWAYS,
-                    depth_write: false,
-                },
-            )
+            raster_into(name, stages, vertex_input, None)
         };
+        let mask = options.coverage.mask_rate();
         for &effects in paths {
             if uses(effects, &|c| c.tint_log.is_some()) {
                 let frag = StochasticFrag {
@@ -747,13 +814,26 @@ impl Pipelines {
                 tint_pipelines.push((effects, raster(&name, &[&vert, &geom, &frag], true)?));
                 shader_modules.extend([geom, frag]);
             }
-            let frag = StochasticFrag {
-                hull: options.expansion.axis(),
-                instrumented: options.instrumented,
-                effects: effects.shader_axis(),
-                transparency_pass: axes::TransparencyPass::Coverage,
+            let frag = match mask {
+                None => StochasticFrag {
+                    hull: options.expansion.axis(),
+                    instrumented: options.instrumented,
+                    effects: effects.shader_axis(),
+                    transparency_pass: axes::TransparencyPass::Coverage,
+                }
+                .source(),
+                Some(rate) => MaskFrag {
+                    mask_hull: if compute { axes::MaskHull::Compute } else { axes::MaskHull::GeometryShader },
+                    mask_rate: match rate {
+                        MaskRate::Sample => axes::MaskRate::Sample,
+                        MaskRate::Fragment => axes::MaskRate::Fragment,
+                    },
+                    instrumented: options.instrumented,
+                    effects: effects.shader_axis(),
+                }
+                .source(),
             };
-            let frag = ShaderModule::new(device, frag.source())?;
+            let frag = ShaderModule::new(device, frag)?;
             let (first, geom) = if compute {
                 (&hull_vert, None)
             } else {
@@ -765,8 +845,13 @@ impl Pipelines {
             };
             let stages: Vec<&ShaderModule> =
                 [Some(first), geom.as_ref(), Some(&frag)].into_iter().flatten().collect();
-            let name = format!("stochastic coverage ({}, {} hull)", effects.name(), options.expansion.name());
-            pipelines.push((effects, raster(&name, &stages, !compute)?));
+            let name = format!(
+                "stochastic {} coverage ({}, {} hull)",
+                options.coverage.name(),
+                effects.name(),
+                options.expansion.name()
+            );
+            pipelines.push((effects, raster_into(&name, &stages, !compute, mask)?));
             shader_modules.extend(geom);
             shader_modules.push(frag);
         }
