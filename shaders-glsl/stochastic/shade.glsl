@@ -33,24 +33,8 @@
 
 layout(local_size_x = 8, local_size_y = 8) in;
 
-layout(set = 3, binding = 0, std430) readonly buffer SamplesXyLens { vec4 sample_xy_lens[]; };
-layout(set = 3, binding = 1, std430) readonly buffer SamplesTime { float sample_time[]; };
-layout(set = 3, binding = 2, std430) buffer Counters {
-    uint samples_tested;
-    uint samples_hit;
-    uint shading_invocations;
-    uint fragments;
-    // Decoupled shading (shade_decoupled.comp): cache lookups, hits, evictions, stores lost to a race,
-    // and (deferred) keys the hash table had no room for.
-    uint cache_lookups;
-    uint cache_hits;
-    uint cache_evictions;
-    uint cache_busy;
-    uint cache_overflows;
-} counters;
+#include "stochastic/sample_tile.glsl"
 layout(set = 3, binding = 6, rgba32f) uniform image2D accum;
-
-const uint SAMPLE_TILE_SIZE = 64u;
 
 #ifdef TINTS
 layout(set = 3, binding = 7, std430) readonly buffer TintLog { uint tint_log[]; };

@@ -641,33 +641,8 @@ fn disabled_features_are_absent_and_their_fallbacks_taken() {
 
     let png = std::env::temp_dir().join(format!("shutter-cli-{}-disabled.png", std::process::id()));
     let png = png.display().to_string();
-    let render = |extra: &[&str]| {
+    let render_with = |technique: &str, extra: &[&str]| {
         let mut args = vec![
-            "render",
-            "one-mover",
-            "--technique",
-            "stochastic",
-            "--size",
-            "32x18",
-            "--spp",
-            "4",
-            "--out",
-            &png,
-        ];
-        args.extend_from_slice(extra);
-        shutter(&args)
-    };
-    let (code, _, err) = render(&["--disable", "geometry-shader"]);
-    assert_eq!(code, 1, "{err}");
-    assert!(err.contains("geometryShader") && err.contains("--hull compute"), "{err}");
-    let (code, out, err) =
-        render(&["--disable", "geometry-shader,timestamp-queries", "--set", "hull=compute"]);
-    assert_eq!(code, 0, "{err}");
-    assert!(out.contains("GPU not timed (no timestamp queries)"), "{out}");
-    // Without 64-bit atomics the stochastic frame takes the mask coverage path, not a refusal; `auto`
-    // with blur too (one-mover moves).
-    for technique in ["stochastic", "auto"] {
-        let (code, out, err) = shutter(&[
             "render",
             "one-mover",
             "--technique",
@@ -678,9 +653,22 @@ fn disabled_features_are_absent_and_their_fallbacks_taken() {
             "4",
             "--out",
             &png,
-            "--disable",
-            "buffer-int64-atomics",
-        ]);
+        ];
+        args.extend_from_slice(extra);
+        shutter(&args)
+    };
+    let render = |extra: &[&str]| render_with("stochastic", extra);
+    let (code, _, err) = render(&["--disable", "geometry-shader"]);
+    assert_eq!(code, 1, "{err}");
+    assert!(err.contains("geometryShader") && err.contains("--hull compute"), "{err}");
+    let (code, out, err) =
+        render(&["--disable", "geometry-shader,timestamp-queries", "--set", "hull=compute"]);
+    assert_eq!(code, 0, "{err}");
+    assert!(out.contains("GPU not timed (no timestamp queries)"), "{out}");
+    // Without 64-bit atomics the stochastic frame takes the mask coverage path, not a refusal; `auto`
+    // with blur too (one-mover moves).
+    for technique in ["stochastic", "auto"] {
+        let (code, out, err) = render_with(technique, &["--disable", "buffer-int64-atomics"]);
         assert_eq!(code, 0, "{technique}: {err}");
         assert!(out.contains("mask coverage (MSAA 4x × 1 passes)"), "{technique}: {out}");
     }
