@@ -86,8 +86,13 @@ pub const STOCHASTIC_OBJECT_SET: [Binding; 8] = [
     Binding { binding: 7, ty: vk::DescriptorType::STORAGE_BUFFER, block: "AtlasCoords" },
 ];
 
+/// The bindings of [`STOCHASTIC_SET`] before the mask coverage path's target (12–13, mask path only).
+pub const STOCHASTIC_BINDINGS_WITHOUT_MASK: usize = 12;
+
 /// Set 3 of the stochastic rasterizer: the sample tile, counters, bound debug output, hull counts, the
-/// visibility buffer and the accumulation image.
+/// visibility buffer and the accumulation image; on the mask coverage path also its multisampled target
+/// (bindings 12–13). The layout holds those two only where the path is taken: lavapipe (Mesa 22.3)
+/// crashes binding a set whose combined image sampler was never written.
 pub const STOCHASTIC_SET: [Binding; 14] = [
     Binding { binding: 0, ty: vk::DescriptorType::STORAGE_BUFFER, block: "SamplesXyLens" },
     Binding { binding: 1, ty: vk::DescriptorType::STORAGE_BUFFER, block: "SamplesTime" },

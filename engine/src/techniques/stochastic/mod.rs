@@ -183,6 +183,11 @@ impl StochasticDraws {
 
         let all = vk::ShaderStageFlags::ALL_GRAPHICS | vk::ShaderStageFlags::COMPUTE;
         let object_table = stage.object_bindings();
+        let technique_table = if coverage.mask_rate().is_some() {
+            &STOCHASTIC_SET[..]
+        } else {
+            &STOCHASTIC_SET[..STOCHASTIC_BINDINGS_WITHOUT_MASK]
+        };
         let layouts = SetLayouts {
             object: DescriptorSetLayout::from_table(
                 device,
@@ -193,7 +198,7 @@ impl StochasticDraws {
             technique: DescriptorSetLayout::from_table(
                 device,
                 "stochastic set layout",
-                &STOCHASTIC_SET,
+                technique_table,
                 all,
             )?,
         };
@@ -204,7 +209,7 @@ impl StochasticDraws {
         let pool = DescriptorPool::for_tables(
             device,
             n_objects + 1,
-            &[(object_table, n_objects), (&STOCHASTIC_SET, 1)],
+            &[(object_table, n_objects), (technique_table, 1)],
         )?;
         let technique_set = pool.allocate(&layouts.technique)?;
         write_descriptors(
