@@ -92,3 +92,39 @@ fn mask_coverage_per_sample_matches_the_visibility_buffer_on_every_hard_case() {
         );
     }
 }
+
+/// `--hull mesh` (shaders-glsl/stochastic/stochastic.mesh) hands the rasterizer the geometry shader's
+/// triangles: the same image, bit for bit, on `default`, `one-mover` and every hard case, on both
+/// coverage paths. A device without `VK_EXT_mesh_shader` (Debian 12's lavapipe) refuses it by name,
+/// and that refusal is what is tested there.
+#[test]
+fn mesh_hull_is_bit_identical_to_the_geometry_shader_hull() {
+    let mut r = renderer();
+    let with = |expansion, coverage| StochasticOptions { expansion, coverage, ..Default::default() };
+    if !r.device().caps.mesh_shader {
+        let scene = builtin_scene("default").unwrap().unwrap();
+        let settings = RenderSettings::new(32, 18, 4, 3)
+            .with_stochastic(with(HullExpansion::Mesh, Coverage::Visibility));
+        let Err(err) = r.render(&scene, Technique::STOCHASTIC, &settings) else {
+            panic!("a device without mesh shaders rendered --hull mesh")
+        };
+        let err = err.to_string();
+        println!("no mesh shaders on this device: {err}");
+        assert!(err.contains("VK_EXT_mesh_shader") && err.contains("--hull gs"), "{err}");
+        return;
+    }
+    let mut scenes: Vec<(String, Scene, (u32, u32), u32)> = ["default", "one-mover"]
+        .into_iter()
+        .map(|n| (n.to_string(), builtin_scene(n).unwrap().unwrap(), (96, 54), 8))
+        .collect();
+    scenes.extend(CASES.iter().map(|c| (c.name.to_string(), c.scene().unwrap(), (48, 27), 4)));
+    for (name, scene, size, spp) in &scenes {
+        for coverage in [Coverage::Visibility, Coverage::Mask(MaskRate::Sample)] {
+            let gs = render(&mut r, scene, *size, *spp, with(HullExpansion::GeometryShader, coverage));
+            let mesh = render(&mut r, scene, *size, *spp, with(HullExpansion::Mesh, coverage));
+            let d = max_abs_diff(&gs.image, &mesh.image);
+            assert!(d == 0.0, "{name}, {} coverage: the mesh hull differs from gs by {d}", coverage.name());
+        }
+    }
+    println!("mesh hull = gs hull, bit for bit, on {} scenes × 2 coverage paths", scenes.len());
+}

@@ -173,7 +173,7 @@ enum Command {
     Bench {
         #[arg(default_value = "default")]
         scene: String,
-        /// A configuration `technique[:spp=N][:shadow-map=SIZE/S/PCF|off][:bound=B][:shading=RATE (as render's --shading)][:cache=N][:per-pass=M][:intervals=auto|K][:clusters=auto|off|N][:hull=gs|compute]`; repeat for
+        /// A configuration `technique[:spp=N][:shadow-map=SIZE/S/PCF|off][:bound=B][:shading=RATE (as render's --shading)][:cache=N][:per-pass=M][:intervals=auto|K][:clusters=auto|off|N][:hull=gs|compute|mesh][:coverage=visibility|mask|mask-per-fragment|device]`; repeat for
         /// more. The first is the baseline of the ratios.
         #[arg(short = 'c', long = "config", default_values_t = ["auto".to_string(), "pinhole".to_string()])]
         configs: Vec<String>,

@@ -15,4 +15,4 @@ mod view;
 mod world;
 
 pub use view::{object_view_records, view_uniforms, GpuView};
-pub use world::{GpuObject, GpuWorld, SCENE_STAGES};
+pub use world::{scene_stages, GpuObject, GpuWorld, SCENE_STAGES};

@@ -51,10 +51,21 @@ pub struct GpuWorld {
     _pool: DescriptorPool,
 }
 
-/// Shader stages that may read sets 0 and 1.
+/// Shader stages that may read sets 0 and 1 on every device ([`scene_stages`] adds the mesh stage).
 pub const SCENE_STAGES: vk::ShaderStageFlags = vk::ShaderStageFlags::from_raw(
     vk::ShaderStageFlags::ALL_GRAPHICS.as_raw() | vk::ShaderStageFlags::COMPUTE.as_raw(),
 );
+
+/// Shader stages that may read the scene's and the techniques' sets on `caps`' device: [`SCENE_STAGES`]
+/// and, where the device has mesh shaders (enabled: a layout may not name the stage otherwise), the
+/// mesh stage.
+pub fn scene_stages(caps: &crate::vk::Capabilities) -> vk::ShaderStageFlags {
+    if caps.mesh_shader {
+        SCENE_STAGES | vk::ShaderStageFlags::MESH_EXT
+    } else {
+        SCENE_STAGES
+    }
+}
 
 impl GpuWorld {
     /// Uploads `scene`'s meshes, materials, textures and environment.
@@ -87,11 +98,11 @@ impl GpuWorld {
             vk::BufferUsageFlags::STORAGE_BUFFER,
             if materials.is_empty() { &placeholder } else { &materials },
         )?;
-        let frame_layout =
-            DescriptorSetLayout::from_table(device, "frame set layout", &FRAME_SET, SCENE_STAGES)?;
+        let stages = scene_stages(&device.caps);
+        let frame_layout = DescriptorSetLayout::from_table(device, "frame set layout", &FRAME_SET, stages)?;
         let object_layout =
-            DescriptorSetLayout::from_table(device, "object set layout", &OBJECT_SET, SCENE_STAGES)?;
-        let empty_layout = DescriptorSetLayout::from_table(device, "empty set layout", &[], SCENE_STAGES)?;
+            DescriptorSetLayout::from_table(device, "object set layout", &OBJECT_SET, stages)?;
+        let empty_layout = DescriptorSetLayout::from_table(device, "empty set layout", &[], stages)?;
 
         let n = scene.objects.len() as u32;
         let pool = DescriptorPool::for_tables(device, n, &[(&OBJECT_SET, n)])?;

@@ -205,6 +205,17 @@ impl PassContext<'_> {
         unsafe { self.device.raw.cmd_draw(self.cmd, vertices, instances, 0, 0) };
     }
 
+    /// Draws `x × y × z` workgroups of the bound mesh-shader pipeline (`vkCmdDrawMeshTasksEXT`; no
+    /// task shader). Panics on a device without [`crate::vk::Capabilities::mesh_shader`]: a technique
+    /// refuses `--hull mesh` there before recording.
+    pub fn draw_mesh_tasks(&self, x: u32, y: u32, z: u32) {
+        self.expect_reads_declared(vk::PipelineBindPoint::GRAPHICS, "draw_mesh_tasks");
+        let mesh =
+            self.device.mesh_shader_device.as_ref().expect("a mesh-shader draw on a device without them");
+        // SAFETY: the contract of `PassContext` (inside a raster pass' rendering).
+        unsafe { mesh.cmd_draw_mesh_tasks(self.cmd, x, y, z) };
+    }
+
     /// Draws `indices` indices of `index_buffer` (u32) over `vertex_buffer`, instances
     /// `first_instance..first_instance + instances`. Both buffers are scene geometry the host wrote
     /// before the frame (read-only on the GPU: no declaration needed).

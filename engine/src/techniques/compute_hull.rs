@@ -46,23 +46,30 @@ pub enum HullExpansion {
     GeometryShader,
     /// A compute pass bounds every triangle once per frame into buffers; each pass draws them.
     Compute,
+    /// A mesh shader (`VK_EXT_mesh_shader`, `shaders-glsl/stochastic/stochastic.mesh`) bounds and
+    /// emits every triangle in every pass, as the geometry shader does: the same triangles reach the
+    /// rasterizer, so the image is bit-identical to [`HullExpansion::GeometryShader`]'s.
+    Mesh,
 }
 
 impl HullExpansion {
-    pub const ALL: [HullExpansion; 2] = [HullExpansion::GeometryShader, HullExpansion::Compute];
+    pub const ALL: [HullExpansion; 3] =
+        [HullExpansion::GeometryShader, HullExpansion::Compute, HullExpansion::Mesh];
     pub fn name(&self) -> &'static str {
         match self {
             HullExpansion::GeometryShader => "gs",
             HullExpansion::Compute => "compute",
+            HullExpansion::Mesh => "mesh",
         }
     }
 }
 
 impl HullExpansion {
-    /// The shader permutations' hull axis.
+    /// The coverage fragment shader's hull axis: the mesh shader hands it the triangle as
+    /// `gl_PrimitiveID`, as the geometry shader does.
     pub fn axis(self) -> axes::Hull {
         match self {
-            HullExpansion::GeometryShader => axes::Hull::GeometryShader,
+            HullExpansion::GeometryShader | HullExpansion::Mesh => axes::Hull::GeometryShader,
             HullExpansion::Compute => axes::Hull::Compute,
         }
     }

@@ -639,6 +639,7 @@ pub struct FeaturePath {
 /// The path taken for each feature the techniques can use, and what forces the alternative.
 pub fn feature_paths(caps: &crate::vk::Capabilities) -> Vec<FeaturePath> {
     let counts = &caps.framebuffer_sample_counts;
+    let stochastic_coverage = stochastic::Coverage::Device.resolve(caps);
     let f = |feature: &str, available: bool, path: String| FeaturePath {
         feature: feature.into(),
         available,
@@ -660,17 +661,25 @@ pub fn feature_paths(caps: &crate::vk::Capabilities) -> Vec<FeaturePath> {
             "MSAA",
             counts.len() > 1,
             format!(
-                "counts {counts:?}; pinhole and accumulation use {}x; stochastic uses none (one rasterizer \
-                 sample per pixel, every (x, y, u, v, t) sample in its visibility buffer)",
+                "counts {counts:?}; pinhole and accumulation use {}x; stochastic's mask coverage path \
+                 tests its samples on an MSAA target of the largest count dividing S (the visibility path \
+                 uses none)",
                 caps.msaa_samples(pinhole::PINHOLE_MSAA)
             ),
         ),
+        f("stochastic coverage", stochastic_coverage.is_ok(), match &stochastic_coverage {
+            Ok(c) => format!("`--set coverage=device` (the default) takes `{}`", c.name()),
+            Err(e) => format!("none: {e}"),
+        }),
         f(
             "sampleRateShading",
             caps.sample_rate_shading,
-            "unused: stochastic shades in a compute pass over its visibility buffer, per pixel group or per \
-             sample (--shading)"
-                .into(),
+            if caps.sample_rate_shading {
+                "stochastic `coverage=mask`: the inside test runs once per MSAA sample (exact)".into()
+            } else {
+                "stochastic's mask path tests once per fragment (`mask-per-fragment`: nearest sample's depth)"
+                    .into()
+            },
         ),
         f("stochastic bound", true, {
             let (kind, why) = stochastic::device_bound(caps);
@@ -682,7 +691,7 @@ pub fn feature_paths(caps: &crate::vk::Capabilities) -> Vec<FeaturePath> {
             if caps.fragment_stores_and_atomics {
                 "stochastic coverage writes its visibility buffer; sample counters (--instrumented)".into()
             } else {
-                "stochastic and auto with blur are refused (the coverage pass writes a storage buffer)".into()
+                "stochastic takes the mask coverage path (no counters, no tints)".into()
             },
         ),
         f(
@@ -691,7 +700,20 @@ pub fn feature_paths(caps: &crate::vk::Capabilities) -> Vec<FeaturePath> {
             if caps.buffer_int64_atomics {
                 "stochastic visibility: one 64-bit atomicMax of (depth, object, triangle) per hit sample".into()
             } else {
-                "stochastic and auto with blur are refused (the visibility buffer needs 64-bit atomics)".into()
+                "stochastic takes the mask coverage path (MSAA depth test; decoupled rates refused)".into()
+            },
+        ),
+        f(
+            "VK_EXT_mesh_shader",
+            caps.mesh_shader,
+            if caps.mesh_shader {
+                format!(
+                    "stochastic `--hull mesh`: a mesh shader bounds each triangle (bit-identical to gs; up to {} \
+                     triangles per object)",
+                    caps.max_mesh_work_group_total_count
+                )
+            } else {
+                "absent: stochastic `--hull mesh` is refused (gs or compute)".into()
             },
         ),
         f(

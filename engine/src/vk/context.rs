@@ -103,8 +103,11 @@ pub struct Capabilities {
     pub driver_key: String,
     /// The project's driver folder this device came from (`lavapipe-25.0.7`), or None for a system one.
     pub project_driver: Option<String>,
-    /// `VK_EXT_mesh_shader` is offered (not used yet: the bound passes are geometry/vertex shaders).
+    /// `VK_EXT_mesh_shader` with its `meshShader` feature (the stochastic rasterizer's `--hull mesh`).
     pub mesh_shader: bool,
+    /// `maxMeshWorkGroupCount` and `maxMeshWorkGroupTotalCount` (zero without mesh shaders).
+    pub max_mesh_work_group_count: [u32; 3],
+    pub max_mesh_work_group_total_count: u32,
     pub api_version: String,
     /// MSAA sample counts usable for colour *and* depth attachments.
     pub framebuffer_sample_counts: Vec<u32>,
@@ -161,6 +164,8 @@ pub enum Feature {
     FragmentStoresAndAtomics,
     VertexPipelineStoresAndAtomics,
     ConservativeRasterization,
+    /// `VK_EXT_mesh_shader` (`meshShader`).
+    MeshShader,
     BufferInt64Atomics,
     /// 64-bit integers in shaders (`shaderInt64`); disabling it disables [`Feature::BufferInt64Atomics`].
     ShaderInt64,
@@ -175,12 +180,12 @@ pub enum Feature {
 pub const FEATURE_KEYS: &str =
     "a comma-separated list of geometry-shader, clip-distance, sample-rate-shading, \
      independent-blend, fragment-stores-and-atomics, vertex-pipeline-stores-and-atomics, \
-     conservative-rasterization, buffer-int64-atomics, shader-int64, timestamp-queries, linear-filter-rgba32f, msaa-N \
+     conservative-rasterization, mesh-shader, buffer-int64-atomics, shader-int64, timestamp-queries, linear-filter-rgba32f, msaa-N \
      (N = 2, 4, 8, ...)";
 
 impl Feature {
     /// Every feature but MSAA, whose counts are [`Feature::Msaa`]'s.
-    pub const FLAGS: [Feature; 11] = [
+    pub const FLAGS: [Feature; 12] = [
         Feature::GeometryShader,
         Feature::ClipDistance,
         Feature::SampleRateShading,
@@ -188,6 +193,7 @@ impl Feature {
         Feature::FragmentStoresAndAtomics,
         Feature::VertexPipelineStoresAndAtomics,
         Feature::ConservativeRasterization,
+        Feature::MeshShader,
         Feature::BufferInt64Atomics,
         Feature::ShaderInt64,
         Feature::TimestampQueries,
@@ -204,6 +210,7 @@ impl Feature {
             Feature::FragmentStoresAndAtomics => "fragment-stores-and-atomics".into(),
             Feature::VertexPipelineStoresAndAtomics => "vertex-pipeline-stores-and-atomics".into(),
             Feature::ConservativeRasterization => "conservative-rasterization".into(),
+            Feature::MeshShader => "mesh-shader".into(),
             Feature::BufferInt64Atomics => "buffer-int64-atomics".into(),
             Feature::ShaderInt64 => "shader-int64".into(),
             Feature::TimestampQueries => "timestamp-queries".into(),
@@ -227,6 +234,7 @@ impl Feature {
             Feature::FragmentStoresAndAtomics => "fragmentStoresAndAtomics".into(),
             Feature::VertexPipelineStoresAndAtomics => "vertexPipelineStoresAndAtomics".into(),
             Feature::ConservativeRasterization => "VK_EXT_conservative_rasterization".into(),
+            Feature::MeshShader => "VK_EXT_mesh_shader (meshShader)".into(),
             Feature::BufferInt64Atomics => "shaderInt64 and shaderBufferInt64Atomics".into(),
             Feature::ShaderInt64 => "shaderInt64".into(),
             Feature::TimestampQueries => "timestampComputeAndGraphics".into(),
@@ -272,6 +280,7 @@ impl Capabilities {
             Feature::FragmentStoresAndAtomics => self.fragment_stores_and_atomics = false,
             Feature::VertexPipelineStoresAndAtomics => self.vertex_pipeline_stores_and_atomics = false,
             Feature::ConservativeRasterization => self.conservative_rasterization = false,
+            Feature::MeshShader => self.mesh_shader = false,
             Feature::BufferInt64Atomics => self.buffer_int64_atomics = false,
             Feature::ShaderInt64 => {
                 if self.buffer_int64_atomics {
@@ -299,6 +308,7 @@ impl Capabilities {
             Feature::FragmentStoresAndAtomics => self.fragment_stores_and_atomics,
             Feature::VertexPipelineStoresAndAtomics => self.vertex_pipeline_stores_and_atomics,
             Feature::ConservativeRasterization => self.conservative_rasterization,
+            Feature::MeshShader => self.mesh_shader,
             Feature::BufferInt64Atomics => self.buffer_int64_atomics,
             Feature::ShaderInt64 => self.shader_int64,
             Feature::TimestampQueries => self.timestamps,
@@ -428,6 +438,8 @@ pub struct DeviceShared {
     pub(crate) allocator: ManuallyDrop<Mutex<Allocator>>,
     pub(crate) debug_utils_instance: Option<ash::ext::debug_utils::Instance>,
     pub(crate) debug_utils_device: Option<ash::ext::debug_utils::Device>,
+    /// `vkCmdDrawMeshTasksEXT`, where [`Capabilities::mesh_shader`] holds.
+    pub(crate) mesh_shader_device: Option<ash::ext::mesh_shader::Device>,
     messenger: vk::DebugUtilsMessengerEXT,
     validation: Box<ValidationLog>,
     pub validation_enabled: bool,
@@ -629,6 +641,7 @@ impl DeviceShared {
             caps.disable(*feature);
         }
         let conservative = caps.conservative_rasterization;
+        let mesh = caps.mesh_shader;
         if !dynamic_rendering_and_sync2 {
             return Err(Error::MissingFeature {
                 device: cstr_field(&props.device_name),
@@ -662,12 +675,20 @@ impl DeviceShared {
         if conservative {
             dev_ext_ptrs.push(ash::ext::conservative_rasterization::NAME.as_ptr());
         }
-        let dev_info = vk::DeviceCreateInfo::default()
+        // Mesh shaders only: no task shaders (nothing culls clusters ahead of the bounds).
+        let mut enable_mesh = vk::PhysicalDeviceMeshShaderFeaturesEXT::default().mesh_shader(true);
+        if mesh {
+            dev_ext_ptrs.push(ash::ext::mesh_shader::NAME.as_ptr());
+        }
+        let mut dev_info = vk::DeviceCreateInfo::default()
             .queue_create_infos(&queue_info)
             .enabled_extension_names(&dev_ext_ptrs)
             .enabled_features(&features)
             .push_next(&mut enable13)
             .push_next(&mut enable12);
+        if mesh {
+            dev_info = dev_info.push_next(&mut enable_mesh);
+        }
         let raw = unsafe { instance.create_device(physical, &dev_info, None) }.vk("vkCreateDevice")?;
         let queue = unsafe { raw.get_device_queue(queue_family, 0) };
         let allocator = Allocator::new(&AllocatorCreateDesc {
@@ -687,6 +708,7 @@ impl DeviceShared {
         };
         let debug_utils_device =
             debug_utils_instance.as_ref().map(|_| ash::ext::debug_utils::Device::new(&instance, &raw));
+        let mesh_shader_device = mesh.then(|| ash::ext::mesh_shader::Device::new(&instance, &raw));
         std::mem::forget(messenger_guard);
         std::mem::forget(guard);
         Ok(Arc::new(DeviceShared {
@@ -700,6 +722,7 @@ impl DeviceShared {
             allocator: ManuallyDrop::new(Mutex::new(allocator)),
             debug_utils_instance,
             debug_utils_device,
+            mesh_shader_device,
             messenger,
             validation: validation_log,
             validation_enabled: validation,
@@ -791,7 +814,7 @@ fn offered_capabilities(
         .vk("vkEnumerateDeviceExtensionProperties")?;
     let has_dev_ext = |n: &CStr| dev_exts.iter().any(|e| e.extension_name_as_c_str().ok() == Some(n));
     let conservative = has_dev_ext(ash::ext::conservative_rasterization::NAME);
-    let mesh_shader = has_dev_ext(ash::ext::mesh_shader::NAME);
+    let mesh_extension = has_dev_ext(ash::ext::mesh_shader::NAME);
 
     let mut driver_props = vk::PhysicalDeviceDriverProperties::default();
     let mut props2 = vk::PhysicalDeviceProperties2::default().push_next(&mut driver_props);
@@ -799,8 +822,18 @@ fn offered_capabilities(
     let supported = unsafe { instance.get_physical_device_features(physical) };
     let mut f13 = vk::PhysicalDeviceVulkan13Features::default();
     let mut f12 = vk::PhysicalDeviceVulkan12Features::default();
+    let mut f_mesh = vk::PhysicalDeviceMeshShaderFeaturesEXT::default();
     let mut feats2 = vk::PhysicalDeviceFeatures2::default().push_next(&mut f13).push_next(&mut f12);
+    if mesh_extension {
+        feats2 = feats2.push_next(&mut f_mesh);
+    }
     unsafe { instance.get_physical_device_features2(physical, &mut feats2) };
+    let mesh_shader = mesh_extension && f_mesh.mesh_shader == vk::TRUE;
+    let mut mesh_props = vk::PhysicalDeviceMeshShaderPropertiesEXT::default();
+    if mesh_shader {
+        let mut props2 = vk::PhysicalDeviceProperties2::default().push_next(&mut mesh_props);
+        unsafe { instance.get_physical_device_properties2(physical, &mut props2) };
+    }
     let limits = props.limits;
     let counts = limits.framebuffer_color_sample_counts & limits.framebuffer_depth_sample_counts;
     let framebuffer_sample_counts =
@@ -815,6 +848,8 @@ fn offered_capabilities(
         driver_key: identity.key.clone(),
         project_driver: identity.project_driver.clone(),
         mesh_shader,
+        max_mesh_work_group_count: mesh_props.max_mesh_work_group_count,
+        max_mesh_work_group_total_count: mesh_props.max_mesh_work_group_total_count,
         api_version: format!(
             "{}.{}.{}",
             vk::api_version_major(props.api_version),
@@ -1013,6 +1048,9 @@ pub struct ExternalDevice {
     pub features13: vk::PhysicalDeviceVulkan13Features<'static>,
     /// The device extensions enabled.
     pub device_extensions: Vec<CString>,
+    /// `meshShader` of `VkPhysicalDeviceMeshShaderFeaturesEXT` was enabled (with `VK_EXT_mesh_shader`
+    /// among `device_extensions`): the stochastic rasterizer's `--hull mesh` may run.
+    pub mesh_shader: bool,
     /// `VK_EXT_debug_utils` is enabled on the instance: Shutter names its objects, labels its passes
     /// and adds a messenger of its own that counts validation messages
     /// ([`DeviceShared::check_validation`]).
@@ -1032,6 +1070,7 @@ impl std::fmt::Debug for ExternalDevice {
             .field("queue", &self.queue)
             .field("queue_family", &self.queue_family)
             .field("device_extensions", &self.device_extensions)
+            .field("mesh_shader", &self.mesh_shader)
             .field("debug_utils", &self.debug_utils)
             .field("validation_layer", &self.validation_layer)
             .field("ownership", &self.ownership)
@@ -1131,7 +1170,9 @@ impl DeviceShared {
             f.shader_int64 == vk::TRUE && ext.features12.shader_buffer_int64_atomics == vk::TRUE;
         caps.shader_int64 &= f.shader_int64 == vk::TRUE;
         caps.conservative_rasterization &= ext.has_extension(ash::ext::conservative_rasterization::NAME);
-        caps.mesh_shader &= ext.has_extension(ash::ext::mesh_shader::NAME);
+        caps.mesh_shader &= ext.mesh_shader && ext.has_extension(ash::ext::mesh_shader::NAME);
+        let mesh_shader_device =
+            caps.mesh_shader.then(|| ash::ext::mesh_shader::Device::new(&ext.instance, &ext.device));
 
         let allocator = Allocator::new(&AllocatorCreateDesc {
             instance: ext.instance.clone(),
@@ -1176,6 +1217,7 @@ impl DeviceShared {
             allocator: ManuallyDrop::new(Mutex::new(allocator)),
             debug_utils_instance,
             debug_utils_device,
+            mesh_shader_device,
             messenger,
             validation: validation_log,
             validation_enabled: ext.validation_layer,

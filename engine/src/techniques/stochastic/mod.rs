@@ -181,7 +181,7 @@ impl StochasticDraws {
         let shadows = shading::shadow_maps(ctx)?;
         let stage = shading::stage(ctx, &options, sampling.pass_samples(), shadows.as_ref())?;
 
-        let all = vk::ShaderStageFlags::ALL_GRAPHICS | vk::ShaderStageFlags::COMPUTE;
+        let all = crate::gpu::scene_stages(&device.caps);
         let object_table = stage.object_bindings();
         let technique_table = if coverage.mask_rate().is_some() {
             &STOCHASTIC_SET[..]
@@ -329,6 +329,27 @@ impl StochasticDraws {
     }
 }
 
+/// The mesh-shader hull's workgroup grid for `triangles` triangles, one workgroup each: (x, y) with
+/// x · y ≥ triangles, x within `maxMeshWorkGroupCount[0]`, y within `[1]`, x · y within
+/// `maxMeshWorkGroupTotalCount`; `None` where no grid fits.
+pub(super) fn mesh_grid(triangles: u32, caps: &crate::vk::Capabilities) -> Option<(u32, u32)> {
+    grid_within(triangles, caps.max_mesh_work_group_count, caps.max_mesh_work_group_total_count)
+}
+
+/// [`mesh_grid`] for the limits `max` (per dimension) and `total`.
+fn grid_within(triangles: u32, max: [u32; 3], total: u32) -> Option<(u32, u32)> {
+    let [max_x, max_y, _] = max;
+    if triangles == 0 {
+        return Some((0, 1));
+    }
+    let x = triangles.min(max_x);
+    if x == 0 {
+        return None;
+    }
+    let y = triangles.div_ceil(x);
+    (y <= max_y && u64::from(x) * u64::from(y) <= u64::from(total)).then_some((x, y))
+}
+
 /// The checks before anything is built; the effects paths in use and the coverage path taken.
 fn check(
     ctx: &PrepareContext<'_>,
@@ -347,11 +368,31 @@ fn check(
     let mut paths: Vec<Effects> = object_effects.to_vec();
     paths.sort();
     paths.dedup();
-    if options.expansion == HullExpansion::GeometryShader {
-        caps.require(
+    match options.expansion {
+        HullExpansion::GeometryShader => caps.require(
             Feature::GeometryShader,
             "technique `stochastic` with the geometry-shader hull (--hull compute needs none)",
-        )?;
+        )?,
+        HullExpansion::Mesh => {
+            caps.require(
+                Feature::MeshShader,
+                "technique `stochastic` with the mesh-shader hull (--hull gs or --hull compute)",
+            )?;
+            // One workgroup per triangle: every object's triangles must fit one draw's grid.
+            let largest = world.objects.iter().map(|o| o.triangle_count()).max().unwrap_or(0);
+            if mesh_grid(largest, caps).is_none() {
+                return Err(Error::Limit {
+                    what: "triangles of one object with --hull mesh",
+                    value: largest.to_string(),
+                    limit: format!(
+                        "{} (the device's maxMeshWorkGroupTotalCount: one workgroup per triangle; \
+                         --hull gs or compute has no such limit)",
+                        caps.max_mesh_work_group_total_count
+                    ),
+                });
+            }
+        }
+        HullExpansion::Compute => {}
     }
     let coverage = options.coverage.resolve(caps)?;
     if coverage.mask_rate().is_some() {
@@ -377,7 +418,7 @@ fn check(
             )?;
         }
     }
-    if options.expansion == HullExpansion::Compute && debug.bound_debug_triangles > 0 {
+    if options.expansion != HullExpansion::GeometryShader && debug.bound_debug_triangles > 0 {
         return Err(Error::Unsupported(
             "the bound debug output exists for the geometry-shader hull only".into(),
         ));
@@ -458,5 +499,29 @@ impl FrameTechnique for StochasticTechnique {
 
     fn coverage(&self) -> Option<Coverage> {
         Some(self.draws.options.coverage)
+    }
+}
+
+#[cfg(test)]
+mod mesh_grid_tests {
+    use super::grid_within;
+
+    /// The grid covers every triangle, one workgroup each, within every limit; past the total, none.
+    #[test]
+    fn the_mesh_grid_covers_every_triangle_within_the_limits() {
+        // The spec's minimums: 65,535 per dimension, 2²² in all.
+        let (max, total) = ([65_535, 65_535, 65_535], 1 << 22);
+        assert_eq!(grid_within(0, max, total), Some((0, 1)));
+        assert_eq!(grid_within(1, max, total), Some((1, 1)));
+        assert_eq!(grid_within(65_535, max, total), Some((65_535, 1)));
+        assert_eq!(grid_within(65_536, max, total), Some((65_535, 2)));
+        for n in [7u32, 65_534, 65_536, 327_680, 1_000_003, 4_000_000] {
+            let (x, y) = grid_within(n, max, total).unwrap();
+            assert!(u64::from(x) * u64::from(y) >= u64::from(n) && x <= max[0] && y <= max[1], "{n}");
+            // No row wasted: the last row holds at least one triangle.
+            assert!(u64::from(x) * u64::from(y - 1) < u64::from(n), "{n}");
+        }
+        assert_eq!(grid_within(1 << 23, max, total), None);
+        assert_eq!(grid_within(5, [0, 0, 0], 0), None);
     }
 }

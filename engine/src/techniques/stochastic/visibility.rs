@@ -30,14 +30,14 @@ use super::mask::{
 use super::objects::{ObjectChoices, StochasticObject};
 use super::options::{bounded_segments, gpu_samples, samples_per_pass, DebugOptions, StochasticOptions};
 use super::{BOUND_DEBUG_STRIDE, COUNTERS};
-use crate::error::Result;
+use crate::error::{Error, Result};
 use crate::gpu::layout::{vertex_input, FRAME_SET_INDEX, OBJECT_SET_INDEX, TECHNIQUE_SET_INDEX};
 use crate::gpu::{GpuView, GpuWorld};
 use crate::graph::{Access, BufferHandle, FrameGraph, Load, PassContext, ResourceHandle, Store, Tracked};
 use crate::mirror::bounds::BoundKind;
 use crate::plan::Effects;
 use crate::sampling::ShutterCurve;
-use crate::shaders::{self, axes, ClustersComp, MaskFrag, StochasticFrag, StochasticGeom};
+use crate::shaders::{self, axes, ClustersComp, MaskFrag, StochasticFrag, StochasticGeom, StochasticMesh};
 use crate::vk::{
     write_descriptors, Buffer, DescriptorPool, DescriptorSetLayout, DescriptorWrite, Faces, GraphicsDesc,
     Pipeline, PipelineLayout, ShaderModule,
@@ -167,6 +167,9 @@ pub(super) struct Visibility {
     hull: Option<ComputeHull>,
     /// The mask coverage path's target and resolve ([`super::Coverage::Mask`]).
     mask: Option<MaskTarget>,
+    /// The mesh-shader hull ([`HullExpansion::Mesh`]): per object, its draws' workgroup grid (one
+    /// workgroup per triangle, [`super::mesh_grid`]); empty on the other hulls.
+    mesh_grids: Vec<(u32, u32)>,
     _samples: [Buffer; 2],
 }
 
@@ -258,9 +261,23 @@ impl Visibility {
             }
             None => None,
         };
+        let mesh_grids = if options.expansion == HullExpansion::Mesh {
+            world
+                .objects
+                .iter()
+                .map(|o| {
+                    super::mesh_grid(o.triangle_count(), &device.caps).ok_or_else(|| {
+                        Error::Unsupported("a mesh-shader grid past the device's limits".into())
+                    })
+                })
+                .collect::<Result<Vec<_>>>()?
+        } else {
+            Vec::new()
+        };
         Ok(Visibility {
             objects,
             sampling,
+            mesh_grids,
             instrumented: options.instrumented,
             pipelines,
             technique_set,
@@ -607,6 +624,10 @@ impl Visibility {
                 self.objects[i].choices.effects == *effects && self.objects[i].choices.clusters == 0
             };
             let view = inputs.camera;
+            if !self.mesh_grids.is_empty() {
+                self.record_mesh_runs(ctx, inputs, pass, include);
+                continue;
+            }
             if self.hull.is_none() {
                 self.record_runs(ctx, inputs, pipeline, pass, include, |p| p);
                 continue;
@@ -684,6 +705,41 @@ impl Visibility {
         }
     }
 
+    /// The mesh-shader draws of pass `pass` of the objects `include` admits, the coverage pipeline
+    /// bound: the geometry-shader draws' runs, segments and push constants ([`Self::record_runs`]),
+    /// each one workgroup per triangle instead of an indexed draw.
+    fn record_mesh_runs(
+        &self,
+        ctx: &mut PassContext<'_>,
+        inputs: &FrameInputs<'_>,
+        pass: u32,
+        include: impl Fn(usize) -> bool,
+    ) {
+        let bind = vk::PipelineBindPoint::GRAPHICS;
+        let (world, view) = (inputs.world, inputs.camera);
+        let layout = &self.pipelines.layout;
+        ctx.bind_sets(bind, layout, FRAME_SET_INDEX, &[view.frame_set]);
+        let max_runs = self.objects.iter().map(|o| o.choices.intervals).max().unwrap_or(1);
+        let max_segments = self.objects.iter().map(|o| o.choices.keys.segments()).max().unwrap_or(1);
+        for run in 0..max_runs {
+            for seg in 0..max_segments {
+                for (i, o) in world.objects.iter().enumerate() {
+                    let so = &self.objects[i];
+                    if o.index_count == 0 || !include(i) || run >= so.choices.intervals {
+                        continue;
+                    }
+                    let Some(push) = self.coverage_push(view, i, pass, run, so.choices.intervals, seg) else {
+                        continue;
+                    };
+                    ctx.push(layout, &push);
+                    ctx.bind_sets(bind, layout, OBJECT_SET_INDEX, &[o.set, so.set]);
+                    let (x, y) = self.mesh_grids[i];
+                    ctx.draw_mesh_tasks(x, y, 1);
+                }
+            }
+        }
+    }
+
     /// The coverage draws of the clustered objects in pass `pass`: per object and key segment (the
     /// one holding mid-shutter for an object that does not move), six vertices per cluster.
     fn record_cluster_coverage(&self, ctx: &mut PassContext<'_>, inputs: &FrameInputs<'_>, pass: u32) {
@@ -756,6 +812,10 @@ impl Pipelines {
         let mut push_stages = vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT;
         if caps.geometry_shader {
             push_stages |= vk::ShaderStageFlags::GEOMETRY;
+        }
+        let mesh = options.expansion == HullExpansion::Mesh;
+        if mesh {
+            push_stages |= vk::ShaderStageFlags::MESH_EXT;
         }
         let layout =
             world.pipeline_layout(device, sets, std::mem::size_of::<VisibilityPush>() as u32, push_stages)?;
@@ -834,25 +894,35 @@ impl Pipelines {
                 .source(),
             };
             let frag = ShaderModule::new(device, frag)?;
-            let (first, geom) = if compute {
-                (&hull_vert, None)
-            } else {
-                let geom = StochasticGeom {
-                    bound_debug: debug.bound_debug_triangles > 0,
-                    effects: effects.shader_axis(),
-                };
-                (&vert, Some(ShaderModule::new(device, geom.source())?))
+            // The stages before the fragment shader: the compute hull's plain vertex shader, the mesh
+            // shader (the whole geometry front end, no vertex input), or vertex + geometry shader.
+            let front = match options.expansion {
+                HullExpansion::Compute => None,
+                HullExpansion::Mesh => Some(ShaderModule::new(
+                    device,
+                    StochasticMesh { effects: effects.shader_axis() }.source(),
+                )?),
+                HullExpansion::GeometryShader => {
+                    let geom = StochasticGeom {
+                        bound_debug: debug.bound_debug_triangles > 0,
+                        effects: effects.shader_axis(),
+                    };
+                    Some(ShaderModule::new(device, geom.source())?)
+                }
             };
-            let stages: Vec<&ShaderModule> =
-                [Some(first), geom.as_ref(), Some(&frag)].into_iter().flatten().collect();
+            let stages: Vec<&ShaderModule> = match (options.expansion, &front) {
+                (HullExpansion::Compute, _) => vec![&hull_vert, &frag],
+                (HullExpansion::Mesh, Some(m)) => vec![m, &frag],
+                (_, geom) => [Some(&vert), geom.as_ref(), Some(&frag)].into_iter().flatten().collect(),
+            };
             let name = format!(
                 "stochastic {} coverage ({}, {} hull)",
                 options.coverage.name(),
                 effects.name(),
                 options.expansion.name()
             );
-            pipelines.push((effects, raster_into(&name, &stages, !compute, mask)?));
-            shader_modules.extend(geom);
+            pipelines.push((effects, raster_into(&name, &stages, !compute && !mesh, mask)?));
+            shader_modules.extend(front);
             shader_modules.push(frag);
         }
         // Cluster bounds: a coverage pipeline behind cluster.vert and a clusters.comp pipeline for each
