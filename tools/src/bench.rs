@@ -117,7 +117,109 @@ pub struct ConfigResult {
     pub process_cpu_ms: Stat,
     /// Median GPU ms ÷ the first configuration's.
     pub ratio_to_first: f64,
+    /// The median of the paired per-frame ratios (frame k ÷ the first configuration's frame k of the
+    /// same interleaved round) with its bootstrap 95 % interval: the spread a reader needs before
+    /// calling a ratio real (absent in older reports, and for the first configuration).
+    #[serde(default)]
+    pub paired_ratio: Option<RatioInterval>,
+    /// GPU ms of every timed frame, in round order (absent in older reports).
+    #[serde(default)]
+    pub gpu_ms_frames: Vec<f64>,
+    /// The first timed frame's image against the first configuration's (absent where the sizes
+    /// differ, and in older reports): whether two paths that claim the same answer give it.
+    #[serde(default)]
+    pub image_vs_first: Option<ImageDiff>,
     pub counters: Option<Counters>,
+}
+
+/// A ratio's median and its bootstrap 95 % interval ([`paired_ratio_interval`]).
+#[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq)]
+pub struct RatioInterval {
+    pub median: f64,
+    pub low: f64,
+    pub high: f64,
+}
+
+impl RatioInterval {
+    /// `1.234 [1.201–1.270]`.
+    pub fn cell(&self) -> String {
+        format!("{:.3} [{:.3}–{:.3}]", self.median, self.low, self.high)
+    }
+}
+
+/// How far one image is from another: root mean square and largest absolute difference over the
+/// RGB channels, and whether every value is bit-identical.
+#[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq)]
+pub struct ImageDiff {
+    pub rmse: f64,
+    pub max_abs: f64,
+    pub identical: bool,
+}
+
+impl ImageDiff {
+    pub fn of(a: &shutter::image::LinearImage, b: &shutter::image::LinearImage) -> Option<ImageDiff> {
+        if (a.width, a.height) != (b.width, b.height) || a.pixels.is_empty() {
+            return None;
+        }
+        let (mut sum, mut max, mut identical) = (0.0f64, 0.0f64, true);
+        for (p, q) in a.pixels.iter().zip(&b.pixels) {
+            for c in 0..3 {
+                identical &= p[c].to_bits() == q[c].to_bits();
+                let d = (p[c] as f64 - q[c] as f64).abs();
+                sum += d * d;
+                max = max.max(d);
+            }
+        }
+        Some(ImageDiff { rmse: (sum / (3 * a.pixels.len()) as f64).sqrt(), max_abs: max, identical })
+    }
+
+    /// `identical`, or the RMSE and largest difference.
+    pub fn cell(&self) -> String {
+        if self.identical {
+            "identical".into()
+        } else {
+            format!("RMSE {:.4}, max {:.3}", self.rmse, self.max_abs)
+        }
+    }
+}
+
+/// The median of the paired ratios `num[k] / den[k]` and its 95 % percentile-bootstrap interval:
+/// `resamples` resamplings of the pairs with replacement (a fixed-seed generator, so a report is
+/// reproducible from its frames), the 2.5th and 97.5th percentiles of their medians. Pairing by
+/// round cancels the drift both configurations saw in that round; the interval shows what is left.
+/// None with fewer than two pairs or a non-positive time.
+pub fn paired_ratio_interval(num: &[f64], den: &[f64], resamples: usize, seed: u64) -> Option<RatioInterval> {
+    let ratios: Vec<f64> = num.iter().zip(den).map(|(n, d)| n / d).collect();
+    if ratios.len() < 2 || num.len() != den.len() || ratios.iter().any(|r| !r.is_finite() || *r <= 0.0) {
+        return None;
+    }
+    let median = Stat::of(ratios.clone()).median;
+    // SplitMix64: enough for resampling indices, and no dependency.
+    let mut state = seed;
+    let mut next = move || {
+        state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = state;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    };
+    let n = ratios.len();
+    let mut medians: Vec<f64> = (0..resamples.max(1))
+        .map(|_| Stat::of((0..n).map(|_| ratios[(next() % n as u64) as usize]).collect()).median)
+        .collect();
+    medians.sort_by(|a, b| a.total_cmp(b));
+    let at = |q: f64| medians[((q * (medians.len() - 1) as f64).round() as usize).min(medians.len() - 1)];
+    Some(RatioInterval { median, low: at(0.025), high: at(0.975) })
+}
+
+/// Bootstrap resamples of [`paired_ratio_interval`] in a report.
+pub const BOOTSTRAP_RESAMPLES: usize = 2000;
+
+/// A configuration the device or the scene refused, and why (bench's `skip_refused`).
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct Refusal {
+    pub label: String,
+    pub reason: String,
 }
 
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -132,6 +234,9 @@ pub struct BenchReport {
     pub frames: usize,
     pub warmup: usize,
     pub results: Vec<ConfigResult>,
+    /// Configurations that were refused instead of timed (only with `skip_refused`).
+    #[serde(default)]
+    pub refused: Vec<Refusal>,
     /// Commit, driver, CPU, command and environment (absent in reports written before it existed).
     #[serde(default)]
     pub provenance: Option<crate::provenance::Provenance>,
@@ -142,6 +247,18 @@ pub struct BenchArgs {
     pub frames: usize,
     pub warmup: usize,
     pub counters: bool,
+    /// List a configuration the device or scene refuses (in `refused`) instead of failing; the
+    /// first configuration that prepares is the baseline.
+    pub skip_refused: bool,
+}
+
+/// A configuration the device or scene cannot run (a missing feature, an unsupported combination,
+/// a limit) — as opposed to a failure, which still stops the run.
+fn is_refusal(e: &shutter::Error) -> bool {
+    matches!(
+        e,
+        shutter::Error::MissingFeature { .. } | shutter::Error::Unsupported(_) | shutter::Error::Limit { .. }
+    )
 }
 
 fn uses_stochastic(r: &ConfigResult, c: &Config) -> bool {
@@ -150,19 +267,50 @@ fn uses_stochastic(r: &ConfigResult, c: &Config) -> bool {
 }
 
 pub fn run(renderer: &mut Renderer, scene: &Scene, a: &BenchArgs) -> Result<BenchReport> {
+    Ok(run_with_images(renderer, scene, a)?.0)
+}
+
+/// [`run`], and the first timed frame's image of each configuration that ran (in the order of the
+/// report's results).
+pub fn run_with_images(
+    renderer: &mut Renderer,
+    scene: &Scene,
+    a: &BenchArgs,
+) -> Result<(BenchReport, Vec<shutter::image::LinearImage>)> {
     if a.configs.is_empty() {
         bail!("no configurations to benchmark");
     }
     let progress = Progress::new("bench", ((a.warmup + a.frames) * a.configs.len()) as u64, "frames");
     progress.set_message("preparing");
     let mut prepared = Vec::with_capacity(a.configs.len());
+    let mut refused = Vec::new();
+    let mut configs = Vec::with_capacity(a.configs.len());
     for c in &a.configs {
-        prepared.push(
-            renderer
-                .prepare(scene, c.technique, &c.settings)
-                .with_context(|| format!("preparing `{}`", c.label))?,
+        match renderer.prepare(scene, c.technique, &c.settings) {
+            Ok(p) => {
+                prepared.push(p);
+                configs.push(c.clone());
+            }
+            Err(e) if a.skip_refused && is_refusal(&e) => {
+                progress.inc((a.warmup + a.frames) as u64);
+                refused.push(Refusal { label: c.label.clone(), reason: e.to_string() })
+            }
+            Err(e) => return Err(anyhow::Error::new(e).context(format!("preparing `{}`", c.label))),
+        }
+    }
+    if configs.is_empty() {
+        bail!(
+            "every configuration was refused: {}",
+            refused.iter().map(|r| format!("`{}`: {}", r.label, r.reason)).collect::<Vec<_>>().join("; ")
         );
     }
+    let a = &BenchArgs {
+        configs,
+        frames: a.frames,
+        warmup: a.warmup,
+        counters: a.counters,
+        skip_refused: a.skip_refused,
+    };
     let mut outputs: Vec<Vec<shutter::techniques::RenderOutput>> = vec![Vec::new(); a.configs.len()];
     for round in 0..a.warmup + a.frames {
         progress.set_message(if round < a.warmup { "warm-up" } else { "timed" });
@@ -223,6 +371,9 @@ pub fn run(renderer: &mut Renderer, scene: &Scene, a: &BenchArgs) -> Result<Benc
             cpu_frame_ms: Stat::of(outs.iter().map(|o| o.stats.cpu_frame_ms).collect()),
             process_cpu_ms: Stat::of(outs.iter().map(|o| o.stats.process_cpu_ms).collect()),
             ratio_to_first: f64::NAN,
+            paired_ratio: None,
+            gpu_ms_frames: outs.iter().map(|o| o.timings.total_ms()).collect(),
+            image_vs_first: ImageDiff::of(&first.image, &outputs[0][0].image),
             counters: None,
         };
         if a.counters && uses_stochastic(&r, c) {
@@ -235,12 +386,18 @@ pub fn run(renderer: &mut Renderer, scene: &Scene, a: &BenchArgs) -> Result<Benc
         results.push(r);
     }
     let base = results[0].gpu_ms.median;
-    for r in &mut results {
+    let base_frames = results[0].gpu_ms_frames.clone();
+    for (i, r) in results.iter_mut().enumerate() {
         r.ratio_to_first = r.gpu_ms.median / base;
+        if i > 0 {
+            r.paired_ratio =
+                paired_ratio_interval(&r.gpu_ms_frames, &base_frames, BOOTSTRAP_RESAMPLES, 0x5EED + i as u64);
+        }
     }
     let caps = &renderer.device().caps;
     let s0 = &a.configs[0].settings;
-    Ok(BenchReport {
+    let images = outputs.into_iter().map(|mut o| o.swap_remove(0).image).collect();
+    let report = BenchReport {
         scene: scene.name.clone(),
         width: s0.width,
         height: s0.height,
@@ -250,8 +407,10 @@ pub fn run(renderer: &mut Renderer, scene: &Scene, a: &BenchArgs) -> Result<Benc
         frames: a.frames,
         warmup: a.warmup,
         results,
+        refused,
         provenance: Some(crate::provenance::Provenance::of(caps)),
-    })
+    };
+    Ok((report, images))
 }
 
 impl BenchReport {
@@ -272,8 +431,8 @@ impl BenchReport {
             md.push_str(&p.markdown());
             md.push('\n');
         }
-        md.push_str("| configuration | passes × MSAA | GPU ms median (min–max) | × first | CPU frame ms | per pass (median ms) | fragments | samples tested | hits | STE | shading inv. | atlas texels (shade + gutter) | cache lookups / hits / evictions / lost / overflows |\n");
-        md.push_str("|---|---:|---:|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|\n");
+        md.push_str("| configuration | passes × MSAA | GPU ms median (min–max) | × first | paired ratio [95 % CI] | image vs first | CPU frame ms | per pass (median ms) | fragments | samples tested | hits | STE | shading inv. | atlas texels (shade + gutter) | cache lookups / hits / evictions / lost / overflows |\n");
+        md.push_str("|---|---:|---:|---:|---:|---|---:|---|---:|---:|---:|---:|---:|---:|---:|\n");
         for r in &self.results {
             let per_pass: Vec<String> =
                 r.passes_ms.iter().map(|(n, s)| format!("{n} {:.2}", s.median)).collect();
@@ -300,7 +459,7 @@ impl BenchReport {
             };
             let _ = writeln!(
                 md,
-                "| {} | {} × {} | {:.2} ({:.2}–{:.2}) | {:.3} | {:.2} | {} | {f} | {t} | {h} | {ste} | {inv} | {texels} | {cache} |",
+                "| {} | {} × {} | {:.2} ({:.2}–{:.2}) | {:.3} | {} | {} | {:.2} | {} | {f} | {t} | {h} | {ste} | {inv} | {texels} | {cache} |",
                 r.label,
                 r.passes,
                 r.msaa,
@@ -308,9 +467,14 @@ impl BenchReport {
                 r.gpu_ms.min,
                 r.gpu_ms.max,
                 r.ratio_to_first,
+                r.paired_ratio.map(|p| p.cell()).unwrap_or_else(|| "-".into()),
+                r.image_vs_first.map(|d| d.cell()).unwrap_or_else(|| "-".into()),
                 r.cpu_frame_ms.median,
                 per_pass.join(", ")
             );
+        }
+        for r in &self.refused {
+            let _ = writeln!(md, "\nrefused `{}`: {}", r.label, r.reason);
         }
         for r in self.results.iter().filter(|r| r.plan.is_some()) {
             let _ = writeln!(md, "\n`{}` plan: {}", r.label, r.plan.as_deref().unwrap_or(""));
@@ -485,4 +649,56 @@ pub fn read_report(path: &std::path::Path) -> Result<BenchReport> {
             shutter::limits::quote_safely(&e.to_string(), 300)
         )
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_constant_ratio_has_no_spread_and_noise_widens_the_interval() {
+        let base: Vec<f64> = (0..12).map(|k| 10.0 + (k % 5) as f64).collect();
+        let twice: Vec<f64> = base.iter().map(|b| 2.0 * b).collect();
+        let r = paired_ratio_interval(&twice, &base, 500, 1).unwrap();
+        assert_eq!((r.median, r.low, r.high), (2.0, 2.0, 2.0));
+        // Drift both saw in a round cancels in the pairing: the ratio stays exact.
+        let drift: Vec<f64> =
+            base.iter().enumerate().map(|(k, b)| b * (1.0 + 0.3 * (k % 3) as f64)).collect();
+        let drift2: Vec<f64> = drift.iter().map(|b| 1.5 * b).collect();
+        assert_eq!(paired_ratio_interval(&drift2, &drift, 500, 2).unwrap().median, 1.5);
+        // Noise of its own: the interval contains the median and has width.
+        let noisy: Vec<f64> =
+            base.iter().enumerate().map(|(k, b)| b * (1.0 + 0.1 * ((k * 7 % 5) as f64 - 2.0))).collect();
+        let n = paired_ratio_interval(&noisy, &base, 2000, 3).unwrap();
+        assert!(n.low < n.median && n.median < n.high, "{n:?}");
+        assert!(n.low >= 0.8 - 1e-12 && n.high <= 1.2 + 1e-12, "{n:?}");
+        // The same frames give the same interval (a fixed seed).
+        assert_eq!(paired_ratio_interval(&noisy, &base, 2000, 3), Some(n));
+    }
+
+    #[test]
+    fn too_few_or_bad_frames_have_no_interval() {
+        assert_eq!(paired_ratio_interval(&[1.0], &[1.0], 100, 0), None);
+        assert_eq!(paired_ratio_interval(&[1.0, 2.0], &[1.0], 100, 0), None);
+        assert_eq!(paired_ratio_interval(&[1.0, 2.0], &[0.0, 1.0], 100, 0), None);
+        assert_eq!(paired_ratio_interval(&[1.0, f64::NAN], &[1.0, 1.0], 100, 0), None);
+    }
+
+    #[test]
+    fn image_diff_tells_identical_from_close() {
+        use shutter::image::LinearImage;
+        let mut a = LinearImage::new(4, 2);
+        a.pixels.iter_mut().enumerate().for_each(|(i, p)| *p = [i as f32 * 0.1, 0.5, 0.25, 1.0]);
+        let mut b = a.clone();
+        assert_eq!(ImageDiff::of(&a, &b).map(|d| (d.identical, d.rmse)), Some((true, 0.0)));
+        b.pixels[3][1] += 0.3;
+        let d = ImageDiff::of(&a, &b).unwrap();
+        assert!(!d.identical && (d.max_abs - 0.3).abs() < 1e-6, "{d:?}");
+        assert!((d.rmse - (0.09f64 / 24.0).sqrt()).abs() < 1e-6, "{d:?}");
+        // Alpha is not compared; another size is no comparison.
+        let mut c = a.clone();
+        c.pixels[0][3] = 0.0;
+        assert!(ImageDiff::of(&a, &c).unwrap().identical);
+        assert_eq!(ImageDiff::of(&a, &LinearImage::new(2, 4)), None);
+    }
 }

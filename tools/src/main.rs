@@ -189,6 +189,10 @@ enum Command {
         /// Skip the extra instrumented frame that collects sample counters.
         #[arg(long)]
         no_counters: bool,
+        /// List a configuration the device refuses (a missing feature, an unsupported MSAA count)
+        /// with its reason instead of failing; the first that runs is the baseline.
+        #[arg(long)]
+        skip_refused: bool,
         /// Fail (exit 1) when a configuration's median GPU ms exceeds this multiple of the first's.
         #[arg(long, value_parser = parse_ratio)]
         max_ratio: Option<f64>,
@@ -223,6 +227,12 @@ enum Command {
     /// on it: bbox, convex-hull and adaptive benched interleaved). Both are saved to the user's
     /// calibration file, which `render`/`auto` read from then on (engine/src/calibration.rs).
     Calibrate(cmd::calibrate::CalibrateArgs),
+    /// The stochastic rasterizer's hardware paths side by side on this driver: coverage
+    /// (visibility / mask / mask-per-fragment) × hull (compute / gs / mesh) × shading rate × samples
+    /// per pass, timed interleaved, every ratio with its bootstrap 95 % interval and whether the
+    /// images agree; JSON, markdown and a plot (--out STEM). Cells the device refuses are listed
+    /// with the reason. `--compare A.json B.json` sets two reports (two drivers) side by side.
+    Matrix(cmd::matrix::MatrixArgs),
     /// Run the hard-case matrix (scenes/hard/*.toml × every technique and shading rate against the
     /// reference, with the convergence check) and print it, or write it into docs/HARD_CASES.md
     /// (`--out`); exits 1 when a cell fails.
@@ -584,6 +594,7 @@ fn run() -> Result<()> {
             frames,
             warmup,
             no_counters,
+            skip_refused,
             max_ratio,
             json,
             csv,
@@ -603,7 +614,13 @@ fn run() -> Result<()> {
                 check_output_file(path)?;
             }
             let mut renderer = Renderer::new(create_device()?)?;
-            let args = bench::BenchArgs { configs, frames: frames.max(1), warmup, counters: !no_counters };
+            let args = bench::BenchArgs {
+                configs,
+                frames: frames.max(1),
+                warmup,
+                counters: !no_counters,
+                skip_refused,
+            };
             let report = bench::run(&mut renderer, &sc, &args)?;
             outln!("{}", report.markdown());
             report.write(json.as_ref(), csv.as_ref())?;
@@ -657,6 +674,7 @@ fn run() -> Result<()> {
         Command::Plan(args) => cmd::plan::run(args)?,
         Command::Probe { all, json } => probe(all, json)?,
         Command::Calibrate(args) => cmd::calibrate::run(args)?,
+        Command::Matrix(args) => cmd::matrix::run(args)?,
         Command::HardCases(args) => hard_cases::run(args)?,
         Command::Scenes => {
             for s in BUILTIN_SCENES {

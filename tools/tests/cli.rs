@@ -684,3 +684,77 @@ fn disabled_features_are_absent_and_their_fallbacks_taken() {
     assert_eq!(code, 1, "{err}");
     assert!(err.contains("`warp-drive`") && err.contains("buffer-int64-atomics"), "{err}");
 }
+
+#[test]
+fn the_path_matrix_times_what_the_device_runs_and_lists_what_it_refuses() {
+    let dir = std::env::temp_dir().join(format!("shutter-cli-{}-matrix", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let stem = dir.join("m");
+    let (code, out, err) = shutter(&[
+        "matrix",
+        "default",
+        "--size",
+        "32x18",
+        "--spp",
+        "8",
+        "--coverage",
+        "visibility,mask",
+        "--hull",
+        "compute,gs,mesh",
+        "--shading",
+        "per-sample",
+        "--per-pass",
+        "4,8",
+        "--frames",
+        "3",
+        "--warmup",
+        "0",
+        "--out",
+        stem.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    for ext in ["json", "md", "png", "svg"] {
+        assert!(stem.with_extension(ext).is_file(), "no {ext}: {err}");
+    }
+    let j: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(stem.with_extension("json")).unwrap()).unwrap();
+    let cells = j["cells"].as_array().unwrap();
+    assert_eq!(cells.len(), 12, "{out}");
+    for c in cells {
+        // Every cell either ran (a time and a ratio with an interval around its median) or says why not.
+        let ran = c["gpu_ms"].is_number();
+        assert!(ran != c["refused"].is_string(), "{c}");
+        if ran {
+            let r = &c["vs_baseline"];
+            let (lo, med, hi) =
+                (r["low"].as_f64().unwrap(), r["median"].as_f64().unwrap(), r["high"].as_f64().unwrap());
+            assert!(lo <= med && med <= hi && lo > 0.0, "{c}");
+            // Per-sample shading is exact on every path: one image per group.
+            assert_eq!(c["vs_group_first"]["identical"], true, "{c}");
+        }
+        if !ran {
+            // The two reasons a device gives here: no mesh shaders, or no such MSAA count.
+            let why = c["refused"].as_str().unwrap();
+            assert!(
+                (c["hull"] == "mesh" && why.contains("VK_EXT_mesh_shader"))
+                    || (c["coverage"] == "mask" && why.contains("an MSAA count of the device")),
+                "{c}"
+            );
+        }
+    }
+    assert!(cells.iter().any(|c| c["coverage"] == "mask" && c["gpu_ms"].is_number()), "{out}");
+    assert!(out.contains("| per-sample, M = 4 | visibility | compute |") && out.contains("wins"), "{out}");
+
+    // Two reports side by side (here one with itself: every B ÷ A is 1).
+    let (code, out, err) = shutter(&[
+        "matrix",
+        "--compare",
+        stem.with_extension("json").to_str().unwrap(),
+        stem.with_extension("json").to_str().unwrap(),
+        "--out",
+        dir.join("c").to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    assert!(out.contains("| `visibility/gs/per-sample/M=4` |") && out.contains("| 1.000 |"), "{out}");
+    assert!(dir.join("c.md").is_file());
+}

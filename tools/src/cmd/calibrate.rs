@@ -51,7 +51,8 @@ pub fn run(args: CalibrateArgs) -> Result<()> {
         .map(|k| bench::Config::parse(&format!("stochastic:bound={}", k.name()), &defaults))
         .collect::<Result<Vec<_>>>()?;
     let mut renderer = Renderer::new(create_device()?)?;
-    let args = bench::BenchArgs { configs, frames: frames.max(1), warmup, counters: false };
+    let args =
+        bench::BenchArgs { configs, frames: frames.max(1), warmup, counters: false, skip_refused: false };
     let report = bench::run(&mut renderer, &sc, &args)?;
     outln!("{}", report.markdown());
     let ms: Vec<f64> = report.results.iter().map(|r| r.gpu_ms.median).collect();
