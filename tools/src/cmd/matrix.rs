@@ -62,6 +62,10 @@ pub struct MatrixArgs {
     /// Output stem: writes STEM.json, STEM.md, STEM.png and STEM.svg (with --compare: STEM.md).
     #[arg(long, default_value = "out/matrix")]
     pub out: PathBuf,
+    /// Instead of running: rewrite STEM.md, STEM.png and STEM.svg from a report's JSON (e.g. after
+    /// a change to the table or the plot), measuring nothing.
+    #[arg(long, value_name = "REPORT.json", conflicts_with = "compare")]
+    pub from: Option<PathBuf>,
     /// Instead of running: compare two matrix reports (STEM.json of two drivers or machines).
     #[arg(long, num_args = 2, value_names = ["A.json", "B.json"])]
     pub compare: Vec<PathBuf>,
@@ -97,20 +101,57 @@ pub struct MatrixReport {
     pub bench: BenchReport,
 }
 
+/// `STEM.ext`: a stem's own dots stay (`matrix-lavapipe-25.0`), one of the written extensions is
+/// replaced (`--out m.json` writes m.md beside it).
+fn with_ext(stem: &Path, ext: &str) -> PathBuf {
+    let known =
+        stem.extension().and_then(|e| e.to_str()).is_some_and(|e| ["json", "md", "png", "svg"].contains(&e));
+    if known {
+        stem.with_extension(ext)
+    } else {
+        let mut name = stem.as_os_str().to_owned();
+        name.push(".");
+        name.push(ext);
+        PathBuf::from(name)
+    }
+}
+
 fn label(coverage: &str, hull: &str, shading: &str, per_pass: u32) -> String {
     format!("{coverage}/{hull}/{shading}/M={per_pass}")
 }
 
+fn read(p: &Path) -> Result<MatrixReport> {
+    let bytes = shutter::limits::read_capped(p, 64 << 20, "matrix report", "64 MiB")?;
+    serde_json::from_slice(&bytes).with_context(|| format!("parsing {} as a matrix report", p.display()))
+}
+
+/// Writes STEM.md, STEM.png and STEM.svg of a report and prints the markdown.
+fn write_views(matrix: &MatrixReport, stem: &Path) -> Result<()> {
+    let paths = ["md", "png", "svg"].map(|e| with_ext(stem, e));
+    let md = markdown(matrix);
+    shutter::image_io::write_file_atomically(&paths[0], md.as_bytes())?;
+    outln!("{md}");
+    register_font()?;
+    draw(BitMapBackend::new(&paths[1], (1100, 900)).into_drawing_area(), matrix)
+        .with_context(|| format!("drawing {}", paths[1].display()))?;
+    draw(SVGBackend::new(&paths[2], (1100, 900)).into_drawing_area(), matrix)
+        .with_context(|| format!("drawing {}", paths[2].display()))?;
+    errln!("wrote {}", paths.map(|p| p.display().to_string()).join(", "));
+    Ok(())
+}
+
 pub fn run(args: MatrixArgs) -> Result<()> {
+    if let Some(from) = &args.from {
+        let matrix = read(from)?;
+        for e in ["md", "png", "svg"] {
+            check_output_file(with_ext(&args.out, e))?;
+        }
+        return write_views(&matrix, &args.out);
+    }
     if !args.compare.is_empty() {
-        let read = |p: &Path| -> Result<MatrixReport> {
-            let bytes = shutter::limits::read_capped(p, 64 << 20, "matrix report", "64 MiB")?;
-            serde_json::from_slice(&bytes)
-                .with_context(|| format!("parsing {} as a matrix report", p.display()))
-        };
         let (a, b) = (read(&args.compare[0])?, read(&args.compare[1])?);
         let md = compare_markdown(&a, &b);
-        let out = args.out.with_extension("md");
+        let out = with_ext(&args.out, "md");
         check_output_file(&out)?;
         shutter::image_io::write_file_atomically(&out, md.as_bytes())?;
         outln!("{md}");
@@ -152,7 +193,7 @@ pub fn run(args: MatrixArgs) -> Result<()> {
         }
     }
     let stem = args.out.clone();
-    let paths = ["json", "md", "png", "svg"].map(|e| stem.with_extension(e));
+    let paths = ["json", "md", "png", "svg"].map(|e| with_ext(&stem, e));
     for p in &paths {
         check_output_file(p)?;
     }
@@ -169,15 +210,8 @@ pub fn run(args: MatrixArgs) -> Result<()> {
     let matrix = MatrixReport { cells, bench: report };
     // The measurements first, so a plot that fails loses none.
     shutter::image_io::write_file_atomically(&paths[0], serde_json::to_string_pretty(&matrix)?.as_bytes())?;
-    let md = markdown(&matrix);
-    shutter::image_io::write_file_atomically(&paths[1], md.as_bytes())?;
-    outln!("{md}");
-    register_font()?;
-    draw(BitMapBackend::new(&paths[2], (1100, 900)).into_drawing_area(), &matrix)
-        .with_context(|| format!("drawing {}", paths[2].display()))?;
-    draw(SVGBackend::new(&paths[3], (1100, 900)).into_drawing_area(), &matrix)
-        .with_context(|| format!("drawing {}", paths[3].display()))?;
-    errln!("wrote {}", paths.map(|p| p.display().to_string()).join(", "));
+    errln!("wrote {}", paths[0].display());
+    write_views(&matrix, &stem)?;
     Ok(())
 }
 
@@ -237,6 +271,17 @@ fn fill(cells: &mut [Cell], report: &BenchReport, images: &[shutter::image::Line
                 .or((i == f).then_some(RatioInterval { median: 1.0, low: 1.0, high: 1.0 }));
             }
         }
+    }
+}
+
+/// "Mesa 25.0.7-2~bpo12+1" of "llvmpipe (Mesa 25.0.7-2~bpo12+1 (LLVM 15.0.6))"; else the name.
+fn driver_short(driver: &str) -> String {
+    match driver.split_once(" (") {
+        Some((name, info)) => {
+            let info = info.split(" (").next().unwrap_or(info).trim_end_matches(')');
+            format!("{name}, {info}")
+        }
+        None => driver.to_string(),
     }
 }
 
@@ -405,7 +450,7 @@ where
         b.width,
         b.height,
         b.results.first().map(|r| r.spp).unwrap_or(0),
-        b.driver.split(" (").next().unwrap_or(&b.driver)
+        driver_short(&b.driver)
     );
     let n = cells.len();
     let labels: Vec<String> = cells.iter().map(|c| c.label.clone()).collect();
