@@ -128,3 +128,38 @@ fn mesh_hull_is_bit_identical_to_the_geometry_shader_hull() {
     }
     println!("mesh hull = gs hull, bit for bit, on {} scenes × 2 coverage paths", scenes.len());
 }
+
+#[test]
+fn an_instrumented_frame_carries_the_devices_pipeline_statistics() {
+    let mut r = renderer();
+    let scene = builtin_scene("default").unwrap().unwrap();
+    let plain = StochasticOptions { expansion: HullExpansion::GeometryShader, ..Default::default() };
+    let counted = StochasticOptions { instrumented: true, ..plain };
+    assert_eq!(
+        render(&mut r, &scene, (48, 27), 4, plain).stats.pipeline_statistics,
+        None,
+        "timed frames count nothing"
+    );
+    let out = render(&mut r, &scene, (48, 27), 4, counted);
+    if !r.device().caps.pipeline_statistics {
+        assert_eq!(out.stats.pipeline_statistics, None);
+        return;
+    }
+    let p = out.stats.pipeline_statistics.expect("pipeline statistics of an instrumented frame");
+    let c = out.stats.counters.expect("sample counters");
+    println!("{}; Shutter's fragments {}", p.summary(), c.fragments);
+    // The coverage pass draws the triangles' bounds through the geometry shader (one invocation per
+    // primitive drawn, each emitting a strip), and every fragment Shutter counts is a fragment
+    // invocation the device counts (a driver may count more: Mesa 22.3 counts masked lanes).
+    let (ia, gs) = (p.input_assembly_primitives.unwrap(), p.geometry_shader_invocations.unwrap());
+    assert!(ia > 0 && gs > 0 && gs <= ia && p.geometry_shader_primitives.unwrap() >= gs, "{p:?}");
+    assert!(p.clipping_primitives > 0 && p.compute_shader_invocations > 0, "{p:?}");
+    assert!(p.fragment_shader_invocations >= c.fragments, "{p:?} {c:?}");
+    if r.device().caps.mesh_shader {
+        // Around mesh draws only the statistics Vulkan allows there are counted.
+        let mesh = StochasticOptions { expansion: HullExpansion::Mesh, ..counted };
+        let p = render(&mut r, &scene, (48, 27), 4, mesh).stats.pipeline_statistics.unwrap();
+        assert_eq!((p.input_assembly_primitives, p.geometry_shader_invocations), (None, None), "{p:?}");
+        assert!(p.fragment_shader_invocations >= c.fragments, "{p:?}");
+    }
+}

@@ -130,6 +130,10 @@ pub struct ConfigResult {
     #[serde(default)]
     pub image_vs_first: Option<ImageDiff>,
     pub counters: Option<Counters>,
+    /// The device's pipeline statistics of the instrumented frame (absent without counters, on a
+    /// device without pipeline-statistics queries, and in older reports).
+    #[serde(default)]
+    pub pipeline_statistics: Option<shutter::vk::PipelineStatistics>,
 }
 
 /// A ratio's median and its bootstrap 95 % interval ([`paired_ratio_interval`]).
@@ -375,13 +379,17 @@ pub fn run_with_images(
             gpu_ms_frames: outs.iter().map(|o| o.timings.total_ms()).collect(),
             image_vs_first: ImageDiff::of(&first.image, &outputs[0][0].image),
             counters: None,
+            pipeline_statistics: None,
         };
-        if a.counters && uses_stochastic(&r, c) {
+        if a.counters {
             let mut s = c.settings;
             s.stochastic.instrumented = true;
             let out =
                 renderer.render(scene, c.technique, &s).with_context(|| format!("counting `{}`", c.label))?;
-            r.counters = out.stats.counters.map(Counters::from);
+            if uses_stochastic(&r, c) {
+                r.counters = out.stats.counters.map(Counters::from);
+            }
+            r.pipeline_statistics = out.stats.pipeline_statistics;
         }
         results.push(r);
     }
@@ -431,8 +439,8 @@ impl BenchReport {
             md.push_str(&p.markdown());
             md.push('\n');
         }
-        md.push_str("| configuration | passes × MSAA | GPU ms median (min–max) | × first | paired ratio [95 % CI] | image vs first | CPU frame ms | per pass (median ms) | fragments | samples tested | hits | STE | shading inv. | atlas texels (shade + gutter) | cache lookups / hits / evictions / lost / overflows |\n");
-        md.push_str("|---|---:|---:|---:|---:|---|---:|---|---:|---:|---:|---:|---:|---:|---:|\n");
+        md.push_str("| configuration | passes × MSAA | GPU ms median (min–max) | × first | paired ratio [95 % CI] | image vs first | CPU frame ms | per pass (median ms) | fragments | samples tested | hits | STE | shading inv. | atlas texels (shade + gutter) | cache lookups / hits / evictions / lost / overflows | pipeline statistics (device) |\n");
+        md.push_str("|---|---:|---:|---:|---:|---|---:|---|---:|---:|---:|---:|---:|---:|---:|---|\n");
         for r in &self.results {
             let per_pass: Vec<String> =
                 r.passes_ms.iter().map(|(n, s)| format!("{n} {:.2}", s.median)).collect();
@@ -459,7 +467,7 @@ impl BenchReport {
             };
             let _ = writeln!(
                 md,
-                "| {} | {} × {} | {:.2} ({:.2}–{:.2}) | {:.3} | {} | {} | {:.2} | {} | {f} | {t} | {h} | {ste} | {inv} | {texels} | {cache} |",
+                "| {} | {} × {} | {:.2} ({:.2}–{:.2}) | {:.3} | {} | {} | {:.2} | {} | {f} | {t} | {h} | {ste} | {inv} | {texels} | {cache} | {} |",
                 r.label,
                 r.passes,
                 r.msaa,
@@ -470,7 +478,8 @@ impl BenchReport {
                 r.paired_ratio.map(|p| p.cell()).unwrap_or_else(|| "-".into()),
                 r.image_vs_first.map(|d| d.cell()).unwrap_or_else(|| "-".into()),
                 r.cpu_frame_ms.median,
-                per_pass.join(", ")
+                per_pass.join(", "),
+                r.pipeline_statistics.map(|p| p.summary()).unwrap_or_else(|| "-".into())
             );
         }
         for r in &self.refused {

@@ -684,6 +684,17 @@ impl<'a> FrameGraph<'a> {
     /// takes more than one submission, and stopping with [`Error::Interrupted`] between submissions
     /// once an interrupt is requested (nothing is in flight then).
     pub fn execute_reporting(self, rec: &mut CommandRecorder, label: Option<&str>) -> Result<GraphResult> {
+        self.execute_counting(rec, label, None)
+    }
+
+    /// [`FrameGraph::execute_reporting`], with `statistics` (a pipeline-statistics query) begun
+    /// and ended around every submission and its counts added up.
+    pub fn execute_counting(
+        self,
+        rec: &mut CommandRecorder,
+        label: Option<&str>,
+        mut statistics: Option<&mut crate::vk::StatisticsQuery>,
+    ) -> Result<GraphResult> {
         crate::progress::check_interrupt()?;
         let FrameGraph { device, resources, mut nodes, readbacks, .. } = self;
         let mut schedule: Vec<(usize, usize, u32)> = Vec::new();
@@ -715,6 +726,9 @@ impl<'a> FrameGraph<'a> {
             let started = std::time::Instant::now();
             rec.submit(|d, cmd| {
                 timer.reset(cmd);
+                if let Some(q) = statistics.as_deref() {
+                    q.begin(cmd);
+                }
                 for &(ni, pi, iteration) in &schedule[next..end] {
                     let pass = match &mut nodes[ni] {
                         Node::Pass(p) => p,
@@ -722,8 +736,14 @@ impl<'a> FrameGraph<'a> {
                     };
                     record_pass(d, cmd, pass, iteration, &resources, &mut states, &mut timer)?;
                 }
+                if let Some(q) = statistics.as_deref() {
+                    q.end(cmd);
+                }
                 Ok(())
             })?;
+            if let Some(q) = statistics.as_deref_mut() {
+                q.collect()?;
+            }
             // What was submitted has happened: persistent resources remember it.
             for (r, s) in resources.iter().zip(&states) {
                 r.store_state(s);

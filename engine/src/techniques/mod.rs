@@ -140,6 +140,9 @@ pub struct RenderStats {
     pub shadows: Option<String>,
     /// The stochastic frame's coverage path (`visibility`, `mask`, ...), as the device resolved it.
     pub coverage: Option<stochastic::Coverage>,
+    /// The device's pipeline statistics over the frame: an instrumented frame
+    /// (`StochasticOptions::instrumented`, any technique) on a device with `pipelineStatisticsQuery`.
+    pub pipeline_statistics: Option<crate::vk::PipelineStatistics>,
 }
 
 /// An image with how it was made.
@@ -278,6 +281,9 @@ pub struct FrameContext<'f> {
     timings: PassTimings,
     /// Show the progress of graphs that take several submissions ([`Renderer::show_progress`]).
     progress: bool,
+    /// The device's pipeline statistics over the frame's graphs (an instrumented frame on a device
+    /// that has them).
+    statistics: Option<crate::vk::StatisticsQuery>,
 }
 
 /// Where a frame's graphs go.
@@ -326,7 +332,11 @@ impl FrameContext<'_> {
     pub fn run(&mut self, graph: FrameGraph<'_>) -> Result<GraphResult> {
         match &mut self.submission {
             Submission::Own(recorder) => {
-                let result = graph.execute_reporting(recorder, self.progress.then_some("render"))?;
+                let result = graph.execute_counting(
+                    recorder,
+                    self.progress.then_some("render"),
+                    self.statistics.as_mut(),
+                )?;
                 self.timings.add(&result.timings);
                 Ok(result)
             }
@@ -488,6 +498,11 @@ impl Renderer {
             world,
             triangles: scene.triangle_count(),
             upload_ms,
+            statistics: settings.stochastic.instrumented.then(|| {
+                let mesh_draws =
+                    settings.stochastic.expansion == crate::techniques::compute_hull::HullExpansion::Mesh;
+                crate::vk::statistic_flags(self.device.caps.geometry_shader, mesh_draws)
+            }),
         })
     }
 
@@ -498,12 +513,19 @@ impl Renderer {
         prepared: &mut PreparedFrame,
         f: impl FnOnce(&mut dyn FrameTechnique, &FrameInputs<'_>, &mut FrameContext<'_>) -> Result<R>,
     ) -> Result<R> {
+        let statistics = match prepared.statistics {
+            Some(flags) if self.device.caps.pipeline_statistics => {
+                Some(crate::vk::StatisticsQuery::new(&self.device, flags)?)
+            }
+            _ => None,
+        };
         let mut frame = FrameContext {
             device: &self.device,
             submission: Submission::Own(&mut self.recorder),
             pool: prepared.pool.clone(),
             timings: PassTimings::default(),
             progress: self.progress,
+            statistics,
         };
         let inputs = FrameInputs { world: &prepared.world, camera: &prepared.camera };
         let out = f(prepared.technique.as_mut(), &inputs, &mut frame)?;
@@ -515,9 +537,9 @@ impl Renderer {
     pub fn render_prepared(&mut self, prepared: &mut PreparedFrame) -> Result<RenderOutput> {
         let t1 = Instant::now();
         let p1 = cpu_time::ProcessTime::now();
-        let (out, timings) = self.run_with(prepared, |technique, inputs, frame| {
+        let (out, timings, pipeline_statistics) = self.run_with(prepared, |technique, inputs, frame| {
             let out = technique.render(inputs, frame)?;
-            Ok((out, std::mem::take(&mut frame.timings)))
+            Ok((out, std::mem::take(&mut frame.timings), frame.statistics.as_ref().map(|q| q.total())))
         })?;
         let cpu_frame_ms = t1.elapsed().as_secs_f64() * 1e3;
         let process_cpu_ms = p1.elapsed().as_secs_f64() * 1e3;
@@ -537,6 +559,7 @@ impl Renderer {
                 transparency: prepared.technique.transparency(),
                 shadows: prepared.technique.shadows(),
                 coverage: prepared.technique.coverage(),
+                pipeline_statistics,
             },
         })
     }
@@ -590,6 +613,8 @@ pub struct PreparedFrame {
     world: GpuWorld,
     triangles: usize,
     upload_ms: f64,
+    /// The pipeline statistics an instrumented frame counts ([`crate::vk::statistic_flags`]).
+    statistics: Option<ash::vk::QueryPipelineStatisticFlags>,
 }
 
 impl PreparedFrame {
@@ -603,6 +628,7 @@ impl PreparedFrame {
             pool: self.pool.clone(),
             timings: PassTimings::default(),
             progress: false,
+            statistics: None,
         };
         let inputs = FrameInputs { world: &self.world, camera: &self.camera };
         self.technique.render(&inputs, &mut context)?;
@@ -744,6 +770,17 @@ pub fn feature_paths(caps: &crate::vk::Capabilities) -> Vec<FeaturePath> {
                 format!("GPU pass times from timestamp queries ({} ns/tick)", caps.timestamp_period_ns)
             } else {
                 "no GPU timings (reported as 0)".into()
+            },
+        ),
+        f(
+            "pipelineStatisticsQuery",
+            caps.pipeline_statistics,
+            if caps.pipeline_statistics {
+                "instrumented frames (--instrumented, bench/matrix --counters) report the device's \
+                 pipeline statistics beside Shutter's counters"
+                    .into()
+            } else {
+                "Shutter's own counters only".into()
             },
         ),
     ]

@@ -97,6 +97,9 @@ impl RenderOutput {
                 lines.push(format!("  cluster bounds: {}", clustered.join(", ")));
             }
         }
+        if let Some(p) = self.stats.pipeline_statistics {
+            lines.push(format!("  pipeline statistics (the device's): {}", p.summary()));
+        }
         if let Some(c) = self.stats.counters {
             lines.push(format!(
                 "  fragments {}, samples tested {}, hit {}, STE {:.4}, shading invocations {}",

@@ -147,6 +147,9 @@ pub struct Capabilities {
     pub max_bound_descriptor_sets: u32,
     /// Timestamps usable on the graphics queue.
     pub timestamps: bool,
+    /// `pipelineStatisticsQuery`: the device's own counters of an instrumented frame
+    /// ([`crate::vk::PipelineStatistics`]).
+    pub pipeline_statistics: bool,
     /// Nanoseconds per timestamp tick.
     pub timestamp_period_ns: f32,
     pub debug_utils: bool,
@@ -658,6 +661,7 @@ impl DeviceShared {
             .fragment_stores_and_atomics(caps.fragment_stores_and_atomics)
             .vertex_pipeline_stores_and_atomics(caps.vertex_pipeline_stores_and_atomics)
             .shader_int64(caps.shader_int64)
+            .pipeline_statistics_query(caps.pipeline_statistics)
             .sampler_anisotropy(supported.sampler_anisotropy == vk::TRUE)
             .shader_storage_image_write_without_format(
                 supported.shader_storage_image_write_without_format == vk::TRUE,
@@ -884,6 +888,7 @@ fn offered_capabilities(
         timestamps: limits.timestamp_compute_and_graphics == vk::TRUE
             && families[queue_family as usize].timestamp_valid_bits > 0,
         timestamp_period_ns: limits.timestamp_period,
+        pipeline_statistics: supported.pipeline_statistics_query == vk::TRUE,
         debug_utils,
         disabled: Vec::new(),
     };
@@ -1166,6 +1171,7 @@ impl DeviceShared {
         caps.independent_blend &= f.independent_blend == vk::TRUE;
         caps.fragment_stores_and_atomics &= f.fragment_stores_and_atomics == vk::TRUE;
         caps.vertex_pipeline_stores_and_atomics &= f.vertex_pipeline_stores_and_atomics == vk::TRUE;
+        caps.pipeline_statistics &= f.pipeline_statistics_query == vk::TRUE;
         caps.buffer_int64_atomics &=
             f.shader_int64 == vk::TRUE && ext.features12.shader_buffer_int64_atomics == vk::TRUE;
         caps.shader_int64 &= f.shader_int64 == vk::TRUE;

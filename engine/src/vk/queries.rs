@@ -165,3 +165,214 @@ impl Drop for GpuTimer {
         }
     }
 }
+
+/// The device's own counters over a frame (a pipeline-statistics query around each submission),
+/// beside Shutter's sample counters: what the rasterizer and the shader stages were asked to do.
+/// Collected for instrumented frames only, on devices with `pipelineStatisticsQuery`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub struct PipelineStatistics {
+    /// Primitives the input assembler produced (`None` where the frame draws with mesh shaders,
+    /// which no pre-rasterization statistic may count).
+    pub input_assembly_primitives: Option<u64>,
+    pub vertex_shader_invocations: Option<u64>,
+    /// Geometry-shader invocations and primitives (`None` without geometry shaders or with mesh
+    /// shaders).
+    pub geometry_shader_invocations: Option<u64>,
+    pub geometry_shader_primitives: Option<u64>,
+    /// Primitives that reached clipping, and those that left it.
+    pub clipping_invocations: u64,
+    pub clipping_primitives: u64,
+    pub fragment_shader_invocations: u64,
+    pub compute_shader_invocations: u64,
+}
+
+impl PipelineStatistics {
+    /// `IA primitives 12, VS 36, GS 12 → 48 primitives, clipping 48 → 48, FS 9216, CS 4096`
+    /// (the statistics the query counted).
+    pub fn summary(&self) -> String {
+        let mut parts = Vec::new();
+        if let Some(p) = self.input_assembly_primitives {
+            parts.push(format!("IA primitives {p}"));
+        }
+        if let Some(v) = self.vertex_shader_invocations {
+            parts.push(format!("VS {v}"));
+        }
+        if let (Some(i), Some(p)) = (self.geometry_shader_invocations, self.geometry_shader_primitives) {
+            parts.push(format!("GS {i} → {p} primitives"));
+        }
+        parts.push(format!("clipping {} → {}", self.clipping_invocations, self.clipping_primitives));
+        parts.push(format!("FS {}", self.fragment_shader_invocations));
+        parts.push(format!("CS {}", self.compute_shader_invocations));
+        parts.join(", ")
+    }
+
+    fn add(&mut self, o: &PipelineStatistics) {
+        let sum = |a: Option<u64>, b: Option<u64>| match (a, b) {
+            (Some(a), Some(b)) => Some(a + b),
+            (a, b) => a.or(b),
+        };
+        self.input_assembly_primitives = sum(self.input_assembly_primitives, o.input_assembly_primitives);
+        self.vertex_shader_invocations = sum(self.vertex_shader_invocations, o.vertex_shader_invocations);
+        self.geometry_shader_invocations =
+            sum(self.geometry_shader_invocations, o.geometry_shader_invocations);
+        self.geometry_shader_primitives = sum(self.geometry_shader_primitives, o.geometry_shader_primitives);
+        self.clipping_invocations += o.clipping_invocations;
+        self.clipping_primitives += o.clipping_primitives;
+        self.fragment_shader_invocations += o.fragment_shader_invocations;
+        self.compute_shader_invocations += o.compute_shader_invocations;
+    }
+}
+
+/// Which statistics a frame's query counts: the pre-rasterization ones only where no mesh shader
+/// draws in it (Vulkan forbids them around mesh draws), the geometry shader's only where the device
+/// has geometry shaders.
+pub fn statistic_flags(geometry_shader: bool, mesh_draws: bool) -> vk::QueryPipelineStatisticFlags {
+    type F = vk::QueryPipelineStatisticFlags;
+    let mut flags = F::CLIPPING_INVOCATIONS
+        | F::CLIPPING_PRIMITIVES
+        | F::FRAGMENT_SHADER_INVOCATIONS
+        | F::COMPUTE_SHADER_INVOCATIONS;
+    if !mesh_draws {
+        flags |= F::INPUT_ASSEMBLY_PRIMITIVES | F::VERTEX_SHADER_INVOCATIONS;
+        if geometry_shader {
+            flags |= F::GEOMETRY_SHADER_INVOCATIONS | F::GEOMETRY_SHADER_PRIMITIVES;
+        }
+    }
+    flags
+}
+
+/// The statistics a query of `flags` wrote, in Vulkan's order (one value per set bit, lowest first).
+pub fn decode_statistics(flags: vk::QueryPipelineStatisticFlags, values: &[u64]) -> PipelineStatistics {
+    type F = vk::QueryPipelineStatisticFlags;
+    let mut next = values.iter().copied();
+    let mut take = |bit: F| flags.contains(bit).then(|| next.next().unwrap_or(0));
+    // Bits in ascending order, as the results are laid out.
+    let _vertices = take(F::INPUT_ASSEMBLY_VERTICES);
+    let input_assembly_primitives = take(F::INPUT_ASSEMBLY_PRIMITIVES);
+    let vertex_shader_invocations = take(F::VERTEX_SHADER_INVOCATIONS);
+    let geometry_shader_invocations = take(F::GEOMETRY_SHADER_INVOCATIONS);
+    let geometry_shader_primitives = take(F::GEOMETRY_SHADER_PRIMITIVES);
+    let clipping_invocations = take(F::CLIPPING_INVOCATIONS).unwrap_or(0);
+    let clipping_primitives = take(F::CLIPPING_PRIMITIVES).unwrap_or(0);
+    let fragment_shader_invocations = take(F::FRAGMENT_SHADER_INVOCATIONS).unwrap_or(0);
+    let _tcs = take(F::TESSELLATION_CONTROL_SHADER_PATCHES);
+    let _tes = take(F::TESSELLATION_EVALUATION_SHADER_INVOCATIONS);
+    let compute_shader_invocations = take(F::COMPUTE_SHADER_INVOCATIONS).unwrap_or(0);
+    PipelineStatistics {
+        input_assembly_primitives,
+        vertex_shader_invocations,
+        geometry_shader_invocations,
+        geometry_shader_primitives,
+        clipping_invocations,
+        clipping_primitives,
+        fragment_shader_invocations,
+        compute_shader_invocations,
+    }
+}
+
+/// One pipeline-statistics query around each submission of a graph, summed over its submissions.
+pub struct StatisticsQuery {
+    pool: vk::QueryPool,
+    flags: vk::QueryPipelineStatisticFlags,
+    total: PipelineStatistics,
+    device: Device,
+}
+
+impl StatisticsQuery {
+    pub fn new(device: &Device, flags: vk::QueryPipelineStatisticFlags) -> Result<Self> {
+        let info = vk::QueryPoolCreateInfo::default()
+            .query_type(vk::QueryType::PIPELINE_STATISTICS)
+            .query_count(1)
+            .pipeline_statistics(flags);
+        let pool = unsafe { device.raw.create_query_pool(&info, None) }.vk("vkCreateQueryPool")?;
+        Ok(StatisticsQuery { pool, flags, total: PipelineStatistics::default(), device: device.clone() })
+    }
+
+    /// Resets and begins the query; record first in the command buffer, outside any rendering.
+    pub fn begin(&self, cmd: vk::CommandBuffer) {
+        unsafe {
+            self.device.raw.cmd_reset_query_pool(cmd, self.pool, 0, 1);
+            self.device.raw.cmd_begin_query(cmd, self.pool, 0, vk::QueryControlFlags::empty());
+        }
+    }
+
+    /// Ends the query; record last in the command buffer.
+    pub fn end(&self, cmd: vk::CommandBuffer) {
+        unsafe { self.device.raw.cmd_end_query(cmd, self.pool, 0) };
+    }
+
+    /// Adds the completed submission's counts to the total.
+    pub fn collect(&mut self) -> Result<()> {
+        // One query: ash counts queries by elements, so the element is the query's whole result
+        // (at most the 11 statistics Vulkan 1.0 defines, 64-bit each).
+        let mut result = [[0u64; 11]; 1];
+        unsafe {
+            self.device.raw.get_query_pool_results(
+                self.pool,
+                0,
+                &mut result,
+                vk::QueryResultFlags::TYPE_64 | vk::QueryResultFlags::WAIT,
+            )
+        }
+        .vk("vkGetQueryPoolResults")?;
+        let n = self.flags.as_raw().count_ones() as usize;
+        self.total.add(&decode_statistics(self.flags, &result[0][..n]));
+        Ok(())
+    }
+
+    pub fn total(&self) -> PipelineStatistics {
+        self.total
+    }
+}
+
+impl Drop for StatisticsQuery {
+    fn drop(&mut self) {
+        unsafe { self.device.raw.destroy_query_pool(self.pool, None) };
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn statistics_decode_in_vulkans_bit_order() {
+        type F = vk::QueryPipelineStatisticFlags;
+        let all = statistic_flags(true, false);
+        assert_eq!(all.as_raw().count_ones(), 8);
+        let s = decode_statistics(all, &[1, 2, 3, 4, 5, 6, 7, 8]);
+        assert_eq!(
+            s,
+            PipelineStatistics {
+                input_assembly_primitives: Some(1),
+                vertex_shader_invocations: Some(2),
+                geometry_shader_invocations: Some(3),
+                geometry_shader_primitives: Some(4),
+                clipping_invocations: 5,
+                clipping_primitives: 6,
+                fragment_shader_invocations: 7,
+                compute_shader_invocations: 8,
+            }
+        );
+        // Around mesh draws no pre-rasterization statistic is counted, with or without geometry shaders.
+        for gs in [false, true] {
+            let mesh = statistic_flags(gs, true);
+            assert!(!mesh.intersects(
+                F::INPUT_ASSEMBLY_PRIMITIVES
+                    | F::VERTEX_SHADER_INVOCATIONS
+                    | F::GEOMETRY_SHADER_INVOCATIONS
+                    | F::GEOMETRY_SHADER_PRIMITIVES
+            ));
+            let s = decode_statistics(mesh, &[5, 6, 7, 8]);
+            assert_eq!(
+                (s.input_assembly_primitives, s.clipping_invocations, s.compute_shader_invocations),
+                (None, 5, 8)
+            );
+        }
+        let no_gs = decode_statistics(statistic_flags(false, false), &[1, 2, 5, 6, 7, 8]);
+        assert_eq!((no_gs.geometry_shader_invocations, no_gs.clipping_invocations), (None, 5));
+        let mut sum = s;
+        sum.add(&s);
+        assert_eq!((sum.fragment_shader_invocations, sum.input_assembly_primitives), (14, Some(2)));
+    }
+}

@@ -93,6 +93,12 @@ pub struct Cell {
     pub vs_group_fastest: Option<RatioInterval>,
     /// The image against the first cell of its group that ran.
     pub vs_group_first: Option<ImageDiff>,
+    /// With --counters: Shutter's sample counters and the device's pipeline statistics of one
+    /// instrumented frame.
+    #[serde(default)]
+    pub counters: Option<bench::Counters>,
+    #[serde(default)]
+    pub pipeline_statistics: Option<shutter::vk::PipelineStatistics>,
 }
 
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -186,6 +192,8 @@ pub fn run(args: MatrixArgs) -> Result<()> {
                         group: format!("{s}, M = {m}"),
                         vs_group_fastest: None,
                         vs_group_first: None,
+                        counters: None,
+                        pipeline_statistics: None,
                     });
                     configs.push(config);
                 }
@@ -229,6 +237,8 @@ fn fill(cells: &mut [Cell], report: &BenchReport, images: &[shutter::image::Line
         if let Some(i) = result(&c.label) {
             let r = &report.results[i];
             c.gpu_ms = Some(r.gpu_ms.median);
+            c.counters = r.counters.clone();
+            c.pipeline_statistics = r.pipeline_statistics;
             (c.passes, c.msaa) = (r.passes, r.msaa);
             c.vs_baseline = if i == 0 {
                 Some(RatioInterval { median: 1.0, low: 1.0, high: 1.0 })
@@ -369,6 +379,31 @@ pub fn markdown(m: &MatrixReport) -> String {
     if !summary.is_empty() {
         md.push_str("\nPer group:\n\n");
         md.push_str(&summary);
+    }
+    let counted: Vec<&Cell> =
+        m.cells.iter().filter(|c| c.counters.is_some() || c.pipeline_statistics.is_some()).collect();
+    if !counted.is_empty() {
+        md.push_str(
+            "\nCounters of one instrumented frame per cell (`--counters`): Shutter's, and the device's \
+             pipeline statistics where it has them.\n\n\
+             | cell | fragments | samples tested | hits | STE | shading inv. | pipeline statistics (device) |\n\
+             |---|---:|---:|---:|---:|---:|---|\n",
+        );
+        for c in counted {
+            let k = c.counters.as_ref();
+            let n = |v: Option<u64>| v.map(|v| v.to_string()).unwrap_or_else(|| "-".into());
+            let _ = writeln!(
+                md,
+                "| `{}` | {} | {} | {} | {} | {} | {} |",
+                c.label,
+                n(k.map(|k| k.fragments)),
+                n(k.map(|k| k.samples_tested)),
+                n(k.map(|k| k.samples_hit)),
+                k.map(|k| format!("{:.4}", k.sample_test_efficiency)).unwrap_or_else(|| "-".into()),
+                n(k.map(|k| k.shading_invocations)),
+                c.pipeline_statistics.map(|p| p.summary()).unwrap_or_else(|| "-".into()),
+            );
+        }
     }
     let refused: Vec<&Cell> = m.cells.iter().filter(|c| c.refused.is_some()).collect();
     if !refused.is_empty() {

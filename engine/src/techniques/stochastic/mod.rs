@@ -376,7 +376,7 @@ fn check(
         HullExpansion::Mesh => {
             caps.require(
                 Feature::MeshShader,
-                "technique `stochastic` with the mesh-shader hull (--hull gs or --hull compute)",
+                "technique `stochastic` with the mesh-shader hull (--hull gs and --hull compute do not)",
             )?;
             // One workgroup per triangle: every object's triangles must fit one draw's grid.
             let largest = world.objects.iter().map(|o| o.triangle_count()).max().unwrap_or(0);
