@@ -163,3 +163,73 @@ fn an_instrumented_frame_carries_the_devices_pipeline_statistics() {
         assert!(p.fragment_shader_invocations >= c.fragments, "{p:?}");
     }
 }
+
+/// The rasterizer's overestimation (`VK_EXT_conservative_rasterization`) in place of shader dilation
+/// for the conservative hulls (engine/src/mirror/conservative.rs holds the selection and its CPU
+/// tests). Where the device offers the extension, the stochastic frame on both coverage paths and
+/// texture-space shading render the image they render with the feature disabled (shader dilation):
+/// overestimation only adds fragments that find no sample or texel to keep. Where it does not
+/// (neither lavapipe), the capabilities report no overestimation and a pipeline asked to
+/// overestimate is refused, naming the extension.
+#[test]
+fn conservative_rasterization_replaces_shader_dilation_where_the_device_has_it() {
+    use shutter::vk::{DeviceDesc, DeviceShared, Faces, Feature, GraphicsDesc, Pipeline, PipelineLayout};
+    let mut r = renderer();
+    if !r.device().caps.conservative_rasterization {
+        assert!(r.device().caps.overestimation().is_none());
+        let device = r.device();
+        let vert = shutter::vk::ShaderModule::new(device, shutter::shaders::GRAPH_PROBE_PROBE_VERT).unwrap();
+        let layout = PipelineLayout::new(device, &[], 0, ash::vk::ShaderStageFlags::VERTEX).unwrap();
+        let desc = GraphicsDesc {
+            name: "overestimating probe",
+            stages: &[&vert],
+            vertex_bindings: &[],
+            vertex_attributes: &[],
+            color_formats: &[],
+            depth_format: None,
+            samples: 1,
+            sample_shading: None,
+            faces: Faces::Both,
+            depth_compare: ash::vk::CompareOp::ALWAYS,
+            depth_write: false,
+            overestimate: true,
+        };
+        let Err(err) = Pipeline::graphics(device, &layout, &desc) else {
+            panic!("a device without VK_EXT_conservative_rasterization built an overestimating pipeline")
+        };
+        let err = err.to_string();
+        println!("no conservative rasterization on this device: {err}");
+        assert!(err.contains("VK_EXT_conservative_rasterization"), "{err}");
+        return;
+    }
+    let o = r.device().caps.overestimation().unwrap();
+    println!("overestimation {} px (extra up to {} px)", o.primitive_px, o.max_extra_px);
+    let mut desc = DeviceDesc::from_env().unwrap();
+    desc.validation = true;
+    desc.disabled.push(Feature::ConservativeRasterization);
+    let mut without = Renderer::new(DeviceShared::new(&desc).unwrap()).unwrap();
+    assert!(without.device().caps.overestimation().is_none());
+    let size = (96, 54);
+    for name in ["default", "one-mover"] {
+        let scene = builtin_scene(name).unwrap().unwrap();
+        for coverage in [Coverage::Visibility, Coverage::Mask(MaskRate::Sample)] {
+            for shading in [ShadingRate::PerSample, ShadingRate::TextureSpace] {
+                let opts = StochasticOptions { coverage, shading, ..Default::default() };
+                let a = render(&mut r, &scene, size, 8, opts);
+                let b = render(&mut without, &scene, size, 8, opts);
+                let d = max_abs_diff(&a.image, &b.image);
+                println!(
+                    "{name} {} {}: |overestimated − shader-dilated| ≤ {d}",
+                    coverage.name(),
+                    shading.name()
+                );
+                assert!(
+                    d < 1e-5,
+                    "{name} {} {}: the hulls' dilations differ by {d}",
+                    coverage.name(),
+                    shading.name()
+                );
+            }
+        }
+    }
+}

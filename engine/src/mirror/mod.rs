@@ -6,6 +6,7 @@
 //! | mirror (CPU, here) | its GPU host | its shaders (`shaders-glsl/`) |
 //! |---|---|---|
 //! | [`bounds`]: the screen-space bounds over lens and shutter, the 5D inside test | [`crate::techniques::stochastic`] (its visibility core) and [`crate::techniques::compute_hull`] | `stochastic/` (`emit.glsl`, `inside.glsl`, `expand.comp`) |
+//! | [`conservative`]: who dilates a conservative hull — the shader, or the rasterizer's overestimation (`VK_EXT_conservative_rasterization`) | the stochastic frame's coverage pipelines and texture-space pass 1's outer hull | `stochastic/emit.glsl`, `texture_space/atlas.geom` |
 //! | [`texture_space`]: atlases, shading rates, culling, filtering | [`crate::techniques::texture_space`] (the probes) and the stochastic frame's texture-space shading stage | `texture_space/`, `stochastic/shade_texture_space.comp` |
 //! | [`decoupled`]: shading points and the memoization cache | the stochastic frame's decoupled shading stage | `stochastic/shade_decoupled.comp` |
 //! | [`aas`]: the blur spectrum and the anisotropic shading grids that key decoupled shading | the same stage (`shading=aas`, the grids computed here on the CPU and uploaded) | `stochastic/shade_decoupled.comp` |
@@ -19,6 +20,7 @@
 
 pub mod aas;
 pub mod bounds;
+pub mod conservative;
 pub mod decoupled;
 pub mod interleaved;
 pub mod shadow_maps;

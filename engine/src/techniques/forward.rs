@@ -212,6 +212,7 @@ impl ForwardPipeline {
                 faces: Faces::PerObject,
                 depth_compare: vk::CompareOp::GREATER,
                 depth_write: true,
+                overestimate: false,
             },
         )?;
         Ok(ForwardPipeline { pipeline, layout, shadows: lookup, _shaders: vec![vert, frag] })
@@ -392,6 +393,7 @@ impl TransparentDraws {
             // Reversed Z: nearer is greater. The tint pass passes only in front of the stored depth.
             depth_compare: vk::CompareOp::GREATER,
             depth_write,
+            overestimate: false,
         };
         let written: Vec<bool> = (0..targets.formats.len()).map(|i| i == targets.written).collect();
         let coverage = Pipeline::graphics_written(

@@ -175,6 +175,7 @@ impl GraphProbe {
                     faces: Faces::Both,
                     depth_compare: compare,
                     depth_write: write,
+                    overestimate: false,
                 },
             )
         };

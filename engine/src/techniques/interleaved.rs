@@ -424,6 +424,7 @@ impl InterleavedTechnique {
                 faces: Faces::PerObject,
                 depth_compare: vk::CompareOp::GREATER,
                 depth_write: true,
+                overestimate: false,
             },
         )?;
 
@@ -618,6 +619,7 @@ impl InterleavedTechnique {
                     faces: Faces::Both,
                     depth_compare: vk::CompareOp::LESS,
                     depth_write: true,
+                    overestimate: false,
                 },
             )?;
             Some((pipeline, layout, vec![vert, frag]))

@@ -746,23 +746,31 @@ pub fn feature_paths(caps: &crate::vk::Capabilities) -> Vec<FeaturePath> {
             "standard sample locations",
             caps.standard_sample_locations,
             format!(
-                "pinhole/accumulation MSAA at the standard locations; stochastic dilates its bounds by {:.4} px \
-                 (one sample at the pixel centre) ({})",
+                "pinhole/accumulation MSAA at the standard locations; stochastic's shader dilation of its bounds \
+                 is {:.4} px (one sample at the pixel centre; {})",
                 crate::mirror::bounds::dilation_px(1, caps.standard_sample_locations),
                 if caps.standard_sample_locations { "from the standard locations" } else { "half-pixel box: locations unknown" }
             ),
         ),
-        f(
-            "VK_EXT_conservative_rasterization",
-            caps.conservative_rasterization,
-            if caps.conservative_rasterization {
-                "present but unused: the bounds are dilated by the exact pixel box in the shader (an \
-                 extension path is not implemented: no device with the extension was available to test it)"
-                    .into()
-            } else {
-                "absent: bounds are dilated by the exact pixel box in the shader".into()
-            },
-        ),
+        f("VK_EXT_conservative_rasterization", caps.conservative_rasterization, {
+            use crate::mirror::conservative::{choose, Need};
+            let over = caps.overestimation();
+            let bounds = choose(
+                Need::PixelsTouched { raster_samples: 1, standard_sample_locations: caps.standard_sample_locations },
+                over,
+            );
+            let hull = choose(Need::CentresWithin { h: texture_space::BILINEAR_HULL_TEXELS }, over);
+            format!(
+                "{}: stochastic bounds use {}; texture-space pass 1's outer hull uses {}",
+                match over {
+                    Some(o) => format!("overestimation {} px", o.primitive_px),
+                    None if caps.disabled.iter().any(|d| d == "conservative-rasterization") => "disabled".into(),
+                    None => "absent".into(),
+                },
+                bounds.describe(),
+                hull.describe()
+            )
+        }),
         f(
             "timestamps",
             caps.timestamps,

@@ -464,6 +464,7 @@ impl OitTechnique {
                         // Reversed Z: nearer is greater.
                         depth_compare: vk::CompareOp::GREATER,
                         depth_write,
+                        overestimate: false,
                     };
                     Pipeline::graphics_blended(device, layout, &desc, blend)
                 };
@@ -655,6 +656,7 @@ impl OitTechnique {
                         faces: Faces::PerObject,
                         depth_compare: vk::CompareOp::GREATER,
                         depth_write: true,
+                        overestimate: false,
                     },
                 )?;
                 let under = ComputeStep::new::<PeelUnderPush>(

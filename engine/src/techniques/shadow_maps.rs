@@ -217,6 +217,7 @@ impl ShadowMaps {
                     faces: Faces::Both,
                     depth_compare: vk::CompareOp::GREATER,
                     depth_write,
+                    overestimate: false,
                 };
                 let blend =
                     if color_formats.is_empty() { ColorBlend::Replace } else { ColorBlend::MultiplyMaxAlpha };

@@ -23,6 +23,7 @@ use crate::gpu::layout::{
 use crate::graph::{Access, Tracked};
 use crate::graph::{Load, Store};
 use crate::image::LinearImage;
+use crate::mirror::conservative::{self, Dilation, Need};
 use crate::mirror::texture_space::atlas::{shading_space_of, triangle_charts, MipAtlas, ShadingSpace};
 use crate::shaders;
 use crate::vk::{
@@ -437,6 +438,9 @@ pub struct AtlasResult {
 pub struct AtlasPasses {
     /// The conservative sub-pass' box half-size in texels (None: no conservative sub-pass).
     hull_texels: Option<f32>,
+    /// Who dilates that hull ([`crate::mirror::conservative::choose`]): the geometry stage alone by
+    /// `hull_texels`, or the rasterizer's overestimation after `hull_texels − ½` in the geometry stage.
+    pub hull_dilation: Option<Dilation>,
     objects: Vec<Option<AtlasObject>>,
     /// Texels the shade and the conservative sub-passes wrote this frame, over all objects (atomics
     /// of `atlas.frag`; counted only when instrumented).
@@ -665,6 +669,9 @@ impl AtlasPasses {
             vk::BufferUsageFlags::STORAGE_BUFFER,
             &[0u32; 2],
         )?);
+        let hull_dilation =
+            hull_texels.map(|h| conservative::choose(Need::CentresWithin { h }, caps.overestimation()));
+        let overestimate_hull = hull_dilation.is_some_and(Dilation::overestimate);
         let vert = ShaderModule::new(device, shaders::TEXTURE_SPACE_ATLAS_VERT)?;
         let mut modules = vec![];
         let mut pipeline = |conservative: bool| -> Result<Pipeline> {
@@ -693,6 +700,7 @@ impl AtlasPasses {
                     faces: Faces::Both,
                     depth_compare: vk::CompareOp::LESS,
                     depth_write: true,
+                    overestimate: conservative && overestimate_hull,
                 },
             )?;
             modules.extend([geom, frag]);
@@ -734,6 +742,7 @@ impl AtlasPasses {
         }
         Ok(AtlasPasses {
             hull_texels,
+            hull_dilation,
             objects,
             counters,
             instrumented,
@@ -855,7 +864,7 @@ impl AtlasPasses {
             finest: o.atlas.finest(),
             gutter: o.atlas.gutter(),
             level_count: o.atlas.levels(),
-            hull_texels: self.hull_texels.unwrap_or(0.0),
+            hull_texels: self.hull_dilation.map_or(0.0, Dilation::shader_box_px),
             time: 0.5,
             atlas_width: width,
             atlas_height: height,

@@ -121,6 +121,12 @@ pub struct Capabilities {
     /// Stores from vertex/geometry stages (the bound readback test's debug output).
     pub vertex_pipeline_stores_and_atomics: bool,
     pub conservative_rasterization: bool,
+    /// `VkPhysicalDeviceConservativeRasterizationPropertiesEXT` (zeros without the extension): how
+    /// far the overestimating rasterizer may grow a primitive on its own, the most extra it may be
+    /// asked for, px, and whether it keeps degenerate triangles ([`Capabilities::overestimation`]).
+    pub primitive_overestimation_px: f32,
+    pub max_extra_primitive_overestimation_px: f32,
+    pub degenerate_triangles_rasterized: bool,
     /// `shaderInt64` and `shaderBufferInt64Atomics`: 64-bit atomics on storage buffers (the stochastic
     /// visibility buffer packs a sample's depth and payload into one `atomicMax`).
     pub buffer_int64_atomics: bool,
@@ -297,6 +303,17 @@ impl Capabilities {
         }
     }
 
+    /// The rasterizer's overestimation, where the device offers `VK_EXT_conservative_rasterization`
+    /// and it is not disabled: what [`crate::mirror::conservative::choose`] selects the hulls'
+    /// dilation by.
+    pub fn overestimation(&self) -> Option<crate::mirror::conservative::Overestimation> {
+        self.conservative_rasterization.then_some(crate::mirror::conservative::Overestimation {
+            primitive_px: self.primitive_overestimation_px,
+            max_extra_px: self.max_extra_primitive_overestimation_px,
+            degenerate_triangles_rasterized: self.degenerate_triangles_rasterized,
+        })
+    }
+
     /// Mesa's software rasterizer (lavapipe, device name "llvmpipe").
     pub fn is_lavapipe(&self) -> bool {
         self.driver_id == format!("{:?}", vk::DriverId::MESA_LLVMPIPE)
@@ -367,6 +384,13 @@ impl std::fmt::Display for Capabilities {
         writeln!(f, "fragment stores/atomics {}", self.fragment_stores_and_atomics)?;
         writeln!(f, "vertex-pipeline stores/atomics {}", self.vertex_pipeline_stores_and_atomics)?;
         writeln!(f, "VK_EXT_conservative_rasterization {}", self.conservative_rasterization)?;
+        if let Some(o) = self.overestimation() {
+            writeln!(
+                f,
+                "  overestimation  {} px (extra up to {} px), degenerate triangles rasterized {}",
+                o.primitive_px, o.max_extra_px, o.degenerate_triangles_rasterized
+            )?;
+        }
         writeln!(f, "VK_EXT_mesh_shader {}", self.mesh_shader)?;
         writeln!(f, "64-bit buffer atomics {}", self.buffer_int64_atomics)?;
         writeln!(f, "64-bit shader integers {}", self.shader_int64)?;
@@ -833,6 +857,11 @@ fn offered_capabilities(
     }
     unsafe { instance.get_physical_device_features2(physical, &mut feats2) };
     let mesh_shader = mesh_extension && f_mesh.mesh_shader == vk::TRUE;
+    let mut conservative_props = vk::PhysicalDeviceConservativeRasterizationPropertiesEXT::default();
+    if conservative {
+        let mut props2 = vk::PhysicalDeviceProperties2::default().push_next(&mut conservative_props);
+        unsafe { instance.get_physical_device_properties2(physical, &mut props2) };
+    }
     let mut mesh_props = vk::PhysicalDeviceMeshShaderPropertiesEXT::default();
     if mesh_shader {
         let mut props2 = vk::PhysicalDeviceProperties2::default().push_next(&mut mesh_props);
@@ -868,6 +897,9 @@ fn offered_capabilities(
         fragment_stores_and_atomics: supported.fragment_stores_and_atomics == vk::TRUE,
         vertex_pipeline_stores_and_atomics: supported.vertex_pipeline_stores_and_atomics == vk::TRUE,
         conservative_rasterization: conservative,
+        primitive_overestimation_px: conservative_props.primitive_overestimation_size,
+        max_extra_primitive_overestimation_px: conservative_props.max_extra_primitive_overestimation_size,
+        degenerate_triangles_rasterized: conservative_props.degenerate_triangles_rasterized == vk::TRUE,
         buffer_int64_atomics: supported.shader_int64 == vk::TRUE
             && f12.shader_buffer_int64_atomics == vk::TRUE,
         shader_int64: supported.shader_int64 == vk::TRUE,

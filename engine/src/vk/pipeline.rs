@@ -414,6 +414,10 @@ pub struct GraphicsDesc<'a> {
     pub faces: Faces,
     pub depth_compare: vk::CompareOp,
     pub depth_write: bool,
+    /// Rasterize in `VK_EXT_conservative_rasterization`'s overestimation mode (no extra size): a
+    /// fragment, every sample covered, for each pixel whose square the primitive meets. Only the
+    /// conservative hulls ask for it, as [`crate::mirror::conservative::choose`] decides.
+    pub overestimate: bool,
 }
 
 /// Which sides of its triangles a graphics pipeline rasterizes. The front is the side from which a
@@ -494,11 +498,23 @@ impl Pipeline {
         let input_assembly = vk::PipelineInputAssemblyStateCreateInfo::default()
             .topology(vk::PrimitiveTopology::TRIANGLE_LIST);
         let viewport = vk::PipelineViewportStateCreateInfo::default().viewport_count(1).scissor_count(1);
-        let raster = vk::PipelineRasterizationStateCreateInfo::default()
+        if d.overestimate {
+            device.caps.require(
+                super::Feature::ConservativeRasterization,
+                &format!("pipeline `{}` (its hull is dilated by the rasterizer's overestimation)", d.name),
+            )?;
+        }
+        let mut conservative = vk::PipelineRasterizationConservativeStateCreateInfoEXT::default()
+            .conservative_rasterization_mode(vk::ConservativeRasterizationModeEXT::OVERESTIMATE)
+            .extra_primitive_overestimation_size(0.0);
+        let mut raster = vk::PipelineRasterizationStateCreateInfo::default()
             .polygon_mode(vk::PolygonMode::FILL)
             .cull_mode(vk::CullModeFlags::NONE)
             .front_face(vk::FrontFace::COUNTER_CLOCKWISE)
             .line_width(1.0);
+        if d.overestimate {
+            raster = raster.push_next(&mut conservative);
+        }
         let mut multisample = vk::PipelineMultisampleStateCreateInfo::default()
             .rasterization_samples(vk::SampleCountFlags::from_raw(d.samples));
         if let Some(min) = d.sample_shading {

@@ -35,6 +35,7 @@ use crate::gpu::layout::{vertex_input, FRAME_SET_INDEX, OBJECT_SET_INDEX, TECHNI
 use crate::gpu::{GpuView, GpuWorld};
 use crate::graph::{Access, BufferHandle, FrameGraph, Load, PassContext, ResourceHandle, Store, Tracked};
 use crate::mirror::bounds::BoundKind;
+use crate::mirror::conservative::{self, Dilation, Need};
 use crate::plan::Effects;
 use crate::sampling::ShutterCurve;
 use crate::shaders::{self, axes, ClustersComp, MaskFrag, StochasticFrag, StochasticGeom, StochasticMesh};
@@ -52,7 +53,11 @@ pub(super) struct Sampling {
     pub size: (u32, u32),
     /// The camera's shutter curve: run k of K covers the warped times of `[k/K, (k+1)/K)`.
     pub shutter: ShutterCurve,
-    /// Box half-size of the bound dilation ([`crate::mirror::bounds::dilation_px`] for one sample per pixel).
+    /// Who dilates the bounds ([`crate::mirror::conservative::choose`]): the shader alone, by the box
+    /// [`crate::mirror::bounds::dilation_px`] that reaches every rasterizer sample of a touched pixel,
+    /// or the rasterizer's overestimation after a margin in the shader.
+    pub dilation: Dilation,
+    /// The box half-size the bound shaders dilate by (`dilation`'s shader part; push `dilate`).
     pub dilate: f32,
     /// [`crate::transparency::coverage_seed`] of the render seed.
     pub coverage_seed: u32,
@@ -78,13 +83,17 @@ impl Sampling {
         // The rasterizer's samples per pixel: one at the centre, or the mask target's M — every one
         // of them must lie inside the bound of a pixel the bound touches (gl_SampleMask only clears).
         let raster_samples = if options.coverage.mask_rate().is_some() { per_pass } else { 1 };
+        let need =
+            Need::PixelsTouched { raster_samples, standard_sample_locations: caps.standard_sample_locations };
+        let dilation = conservative::choose(need, caps.overestimation());
         Ok(Sampling {
             spp,
             per_pass,
             passes,
             size: (width, height),
             shutter: ctx.scene.camera.shutter,
-            dilate: crate::mirror::bounds::dilation_px(raster_samples, caps.standard_sample_locations),
+            dilation,
+            dilate: dilation.shader_box_px(),
             coverage_seed: crate::transparency::coverage_seed(ctx.settings.seed),
         })
     }
@@ -194,7 +203,7 @@ impl Visibility {
         let sets = layouts.both();
         let tinted = choices.iter().any(|c| c.tint_log.is_some());
 
-        let pipelines = Pipelines::new(ctx, options, debug, paths, &choices, &sets, sampling.per_pass)?;
+        let pipelines = Pipelines::new(ctx, options, debug, paths, &choices, &sets, &sampling)?;
 
         let storage = vk::BufferUsageFlags::STORAGE_BUFFER;
         let (aperture, shutter) = (ctx.scene.camera.aperture, ctx.scene.camera.shutter);
@@ -791,8 +800,10 @@ impl Pipelines {
         paths: &[Effects],
         choices: &[ObjectChoices],
         sets: &[&DescriptorSetLayout],
-        mask_samples: u32,
+        sampling: &Sampling,
     ) -> Result<Self> {
+        // The mask target's samples (M), and whether every bound draw overestimates.
+        let (mask_samples, overestimate) = (sampling.per_pass, sampling.dilation.overestimate());
         let (device, world) = (ctx.device, ctx.world);
         let caps = &device.caps;
         let compute = options.expansion == HullExpansion::Compute;
@@ -852,6 +863,7 @@ impl Pipelines {
                             vk::CompareOp::ALWAYS
                         },
                         depth_write: mask.is_some(),
+                        overestimate,
                     },
                 )
             };
