@@ -1,5 +1,5 @@
 //! What Shutter measured on each driver, and uses at run time: which stochastic bound is cheapest
-//! (`--bound device`) and what the per-object stochastic frame costs against `accumulation` (the
+//! (`--bound device`), which exact coverage path is (`--set coverage=device`) and what the per-object stochastic frame costs against `accumulation` (the
 //! quality planner's [`CostModel`]).
 //!
 //! The answer depends on the driver *and its version* (Mesa 25.0's lavapipe runs the stochastic frame
@@ -21,6 +21,8 @@
 //! device = "llvmpipe"             # optional: a part of the device's name
 //! bound = "bbox"                  # optional: `--bound device`'s bound ...
 //! bound_measured = "..."          # ... and where it was measured
+//! coverage = "visibility"         # optional: `coverage=device`'s path (visibility or mask) ...
+//! coverage_measured = "..."       # ... and where it was measured
 //!
 //! [[calibration.cost]]            # optional, one per image size measured:
 //! width = 160                     #   the size
@@ -43,6 +45,7 @@ use serde::{Deserialize, Serialize};
 use crate::error::{Error, Result};
 use crate::mirror::bounds::BoundKind;
 use crate::quality_plan::CostModel;
+use crate::techniques::stochastic::{Coverage, MaskRate};
 use crate::vk::drivers::driver_matches;
 use crate::vk::Capabilities;
 
@@ -63,10 +66,19 @@ pub struct Calibration {
     pub bound: Option<String>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub bound_measured: Option<String>,
+    /// The faster exact coverage path, by its `coverage=` name: `visibility` or `mask` (per sample;
+    /// both give the same image, so only time decides).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub coverage: Option<String>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub coverage_measured: Option<String>,
     /// The quality planner's cost ratios, one point per image size measured.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub cost: Vec<CostPoint>,
 }
+
+/// The coverage paths a calibration may choose between: those that give the same image.
+pub const EXACT_COVERAGE: [Coverage; 2] = [Coverage::Visibility, Coverage::Mask(MaskRate::Sample)];
 
 /// The per-object stochastic frame against `accumulation` at equal S, at one image size.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
@@ -134,6 +146,15 @@ impl Calibration {
         }
         if let Some(b) = &self.bound {
             b.parse::<BoundKind>().map_err(|e| Error::Unsupported(format!("{origin}: {e}")))?;
+        }
+        if let Some(c) = &self.coverage {
+            let path = c.parse::<Coverage>().map_err(|e| Error::Unsupported(format!("{origin}: {e}")))?;
+            if !EXACT_COVERAGE.contains(&path) {
+                return bad(format!(
+                    "coverage `{c}`: a calibration chooses between the exact paths ({})",
+                    EXACT_COVERAGE.map(|p| p.name()).join(", ")
+                ));
+            }
         }
         Ok(())
     }
@@ -204,6 +225,10 @@ impl CalibrationFile {
             old.bound = entry.bound;
             old.bound_measured = entry.bound_measured;
         }
+        if entry.coverage.is_some() {
+            old.coverage = entry.coverage;
+            old.coverage_measured = entry.coverage_measured;
+        }
         for p in entry.cost {
             old.cost.retain(|q| q.pixels() != p.pixels());
             old.cost.push(p);
@@ -255,6 +280,18 @@ pub fn device_bound(caps: &Capabilities) -> (BoundKind, String) {
         BoundKind::Adaptive,
         format!("no calibration for {} (run `shutter calibrate`): adaptive", caps.driver_key),
     )
+}
+
+/// The exact coverage path the driver's calibration found faster, and where it was measured; None
+/// without one (or with an unreadable user file: `device_bound` and the planner report that).
+pub fn device_coverage(caps: &Capabilities) -> Option<(Coverage, String)> {
+    for (origin, c) in for_device(caps).ok()? {
+        if let Some(Ok(path)) = c.coverage.as_deref().map(str::parse::<Coverage>) {
+            let measured = c.coverage_measured.as_deref().unwrap_or("no measurement recorded");
+            return Some((path, format!("calibrated for {} ({origin}): {measured}", c.driver)));
+        }
+    }
+    None
 }
 
 /// The quality planner's cost model on `caps`' device for a `width`×`height` image: the first
@@ -388,8 +425,13 @@ mod tests {
         let file = CalibrationFile::built_in();
         for key in ["lavapipe-22.3", "lavapipe-25.0"] {
             let c = file.calibration.iter().find(|c| c.driver == key).unwrap_or_else(|| panic!("{key}"));
-            assert!(c.bound.is_some() && c.cost.len() >= 2, "{c:?}");
-            let measured = c.cost.iter().map(|p| p.measured.as_str()).chain(c.bound_measured.as_deref());
+            assert!(c.bound.is_some() && c.coverage.is_some() && c.cost.len() >= 2, "{c:?}");
+            let measured = c
+                .cost
+                .iter()
+                .map(|p| p.measured.as_str())
+                .chain(c.bound_measured.as_deref())
+                .chain(c.coverage_measured.as_deref());
             for m in measured {
                 assert!(m.contains("shutter calibrate") && m.contains("Mesa"), "{key}: {m}");
             }
@@ -406,6 +448,9 @@ mod tests {
             ),
             ("[[calibration]]\ndriver = \"x\"\n[[calibration.cost]]\nwidth = 1\n", "missing field"),
             ("[[calibration]]\ndriver = \"x\"\nbound = \"blob\"\n", "blob"),
+            ("[[calibration]]\ndriver = \"x\"\ncoverage = \"blob\"\n", "blob"),
+            ("[[calibration]]\ndriver = \"x\"\ncoverage = \"mask-per-fragment\"\n", "exact paths"),
+            ("[[calibration]]\ndriver = \"x\"\ncoverage = \"device\"\n", "exact paths"),
             ("[[calibration]]\ndriver = \"x\"\nspeed = 2\n", "unknown field"),
             ("[[calibration]]\ndriver = \"\"\n", "empty driver"),
         ] {

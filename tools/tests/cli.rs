@@ -88,12 +88,20 @@ fn probe_and_scenes_work() {
     assert!(out.contains("device") && out.contains("MSAA counts"), "{out}");
     if out.contains("MESA_LLVMPIPE") {
         assert!(out.contains("draws `bbox`: calibrated for lavapipe-"), "{out}");
+        assert!(out.contains("takes `visibility`: calibrated for lavapipe-"), "{out}");
     }
     let (code, out, err) =
         shutter(&["calibrate", "static", "--size", "32x18", "--spp", "4", "--frames", "1", "--warmup", "0"]);
     assert_eq!(code, 0, "{err}");
     assert!(
         out.contains("| stochastic:bound=bbox |") && out.contains("calibration entry for this driver"),
+        "{out}"
+    );
+    // The coverage paths benched with per-sample shading, their images equal; one frame gives no
+    // interval, so the visibility path stays.
+    assert!(
+        out.contains("| stochastic:coverage=mask:shading=per-sample |")
+            && out.contains("`coverage=device` takes `visibility` from now on"),
         "{out}"
     );
     // `static` blurs nowhere: no noise to measure, no cost model saved (the bounds still calibrate).

@@ -665,7 +665,7 @@ pub struct FeaturePath {
 /// The path taken for each feature the techniques can use, and what forces the alternative.
 pub fn feature_paths(caps: &crate::vk::Capabilities) -> Vec<FeaturePath> {
     let counts = &caps.framebuffer_sample_counts;
-    let stochastic_coverage = stochastic::Coverage::Device.resolve(caps);
+    let stochastic_coverage = stochastic::Coverage::Device.resolve_for(caps, false);
     let f = |feature: &str, available: bool, path: String| FeaturePath {
         feature: feature.into(),
         available,
@@ -694,7 +694,7 @@ pub fn feature_paths(caps: &crate::vk::Capabilities) -> Vec<FeaturePath> {
             ),
         ),
         f("stochastic coverage", stochastic_coverage.is_ok(), match &stochastic_coverage {
-            Ok(c) => format!("`--set coverage=device` (the default) takes `{}`", c.name()),
+            Ok((c, why)) => format!("`--set coverage=device` (the default) takes `{}`: {why}", c.name()),
             Err(e) => format!("none: {e}"),
         }),
         f(

@@ -11,9 +11,10 @@ use shutter::techniques::{RenderSettings, Renderer};
 use crate::{bench, create_device, load_scene, parse_size, provenance};
 
 /// Measure this driver: the quality planner's cost model (accumulation against the per-object
-/// stochastic frame at equal S) and which stochastic bound is cheapest (the images do not depend
-/// on it: bbox, convex-hull and adaptive benched interleaved). Both are saved to the user's
-/// calibration file, which `render`/`auto` read from then on (engine/src/calibration.rs).
+/// stochastic frame at equal S), which stochastic bound is cheapest (the images do not depend
+/// on it: bbox, convex-hull and adaptive benched interleaved) and which exact coverage path
+/// (visibility buffer or the per-sample mask path, same image, benched interleaved). All are saved
+/// to the user's calibration file, which `render`/`auto` read from then on (engine/src/calibration.rs).
 #[derive(Args)]
 pub struct CalibrateArgs {
     #[arg(default_value = "default")]
@@ -29,11 +30,23 @@ pub struct CalibrateArgs {
     pub frames: usize,
     #[arg(long, default_value_t = 1)]
     pub warmup: usize,
+    /// Measure only these (repeat or separate by commas): `cost`, `bound`, `coverage`; default all.
+    #[arg(long, value_enum, value_delimiter = ',')]
+    pub only: Vec<Measure>,
+}
+
+/// What `shutter calibrate` measures.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum Measure {
+    Cost,
+    Bound,
+    Coverage,
 }
 
 pub fn run(args: CalibrateArgs) -> Result<()> {
-    let CalibrateArgs { scene, size: sizes, spp, frames, warmup } = args;
-    for &size in &sizes {
+    let CalibrateArgs { scene, size: sizes, spp, frames, warmup, only } = args;
+    let measures = |m: Measure| only.is_empty() || only.contains(&m);
+    for &size in sizes.iter().filter(|_| measures(Measure::Cost)) {
         match calibrate_cost(&scene, size, spp, frames.max(1)) {
             Ok(report) => outln!("{report}\n"),
             // A scene without blur measures no noise: the bound calibration below still runs.
@@ -45,15 +58,33 @@ pub fn run(args: CalibrateArgs) -> Result<()> {
     let mut defaults = RenderSettings::from_scene(&sc);
     (defaults.width, defaults.height) = size;
     defaults.spp = spp;
+    let mut renderer = Renderer::new(create_device()?)?;
+    if measures(Measure::Bound) {
+        calibrate_bound(&mut renderer, &sc, &scene, &defaults, frames.max(1), warmup)?;
+    }
+    if measures(Measure::Coverage) {
+        calibrate_coverage(&mut renderer, &sc, &scene, &defaults, frames.max(1), warmup)?;
+    }
+    Ok(())
+}
+
+/// `--bound device`'s bound: bbox, convex-hull and adaptive benched interleaved, the fastest saved.
+fn calibrate_bound(
+    renderer: &mut Renderer,
+    sc: &shutter::scene::Scene,
+    scene: &str,
+    defaults: &RenderSettings,
+    frames: usize,
+    warmup: usize,
+) -> Result<()> {
+    let (size, spp) = ((defaults.width, defaults.height), defaults.spp);
     let kinds = [BoundKind::BoundingBox, BoundKind::ConvexHull, BoundKind::Adaptive];
     let configs = kinds
         .iter()
-        .map(|k| bench::Config::parse(&format!("stochastic:bound={}", k.name()), &defaults))
+        .map(|k| bench::Config::parse(&format!("stochastic:bound={}", k.name()), defaults))
         .collect::<Result<Vec<_>>>()?;
-    let mut renderer = Renderer::new(create_device()?)?;
-    let args =
-        bench::BenchArgs { configs, frames: frames.max(1), warmup, counters: false, skip_refused: false };
-    let report = bench::run(&mut renderer, &sc, &args)?;
+    let args = bench::BenchArgs { configs, frames, warmup, counters: false, skip_refused: false };
+    let report = bench::run(renderer, sc, &args)?;
     outln!("{}", report.markdown());
     let ms: Vec<f64> = report.results.iter().map(|r| r.gpu_ms.median).collect();
     let best = (0..kinds.len()).min_by(|&a, &b| ms[a].total_cmp(&ms[b])).expect("three kinds");
@@ -82,6 +113,79 @@ pub fn run(args: CalibrateArgs) -> Result<()> {
     outln!("saved to {}; `--bound device` draws `{}` from now on ({why})", path.display(), now.name());
     outln!(
         "calibration entry for this driver (the project ships its own in engine/data/calibrations.toml):\n\n{}",
+        toml::to_string(&shutter::calibration::CalibrationFile { calibration: vec![entry] })?
+    );
+    Ok(())
+}
+
+/// `coverage=device`'s path: the visibility buffer and the per-sample mask path (the exact ones,
+/// [`shutter::calibration::EXACT_COVERAGE`]) benched interleaved, each at its own samples per pass
+/// (what `coverage=device` would run) and with per-sample shading, whose image does not depend on
+/// how S splits into passes — so the two must agree up to the order of the f32 sums over passes
+/// ([`SAME_IMAGE_RMSE`]), and a difference is an error, not a
+/// calibration. The mask path is saved only where its paired ratio's whole 95 % interval lies below
+/// 1; otherwise the visibility path (a device lacking either path records nothing).
+/// Largest RMSE between the two paths' images that is rounding (as the same-sample tests allow).
+const SAME_IMAGE_RMSE: f64 = 1e-4;
+
+fn calibrate_coverage(
+    renderer: &mut Renderer,
+    sc: &shutter::scene::Scene,
+    scene: &str,
+    defaults: &RenderSettings,
+    frames: usize,
+    warmup: usize,
+) -> Result<()> {
+    let (size, spp) = ((defaults.width, defaults.height), defaults.spp);
+    let paths = shutter::calibration::EXACT_COVERAGE;
+    let configs = paths
+        .iter()
+        .map(|p| {
+            bench::Config::parse(&format!("stochastic:coverage={}:shading=per-sample", p.name()), defaults)
+        })
+        .collect::<Result<Vec<_>>>()?;
+    let args = bench::BenchArgs { configs, frames, warmup, counters: false, skip_refused: true };
+    let report = bench::run(renderer, sc, &args)?;
+    outln!("{}", report.markdown());
+    if report.results.len() < paths.len() {
+        outln!("coverage: the device takes only one exact path, nothing to calibrate");
+        return Ok(());
+    }
+    let mask = &report.results[1];
+    // Equal up to the order of the f32 sums over passes (the paths split S differently).
+    let identical = mask.image_vs_first.as_ref().is_some_and(|d| d.identical || d.rmse < SAME_IMAGE_RMSE);
+    let faster = mask.paired_ratio.as_ref().is_some_and(|r| r.high < 1.0);
+    let chosen = if identical && faster { paths[1] } else { paths[0] };
+    let ratio =
+        mask.paired_ratio.as_ref().map_or_else(|| format!("{:.2}", mask.ratio_to_first), |r| r.cell());
+    let caps = &renderer.device().caps;
+    let entry = shutter::calibration::Calibration {
+        driver: caps.driver_key.clone(),
+        coverage: Some(chosen.name().to_string()),
+        coverage_measured: Some(format!(
+            "`shutter calibrate --only coverage` ({scene}, {}x{}, S = {spp}, {frames} interleaved frames): \
+             mask {ratio}x visibility, images {}; {}",
+            size.0,
+            size.1,
+            mask.image_vs_first
+                .as_ref()
+                .map_or_else(|| "not compared".into(), |d| format!("equal ({})", d.cell())),
+            measured_on(caps)
+        )),
+        ..Default::default()
+    };
+    if !identical {
+        anyhow::bail!(
+            "the mask path's image differs from the visibility path's ({}): a bug, please report it; \
+             nothing saved",
+            mask.image_vs_first.as_ref().map_or_else(|| "not compared".into(), |d| d.cell())
+        );
+    }
+    let path = save_calibration(entry.clone())?;
+    let (now, why) = shutter::techniques::stochastic::Coverage::Device.resolve_for(caps, false)?;
+    outln!("saved to {}; `coverage=device` takes `{}` from now on ({why})", path.display(), now.name());
+    outln!(
+        "calibration entry for this driver:\n\n{}",
         toml::to_string(&shutter::calibration::CalibrationFile { calibration: vec![entry] })?
     );
     Ok(())

@@ -78,8 +78,18 @@ impl Coverage {
     }
 
     /// The path this choice takes on a device with `caps` (never [`Coverage::Device`]), or the refusal
-    /// naming what the device lacks.
+    /// naming what the device lacks; [`Coverage::Device`] as [`Coverage::resolve_for`] without fixed
+    /// cluster bounds.
     pub fn resolve(&self, caps: &Capabilities) -> Result<Coverage> {
+        self.resolve_for(caps, false).map(|(path, _)| path)
+    }
+
+    /// [`Coverage::resolve`] with why: [`Coverage::Device`] takes the exact path the driver's
+    /// calibration found faster ([`crate::calibration::device_coverage`], `shutter calibrate`) where
+    /// the device can take it (and, for the mask path, `fixed_clusters` — cluster bounds asked for by
+    /// number, which only the visibility path draws — is false); else the first of visibility, mask,
+    /// mask-per-fragment the device has the features for ([`device_path`]).
+    pub fn resolve_for(&self, caps: &Capabilities, fixed_clusters: bool) -> Result<(Coverage, String)> {
         let missing = |path: Coverage| -> Vec<(Feature, &'static str)> {
             let needs: &[(Feature, &'static str)] = match path {
                 Coverage::Visibility | Coverage::Device => &[
@@ -107,21 +117,15 @@ impl Coverage {
         };
         match self {
             Coverage::Device => {
-                for path in [
-                    Coverage::Visibility,
-                    Coverage::Mask(MaskRate::Sample),
-                    Coverage::Mask(MaskRate::Fragment),
-                ] {
-                    if missing(path).is_empty() {
-                        return Ok(path);
-                    }
-                }
-                Err(refuse(Coverage::Mask(MaskRate::Fragment), missing(Coverage::Mask(MaskRate::Fragment))))
+                let calibrated = crate::calibration::device_coverage(caps);
+                device_path(&|path| missing(path).is_empty(), calibrated, fixed_clusters).ok_or_else(|| {
+                    refuse(Coverage::Mask(MaskRate::Fragment), missing(Coverage::Mask(MaskRate::Fragment)))
+                })
             }
             path => {
                 let lacks = missing(*path);
                 if lacks.is_empty() {
-                    Ok(*path)
+                    Ok((*path, "chosen".into()))
                 } else {
                     Err(refuse(*path, lacks))
                 }
@@ -143,6 +147,42 @@ impl std::str::FromStr for Coverage {
     fn from_str(s: &str) -> Result<Self> {
         crate::error::parse_named(&Coverage::NAMED, |c| c.name(), "coverage path", s)
     }
+}
+
+/// [`Coverage::Device`]'s path, and why: `calibrated` (a path and where it was measured) where
+/// `available` says the device can take it and it can draw what was asked (`fixed_clusters` rules out
+/// the mask path); else the first available of visibility, mask per sample, mask per fragment; None
+/// where none is.
+pub fn device_path(
+    available: &dyn Fn(Coverage) -> bool,
+    calibrated: Option<(Coverage, String)>,
+    fixed_clusters: bool,
+) -> Option<(Coverage, String)> {
+    let mut passed_over = String::new();
+    if let Some((path, why)) = calibrated {
+        let draws = path.mask_rate().is_none() || !fixed_clusters;
+        if available(path) && draws {
+            return Some((path, why));
+        }
+        passed_over = format!(
+            " (calibrated `{}` passed over: {})",
+            path.name(),
+            if draws {
+                "the device lacks its features"
+            } else {
+                "fixed cluster bounds need the visibility path"
+            }
+        );
+    }
+    let order = [Coverage::Visibility, Coverage::Mask(MaskRate::Sample), Coverage::Mask(MaskRate::Fragment)];
+    order.into_iter().find(|&p| available(p)).map(|p| {
+        let why = match p {
+            Coverage::Visibility => "the device has the visibility buffer's 64-bit atomics",
+            Coverage::Mask(MaskRate::Sample) => "no 64-bit buffer atomics; sample-rate shading",
+            _ => "no 64-bit buffer atomics, no sample-rate shading",
+        };
+        (p, format!("{why}{passed_over}"))
+    })
 }
 
 /// The mask target's formats: the payload (`triangle << 1 | back`) and the depth.
@@ -326,6 +366,30 @@ impl MaskTarget {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_device_path_is_the_calibrated_one_where_the_device_can_take_it() {
+        let (vis, mask, frag) =
+            (Coverage::Visibility, Coverage::Mask(MaskRate::Sample), Coverage::Mask(MaskRate::Fragment));
+        let all = |_: Coverage| true;
+        let no_atomics = |p: Coverage| p != vis;
+        let bare = |p: Coverage| p == frag;
+        let measured = |p: Coverage| Some((p, "measured".to_string()));
+        // Uncalibrated: by features.
+        assert_eq!(device_path(&all, None, false).unwrap().0, vis);
+        assert_eq!(device_path(&no_atomics, None, false).unwrap().0, mask);
+        assert_eq!(device_path(&bare, None, false).unwrap().0, frag);
+        assert!(device_path(&|_| false, None, false).is_none());
+        // Calibrated mask on a device with both: the mask path, with the calibration's reason.
+        assert_eq!(device_path(&all, measured(mask), false), measured(mask));
+        assert_eq!(device_path(&all, measured(vis), false), measured(vis));
+        // Fixed cluster bounds only draw on the visibility path; a device without the calibrated
+        // path's features falls back by features; each says why.
+        let (p, why) = device_path(&all, measured(mask), true).unwrap();
+        assert!(p == vis && why.contains("cluster"), "{p:?} {why}");
+        let (p, why) = device_path(&no_atomics, measured(vis), false).unwrap();
+        assert!(p == mask && why.contains("passed over"), "{p:?} {why}");
+    }
 
     #[test]
     fn the_mask_path_takes_the_largest_msaa_count_that_divides_s() {

@@ -394,7 +394,7 @@ fn check(
         }
         HullExpansion::Compute => {}
     }
-    let coverage = options.coverage.resolve(caps)?;
+    let (coverage, _) = options.coverage.resolve_for(caps, matches!(options.clusters, Clusters::Fixed(_)))?;
     if coverage.mask_rate().is_some() {
         let path = format!("the `{}` coverage path", coverage.name());
         if let Clusters::Fixed(_) = options.clusters {
