@@ -52,8 +52,8 @@ struct Cli {
     /// Treat these device features as absent although the device offers them, to see the path
     /// Shutter takes without them (or its refusal): geometry-shader, clip-distance,
     /// sample-rate-shading, independent-blend, fragment-stores-and-atomics,
-    /// vertex-pipeline-stores-and-atomics, conservative-rasterization, buffer-int64-atomics,
-    /// timestamp-queries, linear-filter-rgba32f, msaa-N. Comma-separated or repeated; added to
+    /// vertex-pipeline-stores-and-atomics, conservative-rasterization, mesh-shader,
+    /// buffer-int64-atomics, shader-int64, timestamp-queries, linear-filter-rgba32f, msaa-N. Comma-separated or repeated; added to
     /// `$SHUTTER_DISABLE`. They are not enabled on the device, so validation reports any use.
     #[arg(long, global = true, value_name = "FEATURE", value_delimiter = ',')]
     disable: Vec<String>,

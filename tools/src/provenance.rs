@@ -33,6 +33,11 @@ impl Provenance {
             .filter(|(k, _)| ENV_PREFIXES.iter().any(|p| k.starts_with(p)))
             // Cargo's copy of the build's own commit (set when it runs the tests), not a setting.
             .filter(|(k, _)| k != "SHUTTER_GIT_COMMIT")
+            // The manifests Shutter offered the loader itself are not the user's setting.
+            .filter_map(|(k, v)| match (k.as_str(), shutter::vk::drivers::user_add_driver_files()) {
+                ("VK_ADD_DRIVER_FILES", Some(user)) => user.map(|u| (k, u)),
+                _ => Some((k, v)),
+            })
             .map(|(k, v)| format!("{k}={v}"))
             .collect();
         environment.sort();

@@ -766,3 +766,13 @@ fn the_path_matrix_times_what_the_device_runs_and_lists_what_it_refuses() {
     assert!(out.contains("| `visibility/gs/per-sample/M=4` |") && out.contains("| 1.000 |"), "{out}");
     assert!(dir.join("c.md").is_file());
 }
+
+#[test]
+fn the_disable_help_names_every_feature() {
+    let (code, out, err) = shutter(&["render", "--help"]);
+    assert_eq!(code, 0, "{err}");
+    let text = out.split_whitespace().collect::<Vec<_>>().join(" ");
+    for f in shutter::vk::Feature::FLAGS {
+        assert!(text.contains(&format!("{},", f.key())), "`--disable` help lacks {}: {text}", f.key());
+    }
+}

@@ -90,6 +90,18 @@ fn manifest_library(manifest: &Path) -> Result<PathBuf> {
 /// none of its own.
 const LOADER_DRIVER_VARS: [&str; 2] = ["VK_ICD_FILENAMES", "VK_DRIVER_FILES"];
 
+/// `VK_ADD_DRIVER_FILES` as the user set it (None: unset), recorded where
+/// [`offer_project_drivers`] appended the project's manifests to it.
+static USER_ADD_DRIVER_FILES: std::sync::OnceLock<Option<String>> = std::sync::OnceLock::new();
+
+/// What the user's environment held in `VK_ADD_DRIVER_FILES` before Shutter added the project's
+/// drivers to it (`Some(None)`: unset), or None where Shutter left it alone — so a report lists the
+/// user's settings, not the manifests of every project driver whichever one the run used (its
+/// driver is named on its own).
+pub fn user_add_driver_files() -> Option<Option<String>> {
+    USER_ADD_DRIVER_FILES.get().cloned()
+}
+
 /// Offers the project's drivers to the Vulkan loader, once per process, and returns them: their
 /// manifests are appended to `VK_ADD_DRIVER_FILES` (which the loader reads when an instance is
 /// created), unless the user chose the drivers with `VK_ICD_FILENAMES` or `VK_DRIVER_FILES`.
@@ -109,8 +121,9 @@ pub fn offer_project_drivers() -> Result<Vec<ProjectDriver>> {
         if drivers.is_empty() || user_chose {
             return Ok(if user_chose { vec![] } else { drivers });
         }
-        let mut files: Vec<std::ffi::OsString> =
-            std::env::var_os("VK_ADD_DRIVER_FILES").filter(|v| !v.is_empty()).into_iter().collect();
+        let user = std::env::var_os("VK_ADD_DRIVER_FILES").filter(|v| !v.is_empty());
+        let _ = USER_ADD_DRIVER_FILES.set(user.as_ref().map(|v| v.to_string_lossy().into_owned()));
+        let mut files: Vec<std::ffi::OsString> = user.into_iter().collect();
         files.extend(drivers.iter().map(|d| d.manifest.clone().into_os_string()));
         let joined = std::env::join_paths(&files).map_err(|e| e.to_string())?;
         std::env::set_var("VK_ADD_DRIVER_FILES", joined);
