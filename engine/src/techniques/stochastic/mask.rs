@@ -88,7 +88,7 @@ impl Coverage {
     /// calibration found faster ([`crate::calibration::device_coverage`], `shutter calibrate`) where
     /// the device can take it (and, for the mask path, `fixed_clusters` — cluster bounds asked for by
     /// number, which only the visibility path draws — is false); else the first of visibility, mask,
-    /// mask-per-fragment the device has the features for ([`device_path`]).
+    /// mask-per-fragment the device has the features for (`device_path`).
     pub fn resolve_for(&self, caps: &Capabilities, fixed_clusters: bool) -> Result<(Coverage, String)> {
         let missing = |path: Coverage| -> Vec<(Feature, &'static str)> {
             let needs: &[(Feature, &'static str)] = match path {
