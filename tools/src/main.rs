@@ -31,7 +31,6 @@ use clap::{Parser, Subcommand};
 use shutter::image_io::{
     check_image_output, check_output_file, load_image, save_image, write_file_atomically,
 };
-use shutter::metrics::{compare, write_flip_diff_png};
 use shutter::quality_plan::{CostModel, QualityTarget};
 use shutter::reference::ReferenceSettings;
 use shutter::scene::builtin::BUILTIN_SCENES;
@@ -135,14 +134,9 @@ enum Command {
         #[command(flatten)]
         image: ImageArgs,
     },
-    /// Compare two images: prints RMSE, PSNR and mean FLIP of B against reference A.
-    Compare {
-        a: PathBuf,
-        b: PathBuf,
-        /// Write the FLIP error map (magma colour map) as a PNG.
-        #[arg(long)]
-        diff: Option<PathBuf>,
-    },
+    /// Compare two images: RMSE, PSNR and mean FLIP of B against reference A; with `--max-flip` /
+    /// `--max-rmse`, exit 0 within them, 1 beyond, 2 where the images could not be compared.
+    Compare(cmd::compare::CompareArgs),
     /// Convert an image between .exr (linear) and .png (sRGB).
     Convert { input: PathBuf, output: PathBuf },
     /// Sample test efficiency and GPU ms of every stochastic bound on a scene, next to pinhole and
@@ -395,6 +389,9 @@ fn main() {
             std::process::exit(EXIT_BROKEN_PIPE);
         }
         note(format_args!("error: {e:#}"));
+        if e.chain().any(|c| c.downcast_ref::<cmd::compare::NotCompared>().is_some()) {
+            std::process::exit(cmd::compare::EXIT_NOT_COMPARED);
+        }
         std::process::exit(1);
     }
 }
@@ -569,18 +566,7 @@ fn run() -> Result<()> {
                 out.display()
             );
         }
-        Command::Compare { a, b, diff } => {
-            let ia = load_image(&a)?;
-            let ib = load_image(&b)?;
-            let m = compare(&ia, &ib)?;
-            outln!("RMSE {:.6}", m.rmse);
-            outln!("PSNR {:.3}", m.psnr);
-            outln!("FLIP {:.6}", m.flip);
-            if let Some(d) = diff {
-                write_flip_diff_png(&d, &ia, &ib)?;
-                outln!("wrote {}", d.display());
-            }
-        }
+        Command::Compare(args) => cmd::compare::run(args)?,
         Command::Convert { input, output } => {
             check_image_output(&output)?;
             save_image(&output, &load_image(&input)?)?;

@@ -42,7 +42,8 @@ fn bad_input_is_a_clear_error_not_a_panic() {
     ];
     for (args, needle) in cases {
         let (code, _, err) = shutter(&args);
-        let usage_error = args.contains(&"raytraced");
+        // A usage error, or images `compare` could not compare (2: not a regression, 1).
+        let usage_error = args.contains(&"raytraced") || args[0] == "compare";
         assert_eq!(code, if usage_error { 2 } else { 1 }, "{args:?}: {err}");
         assert!(err.starts_with("error:") && err.contains(needle), "{args:?}: {err}");
         assert!(!err.contains("panicked"), "{args:?} panicked: {err}");
@@ -310,7 +311,7 @@ fn strict_input_is_refused_with_a_message_in_the_users_terms() {
         // An I/O error says its cause once.
         (
             vec!["compare", &missing, &missing],
-            1,
+            2,
             vec![format!("error: I/O error on {missing}: No such file or directory (os error 2)\n")],
         ),
     ];
@@ -775,4 +776,64 @@ fn the_disable_help_names_every_feature() {
     for f in shutter::vk::Feature::FLAGS {
         assert!(text.contains(&format!("{},", f.key())), "`--disable` help lacks {}: {text}", f.key());
     }
+}
+
+/// `compare --max-flip/--max-rmse --json` (issue 32): a script gates on the exit code — 0 within the
+/// thresholds, 1 beyond them (naming each), 2 where the images could not be compared — and reads one
+/// JSON object with the metrics, the thresholds and the verdict.
+#[test]
+fn compare_thresholds_gate_with_exit_codes_and_json() {
+    let dir = std::env::temp_dir().join(format!("shutter-cli-compare-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = |n: &str| dir.join(n).display().to_string();
+    let (a, b, small) = (path("a.exr"), path("b.exr"), path("small.exr"));
+    for (out, spp, size) in
+        [(&a, "4", ["--size", "32x18"]), (&b, "8", ["--size", "32x18"]), (&small, "4", ["--size", "16x9"])]
+    {
+        let (code, _, err) = shutter(&[
+            "render",
+            "default",
+            "--technique",
+            "accumulation",
+            "--spp",
+            spp,
+            "--out",
+            out,
+            size[0],
+            size[1],
+        ]);
+        assert_eq!(code, 0, "{err}");
+    }
+    let json = |args: &[&str]| {
+        let (code, out, err) = shutter(args);
+        let v: serde_json::Value = serde_json::from_str(&out).unwrap_or_else(|e| panic!("{e}: {out} {err}"));
+        (code, v, err)
+    };
+    // The same image: within any threshold, RMSE 0 and no PSNR (infinite).
+    let (code, v, _) = json(&["compare", &a, &a, "--max-flip", "0", "--max-rmse", "0", "--json"]);
+    assert_eq!(code, 0);
+    assert_eq!((v["pass"].as_bool(), v["rmse"].as_f64(), v["psnr"].is_null()), (Some(true), Some(0.0), true));
+    // Different sample counts differ: beyond a tiny threshold (1), within a generous one (0).
+    let (code, v, err) = json(&["compare", &a, &b, "--max-flip", "1e-9", "--json"]);
+    let flip = v["flip"].as_f64().unwrap();
+    assert!(flip > 0.0 && code == 1, "{code} {v}");
+    assert_eq!(v["pass"], false);
+    assert!(v["failures"][0].as_str().unwrap().starts_with("FLIP"), "{v}");
+    assert!(err.contains("beyond its threshold"), "{err}");
+    let generous = format!("{}", flip * 2.0);
+    let (code, v, _) = json(&["compare", &a, &b, "--max-flip", &generous, "--max-rmse", "1", "--json"]);
+    assert_eq!((code, v["pass"].as_bool()), (0, Some(true)), "{v}");
+    // Text output says pass or FAIL where a threshold is given.
+    let (code, out, _) = shutter(&["compare", &a, &b, "--max-rmse", "0"]);
+    assert!(code == 1 && out.contains("RMSE") && out.ends_with("FAIL\n"), "{out}");
+    // Not compared: sizes that differ, a threshold that is no number ≥ 0.
+    for args in [vec!["compare", &a, &small, "--max-flip", "1"], vec!["compare", &a, &b, "--max-rmse", "-1"]]
+    {
+        let (code, _, err) = shutter(&args);
+        assert!(
+            code == 2 && err.starts_with("error:") && !err.contains("panicked"),
+            "{args:?}: {code} {err}"
+        );
+    }
+    std::fs::remove_dir_all(&dir).ok();
 }
