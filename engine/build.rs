@@ -1,6 +1,6 @@
 //! Compiles every GLSL stage under `shaders-glsl/` to SPIR-V with shaderc (glslang) and embeds it.
 //!
-//! * Stages are recognised by extension: `.vert .geom .mesh .frag .comp`; `.glsl` files are include-only.
+//! * Stages are recognised by extension: `.vert .geom .task .mesh .frag .comp`; `.glsl` files are include-only.
 //! * `#include "common/x.glsl"` resolves relative to `shaders-glsl/` (and to the including file).
 //! * `shaders-glsl/permutations.toml` declares permutation axes once (bool: one define on/off; enum:
 //!   named values, each a list of defines, the first the default) and lists each stage file's axes.
@@ -179,7 +179,7 @@ fn collect(root: &Path, dir: &Path, out: &mut Vec<String>) {
             collect(root, &p, out);
         } else if matches!(
             p.extension().and_then(|e| e.to_str()),
-            Some("vert" | "geom" | "mesh" | "frag" | "comp")
+            Some("vert" | "geom" | "task" | "mesh" | "frag" | "comp")
         ) {
             out.push(p.strip_prefix(root).unwrap().to_string_lossy().replace('\\', "/"));
         }
@@ -190,6 +190,7 @@ fn stage_of(path: &Path) -> (shaderc::ShaderKind, &'static str, &'static str) {
     match path.extension().unwrap().to_str().unwrap() {
         "vert" => (shaderc::ShaderKind::Vertex, "STAGE_VERTEX", "Vertex"),
         "geom" => (shaderc::ShaderKind::Geometry, "STAGE_GEOMETRY", "Geometry"),
+        "task" => (shaderc::ShaderKind::Task, "STAGE_TASK", "Task"),
         "mesh" => (shaderc::ShaderKind::Mesh, "STAGE_MESH", "Mesh"),
         "frag" => (shaderc::ShaderKind::Fragment, "STAGE_FRAGMENT", "Fragment"),
         "comp" => (shaderc::ShaderKind::Compute, "STAGE_COMPUTE", "Compute"),

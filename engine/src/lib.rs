@@ -161,6 +161,8 @@ pub mod shaders {
     pub enum ShaderStage {
         Vertex,
         Geometry,
+        /// A task shader (`VK_EXT_mesh_shader`'s `taskShader`): launches the mesh workgroups.
+        Task,
         /// A mesh shader (`VK_EXT_mesh_shader`).
         Mesh,
         Fragment,

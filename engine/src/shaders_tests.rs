@@ -245,7 +245,7 @@ fn each_file_has_the_product_of_its_axes() {
                 dirs.push(p);
             } else if matches!(
                 p.extension().and_then(|e| e.to_str()),
-                Some("vert" | "geom" | "mesh" | "frag" | "comp")
+                Some("vert" | "geom" | "task" | "mesh" | "frag" | "comp")
             ) {
                 on_disk.insert(p.strip_prefix(&root).unwrap().to_string_lossy().replace('\\', "/"));
             }

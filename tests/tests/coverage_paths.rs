@@ -8,7 +8,7 @@ use shutter::hard_cases::CASES;
 use shutter::metrics::compare;
 use shutter::scene::builtin::builtin_scene;
 use shutter::scene::Scene;
-use shutter::techniques::stochastic::{Coverage, MaskRate};
+use shutter::techniques::stochastic::{Clusters, Coverage, MaskRate};
 use shutter::techniques::{
     HullExpansion, RenderOutput, RenderSettings, Renderer, ShadingRate, StochasticOptions, Technique,
 };
@@ -118,15 +118,88 @@ fn mesh_hull_is_bit_identical_to_the_geometry_shader_hull() {
         .map(|n| (n.to_string(), builtin_scene(n).unwrap().unwrap(), (96, 54), 8))
         .collect();
     scenes.extend(CASES.iter().map(|c| (c.name.to_string(), c.scene().unwrap(), (48, 27), 4)));
+    // The task shader's culling (`--hull mesh-task`) where the device has task shaders.
+    let mut hulls = vec![HullExpansion::Mesh];
+    if r.device().caps.task_shader {
+        hulls.push(HullExpansion::MeshTask);
+    }
     for (name, scene, size, spp) in &scenes {
         for coverage in [Coverage::Visibility, Coverage::Mask(MaskRate::Sample)] {
             let gs = render(&mut r, scene, *size, *spp, with(HullExpansion::GeometryShader, coverage));
-            let mesh = render(&mut r, scene, *size, *spp, with(HullExpansion::Mesh, coverage));
-            let d = max_abs_diff(&gs.image, &mesh.image);
-            assert!(d == 0.0, "{name}, {} coverage: the mesh hull differs from gs by {d}", coverage.name());
+            for &hull in &hulls {
+                let mesh = render(&mut r, scene, *size, *spp, with(hull, coverage));
+                let d = max_abs_diff(&gs.image, &mesh.image);
+                assert!(
+                    d == 0.0,
+                    "{name}, {} coverage: hull {} differs from gs by {d}",
+                    coverage.name(),
+                    hull.name()
+                );
+            }
         }
     }
-    println!("mesh hull = gs hull, bit for bit, on {} scenes × 2 coverage paths", scenes.len());
+    let names: Vec<_> = hulls.iter().map(|h| h.name()).collect();
+    println!("{names:?} hull = gs hull, bit for bit, on {} scenes × 2 coverage paths", scenes.len());
+}
+
+/// A one-sided sphere half out of the image, moving and defocused: `--hull mesh-task`'s task shader
+/// drops its back-facing and off-image triangles before the mesh shader bounds them — the device
+/// counts fewer mesh-shader invocations (where it counts them, `meshShaderQueries`) — and every hit
+/// stays: the same hits and the same image as `--hull mesh`. Refused by name on a device without
+/// task shaders.
+#[test]
+fn task_shader_culling_drops_work_and_no_hit() {
+    let mut r = renderer();
+    let scene = shutter::scene::file::parse_scene(
+        "[image]\nwidth = 64\nheight = 36\nspp = 8\nseed = 1\n\
+         [camera]\nposition = [0, 0, 4]\nlook_at = [0, 0, 0]\nvfov_deg = 40.0\n\
+         aperture_radius = 0.05\nfocus_distance = 3.5\n\
+         [[object]]\nname = \"ball\"\nmesh = \"sphere\"\ndetail = 16\n\
+         [object.transform]\ntranslate = [2.6, 0, 0]\n\
+         [object.transform_close]\ntranslate = [2.9, 0.1, 0]\n\
+         [object.material]\none_sided = true\n",
+        std::path::Path::new("."),
+        "half-out",
+    )
+    .unwrap();
+    let with = |expansion| StochasticOptions {
+        expansion,
+        instrumented: true,
+        clusters: Clusters::Off,
+        ..Default::default()
+    };
+    let settings = |h| RenderSettings::new(64, 36, 8, 3).with_stochastic(with(h));
+    let caps = r.device().caps.clone();
+    if !(caps.mesh_shader && caps.task_shader) {
+        let Err(err) = r.render(&scene, Technique::STOCHASTIC, &settings(HullExpansion::MeshTask)) else {
+            panic!("a device without task shaders rendered --hull mesh-task")
+        };
+        let err = err.to_string();
+        println!("no task shaders on this device: {err}");
+        assert!(err.contains("VK_EXT_mesh_shader"), "{err}");
+        return;
+    }
+    let mesh = r.render(&scene, Technique::STOCHASTIC, &settings(HullExpansion::Mesh)).unwrap();
+    let task = r.render(&scene, Technique::STOCHASTIC, &settings(HullExpansion::MeshTask)).unwrap();
+    let (m, t) = (mesh.stats.counters.unwrap(), task.stats.counters.unwrap());
+    println!(
+        "mesh: {} fragments, {} tested, {} hit; mesh-task: {} fragments, {} tested, {} hit",
+        m.fragments, m.samples_tested, m.samples_hit, t.fragments, t.samples_tested, t.samples_hit
+    );
+    assert!(m.samples_hit > 0, "the sphere is not in the image");
+    assert_eq!(max_abs_diff(&mesh.image, &task.image), 0.0);
+    assert_eq!(m.samples_hit, t.samples_hit, "a culled triangle had a hit");
+    assert!(t.fragments <= m.fragments && t.samples_tested <= m.samples_tested);
+    if caps.mesh_shader_queries {
+        let (pm, pt) = (mesh.stats.pipeline_statistics.unwrap(), task.stats.pipeline_statistics.unwrap());
+        println!("mesh: {}\nmesh-task: {}", pm.summary(), pt.summary());
+        let (ms, ts) = (pm.mesh_shader_invocations.unwrap(), pt.mesh_shader_invocations.unwrap());
+        // One task invocation per triangle slot of each cluster; the sphere's far half and the part
+        // beyond the image edge launch no mesh workgroup.
+        assert_eq!(pm.task_shader_invocations, None);
+        assert!(pt.task_shader_invocations.unwrap() > 0);
+        assert!(2 * ts < ms, "the task shader kept {ts} of {ms} mesh workgroups");
+    }
 }
 
 #[test]
@@ -161,6 +234,9 @@ fn an_instrumented_frame_carries_the_devices_pipeline_statistics() {
         let p = render(&mut r, &scene, (48, 27), 4, mesh).stats.pipeline_statistics.unwrap();
         assert_eq!((p.input_assembly_primitives, p.geometry_shader_invocations), (None, None), "{p:?}");
         assert!(p.fragment_shader_invocations >= c.fragments, "{p:?}");
+        // The mesh shader's own count, where the device has meshShaderQueries (lavapipe 25.0 does).
+        assert_eq!(p.mesh_shader_invocations.is_some(), r.device().caps.mesh_shader_queries, "{p:?}");
+        assert!(p.mesh_shader_invocations.is_none_or(|n| n > 0), "{p:?}");
     }
 }
 

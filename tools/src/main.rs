@@ -51,9 +51,9 @@ struct Cli {
     /// Treat these device features as absent although the device offers them, to see the path
     /// Shutter takes without them (or its refusal): geometry-shader, clip-distance,
     /// sample-rate-shading, independent-blend, fragment-stores-and-atomics,
-    /// vertex-pipeline-stores-and-atomics, conservative-rasterization, mesh-shader,
-    /// buffer-int64-atomics, shader-int64, timestamp-queries, linear-filter-rgba32f, msaa-N. Comma-separated or repeated; added to
-    /// `$SHUTTER_DISABLE`. They are not enabled on the device, so validation reports any use.
+    /// vertex-pipeline-stores-and-atomics, conservative-rasterization, mesh-shader, task-shader,
+    /// buffer-int64-atomics, shader-int64, timestamp-queries, linear-filter-rgba32f, msaa-N.
+    /// Comma-separated or repeated; added to `$SHUTTER_DISABLE`. They are not enabled on the device, so validation reports any use.
     #[arg(long, global = true, value_name = "FEATURE", value_delimiter = ',')]
     disable: Vec<String>,
     #[command(subcommand)]
@@ -167,7 +167,7 @@ enum Command {
     Bench {
         #[arg(default_value = "default")]
         scene: String,
-        /// A configuration `technique[:spp=N][:shadow-map=SIZE/S/PCF|off][:bound=B][:shading=RATE (as render's --shading)][:cache=N][:per-pass=M][:intervals=auto|K][:clusters=auto|off|N][:hull=gs|compute|mesh][:coverage=visibility|mask|mask-per-fragment|device]`; repeat for
+        /// A configuration `technique[:spp=N][:shadow-map=SIZE/S/PCF|off][:bound=B][:shading=RATE (as render's --shading)][:cache=N][:per-pass=M][:intervals=auto|K][:clusters=auto|off|N][:hull=gs|compute|mesh|mesh-task][:coverage=visibility|mask|mask-per-fragment|device]`; repeat for
         /// more. The first is the baseline of the ratios.
         #[arg(short = 'c', long = "config", default_values_t = ["auto".to_string(), "pinhole".to_string()])]
         configs: Vec<String>,

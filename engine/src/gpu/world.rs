@@ -57,14 +57,17 @@ pub const SCENE_STAGES: vk::ShaderStageFlags = vk::ShaderStageFlags::from_raw(
 );
 
 /// Shader stages that may read the scene's and the techniques' sets on `caps`' device: [`SCENE_STAGES`]
-/// and, where the device has mesh shaders (enabled: a layout may not name the stage otherwise), the
-/// mesh stage.
+/// and, where the device has mesh (and task) shaders (enabled: a layout may not name the stage
+/// otherwise), the mesh (and task) stage.
 pub fn scene_stages(caps: &crate::vk::Capabilities) -> vk::ShaderStageFlags {
+    let mut stages = SCENE_STAGES;
     if caps.mesh_shader {
-        SCENE_STAGES | vk::ShaderStageFlags::MESH_EXT
-    } else {
-        SCENE_STAGES
+        stages |= vk::ShaderStageFlags::MESH_EXT;
     }
+    if caps.task_shader {
+        stages |= vk::ShaderStageFlags::TASK_EXT;
+    }
+    stages
 }
 
 impl GpuWorld {

@@ -50,26 +50,39 @@ pub enum HullExpansion {
     /// emits every triangle in every pass, as the geometry shader does: the same triangles reach the
     /// rasterizer, so the image is bit-identical to [`HullExpansion::GeometryShader`]'s.
     Mesh,
+    /// [`HullExpansion::Mesh`] behind a task shader (`shaders-glsl/stochastic/stochastic.task`) that
+    /// culls, per cluster of 32 triangles, those whose box over the draw's lens and times misses the
+    /// image and one-sided ones back-facing throughout: only triangles that emit no hit are dropped,
+    /// so the image is bit-identical too.
+    MeshTask,
 }
 
 impl HullExpansion {
-    pub const ALL: [HullExpansion; 3] =
-        [HullExpansion::GeometryShader, HullExpansion::Compute, HullExpansion::Mesh];
+    pub const ALL: [HullExpansion; 4] =
+        [HullExpansion::GeometryShader, HullExpansion::Compute, HullExpansion::Mesh, HullExpansion::MeshTask];
     pub fn name(&self) -> &'static str {
         match self {
             HullExpansion::GeometryShader => "gs",
             HullExpansion::Compute => "compute",
             HullExpansion::Mesh => "mesh",
+            HullExpansion::MeshTask => "mesh-task",
         }
     }
 }
 
 impl HullExpansion {
+    /// The bound is expanded in a mesh shader (with or without the task shader's culling).
+    pub fn is_mesh(self) -> bool {
+        matches!(self, HullExpansion::Mesh | HullExpansion::MeshTask)
+    }
+
     /// The coverage fragment shader's hull axis: the mesh shader hands it the triangle as
     /// `gl_PrimitiveID`, as the geometry shader does.
     pub fn axis(self) -> axes::Hull {
         match self {
-            HullExpansion::GeometryShader | HullExpansion::Mesh => axes::Hull::GeometryShader,
+            HullExpansion::GeometryShader | HullExpansion::Mesh | HullExpansion::MeshTask => {
+                axes::Hull::GeometryShader
+            }
             HullExpansion::Compute => axes::Hull::Compute,
         }
     }

@@ -499,9 +499,15 @@ impl Renderer {
             triangles: scene.triangle_count(),
             upload_ms,
             statistics: settings.stochastic.instrumented.then(|| {
-                let mesh_draws =
-                    settings.stochastic.expansion == crate::techniques::compute_hull::HullExpansion::Mesh;
-                crate::vk::statistic_flags(self.device.caps.geometry_shader, mesh_draws)
+                use crate::vk::MeshStatistics;
+                let caps = &self.device.caps;
+                let expansion = settings.stochastic.expansion;
+                let mesh = match (expansion.is_mesh(), caps.mesh_shader_queries) {
+                    (false, _) => MeshStatistics::NoMeshDraws,
+                    (true, false) => MeshStatistics::Uncounted,
+                    (true, true) => MeshStatistics::Counted { task: expansion == HullExpansion::MeshTask },
+                };
+                crate::vk::statistic_flags(caps.geometry_shader, mesh)
             }),
         })
     }
@@ -740,6 +746,17 @@ pub fn feature_paths(caps: &crate::vk::Capabilities) -> Vec<FeaturePath> {
                 )
             } else {
                 "absent: stochastic `--hull mesh` is refused (gs or compute)".into()
+            },
+        ),
+        f(
+            "VK_EXT_mesh_shader taskShader",
+            caps.task_shader,
+            if caps.task_shader {
+                "stochastic `--hull mesh-task`: a task shader culls each cluster's off-image and back-facing \
+                 triangles ahead of the mesh shader (bit-identical to gs)"
+                    .into()
+            } else {
+                "absent: stochastic `--hull mesh-task` is refused (mesh, gs or compute)".into()
             },
         ),
         f(

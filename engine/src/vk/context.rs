@@ -108,6 +108,15 @@ pub struct Capabilities {
     /// `maxMeshWorkGroupCount` and `maxMeshWorkGroupTotalCount` (zero without mesh shaders).
     pub max_mesh_work_group_count: [u32; 3],
     pub max_mesh_work_group_total_count: u32,
+    /// `taskShader` of `VK_EXT_mesh_shader` beside `meshShader` (`--hull mesh-task`: a task shader
+    /// culls clusters of triangles ahead of the mesh shader's bounds).
+    pub task_shader: bool,
+    /// `maxTaskWorkGroupCount` and `maxTaskWorkGroupTotalCount` (zero without task shaders).
+    pub max_task_work_group_count: [u32; 3],
+    pub max_task_work_group_total_count: u32,
+    /// `meshShaderQueries` of `VK_EXT_mesh_shader` (with `pipelineStatisticsQuery`): an instrumented
+    /// frame's statistics count task and mesh shader invocations around mesh draws.
+    pub mesh_shader_queries: bool,
     pub api_version: String,
     /// MSAA sample counts usable for colour *and* depth attachments.
     pub framebuffer_sample_counts: Vec<u32>,
@@ -173,8 +182,10 @@ pub enum Feature {
     FragmentStoresAndAtomics,
     VertexPipelineStoresAndAtomics,
     ConservativeRasterization,
-    /// `VK_EXT_mesh_shader` (`meshShader`).
+    /// `VK_EXT_mesh_shader` (`meshShader`); disabling it disables [`Feature::TaskShader`].
     MeshShader,
+    /// `VK_EXT_mesh_shader`'s `taskShader`.
+    TaskShader,
     BufferInt64Atomics,
     /// 64-bit integers in shaders (`shaderInt64`); disabling it disables [`Feature::BufferInt64Atomics`].
     ShaderInt64,
@@ -189,12 +200,12 @@ pub enum Feature {
 pub const FEATURE_KEYS: &str =
     "a comma-separated list of geometry-shader, clip-distance, sample-rate-shading, \
      independent-blend, fragment-stores-and-atomics, vertex-pipeline-stores-and-atomics, \
-     conservative-rasterization, mesh-shader, buffer-int64-atomics, shader-int64, timestamp-queries, linear-filter-rgba32f, msaa-N \
+     conservative-rasterization, mesh-shader, task-shader, buffer-int64-atomics, shader-int64, timestamp-queries, linear-filter-rgba32f, msaa-N \
      (N = 2, 4, 8, ...)";
 
 impl Feature {
     /// Every feature but MSAA, whose counts are [`Feature::Msaa`]'s.
-    pub const FLAGS: [Feature; 12] = [
+    pub const FLAGS: [Feature; 13] = [
         Feature::GeometryShader,
         Feature::ClipDistance,
         Feature::SampleRateShading,
@@ -203,6 +214,7 @@ impl Feature {
         Feature::VertexPipelineStoresAndAtomics,
         Feature::ConservativeRasterization,
         Feature::MeshShader,
+        Feature::TaskShader,
         Feature::BufferInt64Atomics,
         Feature::ShaderInt64,
         Feature::TimestampQueries,
@@ -220,6 +232,7 @@ impl Feature {
             Feature::VertexPipelineStoresAndAtomics => "vertex-pipeline-stores-and-atomics".into(),
             Feature::ConservativeRasterization => "conservative-rasterization".into(),
             Feature::MeshShader => "mesh-shader".into(),
+            Feature::TaskShader => "task-shader".into(),
             Feature::BufferInt64Atomics => "buffer-int64-atomics".into(),
             Feature::ShaderInt64 => "shader-int64".into(),
             Feature::TimestampQueries => "timestamp-queries".into(),
@@ -244,6 +257,7 @@ impl Feature {
             Feature::VertexPipelineStoresAndAtomics => "vertexPipelineStoresAndAtomics".into(),
             Feature::ConservativeRasterization => "VK_EXT_conservative_rasterization".into(),
             Feature::MeshShader => "VK_EXT_mesh_shader (meshShader)".into(),
+            Feature::TaskShader => "VK_EXT_mesh_shader (taskShader)".into(),
             Feature::BufferInt64Atomics => "shaderInt64 and shaderBufferInt64Atomics".into(),
             Feature::ShaderInt64 => "shaderInt64".into(),
             Feature::TimestampQueries => "timestampComputeAndGraphics".into(),
@@ -289,7 +303,14 @@ impl Capabilities {
             Feature::FragmentStoresAndAtomics => self.fragment_stores_and_atomics = false,
             Feature::VertexPipelineStoresAndAtomics => self.vertex_pipeline_stores_and_atomics = false,
             Feature::ConservativeRasterization => self.conservative_rasterization = false,
-            Feature::MeshShader => self.mesh_shader = false,
+            Feature::MeshShader => {
+                if self.task_shader {
+                    self.disable(Feature::TaskShader);
+                }
+                self.mesh_shader = false;
+                self.mesh_shader_queries = false;
+            }
+            Feature::TaskShader => self.task_shader = false,
             Feature::BufferInt64Atomics => self.buffer_int64_atomics = false,
             Feature::ShaderInt64 => {
                 if self.buffer_int64_atomics {
@@ -329,6 +350,7 @@ impl Capabilities {
             Feature::VertexPipelineStoresAndAtomics => self.vertex_pipeline_stores_and_atomics,
             Feature::ConservativeRasterization => self.conservative_rasterization,
             Feature::MeshShader => self.mesh_shader,
+            Feature::TaskShader => self.task_shader,
             Feature::BufferInt64Atomics => self.buffer_int64_atomics,
             Feature::ShaderInt64 => self.shader_int64,
             Feature::TimestampQueries => self.timestamps,
@@ -391,7 +413,11 @@ impl std::fmt::Display for Capabilities {
                 o.primitive_px, o.max_extra_px, o.degenerate_triangles_rasterized
             )?;
         }
-        writeln!(f, "VK_EXT_mesh_shader {}", self.mesh_shader)?;
+        writeln!(
+            f,
+            "VK_EXT_mesh_shader {} (task shaders {}, mesh shader queries {})",
+            self.mesh_shader, self.task_shader, self.mesh_shader_queries
+        )?;
         writeln!(f, "64-bit buffer atomics {}", self.buffer_int64_atomics)?;
         writeln!(f, "64-bit shader integers {}", self.shader_int64)?;
         writeln!(f, "push constants    {} bytes", self.max_push_constants_size)?;
@@ -668,7 +694,7 @@ impl DeviceShared {
             caps.disable(*feature);
         }
         let conservative = caps.conservative_rasterization;
-        let mesh = caps.mesh_shader;
+        let (mesh, task) = (caps.mesh_shader, caps.task_shader);
         if !dynamic_rendering_and_sync2 {
             return Err(Error::MissingFeature {
                 device: cstr_field(&props.device_name),
@@ -703,8 +729,11 @@ impl DeviceShared {
         if conservative {
             dev_ext_ptrs.push(ash::ext::conservative_rasterization::NAME.as_ptr());
         }
-        // Mesh shaders only: no task shaders (nothing culls clusters ahead of the bounds).
-        let mut enable_mesh = vk::PhysicalDeviceMeshShaderFeaturesEXT::default().mesh_shader(true);
+        // Task shaders where offered: `--hull mesh-task` culls clusters ahead of the mesh shader.
+        let mut enable_mesh = vk::PhysicalDeviceMeshShaderFeaturesEXT::default()
+            .mesh_shader(true)
+            .task_shader(task)
+            .mesh_shader_queries(caps.mesh_shader_queries);
         if mesh {
             dev_ext_ptrs.push(ash::ext::mesh_shader::NAME.as_ptr());
         }
@@ -857,6 +886,7 @@ fn offered_capabilities(
     }
     unsafe { instance.get_physical_device_features2(physical, &mut feats2) };
     let mesh_shader = mesh_extension && f_mesh.mesh_shader == vk::TRUE;
+    let task_shader = mesh_shader && f_mesh.task_shader == vk::TRUE;
     let mut conservative_props = vk::PhysicalDeviceConservativeRasterizationPropertiesEXT::default();
     if conservative {
         let mut props2 = vk::PhysicalDeviceProperties2::default().push_next(&mut conservative_props);
@@ -883,6 +913,12 @@ fn offered_capabilities(
         mesh_shader,
         max_mesh_work_group_count: mesh_props.max_mesh_work_group_count,
         max_mesh_work_group_total_count: mesh_props.max_mesh_work_group_total_count,
+        task_shader,
+        max_task_work_group_count: mesh_props.max_task_work_group_count,
+        max_task_work_group_total_count: mesh_props.max_task_work_group_total_count,
+        mesh_shader_queries: mesh_shader
+            && f_mesh.mesh_shader_queries == vk::TRUE
+            && supported.pipeline_statistics_query == vk::TRUE,
         api_version: format!(
             "{}.{}.{}",
             vk::api_version_major(props.api_version),
@@ -1088,6 +1124,8 @@ pub struct ExternalDevice {
     /// `meshShader` of `VkPhysicalDeviceMeshShaderFeaturesEXT` was enabled (with `VK_EXT_mesh_shader`
     /// among `device_extensions`): the stochastic rasterizer's `--hull mesh` may run.
     pub mesh_shader: bool,
+    /// `taskShader` was enabled beside `meshShader`: `--hull mesh-task` may run.
+    pub task_shader: bool,
     /// `VK_EXT_debug_utils` is enabled on the instance: Shutter names its objects, labels its passes
     /// and adds a messenger of its own that counts validation messages
     /// ([`DeviceShared::check_validation`]).
@@ -1108,6 +1146,7 @@ impl std::fmt::Debug for ExternalDevice {
             .field("queue_family", &self.queue_family)
             .field("device_extensions", &self.device_extensions)
             .field("mesh_shader", &self.mesh_shader)
+            .field("task_shader", &self.task_shader)
             .field("debug_utils", &self.debug_utils)
             .field("validation_layer", &self.validation_layer)
             .field("ownership", &self.ownership)
@@ -1209,6 +1248,9 @@ impl DeviceShared {
         caps.shader_int64 &= f.shader_int64 == vk::TRUE;
         caps.conservative_rasterization &= ext.has_extension(ash::ext::conservative_rasterization::NAME);
         caps.mesh_shader &= ext.mesh_shader && ext.has_extension(ash::ext::mesh_shader::NAME);
+        caps.task_shader &= caps.mesh_shader && ext.task_shader;
+        // The lending application's mesh-shader feature struct is not known here: no mesh queries.
+        caps.mesh_shader_queries = false;
         let mesh_shader_device =
             caps.mesh_shader.then(|| ash::ext::mesh_shader::Device::new(&ext.instance, &ext.device));
 

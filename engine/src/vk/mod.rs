@@ -28,7 +28,9 @@ pub use pipeline::{
     DescriptorRefs, DescriptorSetLayout, DescriptorWrite, Faces, GraphicsDesc, Pipeline, PipelineLayout,
     ShaderModule,
 };
-pub use queries::{statistic_flags, GpuTimer, PassTimings, PipelineStatistics, StatisticsQuery};
+pub use queries::{
+    statistic_flags, GpuTimer, MeshStatistics, PassTimings, PipelineStatistics, StatisticsQuery,
+};
 pub use transfer::{read_rgba32f, srgb_mip_chain, upload_texture};
 
 /// Creates the device as the environment says (`SHUTTER_DRIVER`, `SHUTTER_DEVICE`, `SHUTTER_VALIDATION`,

@@ -10,6 +10,7 @@ fn stage_flags(s: ShaderStage) -> vk::ShaderStageFlags {
     match s {
         ShaderStage::Vertex => vk::ShaderStageFlags::VERTEX,
         ShaderStage::Geometry => vk::ShaderStageFlags::GEOMETRY,
+        ShaderStage::Task => vk::ShaderStageFlags::TASK_EXT,
         ShaderStage::Mesh => vk::ShaderStageFlags::MESH_EXT,
         ShaderStage::Fragment => vk::ShaderStageFlags::FRAGMENT,
         ShaderStage::Compute => vk::ShaderStageFlags::COMPUTE,

@@ -184,6 +184,12 @@ pub struct PipelineStatistics {
     pub clipping_primitives: u64,
     pub fragment_shader_invocations: u64,
     pub compute_shader_invocations: u64,
+    /// Task- and mesh-shader invocations (`meshShaderQueries`; `None` without it or without mesh
+    /// draws, task invocations also without task shaders).
+    #[serde(default)]
+    pub task_shader_invocations: Option<u64>,
+    #[serde(default)]
+    pub mesh_shader_invocations: Option<u64>,
 }
 
 impl PipelineStatistics {
@@ -203,6 +209,12 @@ impl PipelineStatistics {
         parts.push(format!("clipping {} → {}", self.clipping_invocations, self.clipping_primitives));
         parts.push(format!("FS {}", self.fragment_shader_invocations));
         parts.push(format!("CS {}", self.compute_shader_invocations));
+        if let Some(t) = self.task_shader_invocations {
+            parts.push(format!("TS {t}"));
+        }
+        if let Some(m) = self.mesh_shader_invocations {
+            parts.push(format!("MS {m}"));
+        }
         parts.join(", ")
     }
 
@@ -220,22 +232,44 @@ impl PipelineStatistics {
         self.clipping_primitives += o.clipping_primitives;
         self.fragment_shader_invocations += o.fragment_shader_invocations;
         self.compute_shader_invocations += o.compute_shader_invocations;
+        self.task_shader_invocations = sum(self.task_shader_invocations, o.task_shader_invocations);
+        self.mesh_shader_invocations = sum(self.mesh_shader_invocations, o.mesh_shader_invocations);
     }
 }
 
+/// What a device lets a statistics query count around mesh draws (`meshShaderQueries`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MeshStatistics {
+    /// The frame draws no mesh shaders.
+    NoMeshDraws,
+    /// Mesh draws on a device without `meshShaderQueries`: no stage before rasterization is counted.
+    Uncounted,
+    /// Mesh draws, their invocations counted, and the task shader's where `task` holds.
+    Counted { task: bool },
+}
+
 /// Which statistics a frame's query counts: the pre-rasterization ones only where no mesh shader
-/// draws in it (Vulkan forbids them around mesh draws), the geometry shader's only where the device
-/// has geometry shaders.
-pub fn statistic_flags(geometry_shader: bool, mesh_draws: bool) -> vk::QueryPipelineStatisticFlags {
+/// draws in it (Vulkan forbids them around mesh draws; the task and mesh shaders' instead, where the
+/// device counts them), the geometry shader's only where the device has geometry shaders.
+pub fn statistic_flags(geometry_shader: bool, mesh: MeshStatistics) -> vk::QueryPipelineStatisticFlags {
     type F = vk::QueryPipelineStatisticFlags;
     let mut flags = F::CLIPPING_INVOCATIONS
         | F::CLIPPING_PRIMITIVES
         | F::FRAGMENT_SHADER_INVOCATIONS
         | F::COMPUTE_SHADER_INVOCATIONS;
-    if !mesh_draws {
-        flags |= F::INPUT_ASSEMBLY_PRIMITIVES | F::VERTEX_SHADER_INVOCATIONS;
-        if geometry_shader {
-            flags |= F::GEOMETRY_SHADER_INVOCATIONS | F::GEOMETRY_SHADER_PRIMITIVES;
+    match mesh {
+        MeshStatistics::NoMeshDraws => {
+            flags |= F::INPUT_ASSEMBLY_PRIMITIVES | F::VERTEX_SHADER_INVOCATIONS;
+            if geometry_shader {
+                flags |= F::GEOMETRY_SHADER_INVOCATIONS | F::GEOMETRY_SHADER_PRIMITIVES;
+            }
+        }
+        MeshStatistics::Uncounted => {}
+        MeshStatistics::Counted { task } => {
+            flags |= F::MESH_SHADER_INVOCATIONS_EXT;
+            if task {
+                flags |= F::TASK_SHADER_INVOCATIONS_EXT;
+            }
         }
     }
     flags
@@ -258,6 +292,8 @@ pub fn decode_statistics(flags: vk::QueryPipelineStatisticFlags, values: &[u64])
     let _tcs = take(F::TESSELLATION_CONTROL_SHADER_PATCHES);
     let _tes = take(F::TESSELLATION_EVALUATION_SHADER_INVOCATIONS);
     let compute_shader_invocations = take(F::COMPUTE_SHADER_INVOCATIONS).unwrap_or(0);
+    let task_shader_invocations = take(F::TASK_SHADER_INVOCATIONS_EXT);
+    let mesh_shader_invocations = take(F::MESH_SHADER_INVOCATIONS_EXT);
     PipelineStatistics {
         input_assembly_primitives,
         vertex_shader_invocations,
@@ -267,6 +303,8 @@ pub fn decode_statistics(flags: vk::QueryPipelineStatisticFlags, values: &[u64])
         clipping_primitives,
         fragment_shader_invocations,
         compute_shader_invocations,
+        task_shader_invocations,
+        mesh_shader_invocations,
     }
 }
 
@@ -338,7 +376,7 @@ mod tests {
     #[test]
     fn statistics_decode_in_vulkans_bit_order() {
         type F = vk::QueryPipelineStatisticFlags;
-        let all = statistic_flags(true, false);
+        let all = statistic_flags(true, MeshStatistics::NoMeshDraws);
         assert_eq!(all.as_raw().count_ones(), 8);
         let s = decode_statistics(all, &[1, 2, 3, 4, 5, 6, 7, 8]);
         assert_eq!(
@@ -352,11 +390,13 @@ mod tests {
                 clipping_primitives: 6,
                 fragment_shader_invocations: 7,
                 compute_shader_invocations: 8,
+                task_shader_invocations: None,
+                mesh_shader_invocations: None,
             }
         );
         // Around mesh draws no pre-rasterization statistic is counted, with or without geometry shaders.
         for gs in [false, true] {
-            let mesh = statistic_flags(gs, true);
+            let mesh = statistic_flags(gs, MeshStatistics::Uncounted);
             assert!(!mesh.intersects(
                 F::INPUT_ASSEMBLY_PRIMITIVES
                     | F::VERTEX_SHADER_INVOCATIONS
@@ -369,7 +409,21 @@ mod tests {
                 (None, 5, 8)
             );
         }
-        let no_gs = decode_statistics(statistic_flags(false, false), &[1, 2, 5, 6, 7, 8]);
+        // With meshShaderQueries: the task (0x800) and mesh (0x1000) bits follow the compute bit.
+        let counted = statistic_flags(true, MeshStatistics::Counted { task: true });
+        assert!(!counted.intersects(F::INPUT_ASSEMBLY_PRIMITIVES | F::GEOMETRY_SHADER_INVOCATIONS));
+        let c = decode_statistics(counted, &[5, 6, 7, 8, 9, 10]);
+        assert_eq!(
+            (c.compute_shader_invocations, c.task_shader_invocations, c.mesh_shader_invocations),
+            (8, Some(9), Some(10))
+        );
+        let m = decode_statistics(
+            statistic_flags(false, MeshStatistics::Counted { task: false }),
+            &[5, 6, 7, 8, 9],
+        );
+        assert_eq!((m.task_shader_invocations, m.mesh_shader_invocations), (None, Some(9)));
+        let no_gs =
+            decode_statistics(statistic_flags(false, MeshStatistics::NoMeshDraws), &[1, 2, 5, 6, 7, 8]);
         assert_eq!((no_gs.geometry_shader_invocations, no_gs.clipping_invocations), (None, 5));
         let mut sum = s;
         sum.add(&s);

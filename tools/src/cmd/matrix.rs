@@ -31,8 +31,8 @@ pub struct MatrixArgs {
     /// Coverage paths, comma-separated (visibility, mask, mask-per-fragment).
     #[arg(long, value_delimiter = ',', default_value = "visibility,mask,mask-per-fragment")]
     pub coverage: Vec<String>,
-    /// Bound expansions, comma-separated (compute, gs, mesh).
-    #[arg(long, value_delimiter = ',', default_value = "compute,gs,mesh")]
+    /// Bound expansions, comma-separated (compute, gs, mesh, mesh-task).
+    #[arg(long, value_delimiter = ',', default_value = "compute,gs,mesh,mesh-task")]
     pub hull: Vec<String>,
     /// Shading rates, comma-separated (as render's --shading).
     #[arg(long, value_delimiter = ',', default_value = "per-pixel,per-sample")]

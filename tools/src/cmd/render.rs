@@ -56,8 +56,9 @@ pub struct RenderArgs {
     /// all S in one pass where the visibility buffer fits 256 MiB and the device's largest storage buffer.
     #[arg(long)]
     pub per_pass: Option<u32>,
-    /// Stochastic: expand the bounds in a geometry shader (gs), a compute pass (compute) or a mesh
-    /// shader (mesh; needs VK_EXT_mesh_shader).
+    /// Stochastic: expand the bounds in a geometry shader (gs), a compute pass (compute), a mesh
+    /// shader (mesh; needs VK_EXT_mesh_shader) or a mesh shader behind a task shader that culls
+    /// off-image and back-facing triangles (mesh-task; needs its taskShader).
     #[arg(long, default_value = "gs")]
     pub hull: String,
     /// Stochastic: interval bounds — split each moving object's samples into K runs of shutter

@@ -176,6 +176,7 @@ pub const SHADER_INTERFACES: &[crate::gpu::layout::ShaderInterface] = &[
         &[
             "stochastic/stochastic.vert",
             "stochastic/stochastic.geom",
+            "stochastic/stochastic.task",
             "stochastic/stochastic.mesh",
             "stochastic/hull.vert",
             "stochastic/cluster.vert",

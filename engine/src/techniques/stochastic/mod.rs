@@ -329,10 +329,30 @@ impl StochasticDraws {
     }
 }
 
-/// The mesh-shader hull's workgroup grid for `triangles` triangles, one workgroup each: (x, y) with
-/// x · y ≥ triangles, x within `maxMeshWorkGroupCount[0]`, y within `[1]`, x · y within
-/// `maxMeshWorkGroupTotalCount`; `None` where no grid fits.
-pub(super) fn mesh_grid(triangles: u32, caps: &crate::vk::Capabilities) -> Option<(u32, u32)> {
+/// Triangles per task workgroup of `--hull mesh-task` (`TASK_CLUSTER` in
+/// `shaders-glsl/stochastic/task_payload.glsl`).
+pub(super) const TASK_CLUSTER: u32 = 32;
+
+/// The mesh-shader hull's workgroup grid for `triangles` triangles: for [`HullExpansion::Mesh`] one
+/// mesh workgroup each, (x, y) with x · y ≥ triangles, x within `maxMeshWorkGroupCount[0]`, y within
+/// `[1]`, x · y within `maxMeshWorkGroupTotalCount`; for [`HullExpansion::MeshTask`] one task
+/// workgroup per [`TASK_CLUSTER`] triangles within the task limits (each launches at most
+/// [`TASK_CLUSTER`] mesh workgroups in x). `None` where no grid fits.
+pub(super) fn mesh_grid(
+    triangles: u32,
+    hull: HullExpansion,
+    caps: &crate::vk::Capabilities,
+) -> Option<(u32, u32)> {
+    if hull == HullExpansion::MeshTask {
+        let fits = caps.max_mesh_work_group_count[0] >= TASK_CLUSTER
+            && caps.max_mesh_work_group_total_count >= TASK_CLUSTER;
+        let grid = grid_within(
+            triangles.div_ceil(TASK_CLUSTER),
+            caps.max_task_work_group_count,
+            caps.max_task_work_group_total_count,
+        );
+        return grid.filter(|_| fits);
+    }
     grid_within(triangles, caps.max_mesh_work_group_count, caps.max_mesh_work_group_total_count)
 }
 
@@ -373,22 +393,39 @@ fn check(
             Feature::GeometryShader,
             "technique `stochastic` with the geometry-shader hull (--hull compute needs none)",
         )?,
-        HullExpansion::Mesh => {
+        HullExpansion::Mesh | HullExpansion::MeshTask => {
             caps.require(
                 Feature::MeshShader,
                 "technique `stochastic` with the mesh-shader hull (--hull gs and --hull compute do not)",
             )?;
-            // One workgroup per triangle: every object's triangles must fit one draw's grid.
+            let task = options.expansion == HullExpansion::MeshTask;
+            if task {
+                caps.require(
+                    Feature::TaskShader,
+                    "technique `stochastic` with --hull mesh-task (--hull mesh needs no task shader)",
+                )?;
+            }
+            // One workgroup per triangle (or per cluster of them behind the task shader): every
+            // object's triangles must fit one draw's grid.
             let largest = world.objects.iter().map(|o| o.triangle_count()).max().unwrap_or(0);
-            if mesh_grid(largest, caps).is_none() {
-                return Err(Error::Limit {
-                    what: "triangles of one object with --hull mesh",
-                    value: largest.to_string(),
-                    limit: format!(
+            if mesh_grid(largest, options.expansion, caps).is_none() {
+                let limit = if task {
+                    format!(
+                        "{} task workgroups of {TASK_CLUSTER} triangles (the device's \
+                         maxTaskWorkGroupTotalCount; --hull gs or compute has no such limit)",
+                        caps.max_task_work_group_total_count
+                    )
+                } else {
+                    format!(
                         "{} (the device's maxMeshWorkGroupTotalCount: one workgroup per triangle; \
                          --hull gs or compute has no such limit)",
                         caps.max_mesh_work_group_total_count
-                    ),
+                    )
+                };
+                return Err(Error::Limit {
+                    what: "triangles of one object with the mesh-shader hull",
+                    value: largest.to_string(),
+                    limit,
                 });
             }
         }

@@ -152,7 +152,7 @@ pub const KEYS: &[OptionKey] = &[
     key("bound", "stochastic", "a bound or a per-object policy (docs/STOCHASTIC.md)", "bbox"),
     key("shading", "stochastic", "a shading rate", "per-pixel"),
     key("per-pass", "stochastic", "samples per pass", "8"),
-    key("hull", "stochastic", "geometry-shader, compute or mesh-shader", "compute"),
+    key("hull", "stochastic", "gs, compute, mesh or mesh-task", "compute"),
     key("coverage", "stochastic", "device, visibility, mask or mask-per-fragment", "mask"),
     key("intervals", "stochastic", "time intervals of the bounds: auto or a power of two", "4"),
     key("clusters", "stochastic", "cluster bounds: auto, off or triangles per cluster", "32"),

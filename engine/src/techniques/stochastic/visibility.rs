@@ -38,7 +38,9 @@ use crate::mirror::bounds::BoundKind;
 use crate::mirror::conservative::{self, Dilation, Need};
 use crate::plan::Effects;
 use crate::sampling::ShutterCurve;
-use crate::shaders::{self, axes, ClustersComp, MaskFrag, StochasticFrag, StochasticGeom, StochasticMesh};
+use crate::shaders::{
+    self, axes, ClustersComp, MaskFrag, StochasticFrag, StochasticGeom, StochasticMesh, StochasticTask,
+};
 use crate::vk::{
     write_descriptors, Buffer, DescriptorPool, DescriptorSetLayout, DescriptorWrite, Faces, GraphicsDesc,
     Pipeline, PipelineLayout, ShaderModule,
@@ -270,12 +272,12 @@ impl Visibility {
             }
             None => None,
         };
-        let mesh_grids = if options.expansion == HullExpansion::Mesh {
+        let mesh_grids = if options.expansion.is_mesh() {
             world
                 .objects
                 .iter()
                 .map(|o| {
-                    super::mesh_grid(o.triangle_count(), &device.caps).ok_or_else(|| {
+                    super::mesh_grid(o.triangle_count(), options.expansion, &device.caps).ok_or_else(|| {
                         Error::Unsupported("a mesh-shader grid past the device's limits".into())
                     })
                 })
@@ -824,9 +826,12 @@ impl Pipelines {
         if caps.geometry_shader {
             push_stages |= vk::ShaderStageFlags::GEOMETRY;
         }
-        let mesh = options.expansion == HullExpansion::Mesh;
+        let mesh = options.expansion.is_mesh();
         if mesh {
             push_stages |= vk::ShaderStageFlags::MESH_EXT;
+        }
+        if options.expansion == HullExpansion::MeshTask {
+            push_stages |= vk::ShaderStageFlags::TASK_EXT;
         }
         let layout =
             world.pipeline_layout(device, sets, std::mem::size_of::<VisibilityPush>() as u32, push_stages)?;
@@ -907,25 +912,32 @@ impl Pipelines {
             };
             let frag = ShaderModule::new(device, frag)?;
             // The stages before the fragment shader: the compute hull's plain vertex shader, the mesh
-            // shader (the whole geometry front end, no vertex input), or vertex + geometry shader.
-            let front = match options.expansion {
-                HullExpansion::Compute => None,
-                HullExpansion::Mesh => Some(ShaderModule::new(
-                    device,
-                    StochasticMesh { effects: effects.shader_axis() }.source(),
-                )?),
+            // shader (the whole geometry front end, no vertex input; behind the culling task shader
+            // for mesh-task), or vertex + geometry shader.
+            let task_cull = options.expansion == HullExpansion::MeshTask;
+            let mut front = Vec::new();
+            match options.expansion {
+                HullExpansion::Compute => {}
+                HullExpansion::Mesh | HullExpansion::MeshTask => {
+                    if task_cull {
+                        let task = StochasticTask { effects: effects.shader_axis() };
+                        front.push(ShaderModule::new(device, task.source())?);
+                    }
+                    let mesh = StochasticMesh { effects: effects.shader_axis(), task_cull };
+                    front.push(ShaderModule::new(device, mesh.source())?);
+                }
                 HullExpansion::GeometryShader => {
                     let geom = StochasticGeom {
                         bound_debug: debug.bound_debug_triangles > 0,
                         effects: effects.shader_axis(),
                     };
-                    Some(ShaderModule::new(device, geom.source())?)
+                    front.push(ShaderModule::new(device, geom.source())?);
                 }
             };
-            let stages: Vec<&ShaderModule> = match (options.expansion, &front) {
-                (HullExpansion::Compute, _) => vec![&hull_vert, &frag],
-                (HullExpansion::Mesh, Some(m)) => vec![m, &frag],
-                (_, geom) => [Some(&vert), geom.as_ref(), Some(&frag)].into_iter().flatten().collect(),
+            let stages: Vec<&ShaderModule> = match options.expansion {
+                HullExpansion::Compute => vec![&hull_vert, &frag],
+                HullExpansion::GeometryShader => [&vert].into_iter().chain(&front).chain([&frag]).collect(),
+                HullExpansion::Mesh | HullExpansion::MeshTask => front.iter().chain([&frag]).collect(),
             };
             let name = format!(
                 "stochastic {} coverage ({}, {} hull)",
