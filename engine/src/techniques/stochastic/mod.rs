@@ -356,17 +356,19 @@ pub(super) fn mesh_grid(
     grid_within(triangles, caps.max_mesh_work_group_count, caps.max_mesh_work_group_total_count)
 }
 
-/// [`mesh_grid`] for the limits `max` (per dimension) and `total`.
+/// [`mesh_grid`] for the limits `max` (per dimension) and `total`: as few rows as `max[0]` allows,
+/// and rows as short as those rows allow, so that fewer than `y` workgroups lie past the last
+/// triangle (each is launched and emits nothing: on lavapipe a dispatch apiece).
 fn grid_within(triangles: u32, max: [u32; 3], total: u32) -> Option<(u32, u32)> {
     let [max_x, max_y, _] = max;
     if triangles == 0 {
         return Some((0, 1));
     }
-    let x = triangles.min(max_x);
-    if x == 0 {
+    if max_x == 0 {
         return None;
     }
-    let y = triangles.div_ceil(x);
+    let y = triangles.div_ceil(max_x);
+    let x = triangles.div_ceil(y);
     (y <= max_y && u64::from(x) * u64::from(y) <= u64::from(total)).then_some((x, y))
 }
 
@@ -551,12 +553,15 @@ mod mesh_grid_tests {
         assert_eq!(grid_within(0, max, total), Some((0, 1)));
         assert_eq!(grid_within(1, max, total), Some((1, 1)));
         assert_eq!(grid_within(65_535, max, total), Some((65_535, 1)));
-        assert_eq!(grid_within(65_536, max, total), Some((65_535, 2)));
-        for n in [7u32, 65_534, 65_536, 327_680, 1_000_003, 4_000_000] {
+        assert_eq!(grid_within(65_536, max, total), Some((32_768, 2)));
+        // Spot subdivided twice (`arena`): two rows of 46,848, not two of 65,535.
+        assert_eq!(grid_within(93_696, max, total), Some((46_848, 2)));
+        for n in [7u32, 65_534, 65_536, 93_697, 327_680, 1_000_003, 4_000_000] {
             let (x, y) = grid_within(n, max, total).unwrap();
             assert!(u64::from(x) * u64::from(y) >= u64::from(n) && x <= max[0] && y <= max[1], "{n}");
-            // No row wasted: the last row holds at least one triangle.
+            // No row wasted, and fewer workgroups than rows past the last triangle.
             assert!(u64::from(x) * u64::from(y - 1) < u64::from(n), "{n}");
+            assert!(u64::from(x) * u64::from(y) - u64::from(n) < u64::from(y), "{n}");
         }
         assert_eq!(grid_within(1 << 23, max, total), None);
         assert_eq!(grid_within(5, [0, 0, 0], 0), None);
