@@ -258,7 +258,7 @@ pub struct BenchArgs {
 
 /// A configuration the device or scene cannot run (a missing feature, an unsupported combination,
 /// a limit) — as opposed to a failure, which still stops the run.
-fn is_refusal(e: &shutter::Error) -> bool {
+pub fn is_refusal(e: &shutter::Error) -> bool {
     matches!(
         e,
         shutter::Error::MissingFeature { .. } | shutter::Error::Unsupported(_) | shutter::Error::Limit { .. }

@@ -137,6 +137,10 @@ enum Command {
     /// Compare two images: RMSE, PSNR and mean FLIP of B against reference A; with `--max-flip` /
     /// `--max-rmse`, exit 0 within them, 1 beyond, 2 where the images could not be compared.
     Compare(cmd::compare::CompareArgs),
+    /// The rendering regression check for a driver's CI: every case of a suite (`check/smoke.toml`)
+    /// against its expected image — bit for bit where driver, device and CPU are the recorded ones,
+    /// within the case's RMSE and FLIP thresholds elsewhere. Exit 0 pass, 1 regression, 2 not run.
+    Check(cmd::check::CheckArgs),
     /// Convert an image between .exr (linear) and .png (sRGB).
     Convert { input: PathBuf, output: PathBuf },
     /// Sample test efficiency and GPU ms of every stochastic bound on a scene, next to pinhole and
@@ -567,6 +571,12 @@ fn run() -> Result<()> {
             );
         }
         Command::Compare(args) => cmd::compare::run(args)?,
+        Command::Check(args) => match cmd::check::run(args) {
+            Ok(0) => {}
+            Ok(code) => std::process::exit(code),
+            // A suite that cannot be read, no device: not run (2), not a regression.
+            Err(e) => return Err(cmd::compare::NotCompared(format!("{e:#}")).into()),
+        },
         Command::Convert { input, output } => {
             check_image_output(&output)?;
             save_image(&output, &load_image(&input)?)?;

@@ -837,3 +837,123 @@ fn compare_thresholds_gate_with_exit_codes_and_json() {
     }
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// `shutter check` (issue 32): a suite of its own — `--update` records the expected images and
+/// conditions, a check on the same machine passes in the exact tier with a JUnit report, an expected
+/// image that no longer matches is a regression (exit 1) leaving expected, actual and FLIP map, a
+/// missing one is "not run" (exit 2). And the repository's `smoke` suite passes on this driver.
+#[test]
+fn check_records_passes_and_catches_a_changed_image() {
+    let dir = std::env::temp_dir().join(format!("shutter-cli-check-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let suite = dir.join("mine.toml");
+    std::fs::write(
+        &suite,
+        "[defaults]\nsize = \"32x18\"\nspp = 4\nmax_rmse = 1e-3\nmax_flip = 1e-3\n\
+         [[case]]\nname = \"still\"\nscene = \"static\"\nconfig = \"pinhole\"\n\
+         [[case]]\nname = \"blur\"\nscene = \"default\"\nconfig = \"stochastic:shading=per-sample\"\nreference = true\n",
+    )
+    .unwrap();
+    let (suite, out, report) =
+        (suite.display().to_string(), dir.join("out").display().to_string(), dir.join("r.xml"));
+    let check = |extra: &[&str]| {
+        let report = report.display().to_string();
+        let args = [&["check", "--suite", &suite, "--out", &out, "--report", &report][..], extra].concat();
+        let (code, _, err) = shutter(&args);
+        assert!(!err.contains("panicked"), "{err}");
+        (code, err, std::fs::read_to_string(&report).unwrap_or_default())
+    };
+    // Before anything is recorded: not run.
+    let (code, err, _) = check(&[]);
+    assert_eq!(code, 2, "{err}");
+    let (code, err, _) = check(&["--update"]);
+    assert_eq!(code, 0, "{err}");
+    let expected = dir.join("mine");
+    assert!(expected.join("still.exr").is_file() && expected.join("conditions.toml").is_file());
+    let (code, err, xml) = check(&[]);
+    assert_eq!(code, 0, "{err}");
+    assert!(err.contains("recorded ones"), "same machine, exact tier: {err}");
+    assert!(xml.contains("tests=\"2\" failures=\"0\" errors=\"0\"") && xml.contains("exact tier"), "{xml}");
+    assert!(xml.contains("same-sample reference RMSE"), "the blurred case is held to the reference: {xml}");
+    // Timing: a baseline recorded, then compared (reported, not failed, without --timing-gate).
+    let baseline = dir.join("timing.toml").display().to_string();
+    let (code, err, _) = check(&["--record-timing", "--rounds", "2", "--timing-baseline", &baseline]);
+    assert!(code == 0 && std::path::Path::new(&baseline).is_file(), "{err}");
+    let json = dir.join("r.json").display().to_string();
+    let (code, _, err) = shutter(&[
+        "check",
+        "--suite",
+        &suite,
+        "--timing",
+        "--rounds",
+        "2",
+        "--timing-baseline",
+        &baseline,
+        "--report",
+        &json,
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let report: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    for case in report["cases"].as_array().unwrap() {
+        let verdict = case["timing"].as_str().unwrap_or_default();
+        assert!(
+            ["within noise", "slower", "faster"].iter().any(|v| verdict.starts_with(v))
+                && case["gpu_ms"]["median"].as_f64().unwrap() > 0.0,
+            "{case}"
+        );
+    }
+    // The blurred case's expected image replaced by the still one: a regression, with its pictures.
+    std::fs::copy(expected.join("still.exr"), expected.join("blur.exr")).unwrap();
+    let (code, err, xml) = check(&[]);
+    assert_eq!(code, 1, "{err}");
+    assert!(
+        xml.contains("failures=\"1\"") && xml.contains("channel values differ from the recorded ones"),
+        "{xml}"
+    );
+    for f in ["expected.png", "actual.png", "actual.exr", "flip.png"] {
+        assert!(dir.join("out").join("blur").join(f).is_file(), "{f}");
+    }
+    // Another machine's recording: the tolerance tier, which the changed image also fails.
+    let conditions = expected.join("conditions.toml");
+    let text = std::fs::read_to_string(&conditions).unwrap();
+    std::fs::write(&conditions, text.replace("cpu = \"", "cpu = \"another ")).unwrap();
+    let (code, err, xml) = check(&[]);
+    assert!(code == 1 && err.contains("thresholds, not bits") && xml.contains("RMSE"), "{code} {err}");
+    assert!(xml.contains("name=\"still\"") && xml.contains("tolerance tier"), "{xml}");
+    // A missing expected image: not run, not a regression.
+    std::fs::remove_file(expected.join("blur.exr")).unwrap();
+    let (code, _, xml) = check(&[]);
+    assert!(code == 2 && xml.contains("errors=\"1\""), "{xml}");
+    // The reference asked of a path it does not mirror: not run, saying why.
+    let approx = dir.join("approx.toml");
+    std::fs::write(
+        &approx,
+        "[[case]]\nname = \"ts\"\nscene = \"default\"\nconfig = \"stochastic:shading=texture-space\"\n\
+         size = \"32x18\"\nspp = 4\nmax_rmse = 1e-3\nmax_flip = 1e-3\nreference = true\n",
+    )
+    .unwrap();
+    let approx = approx.display().to_string();
+    let (code, _, err) = shutter(&["check", "--suite", &approx, "--update"]);
+    assert_eq!(code, 0, "{err}");
+    let (code, _, err) = shutter(&["check", "--suite", &approx]);
+    assert!(code == 2 && err.contains("no exact mirror"), "{code} {err}");
+    std::fs::remove_dir_all(&dir).ok();
+
+    // The repository's smoke suite, as a driver's CI runs it.
+    let report = std::env::temp_dir().join(format!("shutter-cli-smoke-{}.xml", std::process::id()));
+    let smoke_out = std::env::temp_dir().join(format!("shutter-cli-smoke-{}", std::process::id()));
+    let (code, _, err) = shutter(&[
+        "check",
+        "--suite",
+        concat!(env!("CARGO_MANIFEST_DIR"), "/../check/smoke.toml"),
+        "--out",
+        &smoke_out.display().to_string(),
+        "--report",
+        &report.display().to_string(),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let xml = std::fs::read_to_string(&report).unwrap();
+    assert!(xml.contains("failures=\"0\" errors=\"0\""), "{xml}");
+    std::fs::remove_file(&report).ok();
+}

@@ -2,6 +2,7 @@
 
 pub mod bounds;
 pub mod calibrate;
+pub mod check;
 pub mod compare;
 pub mod matrix;
 pub mod plan;
