@@ -198,15 +198,7 @@ pub fn paired_ratio_interval(num: &[f64], den: &[f64], resamples: usize, seed: u
         return None;
     }
     let median = Stat::of(ratios.clone()).median;
-    // SplitMix64: enough for resampling indices, and no dependency.
-    let mut state = seed;
-    let mut next = move || {
-        state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = state;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    };
+    let mut next = splitmix64(seed);
     let n = ratios.len();
     let mut medians: Vec<f64> = (0..resamples.max(1))
         .map(|_| Stat::of((0..n).map(|_| ratios[(next() % n as u64) as usize]).collect()).median)
@@ -214,6 +206,18 @@ pub fn paired_ratio_interval(num: &[f64], den: &[f64], resamples: usize, seed: u
     medians.sort_by(|a, b| a.total_cmp(b));
     let at = |q: f64| medians[((q * (medians.len() - 1) as f64).round() as usize).min(medians.len() - 1)];
     Some(RatioInterval { median, low: at(0.025), high: at(0.975) })
+}
+
+/// SplitMix64 from `seed`: enough for bootstrap resampling indices, and no dependency.
+pub fn splitmix64(seed: u64) -> impl FnMut() -> u64 {
+    let mut state = seed;
+    move || {
+        state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = state;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    }
 }
 
 /// Bootstrap resamples of [`paired_ratio_interval`] in a report.

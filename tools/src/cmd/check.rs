@@ -792,14 +792,7 @@ fn unpaired_ratio_interval(num: &[f64], den: &[f64], resamples: usize, seed: u64
     if !ok(num) || !ok(den) {
         return None;
     }
-    let mut state = seed;
-    let mut next = move || {
-        state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = state;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    };
+    let mut next = crate::bench::splitmix64(seed);
     let mut resample =
         |v: &[f64]| Stat::of((0..v.len()).map(|_| v[(next() % v.len() as u64) as usize]).collect()).median;
     let mut ratios: Vec<f64> = (0..resamples.max(1)).map(|_| resample(num) / resample(den)).collect();
