@@ -75,6 +75,8 @@ use crate::vk::Capabilities;
 pub const PILOT_SPP: u32 = 4;
 /// Sub-frames of the pilot, each with its own seed (module docs, "Error").
 pub const PILOT_SUBFRAMES: usize = 6;
+/// Warm frames of the first sub-frame the pilot times: their median is its GPU ms.
+pub const PILOT_TIMED_FRAMES: usize = 3;
 /// The bias' relative uncertainty in the prediction's range (module docs, "Together"): the pilot
 /// estimates it from one sub-frame's samples, and on the sun-shadow test scene (96×54, seeds 1–5)
 /// the floor measured against a 2,048-spp reference came out up to 1.11× the estimate.
@@ -587,14 +589,17 @@ fn run_pilot(renderer: &mut Renderer, scene: &Scene, settings: &RenderSettings) 
     let mut ms = 0.0;
     for i in 0..k {
         let s = RenderSettings { seed: subframe_seed(settings.seed, i), ..base };
-        // The first is timed after a warm-up frame; the others are each the first frame of their
-        // preparation, which pays for first uses (3× a warm frame on lavapipe at 96×54): untimed.
-        let mut frames =
-            renderer.render_frames(scene, Technique::ACCUMULATION, &s, if i == 0 { 2 } else { 1 })?;
-        let out = frames.pop().expect("a frame");
+        // The first is timed: the median of PILOT_TIMED_FRAMES after a warm-up frame (one frame's
+        // time swings with whatever else the machine runs); the others are each the first frame of
+        // their preparation, which pays for first uses (3× a warm frame on lavapipe at 96×54): untimed.
+        let n = if i == 0 { PILOT_TIMED_FRAMES + 1 } else { 1 };
+        let mut frames = renderer.render_frames(scene, Technique::ACCUMULATION, &s, n)?;
         if i == 0 {
-            ms = frame_ms(&out);
+            let mut timed: Vec<f64> = frames[1..].iter().map(frame_ms).collect();
+            timed.sort_by(f64::total_cmp);
+            ms = timed[timed.len() / 2];
         }
+        let out = frames.pop().expect("a frame");
         images.push(out.image);
     }
     let inv = 1.0 / k as f32;

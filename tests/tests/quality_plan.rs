@@ -1,6 +1,6 @@
 //! The quality planner (`engine/src/quality_plan.rs`, `shutter render --quality`) against measurements
-//! on built-in scenes: the chosen render's FLIP against the ground truth and its GPU time come within
-//! a stated factor of the predictions; a scene with nothing to simulate stays `pinhole`, without a
+//! on built-in scenes: the chosen render's FLIP against the ground truth comes within a stated factor
+//! of the prediction (its GPU time is a benchmark's: `scripts/quality-targets.sh`); a scene with nothing to simulate stays `pinhole`, without a
 //! pilot; over several seeds and two scenes (one object moving; shadow maps) the planned render meets
 //! its target in at least 9 cases of 10, and the plan does not swing with the seed (issue 28 item 9).
 
@@ -15,9 +15,6 @@ use shutter_tests::{renderer, save_comparison};
 
 /// Predicted FLIP against the reference: within this factor either way.
 const FLIP_FACTOR: f64 = 2.0;
-/// Predicted GPU ms of the chosen render: within this factor either way (the pilot and the render
-/// run one after the other on the same machine; the CI machines are shared).
-const MS_FACTOR: f64 = 3.0;
 
 #[test]
 fn predictions_hold_against_the_reference() {
@@ -57,13 +54,14 @@ fn predictions_hold_against_the_reference() {
             "{name}: FLIP {flip} against the predicted {}",
             c.predicted_flip
         );
-        if ms > 0.0 {
-            assert!(
-                ms <= MS_FACTOR * c.predicted_ms && ms >= c.predicted_ms / MS_FACTOR,
-                "{name}: {ms} ms against the predicted {}",
-                c.predicted_ms
-            );
-        }
+        // The predicted GPU ms is a timing: not asserted here (the test binary's other test runs
+        // beside this one; CI machines are shared). `scripts/quality-targets.sh` measures it against
+        // the median of warm frames of one interleaved run (docs/QUALITY.md).
+        assert!(
+            c.predicted_ms.is_finite() && c.predicted_ms > 0.0,
+            "{name}: predicted {} ms",
+            c.predicted_ms
+        );
         // On lavapipe the per-object stochastic frame costs ~60× accumulation's passes.
         if r.device().caps.is_lavapipe() {
             assert_eq!(c.technique, Technique::ACCUMULATION);
