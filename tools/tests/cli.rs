@@ -903,6 +903,28 @@ fn check_records_passes_and_catches_a_changed_image() {
             "{case}"
         );
     }
+    // Thresholds measured: the blurred case gets its own, between this machine's spread (none: the
+    // recording machine) and what other seeds change; the still one (nothing random) keeps the
+    // suite's. The next check uses them, on one worker or several alike.
+    let (code, err, _) = check(&["--measure-thresholds"]);
+    assert_eq!(code, 0, "{err}");
+    let file: toml::Value =
+        toml::from_str(&std::fs::read_to_string(expected.join("thresholds.toml")).unwrap()).unwrap();
+    let blur = &file["cases"]["blur"];
+    let (t, reseed) = (blur["max_rmse"].as_float().unwrap(), blur["reseed_rmse"].as_float().unwrap());
+    assert!(t > 1e-5 && t < reseed / 10.0, "{blur}");
+    let still = &file["cases"]["still"];
+    assert!(still.get("max_rmse").is_none() && still["note"].as_str().unwrap().contains("nothing random"));
+    for jobs in ["1", "2"] {
+        let (code, _, err) = shutter(&["check", "--suite", &suite, "--jobs", jobs, "--report", &json]);
+        assert_eq!(code, 0, "{err}");
+        let report: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+        let cases = report["cases"].as_array().unwrap();
+        assert_eq!(cases.iter().map(|c| c["name"].as_str().unwrap()).collect::<Vec<_>>(), ["still", "blur"]);
+        assert_eq!(cases[0]["threshold_source"], "suite defaults", "{}", cases[0]);
+        assert!(cases[1]["threshold_source"] == "measured" && cases[1]["max_rmse"].as_f64() == Some(t));
+    }
     // The blurred case's expected image replaced by the still one: a regression, with its pictures.
     std::fs::copy(expected.join("still.exr"), expected.join("blur.exr")).unwrap();
     let (code, err, xml) = check(&[]);

@@ -31,8 +31,9 @@
 //! failed case leaves its expected and actual images and the FLIP map in `--out`. `--report` writes a
 //! JUnit XML file (`.xml`) or this command's JSON (`.json`).
 //!
-//! Not built yet (issue 32): thresholds measured per case by the command itself; today the suite
-//! file carries them, chosen from the spread measured across the two lavapipes (docs/CI.md).
+//! Thresholds: `--measure-thresholds` derives each case's from what machines and other seeds move
+//! its image ([`thresholds`]), into `thresholds.toml` beside the expected images; a threshold the
+//! case sets in the suite file wins, and the suite's defaults apply to cases not measured.
 
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
@@ -55,14 +56,17 @@ use shutter::techniques::{RenderOutput, RenderSettings, Renderer, Technique};
 use crate::bench::{Config, Stat};
 use crate::provenance::Provenance;
 
+mod thresholds;
+use thresholds::ThresholdFile;
+
 /// Exit code of a check in which no case regressed but some could not run.
 pub const EXIT_NOT_RUN: i32 = 2;
 
 /// Run the rendering regression check: every case of a suite against its expected image.
 #[derive(Args)]
 pub struct CheckArgs {
-    /// The suite: a name (`smoke`: `check/smoke.toml` of the working directory or of the source tree
-    /// this binary was built from) or the path of a suite file.
+    /// The suite: a name (`smoke`: `check/smoke.toml` of the working directory, of the release
+    /// archive this binary came in, or of the source tree it was built from) or a suite file's path.
     #[arg(long, default_value = "smoke")]
     pub suite: String,
     /// Record the expected images and their conditions from this run instead of checking.
@@ -92,6 +96,15 @@ pub struct CheckArgs {
     /// Exit 1 when a case is slower beyond the noise (`--timing` only reports without it).
     #[arg(long)]
     pub timing_gate: bool,
+    /// Also render every case with other seeds and record this machine's spread and the reseed's in
+    /// `thresholds.toml` beside the expected images, deriving each case's thresholds (run once per
+    /// driver and CPU; the runs accumulate).
+    #[arg(long, conflicts_with = "update")]
+    pub measure_thresholds: bool,
+    /// Workers that render cases side by side, each on its own device (default: the CPU's threads,
+    /// at most 4; `--timing` rounds always run on one). 1 renders them one after the other.
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=64))]
+    pub jobs: Option<u32>,
 }
 
 /// The slowdown or speedup a timing comparison reports only beyond: the 95 % interval of the ratio of
@@ -145,6 +158,7 @@ struct CaseFile {
 }
 
 /// One case, its defaults applied.
+#[derive(Clone)]
 struct Case {
     name: String,
     scene: String,
@@ -158,6 +172,8 @@ struct Case {
     /// `Some(max RMSE)`: compare with the same-sample CPU reference too.
     reference: Option<f64>,
     optional: bool,
+    /// Where `max_rmse` and `max_flip` come from: "case", "suite defaults" or "measured".
+    threshold_source: &'static str,
 }
 
 /// The RMSE a same-sample reference comparison allows unless the case sets its own: the engine's own
@@ -226,6 +242,11 @@ struct CaseResult {
     flip: Option<f64>,
     max_rmse: f64,
     max_flip: f64,
+    /// Where the thresholds come from: the case, the suite's defaults, or `thresholds.toml`.
+    threshold_source: &'static str,
+    /// `--measure-thresholds`: the smallest RMSE and FLIP another seed moved the image by.
+    reseed_rmse: Option<f64>,
+    reseed_flip: Option<f64>,
     /// RMSE against the same-sample CPU reference, where the case asks for it.
     reference_rmse: Option<f64>,
     max_reference_rmse: Option<f64>,
@@ -260,23 +281,26 @@ struct Report {
     cases: Vec<CaseResult>,
 }
 
-/// The suite file `spec` names: a path, else `check/<spec>.toml` here, else in the source tree.
+/// The suite file `spec` names: a path, else `check/<spec>.toml` here, else beside this binary as
+/// the release archive lays it out (`bin/shutter`, `share/shutter/check/`: `scripts/package.sh`),
+/// else in the source tree it was built from.
 fn suite_path(spec: &str) -> Result<PathBuf> {
     let path = PathBuf::from(spec);
     if spec.ends_with(".toml") || path.is_file() {
         return Ok(path);
     }
     let file = format!("{spec}.toml");
-    let here = Path::new("check").join(&file);
-    let source = Path::new(env!("CARGO_MANIFEST_DIR")).join("..").join("check").join(&file);
-    for p in [here, source] {
-        if p.is_file() {
-            return Ok(p);
-        }
+    let mut places = vec![Path::new("check").join(&file)];
+    if let Some(bin) = std::env::current_exe().ok().and_then(|e| e.parent().map(Path::to_path_buf)) {
+        places.push(bin.join("../share/shutter/check").join(&file));
+    }
+    places.push(Path::new(env!("CARGO_MANIFEST_DIR")).join("..").join("check").join(&file));
+    if let Some(p) = places.iter().find(|p| p.is_file()) {
+        return Ok(p.clone());
     }
     bail!(
-        "no suite `{spec}`: neither check/{file} here nor in {} (give a suite file's path with --suite)",
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("..").display()
+        "no suite `{spec}` in {} (give a suite file's path with --suite)",
+        places.iter().map(|p| p.display().to_string()).collect::<Vec<_>>().join(", ")
     )
 }
 
@@ -312,6 +336,11 @@ fn load_suite(path: &Path) -> Result<Vec<Case>> {
             c.scene.clone()
         };
         cases.push(Case {
+            threshold_source: if f.max_flip.is_some() || f.max_rmse.is_some() {
+                "case"
+            } else {
+                "suite defaults"
+            },
             max_flip: threshold(f.max_flip.or(d.max_flip), "max_flip")?,
             max_rmse: threshold(f.max_rmse.or(d.max_rmse), "max_rmse")?,
             spp: f.spp.or(d.spp).ok_or_else(|| anyhow::anyhow!(named("no spp")))?,
@@ -396,6 +425,14 @@ pub fn run(args: CheckArgs) -> Result<i32> {
         cases.retain(|c| c.name.contains(only.as_str()));
     }
     let dir = expected_dir(&suite);
+    let mut measured = ThresholdFile::load(&dir)?;
+    for case in cases.iter_mut().filter(|c| c.threshold_source != "case") {
+        if let Some(m) = measured.cases.get(&case.name) {
+            if let (Some(rmse), Some(flip)) = (m.max_rmse, m.max_flip) {
+                (case.max_rmse, case.max_flip, case.threshold_source) = (rmse, flip, "measured");
+            }
+        }
+    }
     let mut renderer = Renderer::new(crate::create_device()?)?;
     let provenance = Provenance::of(&renderer.device().caps);
     let here = Conditions::of(&provenance);
@@ -431,78 +468,59 @@ pub fn run(args: CheckArgs) -> Result<i32> {
     if args.update {
         std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
     }
-    let mut results = Vec::new();
-    for case in &cases {
-        let t0 = Instant::now();
-        let rendered = render_case(&mut renderer, case);
-        let seconds = t0.elapsed().as_secs_f64();
-        let expected_path = dir.join(format!("{}.exr", case.name));
-        let mut r = CaseResult {
-            name: case.name.clone(),
-            scene: case.scene.clone(),
-            config: case.config.clone(),
-            size: format!("{}x{}", case.size.0, case.size.1),
-            spp: case.spp,
-            seed: case.seed,
-            outcome: Outcome::NotRun,
-            // A case that is not reproducible bit for bit never takes the exact tier.
-            tier: tier.map(|t| if case.exact { t } else { Tier::Tolerance }),
-            rmse: None,
-            flip: None,
-            max_rmse: case.max_rmse,
-            max_flip: case.max_flip,
-            reference_rmse: None,
-            max_reference_rmse: case.reference,
-            gpu_ms: None,
-            baseline_gpu_ms: None,
-            timing: None,
-            seconds,
-            message: String::new(),
-        };
-        match (rendered, args.update) {
-            (Err(e), _)
-                if case.optional
-                    && e.downcast_ref::<shutter::Error>().is_some_and(crate::bench::is_refusal) =>
-            {
-                r.outcome = Outcome::Skipped;
-                r.message = format!("skipped (optional, refused here): {e:#}");
+    // Cases run on `--jobs` workers, each with its own device: on lavapipe a first frame is mostly
+    // LLVM compiling its pipelines, one thread per pipeline, so a cold shader cache takes about
+    // half as long on two workers as on one. Results keep the suite's order.
+    let jobs = args.jobs.map_or_else(default_jobs, |j| j as usize).clamp(1, cases.len().max(1));
+    let ctx = CaseContext { dir: &dir, tier, args: &args };
+    let mut slots: Vec<Option<(CaseResult, Option<[f64; 2]>)>> = (0..cases.len()).map(|_| None).collect();
+    if jobs == 1 {
+        for (i, case) in cases.iter().enumerate() {
+            slots[i] = Some(check_case(&mut renderer, case, &ctx)?);
+        }
+    } else {
+        let next = std::sync::atomic::AtomicUsize::new(0);
+        let done = std::sync::Mutex::new(&mut slots);
+        let mut main = Some(&mut renderer);
+        std::thread::scope(|scope| -> Result<()> {
+            let workers: Vec<_> = (0..jobs)
+                .map(|w| {
+                    let (next, done, cases, ctx) = (&next, &done, &cases, &ctx);
+                    // The first worker takes the main renderer (the timing rounds reuse it, warm).
+                    let own = if w == 0 { main.take() } else { None };
+                    scope.spawn(move || -> Result<()> {
+                        let mut spare = None;
+                        let renderer = match own {
+                            Some(r) => r,
+                            None => spare.insert(Renderer::new(crate::create_device()?)?),
+                        };
+                        loop {
+                            let i = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                            let Some(case) = cases.get(i) else { return Ok(()) };
+                            let result = check_case(renderer, case, ctx)?;
+                            done.lock().expect("a worker panicked")[i] = Some(result);
+                        }
+                    })
+                })
+                .collect();
+            for w in workers {
+                w.join().expect("a check worker panicked")?;
             }
-            (Err(e), _) => r.message = format!("could not render: {e:#}"),
-            (Ok(rendered), true) => {
-                save_image(&expected_path, &rendered.out.image)?;
-                r.outcome = Outcome::Recorded;
-                r.message = format!("wrote {}", expected_path.display());
-            }
-            (Ok(rendered), false) => {
-                let tier = r.tier;
-                judge(&mut r, &rendered.out.image, &expected_path, tier, &args.out)?;
-                if let Some(max) = case.reference {
-                    judge_reference(&mut r, &rendered, max, &args.out)?;
-                }
+            Ok(())
+        })?;
+    }
+    let mut results = Vec::with_capacity(cases.len());
+    for (case, slot) in cases.iter().zip(slots) {
+        let (mut r, reseed) = slot.expect("every case ran");
+        if let (Some(reseed), Some(rmse), Some(flip)) = (reseed, r.rmse, r.flip) {
+            let machine = format!("{} / {} / {}", here.driver, here.device, here.cpu);
+            let first = !measured.cases.contains_key(&case.name);
+            let m = measured.cases.entry(case.name.clone()).or_default();
+            m.update(&machine, [rmse, flip], reseed, first);
+            if !m.note.is_empty() {
+                r.message = join(&r.message, &m.note);
             }
         }
-        errln!(
-            "  {:<10} {:<28} {:>6.2} s  {}{}{}",
-            match r.outcome {
-                Outcome::Pass => "pass",
-                Outcome::Regression => "REGRESSION",
-                Outcome::NotRun => "NOT RUN",
-                Outcome::Recorded => "recorded",
-                Outcome::Skipped => "skipped",
-            },
-            r.name,
-            r.seconds,
-            match (r.rmse, r.flip) {
-                (Some(rmse), Some(flip)) =>
-                    format!("RMSE {rmse:.2e} (≤ {}), FLIP {flip:.2e} (≤ {})", r.max_rmse, r.max_flip),
-                _ => String::new(),
-            },
-            match (r.reference_rmse, r.max_reference_rmse) {
-                (Some(rmse), Some(max)) => format!(", same-sample reference RMSE {rmse:.2e} (≤ {max})"),
-                _ => String::new(),
-            },
-            if r.message.is_empty() { String::new() } else { format!("  {}", r.message) }
-        );
         results.push(r);
     }
     let mut timing_baseline = None;
@@ -513,6 +531,10 @@ pub fn run(args: CheckArgs) -> Result<i32> {
             .unwrap_or_else(|| dir.join(format!("timing-{}.toml", provenance.driver)));
         timing_baseline = Some(path.display().to_string());
         time_cases(&mut renderer, &cases, &mut results, &args, &path, &here)?;
+    }
+    if args.measure_thresholds {
+        measured.save(&dir)?;
+        errln!("check: wrote {}", ThresholdFile::path(&dir).display());
     }
     if args.update {
         let text = format!(
@@ -672,6 +694,127 @@ fn judge_reference(r: &mut CaseResult, rendered: &Rendered, max: f64, out: &Path
         ),
     );
     Ok(())
+}
+
+/// What every case's check shares.
+struct CaseContext<'a> {
+    dir: &'a Path,
+    tier: Option<Tier>,
+    args: &'a CheckArgs,
+}
+
+/// Workers a check runs its cases on unless `--jobs` says: the CPU's threads, at most 4 (lavapipe
+/// rasterizes on every core already; the workers overlap the single-threaded pipeline compiles).
+fn default_jobs() -> usize {
+    std::thread::available_parallelism().map_or(1, |n| n.get()).min(4)
+}
+
+/// Renders and judges one case (records it with `--update`); with `--measure-thresholds`, also the
+/// smallest RMSE and FLIP [`thresholds::RESEED_COUNT`] other seeds move its image by.
+fn check_case(
+    renderer: &mut Renderer,
+    case: &Case,
+    ctx: &CaseContext,
+) -> Result<(CaseResult, Option<[f64; 2]>)> {
+    let mut reseed = None;
+    let t0 = Instant::now();
+    let rendered = render_case(renderer, case);
+    let seconds = t0.elapsed().as_secs_f64();
+    let expected_path = ctx.dir.join(format!("{}.exr", case.name));
+    let mut r = CaseResult {
+        name: case.name.clone(),
+        scene: case.scene.clone(),
+        config: case.config.clone(),
+        size: format!("{}x{}", case.size.0, case.size.1),
+        spp: case.spp,
+        seed: case.seed,
+        outcome: Outcome::NotRun,
+        // A case that is not reproducible bit for bit never takes the exact tier.
+        tier: ctx.tier.map(|t| if case.exact { t } else { Tier::Tolerance }),
+        rmse: None,
+        flip: None,
+        max_rmse: case.max_rmse,
+        max_flip: case.max_flip,
+        threshold_source: case.threshold_source,
+        reseed_rmse: None,
+        reseed_flip: None,
+        reference_rmse: None,
+        max_reference_rmse: case.reference,
+        gpu_ms: None,
+        baseline_gpu_ms: None,
+        timing: None,
+        seconds,
+        message: String::new(),
+    };
+    match (rendered, ctx.args.update) {
+        (Err(e), _)
+            if case.optional && e.downcast_ref::<shutter::Error>().is_some_and(crate::bench::is_refusal) =>
+        {
+            r.outcome = Outcome::Skipped;
+            r.message = format!("skipped (optional, refused here): {e:#}");
+        }
+        (Err(e), _) => r.message = format!("could not render: {e:#}"),
+        (Ok(rendered), true) => {
+            save_image(&expected_path, &rendered.out.image)?;
+            r.outcome = Outcome::Recorded;
+            r.message = format!("wrote {}", expected_path.display());
+        }
+        (Ok(rendered), false) => {
+            let tier = r.tier;
+            judge(&mut r, &rendered.out.image, &expected_path, tier, &ctx.args.out)?;
+            if let Some(max) = case.reference {
+                judge_reference(&mut r, &rendered, max, &ctx.args.out)?;
+            }
+            if ctx.args.measure_thresholds && r.rmse.is_some() {
+                reseed = Some(reseed_spread(renderer, case, &expected_path)?);
+                (r.reseed_rmse, r.reseed_flip) = reseed.map_or((None, None), |[a, b]| (Some(a), Some(b)));
+            }
+        }
+    }
+    errln!(
+        "  {:<10} {:<28} {:>6.2} s  {}{}{}",
+        match r.outcome {
+            Outcome::Pass => "pass",
+            Outcome::Regression => "REGRESSION",
+            Outcome::NotRun => "NOT RUN",
+            Outcome::Recorded => "recorded",
+            Outcome::Skipped => "skipped",
+        },
+        r.name,
+        r.seconds,
+        match (r.rmse, r.flip) {
+            (Some(rmse), Some(flip)) => format!(
+                "RMSE {rmse:.2e} (≤ {:.1e}), FLIP {flip:.2e} (≤ {:.1e}, {}){}",
+                r.max_rmse,
+                r.max_flip,
+                r.threshold_source,
+                match (r.reseed_rmse, r.reseed_flip) {
+                    (Some(rr), Some(rf)) => format!(", reseed RMSE {rr:.2e} FLIP {rf:.2e}"),
+                    _ => String::new(),
+                }
+            ),
+            _ => String::new(),
+        },
+        match (r.reference_rmse, r.max_reference_rmse) {
+            (Some(rmse), Some(max)) => format!(", same-sample reference RMSE {rmse:.2e} (≤ {max})"),
+            _ => String::new(),
+        },
+        if r.message.is_empty() { String::new() } else { format!("  {}", r.message) }
+    );
+    Ok((r, reseed))
+}
+
+/// The smallest RMSE and FLIP against the expected image over [`thresholds::RESEED_COUNT`] renders
+/// of `case` with other seeds.
+fn reseed_spread(renderer: &mut Renderer, case: &Case, expected_path: &Path) -> Result<[f64; 2]> {
+    let expected = load_image(expected_path)?;
+    let mut reseed = [f64::INFINITY; 2];
+    for k in 1..=thresholds::RESEED_COUNT {
+        let other = Case { seed: case.seed.wrapping_add(k), ..case.clone() };
+        let m = compare(&expected, &render_case(renderer, &other)?.out.image)?;
+        reseed = [reseed[0].min(m.rmse), reseed[1].min(m.flip)];
+    }
+    Ok(reseed)
 }
 
 fn join(a: &str, b: &str) -> String {
