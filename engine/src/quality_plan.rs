@@ -592,15 +592,16 @@ fn run_pilot(renderer: &mut Renderer, scene: &Scene, settings: &RenderSettings) 
         // The first is timed: the median of PILOT_TIMED_FRAMES after a warm-up frame (one frame's
         // time swings with whatever else the machine runs); the others are each the first frame of
         // their preparation, which pays for first uses (3× a warm frame on lavapipe at 96×54): untimed.
-        let n = if i == 0 { PILOT_TIMED_FRAMES + 1 } else { 1 };
-        let mut frames = renderer.render_frames(scene, Technique::ACCUMULATION, &s, n)?;
-        if i == 0 {
-            let mut timed: Vec<f64> = frames[1..].iter().map(frame_ms).collect();
-            timed.sort_by(f64::total_cmp);
-            ms = timed[timed.len() / 2];
-        }
-        let out = frames.pop().expect("a frame");
-        images.push(out.image);
+        let image = if i == 0 {
+            let (median, image) =
+                measure_ms(renderer, scene, Technique::ACCUMULATION, &s, PILOT_TIMED_FRAMES)?;
+            ms = median;
+            image
+        } else {
+            let mut frames = renderer.render_frames(scene, Technique::ACCUMULATION, &s, 1)?;
+            frames.pop().expect("a frame").image
+        };
+        images.push(image);
     }
     let inv = 1.0 / k as f32;
     let pooled = combine(&images.iter().map(|i| (i, inv)).collect::<Vec<_>>());

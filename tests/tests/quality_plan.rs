@@ -1,7 +1,7 @@
 //! The quality planner (`engine/src/quality_plan.rs`, `shutter render --quality`) against measurements
 //! on built-in scenes: the chosen render's FLIP against the ground truth comes within a stated factor
-//! of the prediction (its GPU time is a benchmark's: `scripts/quality-targets.sh`); a scene with nothing to simulate stays `pinhole`, without a
-//! pilot; over several seeds and two scenes (one object moving; shadow maps) the planned render meets
+//! of the prediction (its GPU time is a benchmark's: `scripts/quality-targets.sh`); a scene with
+//! nothing to simulate stays `pinhole`, without a pilot; over several seeds and two scenes (one object moving; shadow maps) the planned render meets
 //! its target in at least 9 cases of 10, and the plan does not swing with the seed (issue 28 item 9).
 
 use shutter::image::LinearImage;

@@ -514,9 +514,8 @@ pub fn run(args: CheckArgs) -> Result<i32> {
         let (mut r, reseed) = slot.expect("every case ran");
         if let (Some(reseed), Some(rmse), Some(flip)) = (reseed, r.rmse, r.flip) {
             let machine = format!("{} / {} / {}", here.driver, here.device, here.cpu);
-            let first = !measured.cases.contains_key(&case.name);
             let m = measured.cases.entry(case.name.clone()).or_default();
-            m.update(&machine, [rmse, flip], reseed, first);
+            m.update(&machine, [rmse, flip], reseed);
             if !m.note.is_empty() {
                 r.message = join(&r.message, &m.note);
             }
