@@ -17,10 +17,11 @@
 // Linked for its build script's libraries only: what Debian's shaderc archive lacks (its docs).
 extern crate shutter_shaderc_link as _;
 
-use std::cell::RefCell;
 use std::collections::{BTreeMap, BTreeSet};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::Mutex;
 
 const DECLARATION: &str = "shaders-glsl/permutations.toml";
 
@@ -94,63 +95,41 @@ fn main() {
     let (axes, stage_axes) = parse_declaration(&text, &stages);
     let perms = permutations(&axes, &stage_axes, &stages);
 
-    let compiler = shaderc::Compiler::new().expect("shaderc compiler");
-    let resolved: RefCell<BTreeSet<PathBuf>> = RefCell::new(BTreeSet::new());
+    // Permutations compile on every core (a compiler per worker: shaderc's is not shared between
+    // threads); each SPIR-V depends on its own permutation only, so the bytes are those of one thread,
+    // and the generated constants are written in permutation order afterwards.
+    let resolved: Mutex<BTreeSet<PathBuf>> = Mutex::new(BTreeSet::new());
+    let next = AtomicUsize::new(0);
+    let results: Vec<Mutex<Option<Result<Vec<u8>, String>>>> =
+        perms.iter().map(|_| Mutex::new(None)).collect();
+    let workers = std::thread::available_parallelism().map_or(1, |n| n.get()).min(perms.len().max(1));
+    std::thread::scope(|scope| {
+        for _ in 0..workers {
+            scope.spawn(|| {
+                let compiler = shaderc::Compiler::new().expect("shaderc compiler");
+                loop {
+                    let i = next.fetch_add(1, Ordering::Relaxed);
+                    let Some(p) = perms.get(i) else { break };
+                    *results[i].lock().unwrap() = Some(compile(&compiler, &root, p, &resolved));
+                }
+            });
+        }
+    });
     let mut consts = String::new();
     let mut errors = String::new();
-    for p in &perms {
-        let path = root.join(&p.file);
-        resolved.borrow_mut().insert(path.clone());
-        let source = std::fs::read_to_string(&path).expect("read shader");
-        let (kind, stage_define, stage_rs) = stage_of(&path);
-        let mut opts = shaderc::CompileOptions::new().unwrap();
-        // SPIR-V 1.5 (Vulkan 1.2): SPIR-V 1.6 compute would require maintenance4.
-        opts.set_target_env(shaderc::TargetEnv::Vulkan, shaderc::EnvVersion::Vulkan1_2 as u32);
-        opts.set_target_spirv(shaderc::SpirvVersion::V1_5);
-        opts.set_generate_debug_info();
-        opts.set_optimization_level(shaderc::OptimizationLevel::Performance);
-        opts.set_warnings_as_errors();
-        opts.add_macro_definition(stage_define, Some("1"));
-        for d in &p.defines {
-            match d.split_once('=') {
-                Some((k, v)) => opts.add_macro_definition(k, Some(v)),
-                None => opts.add_macro_definition(d, None),
-            }
-        }
-        let root_c = root.clone();
-        let resolved_c = &resolved;
-        opts.set_include_callback(move |name, ty, from, _depth| {
-            let candidates = match ty {
-                shaderc::IncludeType::Relative => {
-                    let base = Path::new(from).parent().unwrap_or(Path::new("")).to_path_buf();
-                    vec![base.join(name), root_c.join(name)]
-                }
-                shaderc::IncludeType::Standard => vec![root_c.join(name)],
-            };
-            for c in candidates {
-                if let Ok(content) = std::fs::read_to_string(&c) {
-                    let c = c.canonicalize().unwrap_or(c);
-                    resolved_c.borrow_mut().insert(c.clone());
-                    return Ok(shaderc::ResolvedInclude { resolved_name: c.display().to_string(), content });
-                }
-            }
-            Err(format!("cannot find include `{name}` (searched relative to `{from}` and shaders-glsl/)"))
-        });
-        match compiler.compile_into_spirv(&source, kind, &path.display().to_string(), "main", Some(&opts)) {
-            Ok(art) => {
-                if art.get_num_warnings() > 0 {
-                    println!("cargo:warning={}", art.get_warning_messages());
-                }
+    for (p, result) in perms.iter().zip(results) {
+        let (_, _, stage_rs) = stage_of(&root.join(&p.file));
+        match result.into_inner().unwrap().expect("every permutation was compiled") {
+            Ok(spirv) => {
                 let spv_name = format!("{}.spv", p.ident);
-                std::fs::write(out_dir.join(&spv_name), art.as_binary_u8()).unwrap();
+                std::fs::write(out_dir.join(&spv_name), spirv).unwrap();
                 write_const(&mut consts, p, &axes, stage_rs, &spv_name);
             }
-            Err(e) => {
-                writeln!(errors, "{} [{}]:\n{e}", p.file, p.name).unwrap();
-            }
+            Err(e) => errors.push_str(&e),
         }
     }
-    for p in resolved.borrow().iter() {
+    let resolved = resolved.into_inner().unwrap();
+    for p in resolved.iter() {
         println!("cargo:rerun-if-changed={}", p.display());
     }
     if !errors.is_empty() {
@@ -621,6 +600,61 @@ fn write_key_struct(out: &mut String, file: &str, axis_ids: &[usize], axes: &[Ax
         w!(out, "            ({},) => {},", pat.join(", "), p.ident);
     }
     w!(out, "        }}\n    }}\n}}");
+}
+
+/// Compiles one permutation: its SPIR-V, or its errors in glslang's words; `resolved` collects every
+/// file it read (for `cargo:rerun-if-changed`). Warnings are build warnings.
+fn compile(
+    compiler: &shaderc::Compiler,
+    root: &Path,
+    p: &Permutation,
+    resolved: &Mutex<BTreeSet<PathBuf>>,
+) -> Result<Vec<u8>, String> {
+    let path = root.join(&p.file);
+    resolved.lock().unwrap().insert(path.clone());
+    let source = std::fs::read_to_string(&path).expect("read shader");
+    let (kind, stage_define, _) = stage_of(&path);
+    let mut opts = shaderc::CompileOptions::new().unwrap();
+    // SPIR-V 1.5 (Vulkan 1.2): SPIR-V 1.6 compute would require maintenance4.
+    opts.set_target_env(shaderc::TargetEnv::Vulkan, shaderc::EnvVersion::Vulkan1_2 as u32);
+    opts.set_target_spirv(shaderc::SpirvVersion::V1_5);
+    opts.set_generate_debug_info();
+    opts.set_optimization_level(shaderc::OptimizationLevel::Performance);
+    opts.set_warnings_as_errors();
+    opts.add_macro_definition(stage_define, Some("1"));
+    for d in &p.defines {
+        match d.split_once('=') {
+            Some((k, v)) => opts.add_macro_definition(k, Some(v)),
+            None => opts.add_macro_definition(d, None),
+        }
+    }
+    let root_c = root.to_path_buf();
+    opts.set_include_callback(move |name, ty, from, _depth| {
+        let candidates = match ty {
+            shaderc::IncludeType::Relative => {
+                let base = Path::new(from).parent().unwrap_or(Path::new("")).to_path_buf();
+                vec![base.join(name), root_c.join(name)]
+            }
+            shaderc::IncludeType::Standard => vec![root_c.join(name)],
+        };
+        for c in candidates {
+            if let Ok(content) = std::fs::read_to_string(&c) {
+                let c = c.canonicalize().unwrap_or(c);
+                resolved.lock().unwrap().insert(c.clone());
+                return Ok(shaderc::ResolvedInclude { resolved_name: c.display().to_string(), content });
+            }
+        }
+        Err(format!("cannot find include `{name}` (searched relative to `{from}` and shaders-glsl/)"))
+    });
+    match compiler.compile_into_spirv(&source, kind, &path.display().to_string(), "main", Some(&opts)) {
+        Ok(art) => {
+            if art.get_num_warnings() > 0 {
+                println!("cargo:warning={}", art.get_warning_messages());
+            }
+            Ok(art.as_binary_u8().to_vec())
+        }
+        Err(e) => Err(format!("{} [{}]:\n{e}\n", p.file, p.name)),
+    }
 }
 
 fn write_const(out: &mut String, p: &Permutation, axes: &[Axis], stage_rs: &str, spv_name: &str) {
