@@ -13,7 +13,7 @@
 //! expected and actual images and a FLIP map in `target/test-output/`.
 //!
 //! Record (or re-record, after an intended change) on each driver with
-//! `SHUTTER_RECORD_GOLDEN=1 SHUTTER_DEVICE=llvmpipe SHUTTER_DRIVER=lavapipe-25.0 cargo test -p shutter-tests --test golden`
+//! `SHUTTER_RECORD_GOLDEN=1 SHUTTER_DEVICE=llvmpipe SHUTTER_DRIVER=lavapipe-25.0 cargo test -p shutter-tests --test integration golden::`
 //! (and `SHUTTER_DRIVER=lavapipe-22.3`); the images are recorded on [`IMAGE_DRIVER`] only.
 
 use std::collections::{BTreeMap, HashMap};
