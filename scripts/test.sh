@@ -10,6 +10,11 @@
 # -p shutter-cli) unifies dependency features differently and rebuilt for about 110 s, where the
 # engine's CPU-only unit tests it repeats take about 13 s. SHUTTER_TEST_DRIVERS="lavapipe-25.0" (a
 # space-separated list) runs fewer.
+#
+# The CPU reference does not depend on the driver, so the run keeps the references its tests trace in
+# a folder of its own (SHUTTER_TEST_REFERENCE_CACHE, emptied when the run starts) and the second
+# driver's pass reads them back instead of tracing them again. Set it yourself to keep a folder across
+# runs (then it is not emptied; a change to the reference must bump REFERENCE_VERSION).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/setup.sh
@@ -21,6 +26,10 @@ export SHUTTER_DEVICE="${SHUTTER_DEVICE:-llvmpipe}"
 # malformed doc comment fails the run (no driver needed; about a minute after the build).
 echo "== cargo doc (warnings are errors)"
 RUSTDOCFLAGS="-D warnings" cargo doc --no-deps --locked -p shutter
+if [ -z "${SHUTTER_TEST_REFERENCE_CACHE:-}" ]; then
+  export SHUTTER_TEST_REFERENCE_CACHE="$PWD/target/test-output/reference-cache"
+  rm -rf "$SHUTTER_TEST_REFERENCE_CACHE"
+fi
 read -r -a drivers <<<"${SHUTTER_TEST_DRIVERS:-lavapipe-25.0 lavapipe-22.3}"
 for driver in "${drivers[@]}"; do
   start=$SECONDS

@@ -6,7 +6,7 @@ use std::sync::Arc;
 
 use glam::{Mat4, Vec2, Vec3};
 use shutter::image::LinearImage;
-use shutter::reference::{render_reference, ReferenceSettings};
+use shutter::reference::{render_reference_cached, ReferenceSettings};
 use shutter::sampling::{ApertureShape, ShutterCurve};
 use shutter::scene::{Camera, CameraPose, Environment, ImageSettings, Light, Material, Mesh, Object, Scene};
 use shutter::techniques::{RenderOutput, Renderer, ShadingRate};
@@ -18,6 +18,20 @@ pub fn renderer() -> Renderer {
     let device = shutter::vk::create_device().expect("a Vulkan device (run scripts/setup.sh for lavapipe)");
     assert!(device.validation_enabled, "validation layer missing: install vulkan-validationlayers");
     Renderer::new(device).expect("renderer")
+}
+
+/// The CPU reference through the test run's cache, where the run has one: `SHUTTER_TEST_REFERENCE_CACHE`
+/// names a folder that `scripts/test.sh` makes fresh for each run, so the second driver's pass takes
+/// the first pass's references instead of tracing them again (the reference runs on the CPU; its
+/// images do not depend on the driver). Without it every reference is traced. A run's own folder,
+/// never a lasting one: a cache that outlived a change to the reference would hide the change.
+pub fn render_reference(scene: &Scene, settings: &ReferenceSettings) -> shutter::Result<LinearImage> {
+    match std::env::var_os("SHUTTER_TEST_REFERENCE_CACHE").filter(|d| !d.is_empty()) {
+        Some(dir) => {
+            render_reference_cached(std::path::Path::new(&dir), scene, settings).map(|(image, _)| image)
+        }
+        None => shutter::reference::render_reference(scene, settings),
+    }
 }
 
 /// The CPU reference with the same samples *and* the same shading rate as a stochastic (or `auto`)

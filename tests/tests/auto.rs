@@ -10,12 +10,13 @@ use shutter::image::LinearImage;
 use shutter::metrics::compare;
 use shutter::mirror::bounds::BoundKind;
 use shutter::plan::{Effects, Plan};
-use shutter::reference::{render_reference, ReferenceSettings};
+use shutter::reference::ReferenceSettings;
 use shutter::scene::builtin::{builtin_mesh, builtin_scene};
 use shutter::scene::Scene;
 use shutter::techniques::{
     RenderOutput, RenderSettings, Renderer, ShadingRate, StochasticOptions, Technique,
 };
+use shutter_tests::render_reference;
 use shutter_tests::{camera, renderer, same_sample_reference, save_comparison, single_object_scene};
 
 fn render(

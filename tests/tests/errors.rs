@@ -165,10 +165,11 @@ fn scenes_built_in_code_are_validated_like_files() {
 /// a panic or a validation message; the planner plans them.
 #[test]
 fn empty_scenes_render_the_background_in_every_technique() {
-    use shutter::reference::{render_reference, ReferenceSettings};
+    use shutter::reference::ReferenceSettings;
     use shutter::techniques::compute_hull::HullExpansion;
     use shutter::techniques::registry::TECHNIQUES;
     use shutter::techniques::stochastic::{ShadingRate, StochasticOptions};
+    use shutter_tests::render_reference;
     let (w, h) = (16, 9);
     let mut empty = single_object_scene(camera(40.0, 0.1, 5.0), square(1.0), Mat4::IDENTITY, None, w, h);
     empty.environment.background = Vec3::new(0.2, 0.3, 0.4);

@@ -16,18 +16,24 @@ const MATRIX: MatrixSettings = MatrixSettings {
     truth_spp: 512,
     seed: 1,
     pictures: Some(concat!(env!("CARGO_MANIFEST_DIR"), "/../target/test-output/hard-cases")),
-    // CI runs the matrix on two drivers; the second takes the CPU references from the first.
-    reference_cache: Some(concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../target/test-output/hard-cases/references"
-    )),
+    // Set by `matrix()` from the test run's cache (scripts/test.sh runs the matrix on two drivers;
+    // the second takes the CPU references from the first).
+    reference_cache: None,
 };
+
+/// [`MATRIX`] with the run's reference cache ([`shutter_tests::render_reference`]), where it has one.
+fn matrix() -> MatrixSettings {
+    let cache = std::env::var("SHUTTER_TEST_REFERENCE_CACHE").ok().filter(|d| !d.is_empty());
+    // One short string per test; MatrixSettings holds a `&'static str` (the tools' is a literal).
+    MatrixSettings { reference_cache: cache.map(|d| &*Box::leak(d.into_boxed_str())), ..MATRIX }
+}
 
 fn check(name: &str) {
     let case = HardCase::named(name).expect("a hard case");
     let mut r = renderer();
-    let row = run_row(&mut r, case, COLUMNS, &MATRIX).unwrap_or_else(|e| panic!("{name}: {e:#}"));
-    let table = markdown(std::slice::from_ref(&row), &MATRIX, COLUMNS, "test");
+    let m = matrix();
+    let row = run_row(&mut r, case, COLUMNS, &m).unwrap_or_else(|e| panic!("{name}: {e:#}"));
+    let table = markdown(std::slice::from_ref(&row), &m, COLUMNS, "test");
     println!("{table}");
     let _ = std::fs::write(output_dir().join(format!("hard-case-{name}.md")), &table);
     let measured = row.cells.iter().filter(|(_, o)| matches!(o, Outcome::Measured(_))).count();

@@ -5,10 +5,11 @@ use std::sync::Arc;
 use glam::{Mat4, Quat, Vec3};
 use shutter::image::LinearImage;
 use shutter::metrics::compare;
-use shutter::reference::{render_reference, ReferenceSettings};
+use shutter::reference::ReferenceSettings;
 use shutter::scene::builtin::builtin_mesh;
 use shutter::scene::{Light, Material, Mesh, Object, Scene};
 use shutter::techniques::{RenderSettings, Renderer, ShadingRate, StochasticOptions, Technique};
+use shutter_tests::render_reference;
 use shutter_tests::{camera, renderer, same_sample_reference, single_object_scene, square};
 
 fn reference(scene: &Scene, spp: u32, seed: u64) -> LinearImage {

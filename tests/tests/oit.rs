@@ -13,11 +13,12 @@
 use glam::Vec3;
 use shutter::image::LinearImage;
 use shutter::metrics::compare;
-use shutter::reference::{render_reference, ReferenceSettings};
+use shutter::reference::ReferenceSettings;
 use shutter::scene::Scene;
 use shutter::techniques::{RenderOutput, RenderSettings, Renderer, Technique};
 use shutter::transparency::TransparencyMethod;
 use shutter_tests::panes::{composite, composite_layers, pane_scene, panes, PaneSpec, H, W};
+use shutter_tests::render_reference;
 use shutter_tests::{renderer, save_comparison};
 
 const PEELING: TransparencyMethod = TransparencyMethod::Peeling { layers: 8 };

@@ -7,10 +7,11 @@
 use shutter::image::LinearImage;
 use shutter::metrics::compare;
 use shutter::quality_plan::{plan_quality, CostModel, QualityTarget};
-use shutter::reference::{render_reference, ReferenceSettings};
+use shutter::reference::ReferenceSettings;
 use shutter::scene::builtin::builtin_scene;
 use shutter::scene::{Light, Scene};
 use shutter::techniques::{RenderSettings, Technique};
+use shutter_tests::render_reference;
 use shutter_tests::{renderer, save_comparison};
 
 /// Predicted FLIP against the reference: within this factor either way.

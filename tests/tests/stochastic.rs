@@ -9,7 +9,7 @@ use glam::{Mat4, Quat, Vec2, Vec3};
 use shutter::image::LinearImage;
 use shutter::metrics::compare;
 use shutter::mirror::bounds::{bound, BoundKind, MovingTriangle, ScreenBound};
-use shutter::reference::{render_reference, ReferenceSettings};
+use shutter::reference::ReferenceSettings;
 use shutter::sampling::Pcg32;
 use shutter::scene::builtin::{builtin_mesh, builtin_scene};
 use shutter::scene::camera_space::CameraSpaceScene;
@@ -19,6 +19,7 @@ use shutter::techniques::{
     Clusters, FrameTechnique, HullExpansion, Intervals, PreparedFrame, RenderOutput, RenderSettings,
     Renderer, ShadingRate, StochasticOptions, Technique,
 };
+use shutter_tests::render_reference;
 use shutter_tests::{
     camera, max_abs_diff, renderer, same_sample_reference, save_comparison, single_object_scene, square,
 };

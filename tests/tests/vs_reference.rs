@@ -4,10 +4,11 @@
 //! with a margin, and are printed so a regression shows how far it moved.
 
 use shutter::metrics::compare;
-use shutter::reference::{render_reference, ReferenceSettings};
+use shutter::reference::ReferenceSettings;
 use shutter::scene::builtin::builtin_scene;
 use shutter::scene::file::parse_scene;
 use shutter::techniques::{RenderSettings, ShadingRate, StochasticOptions, Technique};
+use shutter_tests::render_reference;
 use shutter_tests::{renderer, same_sample_reference, save_comparison};
 
 fn reference(name: &str, w: u32, h: u32, spp: u32) -> shutter::image::LinearImage {

@@ -201,24 +201,26 @@ pub fn render_reference(scene: &Scene, settings: &ReferenceSettings) -> Result<L
 
 /// [`render_reference`] through a folder of cached images, with whether it came from there. The file
 /// name holds everything the pixels depend on — [`REFERENCE_VERSION`] (a reference traced by an older
-/// reference is never reused), the scene's content hash, size, samples and seed — so it serves only the
-/// ground truth, [`ReferenceShading::PerSample`]; another shading is traced every time. An entry that
-/// does not read back at the right size is traced again and replaced.
+/// reference is never reused), the scene's content hash, size, samples, seed and shading
+/// ([`ReferenceShading::cache_tag`]; the ground truth's names carry none, as before shadings were
+/// cached). An entry that does not read back at the right size is traced again and replaced; an entry
+/// that cannot be written leaves the traced image returned (the cache only saves time).
+///
+/// The version is bumped by hand when the reference's output changes; a cache that must never outlive
+/// the code that filled it (a test run's, which spans two drivers) is a folder of that run.
 pub fn render_reference_cached(
     dir: &std::path::Path,
     scene: &Scene,
     settings: &ReferenceSettings,
 ) -> Result<(LinearImage, bool)> {
-    if settings.shading != ReferenceShading::PerSample {
-        return Ok((render_reference(scene, settings)?, false));
-    }
     let path = dir.join(format!(
-        "reference-v{REFERENCE_VERSION}-{:016x}-{}x{}-{}spp-seed{}.exr",
+        "reference-v{REFERENCE_VERSION}-{:016x}-{}x{}-{}spp-seed{}{}.exr",
         scene.content_hash(),
         settings.width,
         settings.height,
         settings.spp,
-        settings.seed
+        settings.seed,
+        settings.shading.cache_tag()
     ));
     if let Ok(image) = crate::image_io::load_image(&path) {
         if (image.width, image.height) == (settings.width, settings.height) {
@@ -226,9 +228,28 @@ pub fn render_reference_cached(
         }
     }
     let image = render_reference(scene, settings)?;
-    std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
-    crate::image_io::save_image(&path, &image)?;
+    let saved = std::fs::create_dir_all(dir)
+        .map_err(|e| Error::io(dir, e))
+        .and_then(|()| crate::image_io::save_image(&path, &image));
+    if let Err(e) = saved {
+        log::warn!("reference cache: {e:#}");
+    }
     Ok((image, false))
+}
+
+impl ReferenceShading {
+    /// What [`render_reference_cached`]'s file names add for this shading: nothing for the ground
+    /// truth, the pass size or the grid otherwise.
+    pub fn cache_tag(&self) -> String {
+        use crate::mirror::decoupled::GridKind;
+        match self {
+            ReferenceShading::PerSample => String::new(),
+            ReferenceShading::PerPixel { per_pass } => format!("-per-pixel{per_pass}"),
+            ReferenceShading::Decoupled(GridKind::Pixel) => "-decoupled-pixel".into(),
+            ReferenceShading::Decoupled(GridKind::Aas) => "-decoupled-aas".into(),
+            ReferenceShading::Decoupled(GridKind::AasIsotropic) => "-decoupled-aas-isotropic".into(),
+        }
+    }
 }
 
 /// Renders `scene` with the CPU reference and reports what it cost.
