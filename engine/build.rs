@@ -100,8 +100,7 @@ fn main() {
     // and the generated constants are written in permutation order afterwards.
     let resolved: Mutex<BTreeSet<PathBuf>> = Mutex::new(BTreeSet::new());
     let next = AtomicUsize::new(0);
-    let results: Vec<Mutex<Option<Result<Vec<u8>, String>>>> =
-        perms.iter().map(|_| Mutex::new(None)).collect();
+    let results: Vec<Mutex<Option<Compiled>>> = perms.iter().map(|_| Mutex::new(None)).collect();
     let workers = std::thread::available_parallelism().map_or(1, |n| n.get()).min(perms.len().max(1));
     std::thread::scope(|scope| {
         for _ in 0..workers {
@@ -602,6 +601,9 @@ fn write_key_struct(out: &mut String, file: &str, axis_ids: &[usize], axes: &[Ax
     w!(out, "        }}\n    }}\n}}");
 }
 
+/// A permutation's SPIR-V, or its errors in glslang's words.
+type Compiled = Result<Vec<u8>, String>;
+
 /// Compiles one permutation: its SPIR-V, or its errors in glslang's words; `resolved` collects every
 /// file it read (for `cargo:rerun-if-changed`). Warnings are build warnings.
 fn compile(
@@ -609,7 +611,7 @@ fn compile(
     root: &Path,
     p: &Permutation,
     resolved: &Mutex<BTreeSet<PathBuf>>,
-) -> Result<Vec<u8>, String> {
+) -> Compiled {
     let path = root.join(&p.file);
     resolved.lock().unwrap().insert(path.clone());
     let source = std::fs::read_to_string(&path).expect("read shader");
