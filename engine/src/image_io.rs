@@ -362,6 +362,21 @@ pub fn save_image(path: impl AsRef<Path>, image: &LinearImage) -> Result<()> {
     }
 }
 
+/// [`save_image`] for a person to look at: a PNG through `display` (exposure, then tone curve, then the
+/// sRGB encoding of [`write_png`]); an EXR linear as rendered, whatever `display` says.
+pub fn save_image_displayed(
+    path: impl AsRef<Path>,
+    image: &LinearImage,
+    display: &crate::tonemap::Display,
+) -> Result<()> {
+    let path = path.as_ref();
+    match output_format(path)? {
+        OutputFormat::Exr => write_exr(path, image),
+        OutputFormat::Png if display.is_linear() => write_png(path, image),
+        OutputFormat::Png => write_png(path, &display.apply(image)),
+    }
+}
+
 /// Reads an EXR (linear, first RGBA layer, full resolution; missing alpha reads as 1) or a PNG (8- or
 /// 16-bit, grey / grey+alpha / RGB / RGBA; colour sRGB-decoded to linear, alpha taken as linear).
 ///

@@ -81,6 +81,7 @@ pub mod sampling;
 pub mod scene;
 pub mod shading;
 pub mod techniques;
+pub mod tonemap;
 pub mod transparency;
 pub mod vk;
 

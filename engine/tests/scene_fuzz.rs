@@ -511,7 +511,7 @@ fn model_scene(meshes: Vec<Arc<Mesh>>) -> impl Strategy<Value = Scene> {
     )
         .prop_map(|((size, spp), camera, objects, lights, (ambient, background))| Scene {
             name: "fuzz".into(),
-            image: ImageSettings { width: size, height: size, spp, seed: 1 },
+            image: ImageSettings { width: size, height: size, spp, seed: 1, display: Default::default() },
             camera,
             objects,
             lights,

@@ -125,7 +125,7 @@ pub fn single_object_scene(
 ) -> Scene {
     Scene {
         name: "test".into(),
-        image: ImageSettings { width: w, height: h, spp: 16, seed: 1 },
+        image: ImageSettings { width: w, height: h, spp: 16, seed: 1, display: Default::default() },
         camera,
         objects: vec![Object {
             name: "object".into(),

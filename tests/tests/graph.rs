@@ -32,7 +32,13 @@ fn probe_scene(w: u32, h: u32) -> Scene {
     cam.open.look_at = Vec3::new(0.0, 0.5, 0.0);
     Scene {
         name: "graph probe".into(),
-        image: shutter::scene::ImageSettings { width: w, height: h, spp: 1, seed: 1 },
+        image: shutter::scene::ImageSettings {
+            width: w,
+            height: h,
+            spp: 1,
+            seed: 1,
+            display: Default::default(),
+        },
         camera: cam,
         objects: vec![
             object("ground", mesh("plane", Some(4)), Mat4::from_scale(Vec3::splat(6.0))),

@@ -46,7 +46,7 @@ fn scene(light: Light, caster: Object) -> Scene {
     let ground = Material { albedo: Vec3::splat(0.6), ..Material::default() };
     Scene {
         name: "shadows".into(),
-        image: ImageSettings { width: W, height: H, spp: 4, seed: SEED },
+        image: ImageSettings { width: W, height: H, spp: 4, seed: SEED, display: Default::default() },
         camera: cam,
         objects: vec![
             object("ground", mesh("plane", Some(2)), vec![(0.0, Mat4::from_scale(Vec3::splat(2.5)))], ground),
@@ -326,7 +326,13 @@ fn edge_scene() -> Scene {
         * Mat4::from_scale(Vec3::new(0.8, 0.02, 1.4));
     Scene {
         name: "shadow-edge".into(),
-        image: ImageSettings { width: EDGE_W, height: EDGE_H, spp: 4, seed: SEED },
+        image: ImageSettings {
+            width: EDGE_W,
+            height: EDGE_H,
+            spp: 4,
+            seed: SEED,
+            display: Default::default(),
+        },
         camera: cam,
         objects: vec![
             object("ground", mesh("plane", Some(2)), vec![(0.0, Mat4::from_scale(Vec3::splat(1.5)))], ground),

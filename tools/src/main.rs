@@ -26,10 +26,10 @@ mod quality;
 use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context, Result};
-use clap::{Parser, Subcommand};
+use clap::{Args, Parser, Subcommand};
 
 use shutter::image_io::{
-    check_image_output, check_output_file, load_image, save_image, write_file_atomically,
+    check_image_output, check_output_file, load_image, save_image_displayed, write_file_atomically,
 };
 use shutter::quality_plan::{CostModel, QualityTarget};
 use shutter::reference::ReferenceSettings;
@@ -133,6 +133,8 @@ enum Command {
         snsm: bool,
         #[command(flatten)]
         image: ImageArgs,
+        #[command(flatten)]
+        display: DisplayArgs,
     },
     /// Compare two images: RMSE, PSNR and mean FLIP of B against reference A; with `--max-flip` /
     /// `--max-rmse`, exit 0 within them, 1 beyond, 2 where the images could not be compared.
@@ -142,7 +144,13 @@ enum Command {
     /// within the case's RMSE and FLIP thresholds elsewhere. Exit 0 pass, 1 regression, 2 not run.
     Check(cmd::check::CheckArgs),
     /// Convert an image between .exr (linear) and .png (sRGB).
-    Convert { input: PathBuf, output: PathBuf },
+    /// With --exposure / --tone, a PNG is written through them (an EXR stays linear).
+    Convert {
+        input: PathBuf,
+        output: PathBuf,
+        #[command(flatten)]
+        display: DisplayArgs,
+    },
     /// Sample test efficiency and GPU ms of every stochastic bound on a scene, next to pinhole and
     /// accumulation at the same samples per pixel (markdown table on stdout).
     Bounds(cmd::bounds::BoundsArgs),
@@ -274,6 +282,47 @@ struct ImageArgs {
     /// out/<scene>-reference.exr for reference.
     #[arg(long)]
     out: Option<PathBuf>,
+}
+
+/// The PNG output's display transform (`shutter::tonemap`); an EXR stays linear.
+#[derive(Args, Clone, Copy, Default)]
+struct DisplayArgs {
+    /// PNG output: exposure in stops (the linear image ×2^EV before the tone curve), |EV| ≤ 64.
+    /// Default: the scene's [image] exposure (0).
+    #[arg(long, allow_hyphen_values = true, value_parser = parse_exposure)]
+    exposure: Option<f32>,
+    /// PNG output: tone curve clip (above 1 is white, the default), reinhard (x / (1 + x): nothing
+    /// a scene holds clips) or aces (a filmic toe and shoulder). Default: the scene's [image] tone.
+    #[arg(long, value_parser = parse_tone)]
+    tone: Option<shutter::tonemap::ToneCurve>,
+}
+
+impl DisplayArgs {
+    /// The scene's display transform with the flags given over it.
+    fn over(self, scene: shutter::tonemap::Display) -> shutter::tonemap::Display {
+        shutter::tonemap::Display {
+            exposure_ev: self.exposure.unwrap_or(scene.exposure_ev),
+            curve: self.tone.unwrap_or(scene.curve),
+        }
+    }
+}
+
+/// `--exposure`: finite stops within ±MAX_EXPOSURE_EV.
+fn parse_exposure(s: &str) -> std::result::Result<f32, String> {
+    let max = shutter::tonemap::MAX_EXPOSURE_EV;
+    match s.trim().parse::<f32>() {
+        Ok(ev) if ev.is_finite() && ev.abs() <= max => Ok(ev),
+        _ => Err(format!("`{s}` is not an exposure: give stops in [-{max}, {max}] (e.g. -1.5)")),
+    }
+}
+
+/// `--tone`: a curve's name.
+fn parse_tone(s: &str) -> std::result::Result<shutter::tonemap::ToneCurve, String> {
+    use shutter::tonemap::ToneCurve;
+    ToneCurve::from_name(s.trim()).ok_or_else(|| {
+        let names: Vec<&str> = ToneCurve::ALL.iter().map(|c| c.name()).collect();
+        format!("`{s}` is not a tone curve: give one of {}", names.join(", "))
+    })
 }
 
 fn parse_size(s: &str) -> std::result::Result<(u32, u32), String> {
@@ -467,6 +516,7 @@ fn run() -> Result<()> {
             bilinear,
             snsm,
             image: ImageArgs { size, seed, out },
+            display,
             ..
         } => {
             let sc = load_scene(&scene)?;
@@ -501,7 +551,7 @@ fn run() -> Result<()> {
                 shutter::mirror::interleaved::render_frame(&sc, (width, height), &passes, &sets, &settings)?;
             let secs = start.elapsed().as_secs_f64();
             shutter::progress::check_interrupt()?;
-            save_image(&out, &image)?;
+            save_image_displayed(&out, &image, &display.over(sc.image.display))?;
             outln!(
                 "{} interleaved (CPU) {}x{}, {} pass(es): {} VPLs from {count} photons{}, pattern {}, filter {filter}{}, {} in {secs:.1} s; wrote {}",
                 sc.name,
@@ -524,6 +574,7 @@ fn run() -> Result<()> {
             vpls,
             clamp,
             image: ImageArgs { size, seed, out },
+            display,
             ..
         } => {
             let sc = load_scene(&scene)?;
@@ -558,7 +609,7 @@ fn run() -> Result<()> {
             if let Some(keys) = stats.decoupled_keys {
                 outln!("decoupled shading: {keys} distinct keys (shading points) among the samples");
             }
-            save_image(&out, &image)?;
+            save_image_displayed(&out, &image, &display.over(sc.image.display))?;
             outln!(
                 "{} reference {}x{} spp {} in {:.1} s on {} CPU threads; wrote {}",
                 sc.name,
@@ -577,9 +628,9 @@ fn run() -> Result<()> {
             // A suite that cannot be read, no device: not run (2), not a regression.
             Err(e) => return Err(cmd::compare::NotCompared(format!("{e:#}")).into()),
         },
-        Command::Convert { input, output } => {
+        Command::Convert { input, output, display } => {
             check_image_output(&output)?;
-            save_image(&output, &load_image(&input)?)?;
+            save_image_displayed(&output, &load_image(&input)?, &display.over(Default::default()))?;
             outln!("wrote {}", output.display());
         }
         Command::Bounds(args) => cmd::bounds::run(args)?,

@@ -979,3 +979,87 @@ fn check_records_passes_and_catches_a_changed_image() {
     assert!(xml.contains("failures=\"0\" errors=\"0\""), "{xml}");
     std::fs::remove_file(&report).ok();
 }
+
+/// `--exposure` / `--tone` (and the scene's `[image] exposure` / `tone`) change only what a PNG
+/// holds: 3 stops over, `clip` whites out the lit floor where `reinhard` keeps every pixel below
+/// white; the EXR is the same bytes whatever the flags; `convert` applies the same transform.
+#[test]
+fn exposure_and_tone_shape_png_output_only() {
+    let dir = std::env::temp_dir().join(format!("shutter-cli-tone-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = |name: &str| dir.join(name).display().to_string();
+    let reference = |extra: &[&str], out: &str| {
+        let mut args = vec!["reference", "default", "--size", "48x27", "--spp", "4", "--out", out];
+        args.extend_from_slice(extra);
+        let (code, stdout, stderr) = shutter(&args);
+        assert_eq!(code, 0, "{args:?}: {stdout}{stderr}");
+    };
+    let white = |p: &str| {
+        let img = shutter::image_io::load_image(p).unwrap();
+        img.pixels.iter().filter(|px| px[..3].iter().any(|&c| c >= 1.0)).count()
+    };
+    reference(&[], &path("plain.png"));
+    reference(&["--exposure", "3"], &path("clip.png"));
+    reference(&["--exposure", "3", "--tone", "reinhard"], &path("reinhard.png"));
+    reference(&["--exposure", "-1.5", "--tone", "aces"], &path("dark.png"));
+    let (plain, clip, reinhard) =
+        (white(&path("plain.png")), white(&path("clip.png")), white(&path("reinhard.png")));
+    assert!(
+        clip > 100 && clip > 4 * plain.max(1),
+        "3 stops over, clipped: {clip} white pixels (plain {plain})"
+    );
+    assert_eq!(reinhard, 0, "reinhard keeps everything below white");
+    assert_ne!(std::fs::read(path("plain.png")).unwrap(), std::fs::read(path("dark.png")).unwrap());
+
+    // EXR: linear, whatever the flags.
+    reference(&[], &path("plain.exr"));
+    reference(&["--exposure", "3", "--tone", "aces"], &path("toned.exr"));
+    assert_eq!(std::fs::read(path("plain.exr")).unwrap(), std::fs::read(path("toned.exr")).unwrap());
+
+    // The scene's [image] keys do what the flags do, and the flags override them.
+    let toml =
+        std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../scenes/default.toml")).unwrap();
+    let toned = path("toned.toml");
+    let with_keys = toml.replacen("[image]", "[image]\nexposure = 3\ntone = \"reinhard\"", 1);
+    assert_ne!(with_keys, toml, "scenes/default.toml has an [image] table");
+    std::fs::write(&toned, with_keys).unwrap();
+    let (code, o, e) =
+        shutter(&["reference", &toned, "--size", "48x27", "--spp", "4", "--out", &path("keys.png")]);
+    let (code2, o2, e2) = shutter(&[
+        "reference",
+        &toned,
+        "--size",
+        "48x27",
+        "--spp",
+        "4",
+        "--exposure",
+        "0",
+        "--tone",
+        "clip",
+        "--out",
+        &path("overridden.png"),
+    ]);
+    assert_eq!((code, code2), (0, 0), "{o}{e}{o2}{e2}");
+    assert_eq!(std::fs::read(path("keys.png")).unwrap(), std::fs::read(path("reinhard.png")).unwrap());
+    assert_eq!(std::fs::read(path("overridden.png")).unwrap(), std::fs::read(path("plain.png")).unwrap());
+
+    // convert: EXR → PNG through the same transform.
+    let (code, o, e) = shutter(&[
+        "convert",
+        &path("plain.exr"),
+        &path("converted.png"),
+        "--exposure",
+        "3",
+        "--tone",
+        "reinhard",
+    ]);
+    assert_eq!(code, 0, "{o}{e}");
+    assert_eq!(std::fs::read(path("converted.png")).unwrap(), std::fs::read(path("reinhard.png")).unwrap());
+
+    // Bad values are usage errors naming the flag's grammar.
+    let (code, _, e) = shutter(&["reference", "default", "--tone", "filmic", "--out", &path("x.png")]);
+    assert!(code != 0 && e.contains("reinhard"), "{e}");
+    let (code, _, e) = shutter(&["reference", "default", "--exposure", "100", "--out", &path("x.png")]);
+    assert!(code != 0 && e.contains("[-64, 64]"), "{e}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -58,7 +58,7 @@ fn object(mesh: Arc<Mesh>, albedo: Vec3, alpha: f32) -> Object {
 fn scene(camera: Camera, objects: Vec<Object>, background: Vec3) -> Scene {
     Scene {
         name: "test".into(),
-        image: ImageSettings { width: W, height: H, spp: 64, seed: 1 },
+        image: ImageSettings { width: W, height: H, spp: 64, seed: 1, display: Default::default() },
         camera,
         objects,
         lights: vec![],

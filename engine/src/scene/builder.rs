@@ -124,7 +124,7 @@ impl Scene {
     pub fn new(name: impl Into<String>, camera: Camera) -> Scene {
         Scene {
             name: name.into(),
-            image: ImageSettings { width: 640, height: 360, spp: 16, seed: 1 },
+            image: ImageSettings { width: 640, height: 360, spp: 16, seed: 1, display: Default::default() },
             camera,
             objects: Vec::new(),
             lights: Vec::new(),
@@ -133,8 +133,15 @@ impl Scene {
     }
 
     /// Renders `width × height` pixels with `spp` samples per pixel and `seed`.
+    /// (The display transform stays as it was.)
     pub fn with_image(self, width: u32, height: u32, spp: u32, seed: u64) -> Scene {
-        Scene { image: ImageSettings { width, height, spp, seed }, ..self }
+        Scene { image: ImageSettings { width, height, spp, seed, display: self.image.display }, ..self }
+    }
+
+    /// PNG output exposed by `exposure_ev` stops and through `curve` ([`crate::tonemap`]).
+    pub fn with_display(mut self, exposure_ev: f32, curve: crate::tonemap::ToneCurve) -> Scene {
+        self.image.display = crate::tonemap::Display { exposure_ev, curve };
+        self
     }
 
     pub fn with_object(mut self, object: Object) -> Scene {

@@ -12,6 +12,9 @@
 //! height = 360                  # 1..=8192
 //! spp = 16                      # 1..=65536 (MAX_SPP)
 //! seed = 1                      # ≥ 0
+//! exposure = 0.0                # PNG output only: stops (×2^EV) before the tone curve, |EV| ≤ 64
+//! tone = "clip"                 # PNG output only: "clip" (above 1 is white), "reinhard" (x / (1 + x)),
+//!                               # "aces" (a filmic curve); EXR and every metric stay linear
 //!
 //! [camera]                      # required
 //! position = [0, 1, 6]          # required
@@ -223,12 +226,14 @@ struct FileScene {
 }
 
 #[derive(Deserialize, Default)]
-#[serde(deny_unknown_fields, expecting = "a table [image] (width, height, spp, seed)")]
+#[serde(deny_unknown_fields, expecting = "a table [image] (width, height, spp, seed, exposure, tone)")]
 struct FileImage {
     width: Option<i64>,
     height: Option<i64>,
     spp: Option<i64>,
     seed: Option<i64>,
+    exposure: Option<f32>,
+    tone: Option<String>,
 }
 
 #[derive(Deserialize)]
@@ -553,6 +558,27 @@ fn toml_error(text: &str, e: &toml::de::Error) -> String {
     format!("invalid scene TOML at line {line}, column {column}: {what} (at `{fragment}`)")
 }
 
+/// `[image] exposure` and `tone`: the PNG output's display transform ([`crate::tonemap`]).
+fn image_display(cx: &Ctx, image: &FileImage) -> Result<crate::tonemap::Display> {
+    use crate::tonemap::{Display, ToneCurve, MAX_EXPOSURE_EV};
+    let exposure_ev = match image.exposure {
+        None => 0.0,
+        Some(ev) => {
+            let ev = cx.finite("image.exposure", ev)?;
+            cx.range("image.exposure", ev, ev.abs() <= MAX_EXPOSURE_EV, "stops in [-64, 64]")?
+        }
+    };
+    let curve = match image.tone.as_deref() {
+        None => ToneCurve::default(),
+        Some(name) => ToneCurve::from_name(name).ok_or_else(|| {
+            let names: Vec<&str> = ToneCurve::ALL.iter().map(|c| c.name()).collect();
+            let name = quote_safely(name, 40);
+            cx.err("image.tone", format!("unknown tone curve `{name}`; expected one of {}", names.join(", ")))
+        })?,
+    };
+    Ok(Display { exposure_ev, curve })
+}
+
 fn parse_with_source(text: &str, base_dir: &Path, default_name: &str, source: &str) -> Result<Scene> {
     let file: FileScene = toml::from_str(text).map_err(|e| Error::scene(source, toml_error(text, &e)))?;
     let cx = Ctx { source };
@@ -572,6 +598,7 @@ fn parse_with_source(text: &str, base_dir: &Path, default_name: &str, source: &s
             Some(s) if s >= 0 => s as u64,
             Some(s) => return Err(cx.err("image.seed", format!("{s} is negative"))),
         },
+        display: image_display(&cx, &file.image)?,
     };
 
     cx.check().image(&image)?;
@@ -1229,7 +1256,10 @@ mod tests {
     fn defaults_and_names() {
         let s = parse(CAMERA).unwrap();
         assert_eq!(s.name, "test");
-        assert_eq!(s.image, ImageSettings { width: 640, height: 360, spp: 16, seed: 1 });
+        assert_eq!(
+            s.image,
+            ImageSettings { width: 640, height: 360, spp: 16, seed: 1, display: Default::default() }
+        );
         assert!((s.camera.focus_distance - 26f32.sqrt()).abs() < 1e-5);
         assert_eq!(s.camera.open.up, Vec3::Y);
         let s = parse(&format!("name = \"x\"\n{CAMERA}[[object]]\nmesh = \"box\"\n")).unwrap();
@@ -1385,7 +1415,7 @@ mod tests {
         let box_ = "[[object]]\nmesh = \"box\"\n";
         for (text, expected) in [
             ("camera = 5\n".to_string(), "expected a table [camera] (position, look_at, …)"),
-            ("image = 5\n".to_string(), "expected a table [image] (width, height, spp, seed)"),
+            ("image = 5\n".to_string(), "expected a table [image] (width, height, spp, seed, exposure, tone)"),
             (format!("{CAMERA}close = 5\n"), "expected a table [camera.close] (position, look_at, up)"),
             (format!("{CAMERA}aperture = \"disk\"\n"), "expected a table { shape = \"disk\" }, { shape = \"blades\", blades = N } or { shape = \"smooth-disk\" }"),
             (format!("object = [1]\n{CAMERA}"), "expected a table [[object]] (name, mesh, transform, material, …)"),
@@ -1595,6 +1625,25 @@ mod tests {
         assert!(e.contains("camera"), "{e}");
         let e = err(&format!("{CAMERA}[[object]]\nmesh = \"teapot\"\n"));
         assert!(e.contains("teapot") && e.contains("displaced-sphere"), "{e}");
+    }
+
+    #[test]
+    fn image_exposure_and_tone() {
+        use crate::tonemap::{Display, ToneCurve};
+        assert_eq!(parse(CAMERA).unwrap().image.display, Display::LINEAR);
+        let s = parse(&format!("[image]\nexposure = -1.5\ntone = \"aces\"\n{CAMERA}")).unwrap();
+        assert_eq!(s.image.display, Display { exposure_ev: -1.5, curve: ToneCurve::Aces });
+        let s = parse(&format!("[image]\nexposure = 2\ntone = \"reinhard\"\n{CAMERA}")).unwrap();
+        assert_eq!(s.image.display, Display { exposure_ev: 2.0, curve: ToneCurve::Reinhard });
+        let e = err(&format!("[image]\ntone = \"filmic\"\n{CAMERA}"));
+        assert!(
+            e.contains("image.tone") && e.contains("`filmic`") && e.contains("clip, reinhard, aces"),
+            "{e}"
+        );
+        let e = err(&format!("[image]\nexposure = 65\n{CAMERA}"));
+        assert!(e.contains("image.exposure") && e.contains("[-64, 64]"), "{e}");
+        assert!(err(&format!("[image]\nexposure = nan\n{CAMERA}")).contains("image.exposure"));
+        assert!(err(&format!("[image]\nexposure = \"bright\"\n{CAMERA}")).contains("exposure"));
     }
 
     #[test]

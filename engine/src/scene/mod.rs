@@ -27,7 +27,7 @@ pub use texture::Texture;
 pub use view::{Projection, View};
 
 /// Output image settings.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ImageSettings {
     pub width: u32,
     pub height: u32,
@@ -35,6 +35,9 @@ pub struct ImageSettings {
     /// reference).
     pub spp: u32,
     pub seed: u64,
+    /// Exposure and tone curve of the scene's 8-bit (PNG) output; rendering, EXR and metrics stay
+    /// linear ([`crate::tonemap`]). Default: [`Display::LINEAR`](crate::tonemap::Display::LINEAR).
+    pub display: crate::tonemap::Display,
 }
 
 /// Surface description of the one shading model (docs/MODEL.md "Shading").

@@ -6,9 +6,11 @@ use clap::Args;
 use shutter::quality_plan::{QualityPlan, QualityTarget};
 use shutter::techniques::{RenderSettings, Renderer, Technique};
 
-use shutter::image_io::{check_image_output, save_image};
+use shutter::image_io::{check_image_output, save_image_displayed};
 
-use crate::{create_device, default_out, load_scene, quality_target, technique_names, ImageArgs};
+use crate::{
+    create_device, default_out, load_scene, quality_target, technique_names, DisplayArgs, ImageArgs,
+};
 
 /// Render a scene on the GPU.
 #[derive(Args)]
@@ -99,6 +101,8 @@ pub struct RenderArgs {
     pub set: Vec<String>,
     #[command(flatten)]
     pub image: ImageArgs,
+    #[command(flatten)]
+    pub display: DisplayArgs,
 }
 
 pub fn run(args: RenderArgs) -> Result<()> {
@@ -120,6 +124,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
         shadow_map,
         set,
         image: ImageArgs { size, seed, out },
+        display,
     } = args;
     let mut technique: Technique = technique.parse()?;
     let target = quality_target(quality.as_deref(), target_flip)?;
@@ -180,7 +185,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
     }
     let output = renderer.render(&sc, technique, &settings)?;
     shutter::progress::check_interrupt()?;
-    save_image(&out, &output.image)?;
+    save_image_displayed(&out, &output.image, &display.over(sc.image.display))?;
     for line in output.report(&sc, technique, &settings, &device_name) {
         outln!("{line}");
     }
