@@ -355,11 +355,7 @@ fn output_format(path: &Path) -> Result<OutputFormat> {
 /// Writes `image` in the format named by the path's extension (`.exr` or `.png`, case-insensitive), all
 /// or nothing ([`write_file_atomically`]).
 pub fn save_image(path: impl AsRef<Path>, image: &LinearImage) -> Result<()> {
-    let path = path.as_ref();
-    match output_format(path)? {
-        OutputFormat::Exr => write_exr(path, image),
-        OutputFormat::Png => write_png(path, image),
-    }
+    save_image_displayed(path, image, &crate::tonemap::Display::LINEAR)
 }
 
 /// [`save_image`] for a person to look at: a PNG through `display` (exposure, then tone curve, then the

@@ -48,6 +48,16 @@ impl ToneCurve {
         Self::ALL.into_iter().find(|c| c.name() == name)
     }
 
+    /// [`ToneCurve::from_name`], or the message scene files and the command line both give: the name
+    /// (quoted safely) and the names there are.
+    pub fn parse(name: &str) -> Result<ToneCurve, String> {
+        Self::from_name(name).ok_or_else(|| {
+            let names: Vec<&str> = Self::ALL.iter().map(|c| c.name()).collect();
+            let name = crate::limits::quote_safely(name, 40);
+            format!("unknown tone curve `{name}`; expected one of {}", names.join(", "))
+        })
+    }
+
     /// The display value of the linear value `x` (already exposed); negative values are black, NaN
     /// stays NaN (the PNG encoder's business).
     pub fn map(self, x: f32) -> f32 {
@@ -88,6 +98,11 @@ pub struct Display {
 /// The largest exposure adjustment, in stops, either way (2^±64 keeps every f32 radiance finite or
 /// zero in a way a person could still ask for).
 pub const MAX_EXPOSURE_EV: f32 = 64.0;
+
+/// Whether `ev` is an exposure [`Display`] takes: finite, within ±[`MAX_EXPOSURE_EV`].
+pub fn exposure_in_range(ev: f32) -> bool {
+    ev.is_finite() && ev.abs() <= MAX_EXPOSURE_EV
+}
 
 impl Default for Display {
     fn default() -> Self {

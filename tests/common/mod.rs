@@ -26,12 +26,18 @@ pub fn renderer() -> Renderer {
 /// images do not depend on the driver). Without it every reference is traced. A run's own folder,
 /// never a lasting one: a cache that outlived a change to the reference would hide the change.
 pub fn render_reference(scene: &Scene, settings: &ReferenceSettings) -> shutter::Result<LinearImage> {
-    match std::env::var_os("SHUTTER_TEST_REFERENCE_CACHE").filter(|d| !d.is_empty()) {
+    match reference_cache_dir() {
         Some(dir) => {
             render_reference_cached(std::path::Path::new(&dir), scene, settings).map(|(image, _)| image)
         }
         None => shutter::reference::render_reference(scene, settings),
     }
+}
+
+/// The test run's reference cache, `SHUTTER_TEST_REFERENCE_CACHE` where set and not empty
+/// ([`render_reference`]).
+pub fn reference_cache_dir() -> Option<String> {
+    std::env::var("SHUTTER_TEST_REFERENCE_CACHE").ok().filter(|d| !d.is_empty())
 }
 
 /// The CPU reference with the same samples *and* the same shading rate as a stochastic (or `auto`)

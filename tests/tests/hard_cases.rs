@@ -23,9 +23,9 @@ const MATRIX: MatrixSettings = MatrixSettings {
 
 /// [`MATRIX`] with the run's reference cache ([`shutter_tests::render_reference`]), where it has one.
 fn matrix() -> MatrixSettings {
-    let cache = std::env::var("SHUTTER_TEST_REFERENCE_CACHE").ok().filter(|d| !d.is_empty());
     // One short string per test; MatrixSettings holds a `&'static str` (the tools' is a literal).
-    MatrixSettings { reference_cache: cache.map(|d| &*Box::leak(d.into_boxed_str())), ..MATRIX }
+    let cache = shutter_tests::reference_cache_dir().map(|d| &*Box::leak(d.into_boxed_str()));
+    MatrixSettings { reference_cache: cache, ..MATRIX }
 }
 
 fn check(name: &str) {

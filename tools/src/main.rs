@@ -311,18 +311,14 @@ impl DisplayArgs {
 fn parse_exposure(s: &str) -> std::result::Result<f32, String> {
     let max = shutter::tonemap::MAX_EXPOSURE_EV;
     match s.trim().parse::<f32>() {
-        Ok(ev) if ev.is_finite() && ev.abs() <= max => Ok(ev),
+        Ok(ev) if shutter::tonemap::exposure_in_range(ev) => Ok(ev),
         _ => Err(format!("`{s}` is not an exposure: give stops in [-{max}, {max}] (e.g. -1.5)")),
     }
 }
 
 /// `--tone`: a curve's name.
 fn parse_tone(s: &str) -> std::result::Result<shutter::tonemap::ToneCurve, String> {
-    use shutter::tonemap::ToneCurve;
-    ToneCurve::from_name(s.trim()).ok_or_else(|| {
-        let names: Vec<&str> = ToneCurve::ALL.iter().map(|c| c.name()).collect();
-        format!("`{s}` is not a tone curve: give one of {}", names.join(", "))
-    })
+    shutter::tonemap::ToneCurve::parse(s.trim())
 }
 
 fn parse_size(s: &str) -> std::result::Result<(u32, u32), String> {

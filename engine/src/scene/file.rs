@@ -560,21 +560,18 @@ fn toml_error(text: &str, e: &toml::de::Error) -> String {
 
 /// `[image] exposure` and `tone`: the PNG output's display transform ([`crate::tonemap`]).
 fn image_display(cx: &Ctx, image: &FileImage) -> Result<crate::tonemap::Display> {
-    use crate::tonemap::{Display, ToneCurve, MAX_EXPOSURE_EV};
+    use crate::tonemap::{exposure_in_range, Display, ToneCurve, MAX_EXPOSURE_EV};
     let exposure_ev = match image.exposure {
         None => 0.0,
         Some(ev) => {
             let ev = cx.finite("image.exposure", ev)?;
-            cx.range("image.exposure", ev, ev.abs() <= MAX_EXPOSURE_EV, "stops in [-64, 64]")?
+            let expected = format!("stops in [-{MAX_EXPOSURE_EV}, {MAX_EXPOSURE_EV}]");
+            cx.range("image.exposure", ev, exposure_in_range(ev), &expected)?
         }
     };
     let curve = match image.tone.as_deref() {
         None => ToneCurve::default(),
-        Some(name) => ToneCurve::from_name(name).ok_or_else(|| {
-            let names: Vec<&str> = ToneCurve::ALL.iter().map(|c| c.name()).collect();
-            let name = quote_safely(name, 40);
-            cx.err("image.tone", format!("unknown tone curve `{name}`; expected one of {}", names.join(", ")))
-        })?,
+        Some(name) => ToneCurve::parse(name).map_err(|e| cx.err("image.tone", e))?,
     };
     Ok(Display { exposure_ev, curve })
 }
