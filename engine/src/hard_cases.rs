@@ -200,20 +200,9 @@ pub struct KnownBias {
 
 /// Every known bias (docs/HARD_CASES.md "Known biases").
 pub const KNOWN_BIASES: &[KnownBias] = &[
-    KnownBias {
-        case: "tiny-shutter",
-        column: Column::Accumulation,
-        max_floor: 0.07,
-        why: "each pass filters the checkered ground with mips chosen for a whole pixel, so the \
-              converged image is blurrier than the reference's point samples (issue 33: a footprint \
-              of 1/P of the pixel per pass)",
-    },
-    KnownBias {
-        case: "wide-179",
-        column: Column::Accumulation,
-        max_floor: 0.045,
-        why: "mip filtering of the checkered ground, as on `tiny-shutter` (issue 33)",
-    },
+    // Empty since issue 33: accumulation's floors on `tiny-shutter` (0.057) and `wide-179` (0.034)
+    // were its mip filtering; each pass now filters over its share of the pixel
+    // (`sampling::pass_texture_footprint`).
 ];
 
 impl KnownBias {

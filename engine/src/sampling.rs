@@ -61,6 +61,17 @@ pub struct PassSample {
     pub jitter: Vec2,
 }
 
+/// The width, in pixels, of the texture filter of one of `passes` jittered passes that together
+/// sample the pixel (`accumulation`, and the forward passes of `pinhole` with 1): each stands for
+/// 1/P of the pixel's area, so its filter spans 1/√P of the pixel's side. The fragment stages scale
+/// the uv derivatives by it (`common/pass_texture.glsl`), so the mip level falls by ½·log2 P: the
+/// passes' average converges to the base level integrated over the pixel box — the reference's —
+/// instead of that box blurred by a one-pixel filter. A deliberate departure from the hardware's
+/// choice, which assumes one sample per pixel (issue 33).
+pub fn pass_texture_footprint(passes: u32) -> f32 {
+    1.0 / (passes.max(1) as f32).sqrt()
+}
+
 /// One sample of the pixel integral, all coordinates uniform in [0,1): `xy` is the subpixel position,
 /// `lens` the unit square that [`ApertureShape::map`] takes onto the aperture, `time` the uniform value
 /// that [`ShutterCurve::warp`] takes to shutter time.
@@ -379,7 +390,25 @@ mod tests {
         hits.iter().all(|&h| h == 1)
     }
 
+    #[test]
+    fn one_pass_keeps_the_hardware_footprint() {
+        assert_eq!(pass_texture_footprint(1), 1.0);
+        assert_eq!(pass_texture_footprint(0), 1.0);
+        assert_eq!(pass_texture_footprint(4), 0.5);
+        assert_eq!(pass_texture_footprint(64), 0.125);
+    }
+
     proptest! {
+        // The P filters together cover the pixel's area once: P · footprint² = 1, and more passes
+        // never widen the filter (the mip level only falls with P).
+        #[test]
+        fn pass_footprints_share_the_pixel(p in 1u32..100_000) {
+            let f = pass_texture_footprint(p);
+            prop_assert!((p as f64 * (f as f64).powi(2) - 1.0).abs() < 1e-5);
+            prop_assert!(pass_texture_footprint(p + 1) <= f);
+            prop_assert!(f > 0.0 && f <= 1.0);
+        }
+
         #[test]
         fn pixel_sample_runs_are_shutter_strata(log_n in 0u32..9, seed in any::<u64>()) {
             let n = 1u32 << log_n;

@@ -1,8 +1,10 @@
 #version 460
-// Forward pass fragment stage: the shared shading model, view vector towards this pass' lens sample.
+// Forward pass fragment stage: the shared shading model, view vector towards this pass' lens sample;
+// textures filtered over the pass' share of the pixel (common/pass_texture.glsl).
 // SHADOWS: lights attenuated by their shadow maps (common/shadow.glsl).
 #include "common/object.glsl"
 #include "common/shading.glsl"
+#include "common/pass_texture.glsl"
 
 layout(push_constant) uniform Push {
     uint object;
@@ -11,6 +13,7 @@ layout(push_constant) uniform Push {
     vec2 jitter;
     uint segment;
     float segment_time;
+    float texture_footprint;  // sampling::pass_texture_footprint (common/pass_texture.glsl)
 } pc;
 
 layout(location = 0) in vec3 v_position;
@@ -23,6 +26,7 @@ layout(location = 4) in vec3 v_object_normal;
 layout(location = 0) out vec4 out_color;
 
 void main() {
+    pass_texture_begin(v_uv, pc.texture_footprint);
 #ifdef SHADOWS
     // Before any discard: derivatives need the whole quad.
     vec3 plane_normal = shadow_plane_normal(v_object_position);
@@ -34,7 +38,7 @@ void main() {
     vec3 lens_point = vec3(view.lens.x * pc.lens, 0.0);
     vec3 to_eye = normalize(lens_point - v_position);
     vec3 albedo = m.albedo_specular.rgb;
-    if (m.params.y > 0.5) albedo *= texture(albedo_texture, v_uv).rgb;
+    if (m.params.y > 0.5) albedo *= pass_texture(v_uv).rgb;
 #ifdef SHADOWS
     shadow_receiver = ShadowReceiver(v_object_position, v_object_normal, plane_normal, pc.segment, pc.segment_time);
 #endif

@@ -16,6 +16,7 @@ layout(push_constant) uniform Push {
     vec2 jitter;  // subpixel offset of this pass, pixels
     uint segment;        // the object's key segment holding `time` (index into object_views)
     float segment_time;  // the time within it
+    float texture_footprint;  // the fragment stage's (common/pass_texture.glsl)
 } pc;
 
 layout(location = 0) out vec3 v_position;  // camera space at t

@@ -11,6 +11,7 @@
 #include "common/object.glsl"
 #include "common/shading.glsl"
 #include "common/coverage.glsl"
+#include "common/pass_texture.glsl"
 
 layout(push_constant) uniform Push {
     uint object;
@@ -26,6 +27,7 @@ layout(push_constant) uniform Push {
     uint msaa;            // MSAA samples of this pass
     uint first_triangle;  // the object's first triangle in the scene's numbering (the reference's)
     uint alpha_from_texture;
+    float texture_footprint;  // sampling::pass_texture_footprint (common/pass_texture.glsl)
 } pc;
 
 layout(location = 0) in vec3 v_position;
@@ -38,13 +40,14 @@ layout(location = 4) in vec3 v_object_normal;
 layout(location = 0) out vec4 out_color;
 
 void main() {
+    pass_texture_begin(v_uv, pc.texture_footprint);
 #ifdef SHADOWS
     // Before any discard: derivatives need the whole quad.
     vec3 plane_normal = shadow_plane_normal(v_object_position);
 #endif
     Material m = materials[pc.object];
     float alpha = m.params.z;
-    if (pc.alpha_from_texture != 0u) alpha *= texture(albedo_texture, v_uv).a;
+    if (pc.alpha_from_texture != 0u) alpha *= pass_texture(v_uv).a;
     uint key = coverage_key(pc.coverage_seed, uvec2(gl_FragCoord.xy), pc.first_triangle + uint(gl_PrimitiveID));
     uint covered = coverage_mask(key, alpha, pc.samples, pc.sample_base, pc.msaa);
 #ifdef TINT_PASS
@@ -64,7 +67,7 @@ void main() {
     vec3 lens_point = vec3(view.lens.x * pc.lens, 0.0);
     vec3 to_eye = normalize(lens_point - v_position);
     vec3 albedo = m.albedo_specular.rgb;
-    if (m.params.y > 0.5) albedo *= texture(albedo_texture, v_uv).rgb;
+    if (m.params.y > 0.5) albedo *= pass_texture(v_uv).rgb;
 #ifdef SHADOWS
     shadow_receiver = ShadowReceiver(v_object_position, v_object_normal, plane_normal, pc.segment, pc.segment_time);
 #endif

@@ -16,6 +16,7 @@ layout(push_constant) uniform Push {
     vec2 jitter;
     uint segment;
     float segment_time;
+    float texture_footprint;  // ForwardPush's; unused here
 } pc;
 
 layout(location = 0) out vec3 v_position;

@@ -13,6 +13,7 @@ layout(push_constant) uniform Push {
     vec2 jitter;
     uint segment;
     float segment_time;
+    float texture_footprint;  // ForwardPush's; 1 here: the G-buffer filters over the whole pixel
 } pc;
 
 layout(location = 0) in vec3 v_position;

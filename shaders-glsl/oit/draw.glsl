@@ -21,6 +21,7 @@ layout(push_constant) uniform Push {
     uint channel;         // stochastic depth: 0-2 the channel whose effective coverage decides, 3: alpha
     uint depth_maps;      // layers: 1 (no tinted object) or 3 stochastic depth maps (one per channel)
     uint layer;           // peeling: the layer being peeled, 0 the nearest
+    float texture_footprint;  // sampling::pass_texture_footprint (common/pass_texture.glsl)
 } pc;
 
 layout(location = 0) in vec3 v_position;
@@ -37,10 +38,13 @@ vec3 oit_plane_normal = vec3(0.0);
 #define OIT_SHADOW_PLANE()
 #endif
 
+#include "common/pass_texture.glsl"
+// Each main() calls pass_texture_begin(v_uv, pc.texture_footprint) first, before any discard.
+
 // Coverage alpha (x the texture's alpha when the material takes it from there), as transparent.frag.
 float oit_alpha(Material m) {
     float alpha = m.params.z;
-    if (pc.alpha_from_texture != 0u) alpha *= texture(albedo_texture, v_uv).a;
+    if (pc.alpha_from_texture != 0u) alpha *= pass_texture(v_uv).a;
     return alpha;
 }
 
@@ -60,7 +64,7 @@ vec3 oit_shade(Material m) {
     vec3 lens_point = vec3(view.lens.x * pc.lens, 0.0);
     vec3 to_eye = normalize(lens_point - v_position);
     vec3 albedo = m.albedo_specular.rgb;
-    if (m.params.y > 0.5) albedo *= texture(albedo_texture, v_uv).rgb;
+    if (m.params.y > 0.5) albedo *= pass_texture(v_uv).rgb;
 #ifdef SHADOWS
     shadow_receiver = ShadowReceiver(v_object_position, v_object_normal, oit_plane_normal, pc.segment, pc.segment_time);
 #endif

@@ -36,6 +36,7 @@ layout(location = 2) out vec4 out_transmittance;
 #define NOT_NEARER(d, z) ((d) <= (z) + (z) * (1.0 / 1048576.0))
 
 void main() {
+    pass_texture_begin(v_uv, pc.texture_footprint);
     OIT_SHADOW_PLANE();
     Material m = materials[pc.object];
     float alpha = oit_alpha(m);

@@ -28,6 +28,7 @@ layout(location = 0) out vec4 out_color;          // rgb: alpha * C
 layout(location = 1) out vec4 out_transmittance;  // rgb: (1 - alpha) * tint
 
 void main() {
+    pass_texture_begin(v_uv, pc.texture_footprint);
     OIT_SHADOW_PLANE();
     float z = gl_FragCoord.z;
     // Reversed Z: nearer is greater.

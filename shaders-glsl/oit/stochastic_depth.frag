@@ -16,6 +16,7 @@
 #include "oit/draw.glsl"
 
 void main() {
+    pass_texture_begin(v_uv, pc.texture_footprint);
     Material m = materials[pc.object];
     float alpha = oit_alpha(m);
     float coverage = pc.channel < 3u ? oit_effective_coverage(alpha)[pc.channel] : alpha;

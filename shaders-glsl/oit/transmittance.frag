@@ -16,6 +16,7 @@ layout(location = 1) out vec4 out_weight;
 layout(location = 2) out vec4 out_transmittance;
 
 void main() {
+    pass_texture_begin(v_uv, pc.texture_footprint);
     Material m = materials[pc.object];
     float alpha = oit_alpha(m);
     bool skip = oit_degenerate();

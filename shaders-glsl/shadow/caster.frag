@@ -29,6 +29,7 @@ layout(push_constant) uniform Push {
     uint msaa;            // MSAA samples of the atlas
     uint first_triangle;  // the object's first triangle in the scene's numbering
     uint alpha_from_texture;
+    float texture_footprint;  // TransparentPush's; 1 here: the maps keep the hardware's footprint
 } pc;
 
 layout(location = 0) in vec3 v_position;

@@ -127,7 +127,7 @@ fn planned_renders_meet_the_target_over_seeds() {
     let mut cases = Vec::new();
     for scene in [builtin_scene("one-mover").unwrap().unwrap(), shadow_scene()] {
         let truth = reference(&scene, (w, h), 2048);
-        let (mut spps, mut predicted) = (Vec::new(), Vec::new());
+        let (mut spps, mut promised, mut pilot_noise) = (Vec::new(), Vec::new(), Vec::new());
         for seed in [1u64, 2, 3, 4, 5] {
             let settings = RenderSettings::new(w, h, 16, seed);
             let plan = plan_quality(&mut r, &scene, &settings, target, &cost).unwrap();
@@ -160,16 +160,23 @@ fn planned_renders_meet_the_target_over_seeds() {
             }
             cases.push(line);
             spps.push(c.spp);
-            predicted.push(c.predicted_flip);
+            promised.push(c.flip_high);
+            pilot_noise.push(plan.pilot.as_ref().unwrap().noise_flip);
         }
         // Where the noise dominates, S is steady (one pair of seeds swung it 8×); near a bias floor
-        // S is sensitive to the floor's estimate, but the predictions agree.
+        // S is sensitive to the floor's estimate, but what the planner measures and promises agrees:
+        // the pilot's noise at S = 4 and the promised bound. (Not the predicted FLIP at the chosen
+        // S: S is an integer, so in the noise-dominated regime the prediction steps with it — S = 7
+        // against 10 alone moves it 1.2× — while the promise stays just under the target.)
         let (lo, hi) = (*spps.iter().min().unwrap(), *spps.iter().max().unwrap());
-        let (plo, phi) = predicted.iter().fold((f64::MAX, 0f64), |(a, b), &p| (a.min(p), b.max(p)));
+        let spread = |v: &[f64]| v.iter().fold((f64::MAX, 0f64), |(a, b), &p| (a.min(p), b.max(p)));
         if scene.name == "one-mover" {
             assert!(hi as f64 <= 2.0 * lo as f64, "{}: S from {lo} to {hi} between seeds", scene.name);
         }
-        assert!(phi <= 1.25 * plo, "{}: predicted FLIP from {plo} to {phi} between seeds", scene.name);
+        for (what, values) in [("promised FLIP", &promised), ("the pilot's noise FLIP", &pilot_noise)] {
+            let (plo, phi) = spread(values);
+            assert!(phi <= 1.25 * plo, "{}: {what} from {plo} to {phi} between seeds", scene.name);
+        }
     }
     assert!(met >= 9, "the target was met in {met} of 10 cases:\n{}", cases.join("\n"));
 }

@@ -41,7 +41,7 @@ pub const TRANSPARENCY_KEYS: &[OptionKey] = &[key(
 )];
 
 /// Moved to [`crate::sampling`] (the CPU mirrors use it too); re-exported for the techniques.
-pub use crate::sampling::PassSample;
+pub use crate::sampling::{pass_texture_footprint, PassSample};
 
 /// Push constants of `forward.vert`/`forward.frag`.
 #[repr(C)]
@@ -57,10 +57,14 @@ pub struct ForwardPush {
     /// ([`GpuView::segment_at`]).
     pub segment: u32,
     pub segment_time: f32,
+    /// The texture filter's width in pixels ([`pass_texture_footprint`] of the frame's pass count):
+    /// the fragment stages scale the uv derivatives by it (`common/pass_texture.glsl`).
+    pub texture_footprint: f32,
 }
 
 impl ForwardPush {
-    /// Object `object` of `view` at `pass`'s time, lens point and jitter.
+    /// Object `object` of `view` at `pass`'s time, lens point and jitter, textures filtered over the
+    /// whole pixel (one pass); [`ForwardPush::with_passes`] for one of several.
     pub fn new(view: &GpuView, object: usize, pass: &PassSample) -> Self {
         let (segment, segment_time) = view.segment_at(object, pass.time);
         ForwardPush {
@@ -70,7 +74,14 @@ impl ForwardPush {
             jitter: pass.jitter.to_array(),
             segment,
             segment_time,
+            texture_footprint: 1.0,
         }
+    }
+
+    /// The same push for one of `passes` passes that together sample the pixel: textures filtered
+    /// over its share ([`pass_texture_footprint`]).
+    pub fn with_passes(self, passes: u32) -> Self {
+        ForwardPush { texture_footprint: pass_texture_footprint(passes), ..self }
     }
 }
 
@@ -99,11 +110,17 @@ pub struct TransparentPush {
     pub first_triangle: u32,
     /// 1: coverage is alpha × the texture's alpha.
     pub alpha_from_texture: u32,
+    /// [`ForwardPush::texture_footprint`].
+    pub texture_footprint: f32,
 }
 
 /// For the reflection test.
 pub const FORWARD_STRUCTS: &[SharedStruct] = &[
-    shared_struct!("Push", ForwardPush, [object, time, lens, jitter, segment, segment_time]),
+    shared_struct!(
+        "Push",
+        ForwardPush,
+        [object, time, lens, jitter, segment, segment_time, texture_footprint]
+    ),
     shared_struct!(
         "Push",
         TransparentPush,
@@ -120,7 +137,8 @@ pub const FORWARD_STRUCTS: &[SharedStruct] = &[
             sample_base,
             msaa,
             first_triangle,
-            alpha_from_texture
+            alpha_from_texture,
+            texture_footprint
         ]
     ),
 ];
@@ -218,18 +236,19 @@ impl ForwardPipeline {
         Ok(ForwardPipeline { pipeline, layout, shadows: lookup, _shaders: vec![vert, frag] })
     }
 
-    /// Draws the objects `i` with `include(i)` seen from `view` with one pass' (t, lens, jitter).
+    /// Draws the objects `i` with `include(i)` seen from `view` with one pass' (t, lens, jitter), one
+    /// of `passes` that sample the pixel together (its share sets the texture filter).
     pub fn record_draws(
         &self,
         ctx: &PassContext<'_>,
         world: &GpuWorld,
         view: &GpuView,
-        pass: &PassSample,
+        (pass, passes): (&PassSample, u32),
         include: impl Fn(usize) -> bool,
     ) {
         ctx.bind_pipeline(&self.pipeline);
         bind_shadows(ctx, &self.layout, self.shadows);
-        let push = |i: usize| ForwardPush::new(view, i, pass);
+        let push = |i: usize| ForwardPush::new(view, i, pass).with_passes(passes);
         world.record_object_draws(ctx, view, &self.pipeline, &self.layout, include, push, |_| None);
     }
 }
@@ -298,6 +317,7 @@ impl TransparentPush {
             msaa: c.msaa,
             first_triangle: o.first_triangle,
             alpha_from_texture: o.alpha_from_texture as u32,
+            texture_footprint: f.texture_footprint,
         }
     }
 }
@@ -431,7 +451,8 @@ impl TransparentDraws {
             base: pass_index * self.msaa,
             msaa: self.msaa,
         };
-        TransparentPush::new(ForwardPush::new(view, object, pass), &self.objects[object], c)
+        let f = ForwardPush::new(view, object, pass).with_passes(self.samples / self.msaa);
+        TransparentPush::new(f, &self.objects[object], c)
     }
 
     fn is_transparent(&self, object: usize) -> bool {
@@ -523,13 +544,13 @@ impl PassDraws for ForwardDraws {
         Ok(FrameUse::default())
     }
     fn record(&self, ctx: &mut PassContext<'_>, inputs: &FrameInputs<'_>, pass: u32) {
-        let sample = &self.samples[pass as usize];
+        let sample = (&self.samples[pass as usize], self.samples.len() as u32);
         match &self.transparent {
             None => self.pipeline.record_draws(ctx, inputs.world, inputs.camera, sample, |_| true),
             Some(t) => {
                 let opaque = |i: usize| !t.is_transparent(i);
                 self.pipeline.record_draws(ctx, inputs.world, inputs.camera, sample, opaque);
-                t.record(ctx, inputs, sample, pass);
+                t.record(ctx, inputs, sample.0, pass);
             }
         }
     }

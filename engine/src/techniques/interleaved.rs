@@ -1016,7 +1016,9 @@ impl InterleavedTechnique {
             .accesses(shadow_reads.iter().copied())
             .record(move |ctx| {
                 let s = sample(ctx);
-                this.direct.record_draws(ctx, inputs.world, inputs.camera, &s, |_| true);
+                // Textures over the whole pixel, as the G-buffer's (gbuffer.frag): this technique's
+                // passes keep the hardware's footprint (its texture filtering is not issue 33's).
+                this.direct.record_draws(ctx, inputs.world, inputs.camera, (&s, 1), |_| true);
                 Ok(())
             });
         g.pass("interleaved G-buffer")

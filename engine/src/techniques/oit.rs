@@ -130,6 +130,8 @@ pub struct OitPush {
     pub depth_maps: u32,
     /// Peeling: the layer being peeled (0: the nearest).
     pub layer: u32,
+    /// [`ForwardPush::texture_footprint`].
+    pub texture_footprint: f32,
 }
 
 /// Push constants of `oit/depth_composite.comp`.
@@ -188,7 +190,8 @@ pub const OIT_STRUCTS: &[SharedStruct] = &[
             alpha_from_texture,
             channel,
             depth_maps,
-            layer
+            layer,
+            texture_footprint
         ]
     ),
     shared_struct!("Push", DepthCompositePush, [weight, msaa, alpha_correction, finish]),
@@ -716,7 +719,8 @@ impl OitTechnique {
             base: pass * self.msaa,
             msaa: self.msaa,
         };
-        let f = ForwardPush::new(view, object, &self.samples[pass as usize]);
+        let passes = self.samples.len() as u32;
+        let f = ForwardPush::new(view, object, &self.samples[pass as usize]).with_passes(passes);
         let t = TransparentPush::new(f, &self.objects[object], c);
         OitPush {
             object: t.object,
@@ -732,6 +736,7 @@ impl OitTechnique {
             msaa: t.msaa,
             first_triangle: t.first_triangle,
             alpha_from_texture: t.alpha_from_texture,
+            texture_footprint: t.texture_footprint,
             channel: 3,
             depth_maps: 1,
             layer: 0,
@@ -976,7 +981,7 @@ impl OitTechnique {
             .depth(depth, Load::Clear(0.0), Store::Store)
             .accesses(shadow_reads.iter().copied())
             .record(move |ctx| {
-                let pass = &self.samples[ctx.iteration as usize];
+                let pass = (&self.samples[ctx.iteration as usize], self.samples.len() as u32);
                 let opaque = |i: usize| !self.objects[i].transparent;
                 self.opaque.record_draws(ctx, inputs.world, inputs.camera, pass, opaque);
                 Ok(())
