@@ -199,11 +199,16 @@ pub struct KnownBias {
 }
 
 /// Every known bias (docs/HARD_CASES.md "Known biases").
-pub const KNOWN_BIASES: &[KnownBias] = &[
-    // Empty since issue 33: accumulation's floors on `tiny-shutter` (0.057) and `wide-179` (0.034)
-    // were its mip filtering; each pass now filters over its share of the pixel
-    // (`sampling::pass_texture_footprint`).
-];
+pub const KNOWN_BIASES: &[KnownBias] = &[KnownBias {
+    case: "wide-179",
+    column: Column::Accumulation,
+    // Was 0.045 (floor 0.034) before issue 33; `tiny-shutter`'s entry (0.057) is gone.
+    max_floor: 0.025,
+    why: "each pass filters textures over 1/√P of the pixel (issue 33), so the bias falls with P, \
+          but on the 179° lens' grazing checkered ground a quarter-pixel filter at S = 16 still \
+          blurs, and the floor estimate from S = 4 and 16 reads it as a floor (0.0187 on lavapipe \
+          25.0, was 0.034)",
+}];
 
 impl KnownBias {
     /// The known bias of `column` on `case`, if any.
