@@ -40,8 +40,9 @@ pub const TRANSPARENCY_KEYS: &[OptionKey] = &[key(
     "peeling/4",
 )];
 
+use crate::sampling::pass_texture_footprint;
 /// Moved to [`crate::sampling`] (the CPU mirrors use it too); re-exported for the techniques.
-pub use crate::sampling::{pass_texture_footprint, PassSample};
+pub use crate::sampling::PassSample;
 
 /// Push constants of `forward.vert`/`forward.frag`.
 #[repr(C)]
