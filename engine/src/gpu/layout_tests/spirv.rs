@@ -1,7 +1,7 @@
 //! A small typed view of one SPIR-V module, enough to compare it with the Rust side: its descriptor
 //! bindings, its push-constant block and every struct with an explicit layout (`Offset`,
-//! `ArrayStride`, `MatrixStride`). Names come from `OpName`/`OpMemberName`: `build.rs` compiles with
-//! debug info, and without names nothing here can be matched.
+//! `ArrayStride`, `MatrixStride`). Names come from `OpName`/`OpMemberName`, which glslang
+//! emits without debug info too; without names nothing here can be matched.
 
 use std::collections::HashMap;
 
