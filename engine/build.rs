@@ -625,12 +625,13 @@ fn compile(
     // SPIR-V 1.5 (Vulkan 1.2): SPIR-V 1.6 compute would require maintenance4.
     opts.set_target_env(shaderc::TargetEnv::Vulkan, shaderc::EnvVersion::Vulkan1_2 as u32);
     opts.set_target_spirv(shaderc::SpirvVersion::V1_5);
-    // No debug info unless asked for: the source text and line table were half of every module
-    // (52 MB of SPIR-V in all, 26 MB without; this script ran 75 s with them, 63 s without, on the
-    // 2-core VM); the instructions, and so the images, are the same either way (golden hashes).
-    if debug_info {
-        opts.set_generate_debug_info();
-    }
+    // glslang keeps the optimizer from stripping names only when it emits debug info, and the
+    // layout tests (gpu/layout_tests.rs) match every block and member by its `OpName`/`OpMemberName`.
+    // So debug info is always generated, and `strip_source_and_lines` then drops the source text and
+    // line table (half of every module: 52 MB of SPIR-V in all, 26 MB without) unless
+    // SHUTTER_SHADER_DEBUG_INFO=1 asks to keep them. Debug instructions change no code, so the
+    // images are the same either way (golden hashes).
+    opts.set_generate_debug_info();
     opts.set_optimization_level(shaderc::OptimizationLevel::Performance);
     opts.set_warnings_as_errors();
     opts.add_macro_definition(stage_define, Some("1"));
@@ -663,10 +664,52 @@ fn compile(
             if art.get_num_warnings() > 0 {
                 println!("cargo:warning={}", art.get_warning_messages());
             }
-            Ok(art.as_binary_u8().to_vec())
+            let words = art.as_binary();
+            let words = if debug_info { words.to_vec() } else { strip_source_and_lines(words) };
+            Ok(words.iter().flat_map(|w| w.to_le_bytes()).collect())
         }
         Err(e) => Err(format!("{} [{}]:\n{e}\n", p.file, p.name)),
     }
+}
+
+/// A SPIR-V module without its source text and line table: `OpSourceContinued`, `OpSource`,
+/// `OpSourceExtension`, `OpString`, `OpLine`, `OpNoLine` and `OpModuleProcessed` go; names
+/// (`OpName`, `OpMemberName`) and everything else stay, word for word. `OpString` is only an operand
+/// of `OpSource` and `OpLine` here (no shader uses debug printf), which this checks.
+fn strip_source_and_lines(words: &[u32]) -> Vec<u32> {
+    const SOURCE_CONTINUED: u32 = 2;
+    const SOURCE: u32 = 3;
+    const SOURCE_EXTENSION: u32 = 4;
+    const STRING: u32 = 7;
+    const LINE: u32 = 8;
+    const EXT_INST_IMPORT: u32 = 11;
+    const NO_LINE: u32 = 317;
+    const MODULE_PROCESSED: u32 = 330;
+    const HEADER: usize = 5;
+    assert!(words.len() >= HEADER && words[0] == 0x0723_0203, "shaderc returned a SPIR-V module");
+    let mut out = words[..HEADER].to_vec();
+    let mut at = HEADER;
+    while at < words.len() {
+        let count = (words[at] >> 16) as usize;
+        let opcode = words[at] & 0xffff;
+        assert!(count > 0 && at + count <= words.len(), "a well-formed SPIR-V instruction at word {at}");
+        let instruction = &words[at..at + count];
+        if opcode == EXT_INST_IMPORT {
+            let name: Vec<u8> = instruction[2..].iter().flat_map(|w| w.to_le_bytes()).collect();
+            assert!(
+                !name.starts_with(b"NonSemantic."),
+                "a non-semantic instruction set may name an OpString; strip_source_and_lines cannot drop them"
+            );
+        }
+        if !matches!(
+            opcode,
+            SOURCE_CONTINUED | SOURCE | SOURCE_EXTENSION | STRING | LINE | NO_LINE | MODULE_PROCESSED
+        ) {
+            out.extend_from_slice(instruction);
+        }
+        at += count;
+    }
+    out
 }
 
 fn write_const(out: &mut String, p: &Permutation, axes: &[Axis], stage_rs: &str, spv_name: &str) {
