@@ -88,8 +88,7 @@ pub fn sweep(
             scene.name, a.width, a.height
         );
         let (png, svg) = (stem.with_extension("png"), stem.with_extension("svg"));
-        draw_sweep(BitMapBackend::new(&png, (960, 640)).into_drawing_area(), &title, &all, spp)
-            .with_context(|| format!("drawing {}", png.display()))?;
+        crate::quality::draw_png(&png, (960, 640), |area| draw_sweep(area, &title, &all, spp))?;
         draw_sweep(SVGBackend::new(&svg, (960, 640)).into_drawing_area(), &title, &all, spp)
             .with_context(|| format!("drawing {}", svg.display()))?;
         errln!("wrote {} and {}", png.display(), svg.display());

@@ -368,6 +368,29 @@ pub fn markdown(
     md
 }
 
+/// Draws a `width`×`height` plot with `draw` into an RGB buffer and writes it as a PNG, all or
+/// nothing. The buffer is encoded with the engine's `image` crate rather than plotters' own PNG
+/// encoder (its `bitmap_encoder` feature), which would build a second, older `image` and `png` into
+/// the CLI (about 25 s of the 2-core test build; docs/CI.md).
+pub fn draw_png(
+    path: &Path,
+    (width, height): (u32, u32),
+    draw: impl FnOnce(DrawingArea<BitMapBackend<'_>, plotters::coord::Shift>) -> Result<()>,
+) -> Result<()> {
+    let mut rgb = vec![0u8; 3 * width as usize * height as usize];
+    draw(BitMapBackend::with_buffer(&mut rgb, (width, height)).into_drawing_area())
+        .with_context(|| format!("drawing {}", path.display()))?;
+    let mut bytes = Vec::new();
+    {
+        use image::ImageEncoder;
+        image::codecs::png::PngEncoder::new(&mut bytes)
+            .write_image(&rgb, width, height, image::ExtendedColorType::Rgb8)
+            .with_context(|| format!("encoding {}", path.display()))?;
+    }
+    shutter::image_io::write_file_atomically(path, &bytes)?;
+    Ok(())
+}
+
 /// Registers a TrueType font for the plots' text (plotters' ab_glyph backend needs one).
 pub fn register_font() -> Result<()> {
     const CANDIDATES: &[&str] = &[
@@ -389,8 +412,7 @@ pub fn plot(scene: &Scene, a: &QualityArgs, points: &[Point]) -> Result<()> {
     register_font()?;
     let png = a.out.with_extension("png");
     let svg = a.out.with_extension("svg");
-    draw(BitMapBackend::new(&png, (960, 640)).into_drawing_area(), scene, a, points)
-        .with_context(|| format!("drawing {}", png.display()))?;
+    draw_png(&png, (960, 640), |area| draw(area, scene, a, points))?;
     draw(SVGBackend::new(&svg, (960, 640)).into_drawing_area(), scene, a, points)
         .with_context(|| format!("drawing {}", svg.display()))?;
     errln!("wrote {} and {}", png.display(), svg.display());

@@ -138,8 +138,7 @@ fn write_views(matrix: &MatrixReport, stem: &Path) -> Result<()> {
     shutter::image_io::write_file_atomically(&paths[0], md.as_bytes())?;
     outln!("{md}");
     register_font()?;
-    draw(BitMapBackend::new(&paths[1], (1100, 900)).into_drawing_area(), matrix)
-        .with_context(|| format!("drawing {}", paths[1].display()))?;
+    crate::quality::draw_png(&paths[1], (1100, 900), |area| draw(area, matrix))?;
     draw(SVGBackend::new(&paths[2], (1100, 900)).into_drawing_area(), matrix)
         .with_context(|| format!("drawing {}", paths[2].display()))?;
     errln!("wrote {}", paths.map(|p| p.display().to_string()).join(", "));
