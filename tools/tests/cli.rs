@@ -525,21 +525,20 @@ fn ctrl_c_stops_a_long_render_cleanly() {
 /// frame is one graph of 4 passes per pass of samples; its passes were submitted 128 at a time, about
 /// 20 s each here on lavapipe, and an interrupt waited for the submission to end. Submissions now
 /// hold as many passes as take about a quarter of a second.
+///
+/// A short render of the same frame runs first, so the driver's shader cache holds its pipelines:
+/// lavapipe compiles a pipeline at its first draw, and on an empty cache the submission after the
+/// first progress line compiled for 1.8 s here (0.2 s warm) and for 5.2 s on CI's fresh machine
+/// beside another test. What this test measures is the render loop's granularity, not the compiler.
 #[cfg(unix)]
 #[test]
 fn ctrl_c_stops_a_long_stochastic_frame_within_seconds() {
-    let args = [
-        "render",
-        "default",
-        "--technique",
-        "stochastic",
-        "--spp",
-        "256",
-        "--per-pass",
-        "4",
-        "--size",
-        "160x90",
-    ];
+    let frame = ["render", "default", "--technique", "stochastic", "--per-pass", "4", "--size", "160x90"];
+    let warm = std::env::temp_dir().join(format!("shutter-cli-{}-warm.png", std::process::id()));
+    let (code, _, err) = shutter(&[&frame[..], &["--spp", "4", "--out", warm.to_str().unwrap()]].concat());
+    assert_eq!(code, 0, "{err}");
+    let _ = std::fs::remove_file(&warm);
+    let args = [&frame[..], &["--spp", "256"]].concat();
     let latency = interrupt_after_first_progress("sigint-stochastic", &args, "long.png");
     println!("stopped {latency:.2} s after the interrupt");
     assert!(latency < 5.0, "took {latency:.1} s to stop");
