@@ -628,7 +628,7 @@ fn compile(
     // glslang keeps the optimizer from stripping names only when it emits debug info, and the
     // layout tests (gpu/layout_tests.rs) match every block and member by its `OpName`/`OpMemberName`.
     // So debug info is always generated, and `strip_source_and_lines` then drops the source text and
-    // line table (half of every module: 52 MB of SPIR-V in all, 26 MB without) unless
+    // line table (half of every module: 52 MB of SPIR-V in all, 27 MB without) unless
     // SHUTTER_SHADER_DEBUG_INFO=1 asks to keep them. Debug instructions change no code, so the
     // images are the same either way (golden hashes).
     opts.set_generate_debug_info();

@@ -94,9 +94,9 @@ fn mask_coverage_per_sample_matches_the_visibility_buffer_on_every_hard_case() {
 }
 
 /// `--hull mesh` (shaders-glsl/stochastic/stochastic.mesh) hands the rasterizer the geometry shader's
-/// triangles: the same image, bit for bit, on `default` and `one-mover` on both coverage paths, and on
-/// every hard case on one of them (alternately). A device without `VK_EXT_mesh_shader` (Debian 12's lavapipe) refuses it by name,
-/// and that refusal is what is tested there.
+/// triangles: the same image, bit for bit, on `default` and `one-mover` on both coverage paths, and
+/// on every hard case on one of them (alternately). A device without `VK_EXT_mesh_shader` (Debian
+/// 12's lavapipe) refuses it by name, and that refusal is what is tested there.
 #[test]
 fn mesh_hull_is_bit_identical_to_the_geometry_shader_hull() {
     let mut r = renderer();

@@ -78,7 +78,7 @@ fn random_triangles(n: usize, seed: u64) -> Arc<Mesh> {
 #[test]
 fn glsl_bounds_match_cpu_mirror() {
     // 160×90: the records are per triangle, so the image only has to be rendered; at 320×180 its
-    // fragments were most of this test's time (docs/CI.md, "Test time, 2026-12-08").
+    // fragments were most of this test's time (docs/CI.md, "Build and test time, 2026-12-08").
     let (w, h) = (160, 90);
     let n = 600;
     let mesh = random_triangles(n, 5);

@@ -1,7 +1,8 @@
 //! A small typed view of one SPIR-V module, enough to compare it with the Rust side: its descriptor
 //! bindings, its push-constant block and every struct with an explicit layout (`Offset`,
-//! `ArrayStride`, `MatrixStride`). Names come from `OpName`/`OpMemberName`, which glslang
-//! emits without debug info too; without names nothing here can be matched.
+//! `ArrayStride`, `MatrixStride`). Names come from `OpName`/`OpMemberName`: `build.rs` compiles with
+//! debug info (the optimizer strips names without it) and drops only the source text and line
+//! table; without names nothing here can be matched.
 
 use std::collections::HashMap;
 
