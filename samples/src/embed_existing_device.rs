@@ -458,6 +458,9 @@ mod tests {
 
         let device =
             unsafe { lent(&engine, engine.features, engine.features13).into_device() }.expect("device");
+        // The engine did not enable maintenance4, so no pipeline may outlive its layout: each
+        // prepare makes (and its drop destroys) its own instead of sharing the device's.
+        assert!(!device.pipelines.reuses(), "pipelines kept without maintenance4");
         let mut renderer = Renderer::new(device.clone()).expect("renderer");
         let settings = RenderSettings::from_scene(&scene);
         let e = EmbeddedScene::prepare(&mut renderer, &scene, Technique::ACCUMULATION, &settings)

@@ -363,3 +363,22 @@ fn a_dispatch_checks_the_pass_declared_what_its_sets_reach() {
         "the panic: {message}"
     );
 }
+
+/// A technique prepared again on the same device takes the pipelines its first prepare made (the
+/// device's `PipelineStore`) and renders the same image; another technique adds its own.
+#[test]
+fn a_second_prepare_reuses_the_devices_pipelines() {
+    let mut r = renderer();
+    assert!(r.device().pipelines.reuses(), "Shutter's own device enables maintenance4");
+    let scene = shutter::scene::builtin::builtin_scene("one-mover").expect("known").expect("parses");
+    let settings = RenderSettings::new(48, 27, 4, 3);
+    let technique = shutter::techniques::Technique::STOCHASTIC;
+    let first = r.render(&scene, technique, &settings).expect("first render");
+    let made = r.device().pipelines.len();
+    assert!(made > 0, "the store kept none of the stochastic frame's pipelines");
+    let second = r.render(&scene, technique, &settings).expect("second render");
+    assert_eq!(r.device().pipelines.len(), made, "the second prepare compiled pipelines again");
+    assert_eq!(first.image.pixels, second.image.pixels, "a reused pipeline rendered another image");
+    r.render(&scene, shutter::techniques::Technique::ACCUMULATION, &settings).expect("accumulation");
+    assert!(r.device().pipelines.len() > made, "accumulation's pipelines are not the stochastic ones");
+}

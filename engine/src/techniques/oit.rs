@@ -304,7 +304,8 @@ enum LayerDraws {
         layers_set: vk::DescriptorSet,
         /// One stochastic depth map, or one per channel when a transparent object is tinted.
         depth_maps: Vec<Tracked<Image>>,
-        _layers_set_layout: DescriptorSetLayout,
+        /// Kept only so that it outlives its set (boxed: the variant stays near the other's size).
+        _layers_set_layout: Box<DescriptorSetLayout>,
     },
     /// Alpha-corrected ST: the forward path's coverage and tint draws into the layer sum, against
     /// the opaque depth, after the transmittance draws.
@@ -531,7 +532,7 @@ impl OitTechnique {
                             layers,
                             layers_set,
                             depth_maps,
-                            _layers_set_layout: layers_set_layout,
+                            _layers_set_layout: Box::new(layers_set_layout),
                         };
                         (correction, draws, draw_layout)
                     }

@@ -504,6 +504,9 @@ pub struct DeviceShared {
     /// What each descriptor set Shutter wrote references, so that binding one in a graph pass can
     /// be checked against the pass' declared accesses (`graph/record.rs`).
     pub(crate) descriptor_refs: super::pipeline::DescriptorRefs,
+    /// Every pipeline Shutter made on the device, reused by every later prepare that asks for the
+    /// same one ([`super::pipeline::PipelineStore`]); destroyed with the device.
+    pub pipelines: super::pipeline::PipelineStore,
 }
 
 /// The one owner of the Vulkan device; cheap to clone.
@@ -515,12 +518,14 @@ impl Drop for DeviceShared {
         // flight (every submission is waited on; a caller's recorded frames are retired before their
         // scene is dropped, `embed`). Allocator before device, messenger before instance. A lent
         // device is not waited on (its queues are the caller's to synchronise) nor destroyed: only
-        // what Shutter made on it — its memory blocks and its messenger — goes.
+        // what Shutter made on it — its memory blocks, its pipelines and its messenger — goes.
         unsafe {
             if self.owns_handles {
                 let _ = self.raw.device_wait_idle();
             }
             ManuallyDrop::drop(&mut self.allocator);
+            // Ours even on a lent device.
+            self.pipelines.destroy_all(&self.raw);
             if self.owns_handles {
                 self.raw.destroy_device(None);
             }
@@ -717,7 +722,12 @@ impl DeviceShared {
                 supported.shader_storage_image_write_without_format == vk::TRUE,
             );
         let mut enable13 =
-            vk::PhysicalDeviceVulkan13Features::default().dynamic_rendering(true).synchronization2(true);
+            // maintenance4: a pipeline stays valid after the layout it was made with is destroyed,
+            // which the device's pipeline store relies on (core 1.3 devices all support it).
+            vk::PhysicalDeviceVulkan13Features::default()
+                .dynamic_rendering(true)
+                .synchronization2(true)
+                .maintenance4(true);
         let mut enable12 = vk::PhysicalDeviceVulkan12Features::default()
             .host_query_reset(host_query_reset)
             .shader_buffer_int64_atomics(caps.buffer_int64_atomics);
@@ -786,6 +796,7 @@ impl DeviceShared {
             queue_lock: Mutex::new(()),
             owns_handles: true,
             descriptor_refs: Default::default(),
+            pipelines: super::pipeline::PipelineStore::new(true),
         }))
     }
 
@@ -1304,6 +1315,8 @@ impl DeviceShared {
             queue_lock: Mutex::new(()),
             owns_handles: ext.ownership == Ownership::Owned,
             descriptor_refs: Default::default(),
+            // Without maintenance4 a pipeline may not outlive its layout: each prepare makes its own.
+            pipelines: super::pipeline::PipelineStore::new(ext.features13.maintenance4 == vk::TRUE),
         }))
     }
 }

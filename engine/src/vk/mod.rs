@@ -26,7 +26,7 @@ pub use memory::Buffer;
 pub use pipeline::{
     statically_used_descriptors, write_descriptors, Binding, ColorBlend, DescriptorPool, DescriptorRef,
     DescriptorRefs, DescriptorSetLayout, DescriptorWrite, Faces, GraphicsDesc, Pipeline, PipelineLayout,
-    ShaderModule,
+    PipelineStore, ShaderModule,
 };
 pub use queries::{
     statistic_flags, GpuTimer, MeshStatistics, PassTimings, PipelineStatistics, StatisticsQuery,

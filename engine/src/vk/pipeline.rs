@@ -81,6 +81,12 @@ impl ShaderModule {
         let used_descriptors = statically_used_descriptors(&words);
         Ok(ShaderModule { raw, source, used_descriptors, device: device.clone() })
     }
+    /// What makes two modules the same code: the embedded permutation and its SPIR-V (a pipeline's
+    /// [`PipelineStore`] key).
+    fn key(&self) -> String {
+        let s = &self.source;
+        format!("{}[{}] {:?} {:p}+{}", s.file, s.permutation, s.stage, s.spirv.as_ptr(), s.spirv.len())
+    }
     fn stage_info(&self) -> vk::PipelineShaderStageCreateInfo<'_> {
         vk::PipelineShaderStageCreateInfo::default()
             .stage(stage_flags(self.source.stage))
@@ -109,6 +115,9 @@ pub struct Binding {
 /// A descriptor set layout, RAII.
 pub struct DescriptorSetLayout {
     pub raw: vk::DescriptorSetLayout,
+    /// Its definition, (binding, type, stages) per descriptor: two layouts defined alike are
+    /// compatible, so a pipeline made with one serves the other ([`PipelineStore`]).
+    bindings: Vec<(u32, vk::DescriptorType, vk::ShaderStageFlags)>,
     device: Device,
 }
 
@@ -133,7 +142,7 @@ impl DescriptorSetLayout {
         let raw = unsafe { device.raw.create_descriptor_set_layout(&info, None) }
             .vk("vkCreateDescriptorSetLayout")?;
         device.set_name(raw, name);
-        Ok(DescriptorSetLayout { raw, device: device.clone() })
+        Ok(DescriptorSetLayout { raw, bindings: bindings.to_vec(), device: device.clone() })
     }
 }
 
@@ -313,6 +322,9 @@ pub fn write_descriptors(device: &Device, set: vk::DescriptorSet, writes: &[Desc
 /// A pipeline layout, RAII.
 pub struct PipelineLayout {
     pub raw: vk::PipelineLayout,
+    /// Its sets' definitions and its push range, written out: the part of a [`PipelineStore`] key
+    /// that stands for the layout (Vulkan calls layouts defined alike compatible).
+    definition: String,
     set_count: u32,
     push_bytes: u32,
     push_stages: vk::ShaderStageFlags,
@@ -333,8 +345,13 @@ impl PipelineLayout {
             info = info.push_constant_ranges(&ranges);
         }
         let raw = unsafe { device.raw.create_pipeline_layout(&info, None) }.vk("vkCreatePipelineLayout")?;
+        let definition = format!(
+            "sets {:?} push {push_bytes} {push_stages:?}",
+            sets.iter().map(|s| &s.bindings).collect::<Vec<_>>()
+        );
         Ok(PipelineLayout {
             raw,
+            definition,
             set_count: sets.len() as u32,
             push_bytes,
             push_stages,
@@ -366,7 +383,8 @@ impl Drop for PipelineLayout {
     }
 }
 
-/// A pipeline, RAII.
+/// A pipeline: a handle into its device's [`PipelineStore`], which owns it (or, where the store
+/// keeps none, RAII).
 pub struct Pipeline {
     pub raw: vk::Pipeline,
     pub bind_point: vk::PipelineBindPoint,
@@ -378,6 +396,14 @@ pub struct Pipeline {
     /// reads through the bound sets (`graph/record.rs` checks those against the pass' declarations).
     pub used_descriptors: Vec<(u32, u32)>,
     device: Device,
+}
+
+impl Drop for Pipeline {
+    fn drop(&mut self) {
+        if !self.device.pipelines.reuses() {
+            unsafe { self.device.raw.destroy_pipeline(self.raw, None) };
+        }
+    }
 }
 
 /// The union of `stages`' statically used descriptors, sorted.
@@ -395,9 +421,76 @@ impl Pipeline {
     }
 }
 
-impl Drop for Pipeline {
-    fn drop(&mut self) {
-        unsafe { self.device.raw.destroy_pipeline(self.raw, None) };
+/// Every pipeline Shutter created on a device, by what defines it: its stages' code, its fixed
+/// state and its layout's definition. A technique prepared again — another scene, the same options —
+/// takes the pipelines it had instead of compiling them again. On lavapipe that is most of a
+/// prepare's time: the stochastic rasterizer's geometry-shader pipeline takes about 80 ms to create
+/// on either version even when Mesa's shader cache holds its code, and a `VkPipelineCache` does not
+/// shorten it (measured 2026-12-08; docs/CI.md). The device keeps them until it is dropped: their
+/// number is bounded by the shader permutations times the few states each is drawn with.
+///
+/// A pipeline outlives the layout it was made with, which Vulkan allows where `maintenance4` is
+/// enabled: Shutter's own devices enable it; on a lent device without it the store keeps nothing and
+/// every [`Pipeline`] destroys its own.
+pub struct PipelineStore {
+    pipelines: std::sync::Mutex<std::collections::HashMap<String, vk::Pipeline>>,
+    reuse: bool,
+}
+
+impl PipelineStore {
+    /// A store that keeps pipelines (`reuse`) or one that keeps none.
+    pub(crate) fn new(reuse: bool) -> Self {
+        PipelineStore { pipelines: Default::default(), reuse }
+    }
+
+    /// Whether it keeps pipelines for later prepares.
+    pub fn reuses(&self) -> bool {
+        self.reuse
+    }
+
+    /// The pipeline `key` names, made by `create` if the store has none (two threads may both
+    /// make it; the second's is destroyed).
+    fn get_or_create(
+        &self,
+        device: &ash::Device,
+        key: String,
+        create: impl FnOnce() -> Result<vk::Pipeline>,
+    ) -> Result<vk::Pipeline> {
+        if !self.reuse {
+            return create();
+        }
+        if let Some(&raw) = self.pipelines.lock().expect("pipeline store").get(&key) {
+            return Ok(raw);
+        }
+        // Not locked while the driver compiles: another device thread's pipelines need not wait.
+        let made = create()?;
+        let mut map = self.pipelines.lock().expect("pipeline store");
+        let kept = *map.entry(key).or_insert(made);
+        if kept != made {
+            unsafe { device.destroy_pipeline(made, None) };
+        }
+        Ok(kept)
+    }
+
+    /// How many pipelines it holds.
+    pub fn len(&self) -> usize {
+        self.pipelines.lock().expect("pipeline store").len()
+    }
+
+    /// Whether it holds none.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// Destroys them all.
+    ///
+    /// # Safety
+    /// None may be in use or used again: the device calls it as it is dropped.
+    pub(crate) unsafe fn destroy_all(&self, device: &ash::Device) {
+        let mut map = self.pipelines.lock().unwrap_or_else(|e| e.into_inner());
+        for (_, raw) in map.drain() {
+            unsafe { device.destroy_pipeline(raw, None) };
+        }
     }
 }
 
@@ -586,10 +679,29 @@ impl Pipeline {
             .dynamic_state(&dynamic)
             .layout(layout.raw)
             .push_next(&mut rendering);
-        let raw = unsafe { device.raw.create_graphics_pipelines(vk::PipelineCache::null(), &[info], None) }
-            .map_err(|(_, e)| e)
-            .vk("vkCreateGraphicsPipelines")?[0];
-        device.set_name(raw, d.name);
+        let key = format!(
+            "graphics {} | {} | {:?} {:?} | {:?} {:?} | {} {:?} | {:?} {:?} {} {} | {blend:?} {written:?}",
+            d.stages.iter().map(|s| s.key()).collect::<Vec<_>>().join(" + "),
+            layout.definition,
+            d.vertex_bindings,
+            d.vertex_attributes,
+            d.color_formats,
+            d.depth_format,
+            d.samples,
+            d.sample_shading,
+            d.faces,
+            d.depth_compare,
+            d.depth_write,
+            d.overestimate,
+        );
+        let raw = device.pipelines.get_or_create(&device.raw, key, || {
+            let raw =
+                unsafe { device.raw.create_graphics_pipelines(vk::PipelineCache::null(), &[info], None) }
+                    .map_err(|(_, e)| e)
+                    .vk("vkCreateGraphicsPipelines")?[0];
+            device.set_name(raw, d.name);
+            Ok(raw)
+        })?;
         Ok(Pipeline {
             raw,
             bind_point: vk::PipelineBindPoint::GRAPHICS,
@@ -607,10 +719,15 @@ impl Pipeline {
         shader: &ShaderModule,
     ) -> Result<Pipeline> {
         let info = vk::ComputePipelineCreateInfo::default().stage(shader.stage_info()).layout(layout.raw);
-        let raw = unsafe { device.raw.create_compute_pipelines(vk::PipelineCache::null(), &[info], None) }
-            .map_err(|(_, e)| e)
-            .vk("vkCreateComputePipelines")?[0];
-        device.set_name(raw, name);
+        let key = format!("compute {} | {}", shader.key(), layout.definition);
+        let raw = device.pipelines.get_or_create(&device.raw, key, || {
+            let raw =
+                unsafe { device.raw.create_compute_pipelines(vk::PipelineCache::null(), &[info], None) }
+                    .map_err(|(_, e)| e)
+                    .vk("vkCreateComputePipelines")?[0];
+            device.set_name(raw, name);
+            Ok(raw)
+        })?;
         Ok(Pipeline {
             raw,
             bind_point: vk::PipelineBindPoint::COMPUTE,
