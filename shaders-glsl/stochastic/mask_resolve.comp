@@ -14,8 +14,14 @@ layout(push_constant) uniform Push {
 } pc;
 
 layout(set = 3, binding = 5, std430) writeonly buffer Visibility { uint64_t visibility[]; };
+#ifdef MASK_SINGLE_SAMPLE
+// M = 1: the target has one sample per pixel, which a multisampled sampler may not read.
+layout(set = 3, binding = 12) uniform usampler2D mask_payload;
+layout(set = 3, binding = 13) uniform sampler2D mask_depth;
+#else
 layout(set = 3, binding = 12) uniform usampler2DMS mask_payload;
 layout(set = 3, binding = 13) uniform sampler2DMS mask_depth;
+#endif
 
 // mask.frag's MASK_DEPTH_SCALE, inverted: 2^32, exact.
 const float MASK_DEPTH_UNSCALE = 4294967296.0;
@@ -24,6 +30,7 @@ void main() {
     uvec2 pix = gl_GlobalInvocationID.xy;
     if (pix.x >= pc.width || pix.y >= pc.height) return;
     for (uint i = 0u; i < pc.per_pass; i++) {
+        // The sample index of a multisampled target; level 0 of a single-sampled one (i = 0 there).
         float d = texelFetch(mask_depth, ivec2(pix), int(i)).r;
         uint payload = texelFetch(mask_payload, ivec2(pix), int(i)).r;
         uint at = (pix.y * pc.width + pix.x) * pc.per_pass + i;

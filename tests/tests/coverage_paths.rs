@@ -93,6 +93,37 @@ fn mask_coverage_per_sample_matches_the_visibility_buffer_on_every_hard_case() {
     }
 }
 
+/// One sample per pass (M = 1: S = 1, and S = 2 on a device without 2x MSAA, lavapipe among them):
+/// the mask target is single-sampled, its resolve reads it through single-sampled samplers
+/// (`MASK_SINGLE_SAMPLE`), and the image is the visibility buffer's (bit for bit in one pass, to
+/// rounding in two). Before that
+/// permutation both S failed validation (a multisampled sampler bound to a one-sample image).
+#[test]
+fn mask_coverage_with_one_sample_per_pass_matches_the_visibility_buffer() {
+    let mut r = renderer();
+    let scene = builtin_scene("one-mover").unwrap().unwrap();
+    for spp in [1, 2] {
+        let with = |coverage| StochasticOptions { coverage, ..Default::default() };
+        let visibility = render(&mut r, &scene, (48, 27), spp, with(Coverage::Visibility));
+        for rate in [MaskRate::Sample, MaskRate::Fragment] {
+            let mask = render(&mut r, &scene, (48, 27), spp, with(Coverage::Mask(rate)));
+            assert_eq!(mask.stats.msaa_samples * mask.stats.passes, spp);
+            if mask.stats.msaa_samples != 1 {
+                continue; // a device with 2x MSAA: the multisampled path, tested above
+            }
+            // One sample per pixel: per fragment is per sample, so both rates are exact. In one pass the
+            // very same image; in P passes the frame's mean adds P pass means where the visibility
+            // path averages its one pass, so only the last bits of that sum may differ.
+            let d = max_abs_diff(&visibility.image, &mask.image);
+            let limit = if mask.stats.passes == 1 { 0.0 } else { 1e-6 };
+            assert!(
+                d <= limit,
+                "S = {spp}, {rate:?}: the mask path differs from the visibility buffer by {d}"
+            );
+        }
+    }
+}
+
 /// `--hull mesh` (shaders-glsl/stochastic/stochastic.mesh) hands the rasterizer the geometry shader's
 /// triangles: the same image, bit for bit, on `default` and `one-mover` on both coverage paths, and
 /// on every hard case on one of them (alternately). A device without `VK_EXT_mesh_shader` (Debian

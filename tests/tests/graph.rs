@@ -382,3 +382,28 @@ fn a_second_prepare_reuses_the_devices_pipelines() {
     r.render(&scene, shutter::techniques::Technique::ACCUMULATION, &settings).expect("accumulation");
     assert!(r.device().pipelines.len() > made, "accumulation's pipelines are not the stochastic ones");
 }
+
+/// Pipelines that differ only in fixed state are different pipelines in the store: the mask path's
+/// coverage pipelines at S = 1 and S = 4 (one pass each, of one and of four samples) have the same
+/// shaders and differ in their sample count, and each, rendered after the other on one device, makes
+/// the image a fresh device makes.
+#[test]
+fn pipelines_differing_only_in_fixed_state_are_not_shared() {
+    use shutter::techniques::stochastic::{Coverage, MaskRate};
+    use shutter::techniques::{StochasticOptions, Technique};
+    let scene = shutter::scene::builtin::builtin_scene("one-mover").expect("known").expect("parses");
+    let o = StochasticOptions { coverage: Coverage::Mask(MaskRate::Sample), ..Default::default() };
+    let render = |r: &mut Renderer, spp| {
+        let out = r
+            .render(&scene, Technique::STOCHASTIC, &RenderSettings::new(48, 27, spp, 3).with_stochastic(o))
+            .expect("render");
+        assert_eq!((out.stats.msaa_samples, out.stats.passes), (spp, 1), "S = {spp}: one pass of S samples");
+        out.image.pixels
+    };
+    let fresh = [1, 4].map(|spp| render(&mut renderer(), spp));
+    let mut r = renderer();
+    for (i, spp) in [1, 4, 1].into_iter().enumerate() {
+        let fresh = &fresh[usize::from(spp == 4)];
+        assert_eq!(&render(&mut r, spp), fresh, "render {i} (S = {spp}) on a used device");
+    }
+}

@@ -315,7 +315,8 @@ impl MaskTarget {
                 DescriptorWrite::SampledImage { binding: 13, view: depth.view, sampler: sampler.raw },
             ],
         );
-        let shader = ShaderModule::new(device, shaders::STOCHASTIC_MASK_RESOLVE_COMP)?;
+        let resolve = shaders::MaskResolveComp { single_sample_target: samples == 1 };
+        let shader = ShaderModule::new(device, resolve.source())?;
         let layout = world.pipeline_layout(
             device,
             sets,
