@@ -657,7 +657,7 @@ impl Pipeline {
                 }
             })
             .collect();
-        let blend = vk::PipelineColorBlendStateCreateInfo::default().attachments(&blend_attachments);
+        let blend_state = vk::PipelineColorBlendStateCreateInfo::default().attachments(&blend_attachments);
         let mut dynamic_states = vec![vk::DynamicState::VIEWPORT, vk::DynamicState::SCISSOR];
         if d.faces == Faces::PerObject {
             // Core in Vulkan 1.3, which the device context requires.
@@ -675,11 +675,12 @@ impl Pipeline {
             .rasterization_state(&raster)
             .multisample_state(&multisample)
             .depth_stencil_state(&depth)
-            .color_blend_state(&blend)
+            .color_blend_state(&blend_state)
             .dynamic_state(&dynamic)
             .layout(layout.raw)
             .push_next(&mut rendering);
         let key = format!(
+            // Plain values only: a create-info struct would print its pointers.
             "graphics {} | {} | {:?} {:?} | {:?} {:?} | {} {:?} | {:?} {:?} {} {} | {blend:?} {written:?}",
             d.stages.iter().map(|s| s.key()).collect::<Vec<_>>().join(" + "),
             layout.definition,
