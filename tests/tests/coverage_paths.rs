@@ -96,8 +96,8 @@ fn mask_coverage_per_sample_matches_the_visibility_buffer_on_every_hard_case() {
 /// One sample per pass (M = 1: S = 1, and S = 2 on a device without 2x MSAA, lavapipe among them):
 /// the mask target is single-sampled, its resolve reads it through single-sampled samplers
 /// (`MASK_SINGLE_SAMPLE`), and the image is the visibility buffer's (bit for bit in one pass, to
-/// rounding in two). Before that
-/// permutation both S failed validation (a multisampled sampler bound to a one-sample image).
+/// rounding in two). Before that permutation both S failed validation (a multisampled sampler bound
+/// to a one-sample image).
 #[test]
 fn mask_coverage_with_one_sample_per_pass_matches_the_visibility_buffer() {
     let mut r = renderer();
